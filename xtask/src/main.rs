@@ -1,0 +1,71 @@
+//! `cargo xtask` — parallax's pipeline runner and developer commands.
+//!
+//! Every stage crate is usable alone; this binary is where they meet (the composition root).
+//! Each subcommand lives in its own module with its clap `Args` and a `run` function.
+
+mod bench;
+mod calibrate;
+mod corners;
+mod disparity;
+mod fixtures;
+mod handeye;
+mod measure;
+mod pipeline;
+mod rectify;
+#[allow(dead_code)] // helpers used as the stage commands land
+mod util;
+
+use clap::{Parser, Subcommand};
+
+/// parallax developer commands: the pipeline, fixtures, benchmarks and each stage on real data.
+#[derive(Parser)]
+#[command(name = "cargo xtask", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run the whole chain on a synthetic scene (the built-in one by default) and check every
+    /// stage against ground truth.
+    Pipeline(pipeline::Args),
+    /// Regenerate the committed fixtures deterministically (`--check`: fail when stale).
+    Fixtures(fixtures::Args),
+    /// Run the criterion benchmarks.
+    Bench(bench::Args),
+    /// Detect chessboard corners in images.
+    Corners(corners::Args),
+    /// Calibrate one camera or a stereo rig from chessboard images.
+    Calibrate(calibrate::Args),
+    /// Rectify a stereo pair with a stereo calibration.
+    Rectify(rectify::Args),
+    /// Dense disparity of a rectified pair by block matching.
+    Disparity(disparity::Args),
+    /// Triangulate points of a stereo pair and measure distances between them.
+    Measure(measure::Args),
+    /// Hand-eye calibration from robot poses and board images (or camera poses).
+    Handeye(handeye::Args),
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Pipeline(a) => pipeline::run(a),
+        Command::Fixtures(a) => fixtures::run(a),
+        Command::Bench(a) => bench::run(a),
+        Command::Corners(a) => corners::run(a),
+        Command::Calibrate(a) => calibrate::run(a),
+        Command::Rectify(a) => rectify::run(a),
+        Command::Disparity(a) => disparity::run(a),
+        Command::Measure(a) => measure::run(a),
+        Command::Handeye(a) => handeye::run(a),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
