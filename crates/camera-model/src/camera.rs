@@ -71,10 +71,7 @@ impl Intrinsics {
     /// Maps normalised (distorted) image coordinates to pixels.
     #[inline]
     pub fn to_pixel(&self, normalized: DVec2) -> DVec2 {
-        DVec2::new(
-            self.fx * normalized.x + self.skew * normalized.y + self.cx,
-            self.fy * normalized.y + self.cy,
-        )
+        DVec2::new(self.fx * normalized.x + self.skew * normalized.y + self.cx, self.fy * normalized.y + self.cy)
     }
 
     /// Maps pixels to normalised (still distorted) image coordinates; inverse of [`Self::to_pixel`].
@@ -271,9 +268,6 @@ impl Camera {
     /// True when the pixel lies inside the image (pixel centres `0..width-1`, with half a
     /// pixel of border on each side).
     pub fn contains(&self, pixel: DVec2) -> bool {
-        pixel.x >= -0.5
-            && pixel.y >= -0.5
-            && pixel.x <= self.width as f64 - 0.5
-            && pixel.y <= self.height as f64 - 0.5
+        pixel.x >= -0.5 && pixel.y >= -0.5 && pixel.x <= self.width as f64 - 0.5 && pixel.y <= self.height as f64 - 0.5
     }
 }

@@ -33,9 +33,7 @@ pub enum CameraModelError {
     },
     /// Iterative undistortion did not reach its tolerance (typically a pixel outside the
     /// region where the distortion model is invertible).
-    #[error(
-        "undistortion of pixel ({u}, {v}) did not converge in {iterations} iterations (residual {residual:e})"
-    )]
+    #[error("undistortion of pixel ({u}, {v}) did not converge in {iterations} iterations (residual {residual:e})")]
     UndistortionDidNotConverge {
         /// Pixel column.
         u: f64,

@@ -109,8 +109,8 @@ impl Camera {
     /// Removes the distortion from normalised coordinates by Newton's method on the distortion
     /// model (started at the distorted point), stopping when the re-distorted estimate is within
     /// [`UNDISTORT_TOLERANCE`] of the input; [`CameraModelError::UndistortionDidNotConverge`]
-    /// after [`UNDISTORT_MAX_ITERATIONS`] (a point outside the invertible region of the lens
-    /// model). OpenCV's `undistortPoints` uses a fixed count of fixed-point iterations instead.
+    /// after [`UNDISTORT_MAX_ITERATIONS`] or when the only root found lies where the lens model
+    /// folds back (non-positive Jacobian determinant): a point outside the invertible region. OpenCV's `undistortPoints` uses a fixed count of fixed-point iterations instead.
     pub fn undistort_normalized(&self, distorted: DVec2) -> Result<DVec2> {
         undistort(&self.distortion, distorted).map_err(|(iterations, residual)| {
             let pixel = self.intrinsics.to_pixel(distorted);
@@ -157,10 +157,15 @@ fn undistort(d: &Distortion, target: DVec2) -> std::result::Result<DVec2, (usize
         let (f, j) = d.distort_with_jacobian(p);
         let e = f - target;
         residual = e.length();
-        if residual <= UNDISTORT_TOLERANCE {
-            return Ok(p);
-        }
         let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+        if residual <= UNDISTORT_TOLERANCE {
+            // A root on the folded-back branch of the lens model (Jacobian not positive, or the
+            // ray on the wrong side of the axis) is not the physical ray: report it.
+            if det > 0.0 && p.dot(target) >= 0.0 {
+                return Ok(p);
+            }
+            break;
+        }
         if !det.is_finite() || det.abs() < 1e-300 {
             break;
         }

@@ -64,7 +64,11 @@ impl Isometry3 {
             return Err(CameraModelError::NonFinite { what: "4x4 transform" });
         }
         if (m.row(3) - DVec4::new(0.0, 0.0, 0.0, 1.0)).abs().max_element() > 1e-9 {
-            return Err(CameraModelError::NotARotation { what: "4x4 transform (last row is not 0 0 0 1)", error: 0.0, det: 0.0 });
+            return Err(CameraModelError::NotARotation {
+                what: "4x4 transform (last row is not 0 0 0 1)",
+                error: 0.0,
+                det: 0.0,
+            });
         }
         let r = DMat3::from_cols(m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
         Self::from_rotation_translation(r, m.w_axis.truncate())

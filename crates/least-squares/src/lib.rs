@@ -48,8 +48,7 @@ pub use linear::{
     NullVector, dmat3_from_mat, mat_from_dmat3, nearest_rotation, null_vector, solve_linear_least_squares,
 };
 pub use lm::{
-    EvaluationError, LmConfig, LmReport, Problem, StopReason, covariance_from_normal_equations,
-    levenberg_marquardt,
+    EvaluationError, LmConfig, LmReport, Problem, StopReason, covariance_from_normal_equations, levenberg_marquardt,
 };
 
 use thiserror::Error;

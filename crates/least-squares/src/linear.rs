@@ -69,11 +69,7 @@ pub fn solve_linear_least_squares(a: MatRef<'_, f64>, b: ColRef<'_, f64>) -> Res
         return Err(LeastSquaresError::Empty("matrix"));
     }
     if a.nrows() != b.nrows() {
-        return Err(LeastSquaresError::ShapeMismatch(format!(
-            "A has {} rows but b has {}",
-            a.nrows(),
-            b.nrows()
-        )));
+        return Err(LeastSquaresError::ShapeMismatch(format!("A has {} rows but b has {}", a.nrows(), b.nrows())));
     }
     if a.nrows() < a.ncols() {
         return Err(LeastSquaresError::Underdetermined { residuals: a.nrows(), params: a.ncols() });

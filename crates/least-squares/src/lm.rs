@@ -200,9 +200,7 @@ pub fn levenberg_marquardt<P: Problem + ?Sized>(problem: &P, initial: &[f64], co
     let mut r = vec![0.0; m];
     let mut jtj = Mat::<f64>::zeros(n, n);
     let mut jtr = Col::<f64>::zeros(n);
-    problem
-        .normal_equations(&x, &mut jtj, &mut jtr, &mut r)
-        .map_err(|e| LeastSquaresError::InitialEvaluation(e.0))?;
+    problem.normal_equations(&x, &mut jtj, &mut jtr, &mut r).map_err(|e| LeastSquaresError::InitialEvaluation(e.0))?;
     if r.iter().any(|v| !v.is_finite()) {
         return Err(LeastSquaresError::InitialEvaluation("non-finite residual".into()));
     }
@@ -258,11 +256,8 @@ pub fn levenberg_marquardt<P: Problem + ?Sized>(problem: &P, initial: &[f64], co
         let x_norm = x.iter().map(|v| v * v).sum::<f64>().sqrt();
         problem.retract(&x, &delta, &mut x_new);
         let evaluated = problem.normal_equations(&x_new, &mut jtj_new, &mut jtr_new, &mut r_new);
-        let new_cost = if evaluated.is_ok() && r_new.iter().all(|v| v.is_finite()) {
-            half_norm2(&r_new)
-        } else {
-            f64::INFINITY
-        };
+        let new_cost =
+            if evaluated.is_ok() && r_new.iter().all(|v| v.is_finite()) { half_norm2(&r_new) } else { f64::INFINITY };
         // Predicted decrease of the quadratic model: ½ δᵀ(λ D δ − Jᵀr).
         let predicted: f64 = (0..n)
             .map(|i| 0.5 * delta[i] * (lambda * jtj[(i, i)].max(dmax * 1e-12).max(1e-300) * delta[i] - jtr[i]))
