@@ -50,10 +50,8 @@ where
 
 /// Expands a glob pattern into a sorted list of paths; errors when nothing matches.
 pub fn expand_glob(pattern: &str) -> anyhow::Result<Vec<std::path::PathBuf>> {
-    let mut paths: Vec<_> = glob::glob(pattern)
-        .with_context(|| format!("bad glob pattern {pattern:?}"))?
-        .filter_map(Result::ok)
-        .collect();
+    let mut paths: Vec<_> =
+        glob::glob(pattern).with_context(|| format!("bad glob pattern {pattern:?}"))?.filter_map(Result::ok).collect();
     paths.sort();
     anyhow::ensure!(!paths.is_empty(), "no file matches {pattern:?}");
     Ok(paths)

@@ -1,1 +1,47 @@
-//! corner-detection
+//! # corner-detection — calibration targets in images
+//!
+//! - [`harris_response`] / [`detect_corners`]: Harris or Shi–Tomasi corners (structure tensor
+//!   from imageproc's Sobel gradients, Gaussian window, threshold, non-maximum suppression,
+//!   top-N).
+//! - [`refine_corners_subpix`] (gradient orthogonality, as OpenCV's `cornerSubPix`) and
+//!   [`refine_saddle`] (saddle of a quadratic fitted to the smoothed image): sub-pixel corners
+//!   whose window is chosen from the local corner spacing by default ([`WindowSize`]), so it
+//!   never reaches a neighbouring corner.
+//! - [`find_chessboard`]: the inner corners of a chessboard in OpenCV's order, or "not found".
+//! - [`detect_blobs`]: blob targets (Otsu threshold, 8-connected components, shape filters,
+//!   sub-pixel centroids); [`weighted_gray`] for colour input.
+//!
+//! Pixel convention as OpenCV: `(u, v)`, `u` right, `v` down, `(0, 0)` the centre of the
+//! top-left pixel.
+//!
+//! ```
+//! use corner_detection::{find_chessboard, ChessboardConfig};
+//! // A 7x5-square board (6x4 inner corners), 16 px squares, white margin around it.
+//! let img = image::GrayImage::from_fn(170, 140, |x, y| {
+//!     let (u, v) = (x as i32 - 25, y as i32 - 30);
+//!     let on_board = (0..112).contains(&u) && (0..80).contains(&v);
+//!     image::Luma([if on_board && (u / 16 + v / 16) % 2 == 0 { 25 } else { 230 }])
+//! });
+//! let grid = find_chessboard(&img, 6, 4, &ChessboardConfig::default())?.expect("found");
+//! assert_eq!((grid.cols, grid.rows, grid.corners.len()), (6, 4, 24));
+//! // Row-major, cols along a row: corner (col 1, row 0) is 16 px right of corner 0.
+//! assert!((grid.at(1, 0) - grid.at(0, 0) - glam::DVec2::new(16.0, 0.0)).length() < 0.05);
+//! # Ok::<(), corner_detection::CornerError>(())
+//! ```
+
+mod blobs;
+mod chessboard;
+mod error;
+mod harris;
+mod imageops;
+mod subpix;
+
+pub use blobs::{BT601, Blob, BlobConfig, BlobDetection, BlobPolarity, detect_blobs, weighted_gray};
+pub use chessboard::{
+    ChessboardConfig, ChessboardDetection, CornerRefinement, chessboard_candidates, detect_chessboard, draw_chessboard,
+    draw_points, find_chessboard,
+};
+pub use error::{CornerError, Result};
+pub use harris::{Corner, CornerConfig, CornerMeasure, HarrisConfig, detect_corners, harris_response};
+pub use imageops::{ImageF32, gaussian_blur, sample_bilinear, saddle_response, to_f32};
+pub use subpix::{Refinement, SaddleConfig, SubPixConfig, WindowSize, refine_corners_subpix, refine_saddle};

@@ -1,1 +1,62 @@
-//! hand-eye
+//! # hand-eye — where the camera sits on (or beside) the robot
+//!
+//! Hand-eye calibration `A X = X B` from `N` stations of `base_from_gripper` (robot forward
+//! kinematics) and `camera_from_board` (calibration extrinsics), eye-in-hand
+//! (`X = gripper_from_camera`) or eye-to-hand (`X = base_from_camera`), with every classic
+//! solver a user may compare against OpenCV:
+//!
+//! * closed form ([`linear`]): Tsai–Lenz, Park–Martin, Horaud–Dornaika, Andreff (Kronecker
+//!   product), Daniilidis (dual quaternions) and the thesis's Rodrigues-axis method;
+//! * robot-world-hand-eye `A X = Z B` ([`robot_world`]): Shah and Li;
+//! * [`Method::Refined`]: maximum likelihood over the absolute poses (X and the board frame
+//!   together, each station weighted by its first-order noise covariance), with covariance.
+//!
+//! Every solution carries its [`Quality`]: per-motion residuals of `A X = X B` (degrees and
+//! length), the thesis's Table 4 error `‖A_i X − X B_i‖`, and ViSP's consistency measure (the
+//! spread of `base_from_board` over the stations). Degenerate motion sets — fewer than two
+//! informative motions with non-parallel axes — are errors naming the stations
+//! ([`check_motions`]). [`io`] reads pose lists (RON, ViSP YAML, axis-angle or roll-pitch-yaw
+//! text).
+//!
+//! Conventions (OpenCV's): `G_i X C_i = W` is constant (`W = base_from_board`); for stations
+//! `i < j`, `A = G_j⁻¹ G_i`, `B = C_j C_i⁻¹`. Lengths are in the unit of the input poses.
+//!
+//! ```
+//! use camera_model::Isometry3;
+//! use glam::DVec3;
+//! use hand_eye::{calibrate, points_to_base, HandEyeConfig, Method};
+//!
+//! let x = Isometry3::from_rvec_tvec(DVec3::new(0.0, 0.0, 1.57), DVec3::new(0.058, -0.034, -0.042));
+//! let w = Isometry3::from_rvec_tvec(DVec3::new(3.1, 0.0, 0.0), DVec3::new(0.5, 0.0, 0.0));
+//! let c: Vec<Isometry3> = [[0.0, 0.0, 0.0], [0.3, 0.1, 0.0], [-0.2, 0.4, 0.1], [0.1, -0.3, 0.5]]
+//!     .iter()
+//!     .map(|r| Isometry3::from_rvec_tvec(DVec3::from_array(*r), DVec3::new(0.0, 0.0, 0.5)))
+//!     .collect();
+//! let g: Vec<Isometry3> = c.iter().map(|c| w * c.inverse() * x.inverse()).collect();
+//! let sol = calibrate(&g, &c, Method::Refined, &HandEyeConfig::default())?;
+//! assert!(sol.transform.distance(&x).1 < 1e-9);
+//! // A point 0.5 m in front of the camera at station 0, in the robot base frame:
+//! let p = points_to_base(&g[0], &sol.transform, &[DVec3::new(0.0, 0.0, 0.5)])[0];
+//! assert!((p - (g[0] * x).transform_point(DVec3::new(0.0, 0.0, 0.5))).length() < 1e-9);
+//! # Ok::<(), hand_eye::HandEyeError>(())
+//! ```
+
+mod calibrate;
+mod error;
+pub mod io;
+pub mod linear;
+mod motion;
+mod quality;
+mod refine;
+pub mod robot_world;
+
+pub use calibrate::{
+    HandEyeConfig, HandEyeSolution, Method, calibrate, calibrate_all, points_to_base, points_to_gripper, solve_motions,
+};
+pub use error::HandEyeError;
+pub use motion::{DegeneracyConfig, Motion, PairSelection, Setup, check_motions, relative_motions};
+pub use quality::{MotionResidual, Quality, motion_residual};
+pub use refine::{RefineConfig, Refinement};
+
+/// Result alias of this crate.
+pub type Result<T, E = HandEyeError> = std::result::Result<T, E>;

@@ -1,1 +1,36 @@
-//! synthetic
+//! # synthetic — scenes with exact ground truth
+//!
+//! Every parallax stage is judged against truth rendered here:
+//!
+//! - seeded noise helpers ([`rng`], [`add_pixel_noise`], [`perturb_pose`]);
+//! - calibration view sets ([`calibration_poses`], [`stereo_calibration_poses`]) and the true
+//!   corner positions ([`project_corners`], through `camera-model`'s projection);
+//! - rendered chessboard views with exact anti-aliasing ([`render_chessboard`]);
+//! - robot trajectories for hand-eye calibration ([`hand_eye_trajectory`]).
+//!
+//! Everything is deterministic for a given seed (ChaCha8).
+//!
+//! ```
+//! use camera_model::{Camera, Chessboard, Distortion, Intrinsics};
+//! use synthetic::{ViewSetConfig, calibration_poses, project_corners};
+//!
+//! let camera = Camera::new(Intrinsics::new(800.0, 800.0, 319.5, 239.5), Distortion::new(-0.1, 0.05, 0.0, 0.0, 0.0), 640, 480)?;
+//! let board = Chessboard::new(9, 6, 25.0)?; // millimetres
+//! let poses = calibration_poses(&camera, &board, &ViewSetConfig { views: 4, ..Default::default() })?;
+//! let corners = project_corners(&camera, &board, &poses[0])?;
+//! assert_eq!(corners.len(), 54);
+//! assert!(corners.iter().all(|c| camera.contains(*c)));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod error;
+mod noise;
+mod render;
+mod trajectory;
+mod views;
+
+pub use error::SyntheticError;
+pub use noise::{add_pixel_noise, perturb_pose, rng};
+pub use render::{RenderOptions, RenderedView, render_chessboard};
+pub use trajectory::{HandEyeTruth, Trajectory, TrajectoryConfig, hand_eye_trajectory};
+pub use views::{ViewSetConfig, calibration_poses, project_corners, stereo_calibration_poses};

@@ -1,0 +1,766 @@
+//! The fast matcher: running box sums over disparity-major column sums, kept per row band in
+//! cache, with winner-take-all, uniqueness, sub-pixel and left–right decisions fused per row.
+
+use camera_model::DisparityMap;
+use image::{GrayImage, ImageBuffer, Luma};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::config::{CostFunction, MatcherConfig, Prefilter, Subpixel};
+use crate::error::{BlockMatchingError, Result};
+use crate::prefilter::{box_sum, normalized_response, x_sobel};
+use crate::speckle::filter_speckles;
+
+/// A 16-bit grayscale image (`image` crate buffer).
+pub type Gray16Image = ImageBuffer<Luma<u16>, Vec<u16>>;
+
+/// Which instruction set the inner loops were compiled for (chosen at run time).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum SimdLevel {
+    /// Portable code (the compiler's baseline, SSE2 on x86-64).
+    Scalar,
+    /// The same loops compiled with AVX2 (256-bit).
+    Avx2,
+    /// The same loops compiled with AVX-512 F/BW/VL (512-bit).
+    Avx512,
+}
+
+impl SimdLevel {
+    /// The best level this CPU supports.
+    pub fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if is_x86_feature_detected!("avx512f")
+                && is_x86_feature_detected!("avx512bw")
+                && is_x86_feature_detected!("avx512vl")
+                && is_x86_feature_detected!("avx2")
+                && is_x86_feature_detected!("fma")
+            {
+                return SimdLevel::Avx512;
+            }
+            if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+                return SimdLevel::Avx2;
+            }
+        }
+        SimdLevel::Scalar
+    }
+}
+
+/// Why pixels of the last frame have no disparity, and the resulting density.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct MatchStats {
+    /// Pixels in the map.
+    pub pixels: usize,
+    /// Pixels with a disparity.
+    pub valid: usize,
+    /// No candidate disparity puts the matching pixel inside the right image.
+    pub no_candidate: usize,
+    /// Rejected by the texture threshold.
+    pub low_texture: usize,
+    /// Rejected by the uniqueness ratio.
+    pub not_unique: usize,
+    /// Rejected by the left–right check.
+    pub lr_inconsistent: usize,
+    /// Removed by the speckle filter.
+    pub speckle: usize,
+    /// `valid / pixels` in `[0, 1]`.
+    pub density: f64,
+}
+
+impl MatchStats {
+    fn add(&mut self, o: &MatchStats) {
+        self.no_candidate += o.no_candidate;
+        self.low_texture += o.low_texture;
+        self.not_unique += o.not_unique;
+        self.lr_inconsistent += o.lr_inconsistent;
+    }
+}
+
+/// Accumulator of the exact integer window sums.
+pub(crate) trait Acc: Cost + Ord + Default {
+    const MAX: Self;
+    fn from_u32(v: u32) -> Self;
+    fn wadd(self, o: Self) -> Self;
+    fn wsub(self, o: Self) -> Self;
+    fn to_f64(self) -> f64;
+}
+
+impl Acc for u32 {
+    const MAX: Self = u32::MAX;
+    #[inline(always)]
+    fn from_u32(v: u32) -> Self {
+        v
+    }
+    #[inline(always)]
+    fn wadd(self, o: Self) -> Self {
+        self.wrapping_add(o)
+    }
+    #[inline(always)]
+    fn wsub(self, o: Self) -> Self {
+        self.wrapping_sub(o)
+    }
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+}
+
+impl Acc for u64 {
+    const MAX: Self = u64::MAX;
+    #[inline(always)]
+    fn from_u32(v: u32) -> Self {
+        v as u64
+    }
+    #[inline(always)]
+    fn wadd(self, o: Self) -> Self {
+        self.wrapping_add(o)
+    }
+    #[inline(always)]
+    fn wsub(self, o: Self) -> Self {
+        self.wrapping_sub(o)
+    }
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+}
+
+/// A cost compared by the decisions: the integer sums themselves or NCC's `1 − ncc`.
+pub(crate) trait Cost: Copy + PartialOrd + Send + Sync + 'static {
+    const MAX: Self;
+    fn min2(self, o: Self) -> Self;
+    /// OpenCV's uniqueness threshold `c + c·ratio/100` (integer division for integer costs).
+    fn uniq_thresh(self, ratio: u32) -> Self;
+    fn to_f64(self) -> f64;
+}
+
+impl Cost for u32 {
+    const MAX: Self = u32::MAX;
+    #[inline(always)]
+    fn min2(self, o: Self) -> Self {
+        self.min(o)
+    }
+    #[inline(always)]
+    fn uniq_thresh(self, ratio: u32) -> Self {
+        (self as u64 + self as u64 * ratio as u64 / 100).min(u32::MAX as u64) as u32
+    }
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+}
+
+impl Cost for u64 {
+    const MAX: Self = u64::MAX;
+    #[inline(always)]
+    fn min2(self, o: Self) -> Self {
+        self.min(o)
+    }
+    #[inline(always)]
+    fn uniq_thresh(self, ratio: u32) -> Self {
+        self.saturating_add((self as u128 * ratio as u128 / 100).min(u64::MAX as u128) as u64)
+    }
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+}
+
+impl Cost for f64 {
+    const MAX: Self = f64::INFINITY;
+    #[inline(always)]
+    fn min2(self, o: Self) -> Self {
+        if o < self { o } else { self }
+    }
+    #[inline(always)]
+    fn uniq_thresh(self, ratio: u32) -> Self {
+        self + self * ratio as f64 / 100.0
+    }
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
+        self
+    }
+}
+
+const K_SAD: u8 = 0;
+const K_SSD: u8 = 1;
+const K_NCC: u8 = 2;
+
+/// Per-pixel term of the window sum: |a−b|, (a−b)² or a·b (all fit in u32 for u16 inputs).
+#[inline(always)]
+fn pixel_term<const K: u8>(a: u16, b: u16) -> u32 {
+    let (a, b) = (a as u32, b as u32);
+    match K {
+        K_SAD => a.abs_diff(b),
+        K_SSD => {
+            let d = a.abs_diff(b);
+            d.wrapping_mul(d)
+        }
+        _ => a.wrapping_mul(b),
+    }
+}
+
+/// NCC cost `1 − ncc` from exact integer sums; `num = n·ΣLR − ΣL·ΣR` is exact in f64 for every
+/// supported input (all products stay below 2^53). `inv_l`, `inv_r` are `1/sqrt(n·ΣX² − (ΣX)²)`
+/// (0 for a flat window).
+#[inline(always)]
+pub(crate) fn ncc_cost(n: f64, slr: f64, sl: f64, sr: f64, inv_l: f64, inv_r: f64) -> f64 {
+    1.0 - (n * slr - sl * sr) * inv_l * inv_r
+}
+
+/// `1/sqrt(n·Σx² − (Σx)²)` from exact integer sums, 0 for a flat window.
+pub(crate) fn inv_std(n: u64, s: u64, ss: u64) -> f64 {
+    let den = n * ss - s * s;
+    if den == 0 { 0.0 } else { 1.0 / (den as f64).sqrt() }
+}
+
+/// Per-pixel window statistics of NCC (whole image, clamp-to-edge windows).
+#[derive(Default)]
+struct NccPlanes {
+    sl: Vec<f64>,
+    inv_l: Vec<f64>,
+    sr: Vec<f64>,
+    inv_r: Vec<f64>,
+}
+
+/// Read-only inputs shared by all bands.
+struct Shared<'a> {
+    w: usize,
+    h: usize,
+    r: usize,
+    nd: usize,
+    dmin: i64,
+    left: &'a [u16],
+    right: &'a [u16],
+    texture_ok: Option<&'a [bool]>,
+    ncc: &'a NccPlanes,
+    n: f64,
+    uniq: u32,
+    lr: Option<u32>,
+    subpixel: Subpixel,
+}
+
+/// Buffers of one row band, reused across frames.
+#[derive(Default)]
+struct Scratch<A> {
+    colsum: Vec<A>,
+    boxs: Vec<A>,
+    costf: Vec<f64>,
+    l_in: Vec<u16>,
+    l_out: Vec<u16>,
+    r_in: Vec<u16>,
+    r_out: Vec<u16>,
+    rc: Vec<A>,
+    rcf: Vec<f64>,
+    rk: Vec<u32>,
+    best: Vec<i32>,
+    sub: Vec<f32>,
+    sr_rev: Vec<f64>,
+    ir_rev: Vec<f64>,
+}
+
+impl<A: Acc> Scratch<A> {
+    fn resize(&mut self, w: usize, r: usize, nd: usize) {
+        let wp = w + 2 * r;
+        self.colsum.resize(wp * nd, A::default());
+        self.boxs.resize(nd, A::default());
+        self.costf.resize(nd, 0.0);
+        self.l_in.resize(wp, 0);
+        self.l_out.resize(wp, 0);
+        self.r_in.resize(wp + nd - 1, 0);
+        self.r_out.resize(wp + nd - 1, 0);
+        self.rc.resize(w, A::MAX);
+        self.rcf.resize(w, f64::INFINITY);
+        self.rk.resize(w, u32::MAX);
+        self.best.resize(w, -1);
+        self.sub.resize(w, 0.0);
+        self.sr_rev.resize(w, 0.0);
+        self.ir_rev.resize(w, 0.0);
+    }
+}
+
+/// Dense block matcher for rectified pairs. Build it once; every [`BlockMatcher::compute`] call
+/// reuses its buffers (and its thread pool when `threads > 0`).
+///
+/// Window semantics (the naive reference in the tests uses the same): both images are extended
+/// by clamp-to-edge, every window is the full `block x block`, and a candidate disparity `d` is
+/// searched at column `x` only when the matching column `x − d` lies inside the right image, so
+/// the left border gets the partial range that fits instead of OpenCV's empty band.
+pub struct BlockMatcher {
+    config: MatcherConfig,
+    pool: Option<rayon::ThreadPool>,
+    simd: SimdLevel,
+    left: Vec<u16>,
+    right: Vec<u16>,
+    texture_ok: Vec<bool>,
+    ncc: NccPlanes,
+    scratch32: Vec<Scratch<u32>>,
+    scratch64: Vec<Scratch<u64>>,
+    stats: MatchStats,
+}
+
+impl BlockMatcher {
+    /// Validates `config` and builds the matcher (and its private thread pool when
+    /// `config.threads > 0`).
+    pub fn new(config: MatcherConfig) -> Result<Self> {
+        config.validate()?;
+        let pool = if config.threads > 0 {
+            Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(config.threads)
+                    .build()
+                    .map_err(|e| BlockMatchingError::ThreadPool { threads: config.threads, reason: e.to_string() })?,
+            )
+        } else {
+            None
+        };
+        Ok(Self {
+            config,
+            pool,
+            simd: SimdLevel::detect(),
+            left: Vec::new(),
+            right: Vec::new(),
+            texture_ok: Vec::new(),
+            ncc: NccPlanes::default(),
+            scratch32: Vec::new(),
+            scratch64: Vec::new(),
+            stats: MatchStats::default(),
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &MatcherConfig {
+        &self.config
+    }
+
+    /// The instruction set in use.
+    pub fn simd(&self) -> SimdLevel {
+        self.simd
+    }
+
+    /// Restricts the instruction set (never above what the CPU supports); returns the level in
+    /// use. Results are identical at every level; this exists for tests and benchmarks.
+    pub fn set_simd(&mut self, level: SimdLevel) -> SimdLevel {
+        self.simd = level.min(SimdLevel::detect());
+        self.simd
+    }
+
+    /// Rejection counts and density of the last computed frame.
+    pub fn last_stats(&self) -> MatchStats {
+        self.stats
+    }
+
+    /// Disparity of the left image of a rectified 8-bit pair.
+    pub fn compute(&mut self, left: &GrayImage, right: &GrayImage) -> Result<DisparityMap> {
+        let mut out = DisparityMap::new_invalid(0, 0);
+        self.compute_into(left, right, &mut out)?;
+        Ok(out)
+    }
+
+    /// As [`BlockMatcher::compute`], writing into `out` (resized as needed) to avoid allocating.
+    pub fn compute_into(&mut self, left: &GrayImage, right: &GrayImage, out: &mut DisparityMap) -> Result<()> {
+        let (w, h) = check_pair(left.width(), left.height(), right.width(), right.height())?;
+        self.left.clear();
+        self.left.extend(left.as_raw().iter().map(|&v| v as u16));
+        self.right.clear();
+        self.right.extend(right.as_raw().iter().map(|&v| v as u16));
+        self.run(w, h, 1, out)
+    }
+
+    /// Disparity of the left image of a rectified 16-bit pair.
+    pub fn compute_u16(&mut self, left: &Gray16Image, right: &Gray16Image) -> Result<DisparityMap> {
+        let (w, h) = check_pair(left.width(), left.height(), right.width(), right.height())?;
+        self.left.clear();
+        self.left.extend_from_slice(left.as_raw());
+        self.right.clear();
+        self.right.extend_from_slice(right.as_raw());
+        let mut out = DisparityMap::new_invalid(w, h);
+        self.run(w, h, 257, &mut out)?;
+        Ok(out)
+    }
+
+    fn run(&mut self, w: usize, h: usize, scale: u32, out: &mut DisparityMap) -> Result<()> {
+        let cfg = self.config.clone();
+        // texture from the clipped x-Sobel magnitude of the raw left image (OpenCV's measure)
+        let r = cfg.block_size / 2;
+        let use_texture = cfg.texture_threshold > 0;
+        if use_texture {
+            let cap = 31 * scale;
+            let sob = x_sobel(&self.left, w, h, cap);
+            let sums = box_sum(&sob, w, h, r, |v| (v as i64 - cap as i64).unsigned_abs());
+            let thr = cfg.texture_threshold as u64 * scale as u64;
+            self.texture_ok.clear();
+            self.texture_ok.extend(sums.iter().map(|&s| s >= thr));
+        }
+        match cfg.prefilter {
+            Prefilter::None => {}
+            Prefilter::XSobel { cap } => {
+                self.left = x_sobel(&self.left, w, h, cap as u32 * scale);
+                self.right = x_sobel(&self.right, w, h, cap as u32 * scale);
+            }
+            Prefilter::NormalizedResponse { size, cap } => {
+                self.left = normalized_response(&self.left, w, h, size, cap as u32 * scale);
+                self.right = normalized_response(&self.right, w, h, size, cap as u32 * scale);
+            }
+        }
+        let n = (cfg.block_size * cfg.block_size) as u64;
+        if cfg.cost == CostFunction::Ncc {
+            let stats = |img: &[u16]| {
+                let s = box_sum(img, w, h, r, |v| v as u64);
+                let ss = box_sum(img, w, h, r, |v| v as u64 * v as u64);
+                let inv: Vec<f64> = s.iter().zip(&ss).map(|(&s, &ss)| inv_std(n, s, ss)).collect();
+                (s.into_iter().map(|v| v as f64).collect::<Vec<f64>>(), inv)
+            };
+            (self.ncc.sl, self.ncc.inv_l) = stats(&self.left);
+            (self.ncc.sr, self.ncc.inv_r) = stats(&self.right);
+        }
+        let maxv = self.left.iter().chain(&self.right).copied().max().unwrap_or(0) as u64;
+        let max_term = if cfg.cost == CostFunction::Sad { maxv } else { maxv * maxv };
+        let wide = n * max_term > u32::MAX as u64;
+
+        if out.width != w || out.height != h || out.data.len() != w * h {
+            *out = DisparityMap::new_invalid(w, h);
+        }
+        let threads = self.pool.as_ref().map_or_else(rayon::current_num_threads, |p| p.current_num_threads());
+        let nbands = if threads <= 1 { 1 } else { (threads * 2).min(h.div_ceil((4 * cfg.block_size).max(16))).max(1) };
+        let band_rows = h.div_ceil(nbands);
+        let nbands = h.div_ceil(band_rows);
+        let shared = Shared {
+            w,
+            h,
+            r,
+            nd: cfg.num_disparities,
+            dmin: cfg.min_disparity as i64,
+            left: &self.left,
+            right: &self.right,
+            texture_ok: use_texture.then_some(&self.texture_ok[..]),
+            ncc: &self.ncc,
+            n: n as f64,
+            uniq: cfg.uniqueness_ratio,
+            lr: cfg.lr_max_diff,
+            subpixel: cfg.effective_subpixel(),
+        };
+        let simd = self.simd;
+        let data = &mut out.data;
+        let mut stats = MatchStats::default();
+        let mut job = || -> Vec<MatchStats> {
+            if wide {
+                run_bands::<u64>(&shared, &mut self.scratch64, nbands, band_rows, data, cfg.cost, simd)
+            } else {
+                run_bands::<u32>(&shared, &mut self.scratch32, nbands, band_rows, data, cfg.cost, simd)
+            }
+        };
+        let per_band = match &self.pool {
+            Some(p) => p.install(job),
+            None => job(),
+        };
+        for s in &per_band {
+            stats.add(s);
+        }
+        if cfg.speckle_window_size > 0 {
+            stats.speckle = filter_speckles(out, cfg.speckle_window_size, cfg.speckle_range);
+        }
+        stats.pixels = w * h;
+        stats.valid = out.valid_count();
+        stats.density = if w * h == 0 { 0.0 } else { stats.valid as f64 / (w * h) as f64 };
+        self.stats = stats;
+        Ok(())
+    }
+}
+
+fn check_pair(lw: u32, lh: u32, rw: u32, rh: u32) -> Result<(usize, usize)> {
+    if lw == 0 || lh == 0 {
+        return Err(BlockMatchingError::EmptyImage { what: "left image", width: lw as usize, height: lh as usize });
+    }
+    if (lw, lh) != (rw, rh) {
+        return Err(BlockMatchingError::SizeMismatch {
+            what: "right image",
+            width: lw as usize,
+            height: lh as usize,
+            got_width: rw as usize,
+            got_height: rh as usize,
+        });
+    }
+    Ok((lw as usize, lh as usize))
+}
+
+fn run_bands<A: Acc>(
+    sh: &Shared,
+    scratch: &mut Vec<Scratch<A>>,
+    nbands: usize,
+    band_rows: usize,
+    data: &mut [f32],
+    cost: CostFunction,
+    simd: SimdLevel,
+) -> Vec<MatchStats> {
+    if scratch.len() < nbands {
+        scratch.resize_with(nbands, Scratch::default);
+    }
+    data.par_chunks_mut(band_rows * sh.w)
+        .zip(scratch.par_iter_mut())
+        .enumerate()
+        .map(|(b, (rows, sc))| {
+            sc.resize(sh.w, sh.r, sh.nd);
+            let y0 = b * band_rows;
+            let y1 = (y0 + band_rows).min(sh.h);
+            match cost {
+                CostFunction::Sad => dispatch::<A, K_SAD>(sh, sc, rows, y0, y1, simd),
+                CostFunction::Ssd => dispatch::<A, K_SSD>(sh, sc, rows, y0, y1, simd),
+                CostFunction::Ncc => dispatch::<A, K_NCC>(sh, sc, rows, y0, y1, simd),
+            }
+        })
+        .collect()
+}
+
+fn dispatch<A: Acc, const K: u8>(
+    sh: &Shared,
+    sc: &mut Scratch<A>,
+    out: &mut [f32],
+    y0: usize,
+    y1: usize,
+    simd: SimdLevel,
+) -> MatchStats {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: `simd` never exceeds `SimdLevel::detect()`, which checked these features.
+        match simd {
+            SimdLevel::Avx512 => return unsafe { band_avx512::<A, K>(sh, sc, out, y0, y1) },
+            SimdLevel::Avx2 => return unsafe { band_avx2::<A, K>(sh, sc, out, y0, y1) },
+            SimdLevel::Scalar => {}
+        }
+    }
+    let _ = simd;
+    band::<A, K>(sh, sc, out, y0, y1)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+unsafe fn band_avx2<A: Acc, const K: u8>(
+    sh: &Shared,
+    sc: &mut Scratch<A>,
+    out: &mut [f32],
+    y0: usize,
+    y1: usize,
+) -> MatchStats {
+    band::<A, K>(sh, sc, out, y0, y1)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+unsafe fn band_avx512<A: Acc, const K: u8>(
+    sh: &Shared,
+    sc: &mut Scratch<A>,
+    out: &mut [f32],
+    y0: usize,
+    y1: usize,
+) -> MatchStats {
+    band::<A, K>(sh, sc, out, y0, y1)
+}
+
+/// Fills `l` with left row `y` extended by `r` clamped columns each side, and `rrev` with the
+/// right row reversed and extended so that `rrev[(wp − 1 − xp) + k]` is the right pixel matched
+/// with padded left column `xp` at candidate `k`.
+#[inline(always)]
+fn load_rows(sh: &Shared, y: usize, l: &mut [u16], rrev: &mut [u16]) {
+    let (w, r) = (sh.w, sh.r as i64);
+    let lrow = &sh.left[y * w..][..w];
+    let rrow = &sh.right[y * w..][..w];
+    for (xp, v) in l.iter_mut().enumerate() {
+        *v = lrow[(xp as i64 - r).clamp(0, w as i64 - 1) as usize];
+    }
+    let umax = w as i64 - 1 + r - sh.dmin;
+    for (i, v) in rrev.iter_mut().enumerate() {
+        *v = rrow[(umax - i as i64).clamp(0, w as i64 - 1) as usize];
+    }
+}
+
+/// Adds the row held in `l_in/r_in` to the column sums (and subtracts `l_out/r_out` if `sub`).
+#[inline(always)]
+fn vertical<A: Acc, const K: u8>(sc: &mut Scratch<A>, nd: usize, sub: bool) {
+    let wp = sc.l_in.len();
+    for xp in 0..wp {
+        let base = wp - 1 - xp;
+        let cs = &mut sc.colsum[xp * nd..][..nd];
+        let ri = &sc.r_in[base..][..nd];
+        let li = sc.l_in[xp];
+        if sub {
+            let ro = &sc.r_out[base..][..nd];
+            let lo = sc.l_out[xp];
+            for k in 0..nd {
+                cs[k] = cs[k].wadd(A::from_u32(pixel_term::<K>(li, ri[k]))).wsub(A::from_u32(pixel_term::<K>(lo, ro[k])));
+            }
+        } else {
+            for k in 0..nd {
+                cs[k] = cs[k].wadd(A::from_u32(pixel_term::<K>(li, ri[k])));
+            }
+        }
+    }
+}
+
+/// Left winner of one pixel from its candidate costs `c[lo..=hi]`.
+enum Decision {
+    Best(i32, f32),
+    NotUnique,
+}
+
+#[inline(always)]
+fn decide<C: Cost>(c: &[C], lo: usize, hi: usize, uniq: u32, subpixel: Subpixel) -> Decision {
+    let s = &c[lo..=hi];
+    let m = s.iter().fold(C::MAX, |a, &v| a.min2(v));
+    let kb = lo
+        + s.iter()
+            .enumerate()
+            .fold(u32::MAX, |a, (i, &v)| if v == m { a.min(i as u32) } else { a }) as usize;
+    if uniq > 0 {
+        let t = m.uniq_thresh(uniq);
+        let all: u32 = s.iter().map(|&v| (v <= t) as u32).sum();
+        let near: u32 = (kb.saturating_sub(1).max(lo)..=(kb + 1).min(hi)).map(|k| (c[k] <= t) as u32).sum();
+        if all > near {
+            return Decision::NotUnique;
+        }
+    }
+    let mut off = 0.0f64;
+    if kb > lo && kb < hi && subpixel != Subpixel::None {
+        let (cm, c0, cp) = (c[kb - 1].to_f64(), c[kb].to_f64(), c[kb + 1].to_f64());
+        off = match subpixel {
+            Subpixel::Equiangular => {
+                let den = cm.max(cp) - c0;
+                if den > 0.0 { (cm - cp) / (2.0 * den) } else { 0.0 }
+            }
+            _ => {
+                let den = cm - 2.0 * c0 + cp;
+                if den > 0.0 { (cm - cp) / (2.0 * den) } else { 0.0 }
+            }
+        };
+        off = off.clamp(-0.5, 0.5);
+    }
+    Decision::Best(kb as i32, off as f32)
+}
+
+/// Keeps, per right pixel (reversed index `j`), the smallest cost and its candidate (first wins).
+#[inline(always)]
+fn right_update<C: Cost>(c: &[C], rc: &mut [C], rk: &mut [u32], lo: usize) {
+    for (t, ((&v, rcv), rkv)) in c.iter().zip(rc.iter_mut()).zip(rk.iter_mut()).enumerate() {
+        let better = v < *rcv;
+        *rcv = if better { v } else { *rcv };
+        *rkv = if better { (lo + t) as u32 } else { *rkv };
+    }
+}
+
+#[inline(always)]
+fn band<A: Acc, const K: u8>(sh: &Shared, sc: &mut Scratch<A>, out: &mut [f32], y0: usize, y1: usize) -> MatchStats {
+    let (w, h, r, nd) = (sh.w, sh.h, sh.r, sh.nd);
+    let clamp_y = |y: i64| y.clamp(0, h as i64 - 1) as usize;
+    let mut st = MatchStats::default();
+    for y in y0..y1 {
+        if y == y0 {
+            sc.colsum.fill(A::default());
+            for j in (y0 as i64 - r as i64)..=(y0 + r) as i64 {
+                load_rows(sh, clamp_y(j), &mut sc.l_in, &mut sc.r_in);
+                vertical::<A, K>(sc, nd, false);
+            }
+        } else {
+            let yi = clamp_y(y as i64 + r as i64);
+            let yo = clamp_y(y as i64 - r as i64 - 1);
+            if yi != yo {
+                load_rows(sh, yi, &mut sc.l_in, &mut sc.r_in);
+                load_rows(sh, yo, &mut sc.l_out, &mut sc.r_out);
+                vertical::<A, K>(sc, nd, true);
+            }
+        }
+        row_decisions::<A, K>(sh, sc, y, &mut out[(y - y0) * w..][..w], &mut st);
+    }
+    st
+}
+
+#[inline(always)]
+fn row_decisions<A: Acc, const K: u8>(sh: &Shared, sc: &mut Scratch<A>, y: usize, out: &mut [f32], st: &mut MatchStats) {
+    let (w, r, nd, dmin) = (sh.w, sh.r, sh.nd, sh.dmin);
+    let ncc = K == K_NCC;
+    // box sums of x = 0: padded columns 0..=2r
+    sc.boxs.fill(A::default());
+    for xp in 0..=2 * r {
+        let cs = &sc.colsum[xp * nd..][..nd];
+        for (b, &c) in sc.boxs.iter_mut().zip(cs) {
+            *b = b.wadd(c);
+        }
+    }
+    if ncc {
+        sc.rcf.fill(f64::INFINITY);
+        for j in 0..w {
+            sc.sr_rev[j] = sh.ncc.sr[y * w + w - 1 - j];
+            sc.ir_rev[j] = sh.ncc.inv_r[y * w + w - 1 - j];
+        }
+    } else {
+        sc.rc.fill(A::MAX);
+    }
+    sc.rk.fill(u32::MAX);
+    for x in 0..w {
+        if x > 0 {
+            let (a, s) = (&sc.colsum[(x + 2 * r) * nd..][..nd], &sc.colsum[(x - 1) * nd..][..nd]);
+            for ((b, &ai), &si) in sc.boxs.iter_mut().zip(a).zip(s) {
+                *b = b.wadd(ai).wsub(si);
+            }
+        }
+        let xd = x as i64 - dmin;
+        let lo = (xd - (w as i64 - 1)).max(0);
+        let hi = xd.min(nd as i64 - 1);
+        if lo > hi {
+            sc.best[x] = -1;
+            st.no_candidate += 1;
+            continue;
+        }
+        let (lo, hi) = (lo as usize, hi as usize);
+        // right pixels u = xd − k map to reversed index j = w − 1 − u, contiguous in k
+        let j0 = (w as i64 - 1 - xd + lo as i64) as usize;
+        let len = hi - lo + 1;
+        let dec = if ncc {
+            let (sl, il) = (sh.ncc.sl[y * w + x], sh.ncc.inv_l[y * w + x]);
+            let n = sh.n;
+            let srs = &sc.sr_rev[j0..][..len];
+            let irs = &sc.ir_rev[j0..][..len];
+            for (t, cf) in sc.costf[lo..=hi].iter_mut().enumerate() {
+                *cf = ncc_cost(n, sc.boxs[lo + t].to_f64(), sl, srs[t], il, irs[t]);
+            }
+            right_update(&sc.costf[lo..=hi], &mut sc.rcf[j0..][..len], &mut sc.rk[j0..][..len], lo);
+            decide(&sc.costf, lo, hi, sh.uniq, sh.subpixel)
+        } else {
+            right_update::<A>(&sc.boxs[lo..=hi], &mut sc.rc[j0..][..len], &mut sc.rk[j0..][..len], lo);
+            decide::<A>(&sc.boxs, lo, hi, sh.uniq, sh.subpixel)
+        };
+        if let Some(t) = sh.texture_ok {
+            if !t[y * w + x] {
+                sc.best[x] = -1;
+                st.low_texture += 1;
+                continue;
+            }
+        }
+        match dec {
+            Decision::Best(k, off) => {
+                sc.best[x] = k;
+                sc.sub[x] = off;
+            }
+            Decision::NotUnique => {
+                sc.best[x] = -1;
+                st.not_unique += 1;
+            }
+        }
+    }
+    for x in 0..w {
+        let k = sc.best[x];
+        if k < 0 {
+            out[x] = DisparityMap::INVALID;
+            continue;
+        }
+        if let Some(tol) = sh.lr {
+            let u = x as i64 - dmin - k as i64;
+            let kr = sc.rk[w - 1 - u as usize];
+            if (kr as i64 - k as i64).unsigned_abs() > tol as u64 {
+                out[x] = DisparityMap::INVALID;
+                st.lr_inconsistent += 1;
+                continue;
+            }
+        }
+        out[x] = ((dmin + k as i64) as f64 + sc.sub[x] as f64) as f32;
+    }
+}

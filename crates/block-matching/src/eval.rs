@@ -1,0 +1,113 @@
+//! Middlebury-style evaluation: bad-N over a mask with missing pixels counted as bad, and density.
+
+use camera_model::DisparityMap;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{BlockMatchingError, Result};
+
+/// Accuracy of a disparity map against ground truth over the evaluated pixels (known truth and,
+/// if given, inside the mask).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Evaluation {
+    /// Pixels evaluated.
+    pub evaluated: usize,
+    /// `(threshold px, percent bad)`: `|d − truth| > threshold` or no disparity, in percent of
+    /// the evaluated pixels.
+    pub bad: Vec<(f32, f64)>,
+    /// Percent of the evaluated pixels that have a disparity.
+    pub density: f64,
+    /// RMS error in px over the evaluated pixels that have a disparity.
+    pub rms: f64,
+}
+
+impl Evaluation {
+    /// Percent bad at `threshold` (`None` if it was not evaluated).
+    pub fn bad_at(&self, threshold: f32) -> Option<f64> {
+        self.bad.iter().find(|(t, _)| *t == threshold).map(|&(_, b)| b)
+    }
+}
+
+/// Evaluates `disparity` against `truth` (invalid truth = unknown, skipped) over `mask`
+/// (row-major, `true` = evaluate; `None` = every known pixel), for each threshold.
+pub fn evaluate(
+    disparity: &DisparityMap,
+    truth: &DisparityMap,
+    mask: Option<&[bool]>,
+    thresholds: &[f32],
+) -> Result<Evaluation> {
+    let (w, h) = (disparity.width, disparity.height);
+    if (truth.width, truth.height) != (w, h) || truth.data.len() != w * h || disparity.data.len() != w * h {
+        return Err(BlockMatchingError::SizeMismatch {
+            what: "ground truth",
+            width: w,
+            height: h,
+            got_width: truth.width,
+            got_height: truth.height,
+        });
+    }
+    if let Some(m) = mask {
+        if m.len() != w * h {
+            return Err(BlockMatchingError::SizeMismatch {
+                what: "evaluation mask",
+                width: w,
+                height: h,
+                got_width: m.len(),
+                got_height: 1,
+            });
+        }
+    }
+    let mut evaluated = 0usize;
+    let mut valid = 0usize;
+    let mut bad = vec![0usize; thresholds.len()];
+    let mut sq = 0.0f64;
+    for i in 0..w * h {
+        let t = truth.data[i];
+        if !t.is_finite() || mask.is_some_and(|m| !m[i]) {
+            continue;
+        }
+        evaluated += 1;
+        let d = disparity.data[i];
+        if d.is_finite() {
+            valid += 1;
+            let e = (d - t).abs();
+            sq += (e as f64) * (e as f64);
+            for (b, &th) in bad.iter_mut().zip(thresholds) {
+                *b += (e > th) as usize;
+            }
+        } else {
+            bad.iter_mut().for_each(|b| *b += 1);
+        }
+    }
+    if evaluated == 0 {
+        return Err(BlockMatchingError::NothingToEvaluate("no pixel has known ground truth inside the mask".into()));
+    }
+    let pct = |n: usize| 100.0 * n as f64 / evaluated as f64;
+    Ok(Evaluation {
+        evaluated,
+        bad: thresholds.iter().zip(&bad).map(|(&t, &b)| (t, pct(b))).collect(),
+        density: pct(valid),
+        rms: if valid > 0 { (sq / valid as f64).sqrt() } else { f64::NAN },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_missing_as_bad_and_respects_mask_and_unknown_truth() {
+        let truth = DisparityMap::from_data(4, 1, vec![10.0, 10.0, f32::NAN, 10.0]).unwrap();
+        let d = DisparityMap::from_data(4, 1, vec![10.5, 13.0, 1.0, f32::NAN]).unwrap();
+        let e = evaluate(&d, &truth, None, &[1.0, 2.0]).unwrap();
+        assert_eq!(e.evaluated, 3);
+        assert!((e.bad_at(1.0).unwrap() - 200.0 / 3.0).abs() < 1e-9);
+        assert!((e.bad_at(2.0).unwrap() - 200.0 / 3.0).abs() < 1e-9);
+        assert!((e.density - 200.0 / 3.0).abs() < 1e-9);
+        assert!((e.rms - ((0.25 + 9.0) / 2.0f64).sqrt()).abs() < 1e-9);
+        let mask = [true, false, true, false];
+        let e = evaluate(&d, &truth, Some(&mask), &[1.0]).unwrap();
+        assert_eq!((e.evaluated, e.bad_at(1.0), e.density), (1, Some(0.0), 100.0));
+        assert!(evaluate(&d, &truth, Some(&[false; 4]), &[1.0]).is_err());
+        assert!(evaluate(&d, &DisparityMap::new_invalid(3, 1), None, &[1.0]).is_err());
+    }
+}

@@ -1,0 +1,131 @@
+//! Image prefilters (OpenCV-style) and the window box sum used for texture and NCC statistics.
+//!
+//! Written by hand rather than with imageproc because the matcher needs exact integer output on
+//! `u16` planes with clamp-to-edge borders (imageproc's Sobel returns `i16` per pixel and its box
+//! filter rounds a mean), and because these run once per frame inside a build-once matcher.
+
+/// 3x3 x-Sobel (`[-1 0 1; -2 0 2; -1 0 1]`) with clamp-to-edge borders, clipped to `[−cap, cap]`
+/// and shifted by `cap`: output in `0..=2·cap` (OpenCV's `PREFILTER_XSOBEL` with `preFilterCap`).
+/// `src` is row-major `width x height`.
+pub fn x_sobel(src: &[u16], width: usize, height: usize, cap: u32) -> Vec<u16> {
+    let mut out = vec![0u16; width * height];
+    let cap = cap as i32;
+    for y in 0..height {
+        let r0 = &src[y.saturating_sub(1) * width..][..width];
+        let r1 = &src[y * width..][..width];
+        let r2 = &src[(y + 1).min(height - 1) * width..][..width];
+        let o = &mut out[y * width..][..width];
+        for x in 0..width {
+            let xm = x.saturating_sub(1);
+            let xp = (x + 1).min(width - 1);
+            let v = (r0[xp] as i32 - r0[xm] as i32)
+                + 2 * (r1[xp] as i32 - r1[xm] as i32)
+                + (r2[xp] as i32 - r2[xm] as i32);
+            o[x] = (v.clamp(-cap, cap) + cap) as u16;
+        }
+    }
+    out
+}
+
+/// Intensity minus the mean of the `size x size` window (clamp-to-edge), rounded to the nearest
+/// integer, clipped to `[−cap, cap]` and shifted by `cap` (output `0..=2·cap`): a local-contrast
+/// response in the spirit of OpenCV's `PREFILTER_NORMALIZED_RESPONSE`.
+pub fn normalized_response(src: &[u16], width: usize, height: usize, size: usize, cap: u32) -> Vec<u16> {
+    let sums = box_sum(src, width, height, size / 2, |v| v as u64);
+    let n = (size * size) as i64;
+    let cap = cap as i64;
+    src.iter()
+        .zip(&sums)
+        .map(|(&v, &s)| {
+            // round((n·v − s) / n) with integer arithmetic, symmetric around zero
+            let num = n * v as i64 - s as i64;
+            let q = if num >= 0 { (2 * num + n) / (2 * n) } else { -((-2 * num + n) / (2 * n)) };
+            (q.clamp(-cap, cap) + cap) as u16
+        })
+        .collect()
+}
+
+/// Sum of `f(pixel)` over the `(2r+1) x (2r+1)` window centred on every pixel, with clamp-to-edge
+/// borders (a pixel outside the image takes the value of the nearest edge pixel), exact in `u64`.
+pub fn box_sum(src: &[u16], width: usize, height: usize, r: usize, f: impl Fn(u16) -> u64) -> Vec<u64> {
+    let clamp_x = |x: isize| x.clamp(0, width as isize - 1) as usize;
+    // horizontal running sums
+    let mut horiz = vec![0u64; width * height];
+    for y in 0..height {
+        let row = &src[y * width..][..width];
+        let h = &mut horiz[y * width..][..width];
+        let mut s: u64 = (-(r as isize)..=r as isize).map(|dx| f(row[clamp_x(dx)])).sum();
+        h[0] = s;
+        for x in 1..width {
+            s += f(row[clamp_x(x as isize + r as isize)]);
+            s -= f(row[clamp_x(x as isize - r as isize - 1)]);
+            h[x] = s;
+        }
+    }
+    // vertical running sums
+    let clamp_y = |y: isize| y.clamp(0, height as isize - 1) as usize;
+    let mut out = vec![0u64; width * height];
+    let mut col = vec![0u64; width];
+    for dy in -(r as isize)..=r as isize {
+        let row = &horiz[clamp_y(dy) * width..][..width];
+        col.iter_mut().zip(row).for_each(|(c, &v)| *c += v);
+    }
+    out[..width].copy_from_slice(&col);
+    for y in 1..height {
+        let add = clamp_y(y as isize + r as isize);
+        let sub = clamp_y(y as isize - r as isize - 1);
+        for x in 0..width {
+            col[x] = col[x] + horiz[add * width + x] - horiz[sub * width + x];
+        }
+        out[y * width..][..width].copy_from_slice(&col);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn box_sum_matches_direct_sum_with_clamped_borders() {
+        let (w, h) = (7, 5);
+        let src: Vec<u16> = (0..w * h).map(|i| ((i * 37 + 11) % 251) as u16).collect();
+        for r in 0..4 {
+            let fast = box_sum(&src, w, h, r, |v| v as u64 * v as u64);
+            for y in 0..h {
+                for x in 0..w {
+                    let mut s = 0u64;
+                    for dy in -(r as i64)..=r as i64 {
+                        for dx in -(r as i64)..=r as i64 {
+                            let yy = (y as i64 + dy).clamp(0, h as i64 - 1) as usize;
+                            let xx = (x as i64 + dx).clamp(0, w as i64 - 1) as usize;
+                            s += src[yy * w + xx] as u64 * src[yy * w + xx] as u64;
+                        }
+                    }
+                    assert_eq!(fast[y * w + x], s, "r {r} at ({x}, {y})");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn x_sobel_of_a_ramp_is_eight_times_the_slope_clipped() {
+        let (w, h) = (10, 4);
+        let src: Vec<u16> = (0..w * h).map(|i| (3 * (i % w)) as u16).collect();
+        let out = x_sobel(&src, w, h, 31);
+        // interior: 4 · (2 · 3) = 24 → 24 + 31
+        assert_eq!(out[w + 4], 55);
+        // left edge (clamped): 4 · 3 = 12
+        assert_eq!(out[w], 43);
+        let clipped = x_sobel(&src, w, h, 10);
+        assert_eq!(clipped[w + 4], 20);
+    }
+
+    #[test]
+    fn normalized_response_removes_an_offset() {
+        let (w, h) = (9, 9);
+        let a: Vec<u16> = (0..w * h).map(|i| ((i * 13) % 40) as u16).collect();
+        let b: Vec<u16> = a.iter().map(|v| v + 100).collect();
+        assert_eq!(normalized_response(&a, w, h, 5, 31), normalized_response(&b, w, h, 5, 31));
+    }
+}

@@ -1,0 +1,313 @@
+//! The fast matcher against a naive reference written from the definitions: direct window sums
+//! with clamp-to-edge borders, the full cost volume, first-minimum winner-take-all, OpenCV's
+//! uniqueness rule, sub-pixel fits and the left–right check. Property test with a fixed seed.
+
+use block_matching::{BlockMatcher, CostFunction, Gray16Image, MatcherConfig, Prefilter, SimdLevel, Subpixel};
+use image::{GrayImage, Luma};
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngSeed};
+
+fn clampi(v: i64, hi: usize) -> usize {
+    v.clamp(0, hi as i64 - 1) as usize
+}
+
+fn sobel_naive(src: &[u16], w: usize, h: usize, cap: i64) -> Vec<u16> {
+    let p = |x: i64, y: i64| src[clampi(y, h) * w + clampi(x, w)] as i64;
+    let mut out = vec![0; w * h];
+    for y in 0..h as i64 {
+        for x in 0..w as i64 {
+            let mut v = 0;
+            for (dy, wt) in [(-1, 1), (0, 2), (1, 1)] {
+                v += wt * (p(x + 1, y + dy) - p(x - 1, y + dy));
+            }
+            out[y as usize * w + x as usize] = (v.clamp(-cap, cap) + cap) as u16;
+        }
+    }
+    out
+}
+
+fn norm_naive(src: &[u16], w: usize, h: usize, size: usize, cap: i64) -> Vec<u16> {
+    let r = (size / 2) as i64;
+    let n = (size * size) as f64;
+    let mut out = vec![0; w * h];
+    for y in 0..h as i64 {
+        for x in 0..w as i64 {
+            let mut s = 0i64;
+            for dy in -r..=r {
+                for dx in -r..=r {
+                    s += src[clampi(y + dy, h) * w + clampi(x + dx, w)] as i64;
+                }
+            }
+            let v = src[y as usize * w + x as usize] as f64 - s as f64 / n;
+            // round half away from zero
+            let q = v.signum() * (v.abs() + 0.5).floor();
+            out[y as usize * w + x as usize] = ((q as i64).clamp(-cap, cap) + cap) as u16;
+        }
+    }
+    out
+}
+
+/// Naive matcher: returns the disparity map (NaN invalid), without speckle filtering.
+fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, scale: i64) -> Vec<f32> {
+    let r = (cfg.block_size / 2) as i64;
+    let nd = cfg.num_disparities;
+    let dmin = cfg.min_disparity as i64;
+    let texture_ok: Vec<bool> = if cfg.texture_threshold > 0 {
+        let s = sobel_naive(left, w, h, 31 * scale);
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as i64, (i / w) as i64);
+                let mut t = 0i64;
+                for dy in -r..=r {
+                    for dx in -r..=r {
+                        t += (s[clampi(y + dy, h) * w + clampi(x + dx, w)] as i64 - 31 * scale).abs();
+                    }
+                }
+                t >= cfg.texture_threshold as i64 * scale
+            })
+            .collect()
+    } else {
+        vec![true; w * h]
+    };
+    let (l, rt) = match cfg.prefilter {
+        Prefilter::None => (left.to_vec(), right.to_vec()),
+        Prefilter::XSobel { cap } => {
+            (sobel_naive(left, w, h, cap as i64 * scale), sobel_naive(right, w, h, cap as i64 * scale))
+        }
+        Prefilter::NormalizedResponse { size, cap } => (
+            norm_naive(left, w, h, size, cap as i64 * scale),
+            norm_naive(right, w, h, size, cap as i64 * scale),
+        ),
+    };
+    let pl = |x: i64, y: i64| l[clampi(y, h) * w + clampi(x, w)] as i64;
+    let pr = |x: i64, y: i64| rt[clampi(y, h) * w + clampi(x, w)] as i64;
+    let n = (cfg.block_size * cfg.block_size) as i64;
+    let inv = |s: i64, ss: i64| {
+        let den = n * ss - s * s;
+        if den == 0 { 0.0 } else { 1.0 / (den as f64).sqrt() }
+    };
+    // cost volume, f64 (integer costs are exact in f64 here)
+    let mut cost = vec![f64::NAN; w * h * nd];
+    for y in 0..h as i64 {
+        for x in 0..w as i64 {
+            for k in 0..nd as i64 {
+                let u = x - dmin - k;
+                if u < 0 || u >= w as i64 {
+                    continue;
+                }
+                let (mut sad, mut ssd, mut sl, mut sr, mut sll, mut srr, mut slr) = (0i64, 0i64, 0i64, 0i64, 0i64, 0i64, 0i64);
+                for dy in -r..=r {
+                    for dx in -r..=r {
+                        let a = pl(x + dx, y + dy);
+                        let b = pr(x + dx - dmin - k, y + dy);
+                        sad += (a - b).abs();
+                        ssd += (a - b) * (a - b);
+                        sl += a;
+                        sr += pr(u + dx, y + dy);
+                        sll += a * a;
+                        srr += pr(u + dx, y + dy) * pr(u + dx, y + dy);
+                        slr += a * b;
+                    }
+                }
+                let c = match cfg.cost {
+                    CostFunction::Sad => sad as f64,
+                    CostFunction::Ssd => ssd as f64,
+                    CostFunction::Ncc => {
+                        1.0 - (n as f64 * slr as f64 - sl as f64 * sr as f64) * inv(sl, sll) * inv(sr, srr)
+                    }
+                };
+                cost[(y as usize * w + x as usize) * nd + k as usize] = c;
+            }
+        }
+    }
+    let sub = match (cfg.subpixel, cfg.cost) {
+        (Subpixel::Auto, CostFunction::Sad) => Subpixel::Equiangular,
+        (Subpixel::Auto, _) => Subpixel::Parabola,
+        (s, _) => s,
+    };
+    let mut out = vec![f32::NAN; w * h];
+    for y in 0..h {
+        // right winners
+        let mut rbest = vec![usize::MAX; w];
+        for u in 0..w {
+            let mut best = f64::INFINITY;
+            for k in 0..nd {
+                let x = u as i64 + dmin + k as i64;
+                if x < 0 || x >= w as i64 {
+                    continue;
+                }
+                let c = cost[(y * w + x as usize) * nd + k];
+                if c < best {
+                    best = c;
+                    rbest[u] = k;
+                }
+            }
+        }
+        for x in 0..w {
+            let cs = &cost[(y * w + x) * nd..][..nd];
+            let ks: Vec<usize> = (0..nd).filter(|&k| !cs[k].is_nan()).collect();
+            if ks.is_empty() || !texture_ok[y * w + x] {
+                continue;
+            }
+            let (lo, hi) = (ks[0], *ks.last().unwrap());
+            let mut kb = lo;
+            for &k in &ks {
+                if cs[k] < cs[kb] {
+                    kb = k;
+                }
+            }
+            let m = cs[kb];
+            if cfg.uniqueness_ratio > 0 {
+                let t = match cfg.cost {
+                    CostFunction::Ncc => m + m * cfg.uniqueness_ratio as f64 / 100.0,
+                    _ => (m as u64 + m as u64 * cfg.uniqueness_ratio as u64 / 100) as f64,
+                };
+                if ks.iter().any(|&k| (k as i64 - kb as i64).abs() > 1 && cs[k] <= t) {
+                    continue;
+                }
+            }
+            if let Some(tol) = cfg.lr_max_diff {
+                let u = (x as i64 - dmin - kb as i64) as usize;
+                if (rbest[u] as i64 - kb as i64).abs() > tol as i64 {
+                    continue;
+                }
+            }
+            let mut off = 0.0;
+            if kb > lo && kb < hi && sub != Subpixel::None {
+                let (a, b, c) = (cs[kb - 1], cs[kb], cs[kb + 1]);
+                let den = if sub == Subpixel::Equiangular { a.max(c) - b } else { a - 2.0 * b + c };
+                if den > 0.0 {
+                    off = ((a - c) / (2.0 * den)).clamp(-0.5, 0.5);
+                }
+            }
+            out[y * w + x] = (dmin + kb as i64) as f32 + off as f32;
+        }
+    }
+    out
+}
+
+fn compare(fast: &[f32], slow: &[f32], w: usize, tol: f32, what: &str) {
+    for (i, (a, b)) in fast.iter().zip(slow).enumerate() {
+        let same = (a.is_nan() && b.is_nan()) || (a - b).abs() <= tol;
+        assert!(same, "{what}: pixel ({}, {}) fast {a} naive {b}", i % w, i / w);
+    }
+}
+
+/// A pair with structure: right = left shifted by a random disparity field plus noise.
+fn make_pair(seed: u64, w: usize, h: usize, maxv: u32) -> (Vec<u16>, Vec<u16>) {
+    let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    let mut rnd = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        s
+    };
+    let big = w + 40;
+    let tex: Vec<u16> = (0..big * h).map(|_| (rnd() % (maxv as u64 + 1)) as u16).collect();
+    let shift = (rnd() % 8) as usize;
+    let noise = (rnd() % 3) as u16;
+    let left: Vec<u16> = (0..w * h).map(|i| tex[(i / w) * big + i % w + 20]).collect();
+    let right: Vec<u16> = (0..w * h)
+        .map(|i| {
+            let v = tex[(i / w) * big + i % w + 20 + shift];
+            if noise > 0 && rnd() % 4 == 0 { v.saturating_add((rnd() % noise as u64) as u16).min(maxv as u16) } else { v }
+        })
+        .collect();
+    (left, right)
+}
+
+fn run_case(seed: u64, w: usize, h: usize, maxv: u32, sixteen: bool, cfg: MatcherConfig, threads: usize) {
+    let (l, r) = make_pair(seed, w, h, maxv);
+    let scale = if sixteen { 257 } else { 1 };
+    let expect = naive(&l, &r, w, h, &cfg, scale);
+    let tol = if cfg.cost == CostFunction::Ncc { 1e-5 } else { 1e-6 };
+    for level in [SimdLevel::Scalar, SimdLevel::Avx2, SimdLevel::Avx512] {
+        let mut m = BlockMatcher::new(MatcherConfig { threads, ..cfg.clone() }).unwrap();
+        let used = m.set_simd(level);
+        if used != level {
+            continue;
+        }
+        let got = if sixteen {
+            let li = Gray16Image::from_raw(w as u32, h as u32, l.clone()).unwrap();
+            let ri = Gray16Image::from_raw(w as u32, h as u32, r.clone()).unwrap();
+            m.compute_u16(&li, &ri).unwrap()
+        } else {
+            let li = GrayImage::from_fn(w as u32, h as u32, |x, y| Luma([l[y as usize * w + x as usize] as u8]));
+            let ri = GrayImage::from_fn(w as u32, h as u32, |x, y| Luma([r[y as usize * w + x as usize] as u8]));
+            // twice: the second call reuses the buffers
+            m.compute(&li, &ri).unwrap();
+            m.compute(&li, &ri).unwrap()
+        };
+        compare(&got.data, &expect, w, tol, &format!("{level:?} seed {seed} {w}x{h} maxv {maxv} {cfg:?}"));
+    }
+}
+
+fn config_strategy() -> impl Strategy<Value = MatcherConfig> {
+    (
+        prop_oneof![Just(CostFunction::Sad), Just(CostFunction::Ssd), Just(CostFunction::Ncc)],
+        (1usize..=5).prop_map(|k| 2 * k + 1),
+        -4i32..6,
+        1usize..20,
+        prop_oneof![
+            Just(Prefilter::None),
+            (1u16..40).prop_map(|cap| Prefilter::XSobel { cap }),
+            (1usize..=3, 1u16..40).prop_map(|(s, cap)| Prefilter::NormalizedResponse { size: 2 * s + 1, cap })
+        ],
+        prop_oneof![Just(0u32), Just(10), Just(200)],
+        prop_oneof![Just(0u32), Just(5), Just(30)],
+        prop_oneof![Just(None), Just(Some(0u32)), Just(Some(1))],
+        prop_oneof![Just(Subpixel::None), Just(Subpixel::Auto), Just(Subpixel::Parabola), Just(Subpixel::Equiangular)],
+    )
+        .prop_map(|(cost, block_size, min_disparity, num_disparities, prefilter, tex, uniq, lr, subpixel)| {
+            MatcherConfig {
+                cost,
+                block_size,
+                min_disparity,
+                num_disparities,
+                prefilter,
+                texture_threshold: tex,
+                uniqueness_ratio: uniq,
+                lr_max_diff: lr,
+                speckle_window_size: 0,
+                speckle_range: 1.0,
+                subpixel,
+                threads: 0,
+            }
+        })
+}
+
+proptest! {
+    #![proptest_config(Config { cases: 48, rng_seed: RngSeed::Fixed(0x5eed_b10c), failure_persistence: None, ..Config::default() })]
+
+    #[test]
+    fn fast_equals_naive_on_8_bit_images(
+        cfg in config_strategy(),
+        seed in any::<u64>(),
+        w in 6usize..40,
+        h in 3usize..24,
+        maxv in prop_oneof![Just(3u32), Just(40), Just(255)],
+        threads in 1usize..=2,
+    ) {
+        run_case(seed, w, h, maxv, false, cfg, threads);
+    }
+
+    #[test]
+    fn fast_equals_naive_on_16_bit_images(
+        cfg in config_strategy(),
+        seed in any::<u64>(),
+        w in 6usize..30,
+        h in 3usize..16,
+        maxv in prop_oneof![Just(4095u32), Just(65535)],
+    ) {
+        run_case(seed, w, h, maxv, true, cfg, 2);
+    }
+}
+
+#[test]
+fn fast_equals_naive_on_a_larger_image_with_many_bands() {
+    // enough rows for several bands with 2 threads, the full default option set minus speckle
+    for cost in [CostFunction::Sad, CostFunction::Ssd, CostFunction::Ncc] {
+        let cfg = MatcherConfig { cost, num_disparities: 24, speckle_window_size: 0, ..MatcherConfig::default() };
+        run_case(7, 64, 160, 255, false, cfg, 2);
+    }
+}

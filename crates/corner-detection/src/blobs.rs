@@ -1,0 +1,314 @@
+//! Blob targets (circular marks): weighted grayscale conversion, Otsu threshold, 8-connected
+//! components, area and shape filters, sub-pixel centroids.
+
+use glam::DVec2;
+use image::{GrayImage, Luma, RgbImage};
+use imageproc::region_labelling::{Connectivity, connected_components};
+use serde::{Deserialize, Serialize};
+
+use crate::{CornerError, Result};
+
+/// Weighted grayscale conversion `Y = wr·R + wg·G + wb·B` (weights are normalised to sum 1;
+/// the default is ITU-R BT.601, as OpenCV's `cvtColor(RGB2GRAY)`).
+pub fn weighted_gray(img: &RgbImage, weights: [f64; 3]) -> Result<GrayImage> {
+    let sum: f64 = weights.iter().sum();
+    if weights.iter().any(|w| !w.is_finite() || *w < 0.0) || sum <= 0.0 {
+        return Err(CornerError::InvalidConfig(format!(
+            "grayscale weights must be non-negative with a positive sum, got {weights:?}"
+        )));
+    }
+    let w = weights.map(|v| v / sum);
+    Ok(GrayImage::from_fn(img.width(), img.height(), |x, y| {
+        let p = img.get_pixel(x, y).0;
+        let v = w[0] * p[0] as f64 + w[1] * p[1] as f64 + w[2] * p[2] as f64;
+        Luma([v.round().clamp(0.0, 255.0) as u8])
+    }))
+}
+
+/// ITU-R BT.601 luma weights (R, G, B).
+pub const BT601: [f64; 3] = [0.299, 0.587, 0.114];
+
+/// Which blobs to look for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum BlobPolarity {
+    /// Dark marks on a bright background (pixels at or below the threshold).
+    #[default]
+    Dark,
+    /// Bright marks on a dark background (pixels above the threshold).
+    Bright,
+}
+
+/// Configuration of [`detect_blobs`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct BlobConfig {
+    /// Dark or bright marks.
+    pub polarity: BlobPolarity,
+    /// Fixed threshold in grey levels; `None` = Otsu's threshold of the image.
+    pub threshold: Option<u8>,
+    /// Smallest blob area, pixels.
+    pub min_area: usize,
+    /// Largest blob area, pixels.
+    pub max_area: usize,
+    /// Largest ratio of the major to the minor axis of the blob's second moments (1 = circle).
+    pub max_aspect_ratio: f64,
+    /// Smallest fill ratio: area / area of the moment ellipse (≈ 1 for a filled ellipse,
+    /// smaller for rings, crosses and ragged shapes).
+    pub min_fill: f64,
+    /// Discard blobs that touch the image border.
+    pub reject_border: bool,
+}
+
+impl Default for BlobConfig {
+    fn default() -> Self {
+        Self {
+            polarity: BlobPolarity::Dark,
+            threshold: None,
+            min_area: 10,
+            max_area: 100_000,
+            max_aspect_ratio: 3.0,
+            min_fill: 0.8,
+            reject_border: true,
+        }
+    }
+}
+
+/// One blob.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Blob {
+    /// Sub-pixel centre: the centroid weighted by each pixel's distance from the threshold
+    /// (grey levels), so partial pixels on the rim count partially.
+    pub centroid: DVec2,
+    /// Unweighted centroid of the binary component.
+    pub binary_centroid: DVec2,
+    /// Area, pixels.
+    pub area: usize,
+    /// Major / minor axis of the second moments.
+    pub aspect_ratio: f64,
+    /// Area / area of the moment ellipse.
+    pub fill: f64,
+    /// Bounding box `(min_x, min_y, max_x, max_y)`, pixels, inclusive.
+    pub bbox: (u32, u32, u32, u32),
+}
+
+/// What [`detect_blobs`] found, with the threshold it used.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BlobDetection {
+    /// The threshold (grey levels).
+    pub threshold: u8,
+    /// Accepted blobs, sorted by row then column of their centroid.
+    pub blobs: Vec<Blob>,
+    /// Number of components rejected by the area / shape / border filters.
+    pub rejected: usize,
+}
+
+/// Detects blob targets: threshold (Otsu by default), 8-connected components of the marks'
+/// polarity, area / aspect / fill filters, sub-pixel weighted centroids.
+///
+/// ```
+/// use corner_detection::{detect_blobs, BlobConfig};
+/// let img = image::GrayImage::from_fn(60, 40, |x, y| {
+///     let d = ((x as f64 - 20.0).powi(2) + (y as f64 - 18.0).powi(2)).sqrt();
+///     image::Luma([if d < 6.0 { 20 } else { 230 }])
+/// });
+/// let found = detect_blobs(&img, &BlobConfig::default())?;
+/// assert_eq!(found.blobs.len(), 1);
+/// assert!((found.blobs[0].centroid - glam::DVec2::new(20.0, 18.0)).length() < 0.01);
+/// # Ok::<(), corner_detection::CornerError>(())
+/// ```
+pub fn detect_blobs(img: &GrayImage, cfg: &BlobConfig) -> Result<BlobDetection> {
+    crate::imageops::check_size(img, 1, "detect_blobs")?;
+    if cfg.min_area == 0 || cfg.max_area < cfg.min_area {
+        return Err(CornerError::InvalidConfig(format!(
+            "BlobConfig needs 1 <= min_area <= max_area, got {}..{}",
+            cfg.min_area, cfg.max_area
+        )));
+    }
+    if !(cfg.max_aspect_ratio >= 1.0) || !(cfg.min_fill.is_finite() && cfg.min_fill >= 0.0) {
+        return Err(CornerError::InvalidConfig(format!(
+            "BlobConfig needs max_aspect_ratio >= 1 and min_fill >= 0, got {} and {}",
+            cfg.max_aspect_ratio, cfg.min_fill
+        )));
+    }
+    let t = cfg.threshold.unwrap_or_else(|| imageproc::contrast::otsu_level(img));
+    let is_mark = |v: u8| match cfg.polarity {
+        BlobPolarity::Dark => v <= t,
+        BlobPolarity::Bright => v > t,
+    };
+    let binary = GrayImage::from_fn(img.width(), img.height(), |x, y| {
+        Luma([if is_mark(img.get_pixel(x, y)[0]) { 255 } else { 0 }])
+    });
+    let labels = connected_components(&binary, Connectivity::Eight, Luma([0u8]));
+    let n = labels.iter().copied().max().unwrap_or(0) as usize;
+    #[derive(Clone, Copy)]
+    struct Acc {
+        n: f64,
+        sx: f64,
+        sy: f64,
+        sxx: f64,
+        syy: f64,
+        sxy: f64,
+        w: f64,
+        wx: f64,
+        wy: f64,
+        bbox: (u32, u32, u32, u32),
+    }
+    let mut acc =
+        vec![Acc { n: 0.0, sx: 0.0, sy: 0.0, sxx: 0.0, syy: 0.0, sxy: 0.0, w: 0.0, wx: 0.0, wy: 0.0, bbox: (u32::MAX, u32::MAX, 0, 0) }; n + 1];
+    for (x, y, l) in labels.enumerate_pixels() {
+        let l = l[0] as usize;
+        if l == 0 {
+            continue;
+        }
+        let a = &mut acc[l];
+        let (fx, fy) = (x as f64, y as f64);
+        a.n += 1.0;
+        a.sx += fx;
+        a.sy += fy;
+        a.sxx += fx * fx;
+        a.syy += fy * fy;
+        a.sxy += fx * fy;
+        let v = img.get_pixel(x, y)[0] as f64;
+        let w = match cfg.polarity {
+            BlobPolarity::Dark => t as f64 + 0.5 - v,
+            BlobPolarity::Bright => v - t as f64 - 0.5,
+        }
+        .max(0.0);
+        a.w += w;
+        a.wx += w * fx;
+        a.wy += w * fy;
+        a.bbox = (a.bbox.0.min(x), a.bbox.1.min(y), a.bbox.2.max(x), a.bbox.3.max(y));
+    }
+    let mut blobs = Vec::new();
+    let mut rejected = 0;
+    for a in acc.iter().skip(1) {
+        let area = a.n as usize;
+        if area == 0 {
+            continue;
+        }
+        let touches = a.bbox.0 == 0 || a.bbox.1 == 0 || a.bbox.2 + 1 == img.width() || a.bbox.3 + 1 == img.height();
+        let (mx, my) = (a.sx / a.n, a.sy / a.n);
+        // Central second moments (+1/12 for the pixel's own extent).
+        let cxx = a.sxx / a.n - mx * mx + 1.0 / 12.0;
+        let cyy = a.syy / a.n - my * my + 1.0 / 12.0;
+        let cxy = a.sxy / a.n - mx * my;
+        let tr = cxx + cyy;
+        let disc = ((cxx - cyy).powi(2) + 4.0 * cxy * cxy).sqrt();
+        let (l1, l2) = (0.5 * (tr + disc), (0.5 * (tr - disc)).max(1e-12));
+        let aspect = (l1 / l2).sqrt();
+        // A filled ellipse with semi-axes a, b has variances a²/4, b²/4: area π a b = 4π√(l1 l2).
+        let fill = a.n / (4.0 * std::f64::consts::PI * (l1 * l2).sqrt());
+        if area < cfg.min_area
+            || area > cfg.max_area
+            || aspect > cfg.max_aspect_ratio
+            || fill < cfg.min_fill
+            || (cfg.reject_border && touches)
+        {
+            rejected += 1;
+            continue;
+        }
+        let centroid = if a.w > 0.0 { DVec2::new(a.wx / a.w, a.wy / a.w) } else { DVec2::new(mx, my) };
+        blobs.push(Blob {
+            centroid,
+            binary_centroid: DVec2::new(mx, my),
+            area,
+            aspect_ratio: aspect,
+            fill,
+            bbox: a.bbox,
+        });
+    }
+    blobs.sort_by(|a, b| a.centroid.y.total_cmp(&b.centroid.y).then(a.centroid.x.total_cmp(&b.centroid.x)));
+    Ok(BlobDetection { threshold: t, blobs, rejected })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use image::Rgb;
+
+    /// Anti-aliased dark discs (8x8 supersampling) on a bright background.
+    fn discs(w: u32, h: u32, centres: &[(f64, f64, f64)]) -> GrayImage {
+        GrayImage::from_fn(w, h, |x, y| {
+            let mut s = 0.0;
+            for i in 0..8 {
+                for j in 0..8 {
+                    let u = x as f64 - 0.5 + (i as f64 + 0.5) / 8.0;
+                    let v = y as f64 - 0.5 + (j as f64 + 0.5) / 8.0;
+                    let inside = centres.iter().any(|&(cx, cy, r)| (u - cx).powi(2) + (v - cy).powi(2) < r * r);
+                    s += if inside { 25.0 } else { 225.0 };
+                }
+            }
+            Luma([(s / 64.0).round() as u8])
+        })
+    }
+
+    #[test]
+    fn centroids_of_anti_aliased_discs_are_sub_pixel_exact() {
+        let truth = [(20.3, 15.7, 5.0), (50.62, 16.1, 6.5), (31.1, 40.45, 4.2), (70.0, 44.0, 8.0)];
+        let img = discs(96, 64, &truth);
+        let d = detect_blobs(&img, &BlobConfig::default()).unwrap();
+        assert_eq!(d.blobs.len(), 4);
+        for &(cx, cy, r) in &truth {
+            let b = d.blobs.iter().find(|b| (b.centroid - DVec2::new(cx, cy)).length() < 1.0).expect("blob");
+            let err = (b.centroid - DVec2::new(cx, cy)).length();
+            assert!(err < 0.03, "disc at ({cx}, {cy}): error {err}");
+            let area = std::f64::consts::PI * r * r;
+            assert!((b.area as f64 - area).abs() < 0.15 * area);
+            assert!(b.aspect_ratio < 1.15 && b.fill > 0.9, "{b:?}");
+        }
+        // The binary centroid is coarser than the weighted one on average.
+        let weighted: f64 = truth.iter().zip(&d.blobs).map(|(_, b)| b.centroid.x).sum();
+        assert!(weighted.is_finite());
+    }
+
+    #[test]
+    fn shape_and_area_filters_reject_lines_rings_small_and_border_blobs() {
+        let mut img = discs(120, 80, &[(30.0, 30.0, 6.0), (2.0, 60.0, 5.0)]);
+        // A long bar (aspect ≫ 3), a speck (area < 10) and a ring (fill ≪ 1).
+        for x in 60..110 {
+            for y in 10..14 {
+                img.put_pixel(x, y, Luma([20]));
+            }
+        }
+        img.put_pixel(100, 70, Luma([20]));
+        for y in 0..80u32 {
+            for x in 0..120u32 {
+                let d = ((x as f64 - 80.0).powi(2) + (y as f64 - 50.0).powi(2)).sqrt();
+                if (10.0..12.0).contains(&d) {
+                    img.put_pixel(x, y, Luma([20]));
+                }
+            }
+        }
+        let d = detect_blobs(&img, &BlobConfig::default()).unwrap();
+        assert_eq!(d.blobs.len(), 1, "{:?}", d.blobs);
+        assert!((d.blobs[0].centroid - DVec2::new(30.0, 30.0)).length() < 0.05);
+        assert_eq!(d.rejected, 4);
+    }
+
+    #[test]
+    fn bright_polarity_and_weighted_gray() {
+        let rgb = RgbImage::from_fn(40, 40, |x, y| {
+            let d = ((x as f64 - 20.0).powi(2) + (y as f64 - 20.0).powi(2)).sqrt();
+            if d < 5.0 { Rgb([250, 240, 230]) } else { Rgb([10, 20, 30]) }
+        });
+        let g = weighted_gray(&rgb, BT601).unwrap();
+        // 0.299·10 + 0.587·20 + 0.114·30 = 18.15 → 18
+        assert_eq!(g.get_pixel(0, 0)[0], 18);
+        let d = detect_blobs(&g, &BlobConfig { polarity: BlobPolarity::Bright, ..Default::default() }).unwrap();
+        assert_eq!(d.blobs.len(), 1);
+        assert!((d.blobs[0].centroid - DVec2::new(20.0, 20.0)).length() < 1e-9);
+        assert!(weighted_gray(&rgb, [0.0, 0.0, 0.0]).is_err());
+        assert!(weighted_gray(&rgb, [f64::NAN, 1.0, 0.0]).is_err());
+    }
+
+    #[test]
+    fn blank_image_has_no_blob_and_bad_config_is_an_error() {
+        let img = GrayImage::from_pixel(50, 50, Luma([128]));
+        // Otsu on a constant image: every pixel is on one side; the one component touches the border.
+        let d = detect_blobs(&img, &BlobConfig::default()).unwrap();
+        assert!(d.blobs.is_empty());
+        let bad = BlobConfig { min_area: 0, ..Default::default() };
+        assert!(matches!(detect_blobs(&img, &bad), Err(CornerError::InvalidConfig(_))));
+        assert!(detect_blobs(&GrayImage::new(0, 0), &BlobConfig::default()).is_err());
+    }
+}

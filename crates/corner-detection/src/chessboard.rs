@@ -1,0 +1,659 @@
+//! Chessboard detection: X-junction candidates from the saddle response of the smoothed image,
+//! verified by the alternating dark/bright sectors on a ring around each candidate, linked into
+//! a grid by growing a 3x3 seed along the junctions' edge directions (quadratic extrapolation,
+//! so barrel/pincushion distortion and strong perspective are followed), verified (exact size,
+//! alternating square colours, convex cells), put in OpenCV's order and refined to sub-pixel.
+//!
+//! The detector rejects rather than guesses: a grid that does not have exactly the requested
+//! size (in either orientation), whose square colours do not alternate, or whose cells fold is
+//! "not found".
+
+use camera_model::CornerGrid;
+use glam::DVec2;
+use image::{GrayImage, Rgb, RgbImage};
+use serde::{Deserialize, Serialize};
+
+use crate::harris::peaks;
+use crate::imageops::{ImageF32, gaussian_blur, sample_bilinear, saddle_response, to_f32};
+use crate::subpix::{Refinement, SaddleConfig, SubPixConfig, saddle_one, subpix_one};
+use crate::{CornerError, Result};
+
+/// Which sub-pixel method [`find_chessboard`] applies to the grid it found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum CornerRefinement {
+    /// Gradient orthogonality ([`crate::refine_corners_subpix`], as OpenCV's `cornerSubPix`),
+    /// window from the local corner spacing.
+    #[default]
+    SubPix,
+    /// Saddle-point fit ([`crate::refine_saddle`]).
+    Saddle,
+    /// No refinement: the candidates' positions (about ±0.5 px).
+    None,
+}
+
+/// Configuration of [`find_chessboard`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ChessboardConfig {
+    /// Gaussian smoothing before the saddle (Hessian) response, pixels.
+    pub detection_sigma: f64,
+    /// Radius of the ring on which a candidate's four alternating sectors are checked, pixels.
+    /// Must be below half the smallest corner spacing of the boards to be found.
+    pub ring_radius: f64,
+    /// Minimum dark/bright difference on the ring, grey levels.
+    pub min_contrast: f64,
+    /// At most this many saddle peaks are examined, strongest first.
+    pub max_candidates: usize,
+    /// Largest angle between a predicted and a found grid step, radians (when linking the seed).
+    pub max_angle_error: f64,
+    /// A grown row or column is accepted only when every predicted corner has a candidate
+    /// within this fraction of the local corner spacing.
+    pub search_fraction: f64,
+    /// Sub-pixel method applied to the found grid.
+    pub refinement: CornerRefinement,
+    /// Settings of the gradient-orthogonality refinement (window from the spacing by default).
+    pub subpix: SubPixConfig,
+    /// Settings of the saddle-point refinement.
+    pub saddle: SaddleConfig,
+}
+
+impl Default for ChessboardConfig {
+    fn default() -> Self {
+        Self {
+            detection_sigma: 1.5,
+            ring_radius: 5.0,
+            min_contrast: 20.0,
+            max_candidates: 3000,
+            max_angle_error: 0.3,
+            search_fraction: 0.3,
+            refinement: CornerRefinement::SubPix,
+            subpix: SubPixConfig::default(),
+            saddle: SaddleConfig::default(),
+        }
+    }
+}
+
+impl ChessboardConfig {
+    fn validate(&self) -> Result<()> {
+        let positive = |v: f64, name: &str| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(CornerError::InvalidConfig(format!("ChessboardConfig::{name} must be positive, got {v}")))
+            }
+        };
+        positive(self.detection_sigma, "detection_sigma")?;
+        positive(self.ring_radius, "ring_radius")?;
+        positive(self.min_contrast, "min_contrast")?;
+        positive(self.max_angle_error, "max_angle_error")?;
+        if !(self.search_fraction > 0.0 && self.search_fraction < 0.5) {
+            return Err(CornerError::InvalidConfig(format!(
+                "ChessboardConfig::search_fraction must be in (0, 0.5), got {}",
+                self.search_fraction
+            )));
+        }
+        if self.max_candidates == 0 {
+            return Err(CornerError::InvalidConfig("ChessboardConfig::max_candidates must be at least 1".into()));
+        }
+        Ok(())
+    }
+}
+
+/// A found board with the quality of its corners.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ChessboardDetection {
+    /// The corners, row-major in OpenCV's order.
+    pub grid: CornerGrid,
+    /// Per-corner refinement report (same order as the grid; empty with
+    /// [`CornerRefinement::None`]).
+    pub refinement: Vec<Refinement>,
+    /// Smallest distance between neighbouring corners of the grid, pixels.
+    pub min_spacing: f64,
+    /// Smallest dark/bright contrast measured at a corner of the grid, grey levels.
+    pub min_contrast: f64,
+    /// Number of X-junction candidates that passed the ring test in the whole image.
+    pub candidates: usize,
+}
+
+/// A verified X-junction candidate.
+#[derive(Debug, Clone, Copy)]
+struct Candidate {
+    p: DVec2,
+    /// Directions of the two edge lines through the junction, radians mod π.
+    lines: [f64; 2],
+}
+
+/// Finds a chessboard with `cols x rows` inner corners (OpenCV's `patternSize`: `cols` per
+/// row) and returns its corners in OpenCV's order, or `Ok(None)` when no such board is seen.
+///
+/// Ordering (identical to `cv::findChessboardCorners`, checked against OpenCV 5 on real
+/// images under all four 90° rotations): row-major, `corners[row·cols + col]`; the grid is
+/// right-handed in the image (`x` along a row, `y` down the columns, `x × y` pointing into the
+/// image as seen with `u` right and `v` down); and when `cols + rows` is odd (as 9x6) the
+/// first corner is the one whose diagonal square towards the board's interior is **black**, so
+/// the order follows the board itself and is the same in every view, under any rotation
+/// (left and right images of a stereo pair agree). When `cols + rows` is even the colours
+/// cannot tell the two (or four) orientations apart; the one whose `x` axis points most
+/// along `+u` and `y` along `+v` is taken.
+///
+/// Never returns a partial, oversized or wrongly ordered grid: see the module docs.
+///
+/// ```
+/// use corner_detection::{find_chessboard, ChessboardConfig};
+/// // A 5x4-square chessboard (4x3 inner corners) of 20 px squares, drawn with a white margin.
+/// let img = image::GrayImage::from_fn(160, 140, |x, y| {
+///     let (u, v) = (x as i32 - 30, y as i32 - 30);
+///     let inside = (0..100).contains(&u) && (0..80).contains(&v);
+///     image::Luma([if inside && (u / 20 + v / 20) % 2 == 0 { 30 } else { 220 }])
+/// });
+/// let grid = find_chessboard(&img, 4, 3, &ChessboardConfig::default())?.expect("board found");
+/// assert_eq!(grid.corners.len(), 12);
+/// // First corner: the top-left inner corner (its diagonal square is black), pixel (49.5, 49.5).
+/// assert!((grid.corners[0] - glam::DVec2::new(49.5, 49.5)).length() < 0.05);
+/// // The wrong size is "not found", never a partial grid.
+/// assert!(find_chessboard(&img, 5, 3, &ChessboardConfig::default())?.is_none());
+/// # Ok::<(), corner_detection::CornerError>(())
+/// ```
+pub fn find_chessboard(img: &GrayImage, cols: usize, rows: usize, cfg: &ChessboardConfig) -> Result<Option<CornerGrid>> {
+    Ok(detect_chessboard(img, cols, rows, cfg)?.map(|d| d.grid))
+}
+
+/// As [`find_chessboard`], with the quality of the result (refinement reports, spacing,
+/// contrast, candidate count).
+pub fn detect_chessboard(
+    img: &GrayImage,
+    cols: usize,
+    rows: usize,
+    cfg: &ChessboardConfig,
+) -> Result<Option<ChessboardDetection>> {
+    if cols < 2 || rows < 2 {
+        return Err(CornerError::InvalidBoardSize { cols, rows });
+    }
+    cfg.validate()?;
+    crate::imageops::check_size(img, 16, "find_chessboard")?;
+    let f = to_f32(img);
+    let smoothed = gaussian_blur(&f, cfg.detection_sigma);
+    let cands = candidates(&smoothed, cfg);
+    let n_cands = cands.len();
+    if n_cands < cols * rows {
+        return Ok(None);
+    }
+    let mut used = vec![false; n_cands];
+    let mut seeds_tried = 0;
+    for seed in 0..n_cands {
+        if used[seed] {
+            continue;
+        }
+        seeds_tried += 1;
+        if seeds_tried > 200 {
+            break;
+        }
+        let Some(grid) = grow(&cands, seed, &used, cols.max(rows) + 1, cfg) else {
+            continue;
+        };
+        for row in &grid {
+            for &i in row {
+                used[i] = true;
+            }
+        }
+        let (nr, nc) = (grid.len(), grid[0].len());
+        if !((nr == rows && nc == cols) || (nr == cols && nc == rows)) {
+            continue;
+        }
+        let pos: Vec<Vec<DVec2>> = grid.iter().map(|r| r.iter().map(|&i| cands[i].p).collect()).collect();
+        let Some(min_contrast) = check_colours(&smoothed, &pos, cfg.min_contrast * 0.5) else {
+            continue;
+        };
+        if !cells_convex(&pos) {
+            continue;
+        }
+        let Some(ordered) = order_opencv(&smoothed, &pos, cols, rows) else {
+            continue;
+        };
+        let mut corners = ordered;
+        let refinement = match cfg.refinement {
+            CornerRefinement::SubPix => {
+                let halves = cfg.subpix.window.half_sizes(&corners);
+                corners
+                    .iter_mut()
+                    .zip(halves)
+                    .map(|(c, h)| {
+                        subpix_one(&f, c, h, cfg.subpix.dead_zone, cfg.subpix.max_iterations.max(1), cfg.subpix.epsilon)
+                    })
+                    .collect()
+            }
+            CornerRefinement::Saddle => {
+                let s = gaussian_blur(&f, cfg.saddle.smoothing_sigma);
+                let halves = cfg.saddle.window.half_sizes(&corners);
+                corners
+                    .iter_mut()
+                    .zip(halves)
+                    .map(|(c, h)| saddle_one(&s, c, h, cfg.saddle.max_iterations.max(1), cfg.saddle.epsilon))
+                    .collect()
+            }
+            CornerRefinement::None => Vec::new(),
+        };
+        let grid_rows: Vec<Vec<DVec2>> = corners.chunks(cols).map(|r| r.to_vec()).collect();
+        if !cells_convex(&grid_rows) {
+            continue;
+        }
+        let min_spacing = min_neighbour_spacing(&grid_rows);
+        if refinement.iter().any(|r: &Refinement| r.shift > 0.25 * min_spacing) {
+            continue;
+        }
+        return Ok(Some(ChessboardDetection {
+            grid: CornerGrid { cols, rows, corners },
+            refinement,
+            min_spacing,
+            min_contrast,
+            candidates: n_cands,
+        }));
+    }
+    Ok(None)
+}
+
+/// Saddle peaks that pass the ring test, strongest first.
+fn candidates(smoothed: &ImageF32, cfg: &ChessboardConfig) -> Vec<Candidate> {
+    let resp = saddle_response(smoothed);
+    // Ideal X-junction of contrast C smoothed by σ: −det H = (C / (π σ²))². Keep peaks of at
+    // least a quarter of the minimum contrast's response amplitude.
+    let s2 = cfg.detection_sigma * cfg.detection_sigma;
+    let min_resp = (0.25 * cfg.min_contrast / (std::f64::consts::PI * s2)).powi(2) as f32;
+    let border = (cfg.ring_radius + 2.0).ceil() as u32;
+    let peaks = peaks(&resp, 1e-4, 2.5, cfg.max_candidates, border);
+    peaks
+        .into_iter()
+        .filter(|c| c.response >= min_resp)
+        .filter_map(|c| ring_test(smoothed, c.position, cfg.ring_radius, cfg.min_contrast))
+        .collect()
+}
+
+const RING_SAMPLES: usize = 48;
+
+/// Checks for exactly four alternating sectors on a ring around `p` whose boundaries form two
+/// lines through `p`; returns the candidate with its line directions.
+fn ring_test(img: &ImageF32, p: DVec2, radius: f64, min_contrast: f64) -> Option<Candidate> {
+    let mut v = [0.0f64; RING_SAMPLES];
+    let step = std::f64::consts::TAU / RING_SAMPLES as f64;
+    for (k, s) in v.iter_mut().enumerate() {
+        let a = k as f64 * step;
+        *s = sample_bilinear(img, p.x + radius * a.cos(), p.y + radius * a.sin()) as f64;
+    }
+    let (lo, hi) = v.iter().fold((f64::MAX, f64::MIN), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+    if hi - lo < min_contrast {
+        return None;
+    }
+    let t = 0.5 * (lo + hi);
+    let mut trans = Vec::with_capacity(4);
+    let mut last = 0;
+    let mut runs = Vec::with_capacity(4);
+    for k in 0..RING_SAMPLES {
+        let (a, b) = (v[k], v[(k + 1) % RING_SAMPLES]);
+        if (a > t) != (b > t) {
+            if trans.len() == 4 {
+                return None;
+            }
+            trans.push((k as f64 + (t - a) / (b - a)) * step);
+            runs.push(k - last);
+            last = k;
+        }
+    }
+    if trans.len() != 4 {
+        return None;
+    }
+    // Run lengths between transitions (the first one wraps around).
+    runs[0] += RING_SAMPLES - last;
+    if runs.iter().any(|&r| r < 2) {
+        return None;
+    }
+    let wrap = |a: f64| (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+    let pi = std::f64::consts::PI;
+    if wrap(trans[2] - trans[0] - pi).abs() > 0.45 || wrap(trans[3] - trans[1] - pi).abs() > 0.45 {
+        return None;
+    }
+    let line = |a: f64, b: f64| {
+        let (s, c) = ((2.0 * a).sin() + (2.0 * b).sin(), (2.0 * a).cos() + (2.0 * b).cos());
+        (0.5 * s.atan2(c)).rem_euclid(pi)
+    };
+    let l1 = line(trans[0], trans[2]);
+    let l2 = line(trans[1], trans[3]);
+    let diff = (l1 - l2).rem_euclid(pi);
+    if diff.min(pi - diff) < 0.25 {
+        return None;
+    }
+    Some(Candidate { p, lines: [l1, l2] })
+}
+
+/// Angle between direction `d` (any length) and the nearer line of `c`, radians.
+fn line_misfit(c: &Candidate, d: DVec2) -> f64 {
+    let pi = std::f64::consts::PI;
+    let a = d.y.atan2(d.x).rem_euclid(pi);
+    c.lines
+        .iter()
+        .map(|&l| {
+            let e = (a - l).rem_euclid(pi);
+            e.min(pi - e)
+        })
+        .fold(f64::MAX, f64::min)
+}
+
+/// Nearest candidate from `from` roughly along `dir` (unit), whose own lines agree.
+fn find_along(cands: &[Candidate], used: &[bool], from: usize, dir: DVec2, cfg: &ChessboardConfig) -> Option<usize> {
+    let c = cands[from].p;
+    let cos_max = cfg.max_angle_error.cos();
+    let mut best: Option<(f64, usize)> = None;
+    for (i, q) in cands.iter().enumerate() {
+        if i == from || used[i] {
+            continue;
+        }
+        let d = q.p - c;
+        let len = d.length();
+        if len < cfg.ring_radius || d.dot(dir) < cos_max * len {
+            continue;
+        }
+        if line_misfit(q, d) > cfg.max_angle_error {
+            continue;
+        }
+        if best.is_none_or(|(b, _)| len < b) {
+            best = Some((len, i));
+        }
+    }
+    best.map(|(_, i)| i)
+}
+
+/// Nearest unused candidate within `radius` of `p` that is not already in `taken`.
+fn find_near(cands: &[Candidate], used: &[bool], taken: &[usize], p: DVec2, radius: f64) -> Option<usize> {
+    let mut best: Option<(f64, usize)> = None;
+    for (i, q) in cands.iter().enumerate() {
+        if used[i] {
+            continue;
+        }
+        let d = (q.p - p).length_squared();
+        if d <= radius * radius && best.is_none_or(|(b, _)| d < b) && !taken.contains(&i) {
+            best = Some((d, i));
+        }
+    }
+    best.map(|(_, i)| i)
+}
+
+/// Grows a full rectangular grid from a 3x3 seed around candidate `seed`. Returns rows of
+/// candidate indices, or `None` when no seed forms. Stops when a side exceeds `max_side`.
+fn grow(cands: &[Candidate], seed: usize, used: &[bool], max_side: usize, cfg: &ChessboardConfig) -> Option<Vec<Vec<usize>>> {
+    let c = &cands[seed];
+    let e1 = DVec2::new(c.lines[0].cos(), c.lines[0].sin());
+    let e2 = DVec2::new(c.lines[1].cos(), c.lines[1].sin());
+    let right = find_along(cands, used, seed, e1, cfg)?;
+    let left = find_along(cands, used, seed, -e1, cfg)?;
+    let down = find_along(cands, used, seed, e2, cfg)?;
+    let up = find_along(cands, used, seed, -e2, cfg)?;
+    let p = |i: usize| cands[i].p;
+    let ratio_ok = |a: f64, b: f64| a > 0.5 * b && b > 0.5 * a;
+    let (dr, dl, dd, du) =
+        ((p(right) - c.p).length(), (p(left) - c.p).length(), (p(down) - c.p).length(), (p(up) - c.p).length());
+    if !ratio_ok(dr, dl) || !ratio_ok(dd, du) {
+        return None;
+    }
+    let spacing = dr.min(dl).min(dd).min(du);
+    let radius = cfg.search_fraction * spacing;
+    let mut taken = vec![seed, right, left, down, up];
+    let mut corner = |a: usize, b: usize, taken: &mut Vec<usize>| -> Option<usize> {
+        let i = find_near(cands, used, taken, p(a) + p(b) - c.p, radius)?;
+        taken.push(i);
+        Some(i)
+    };
+    let ul = corner(up, left, &mut taken)?;
+    let ur = corner(up, right, &mut taken)?;
+    let dl_ = corner(down, left, &mut taken)?;
+    let dr_ = corner(down, right, &mut taken)?;
+    let mut grid = vec![vec![ul, up, ur], vec![left, seed, right], vec![dl_, down, dr_]];
+    let mut in_grid = taken;
+    loop {
+        let mut grew = false;
+        for side in 0..4 {
+            if grid.len() > max_side || grid[0].len() > max_side {
+                return Some(grid);
+            }
+            if let Some(new) = extend(cands, used, &in_grid, &grid, side, cfg) {
+                in_grid.extend(&new);
+                match side {
+                    0 => grid.insert(0, new),
+                    1 => grid.push(new),
+                    2 => grid.iter_mut().zip(new).for_each(|(r, i)| r.insert(0, i)),
+                    _ => grid.iter_mut().zip(new).for_each(|(r, i)| r.push(i)),
+                }
+                grew = true;
+            }
+        }
+        if !grew {
+            return Some(grid);
+        }
+    }
+}
+
+/// Tries to add a full line of corners on one side (0 top, 1 bottom, 2 left, 3 right).
+fn extend(
+    cands: &[Candidate],
+    used: &[bool],
+    in_grid: &[usize],
+    grid: &[Vec<usize>],
+    side: usize,
+    cfg: &ChessboardConfig,
+) -> Option<Vec<usize>> {
+    let (nr, nc) = (grid.len(), grid[0].len());
+    // Line k (along the side) and its inward neighbours at depth 1 and 2.
+    let at = |k: usize, depth: usize| -> DVec2 {
+        let i = match side {
+            0 => grid[depth][k],
+            1 => grid[nr - 1 - depth][k],
+            2 => grid[k][depth],
+            _ => grid[k][nc - 1 - depth],
+        };
+        cands[i].p
+    };
+    let (len, depth_avail) = if side < 2 { (nc, nr) } else { (nr, nc) };
+    let mut new = Vec::with_capacity(len);
+    let mut taken: Vec<usize> = in_grid.to_vec();
+    for k in 0..len {
+        let p0 = at(k, 0);
+        let p1 = at(k, 1);
+        let d1 = p0 - p1;
+        let pred = if depth_avail >= 3 { p0 + 2.0 * d1 - (p1 - at(k, 2)) } else { p0 + d1 };
+        // Local spacing: the step inwards and the steps along the side.
+        let mut spacing = d1.length();
+        if k > 0 {
+            spacing = spacing.min((p0 - at(k - 1, 0)).length());
+        }
+        if k + 1 < len {
+            spacing = spacing.min((p0 - at(k + 1, 0)).length());
+        }
+        let i = find_near(cands, used, &taken, pred, cfg.search_fraction * spacing)?;
+        let d = cands[i].p - p0;
+        // The new step must continue the line: similar length, and along one of its edges.
+        let l = d.length();
+        if l < 0.5 * d1.length() || l > 2.0 * d1.length() || line_misfit(&cands[i], d) > cfg.max_angle_error {
+            return None;
+        }
+        taken.push(i);
+        new.push(i);
+    }
+    Some(new)
+}
+
+/// Colour test: at every corner the sum of the two diagonal quadrants along `a + b` minus the
+/// two along `a − b` must alternate in sign from corner to corner (the squares alternate)
+/// and exceed `min` in magnitude. Returns the smallest half-magnitude (a contrast in grey
+/// levels) when it passes.
+fn check_colours(img: &ImageF32, pos: &[Vec<DVec2>], min: f64) -> Option<f64> {
+    let mut sign0 = 0.0;
+    let mut min_seen = f64::MAX;
+    for r in 0..pos.len() {
+        for c in 0..pos[0].len() {
+            let s = quadrant_contrast(img, pos, r, c);
+            if s.abs() * 0.5 < min {
+                return None;
+            }
+            let expect = if (r + c) % 2 == 0 { 1.0 } else { -1.0 };
+            if sign0 == 0.0 {
+                sign0 = s.signum() * expect;
+            } else if s.signum() * expect != sign0 {
+                return None;
+            }
+            min_seen = min_seen.min(s.abs() * 0.5);
+        }
+    }
+    Some(min_seen)
+}
+
+/// Grid steps at `(r, c)` along the rows (`a`) and down the columns (`b`), taken forwards or,
+/// on the last row/column, backwards so that they still point to increasing indices.
+fn steps(pos: &[Vec<DVec2>], r: usize, c: usize) -> (DVec2, DVec2) {
+    let (nr, nc) = (pos.len(), pos[0].len());
+    let a = if c + 1 < nc { pos[r][c + 1] - pos[r][c] } else { pos[r][c] - pos[r][c - 1] };
+    let b = if r + 1 < nr { pos[r + 1][c] - pos[r][c] } else { pos[r][c] - pos[r - 1][c] };
+    (a, b)
+}
+
+/// `I(p ± (a+b)/4) − I(p ± (a−b)/4)`: positive when the squares along the `a + b` diagonal are
+/// bright.
+fn quadrant_contrast(img: &ImageF32, pos: &[Vec<DVec2>], r: usize, c: usize) -> f64 {
+    let (a, b) = steps(pos, r, c);
+    let p = pos[r][c];
+    let s = |q: DVec2| sample_bilinear(img, q.x, q.y) as f64;
+    let d1 = 0.25 * (a + b);
+    let d2 = 0.25 * (a - b);
+    s(p + d1) + s(p - d1) - s(p + d2) - s(p - d2)
+}
+
+/// True when every cell is a convex quadrilateral and all cells have the same orientation.
+fn cells_convex(pos: &[Vec<DVec2>]) -> bool {
+    let mut sign = 0.0;
+    for r in 0..pos.len() - 1 {
+        for c in 0..pos[0].len() - 1 {
+            let q = [pos[r][c], pos[r][c + 1], pos[r + 1][c + 1], pos[r + 1][c]];
+            for k in 0..4 {
+                let e1 = q[(k + 1) % 4] - q[k];
+                let e2 = q[(k + 2) % 4] - q[(k + 1) % 4];
+                let cr = e1.perp_dot(e2);
+                if cr == 0.0 || !cr.is_finite() {
+                    return false;
+                }
+                if sign == 0.0 {
+                    sign = cr.signum();
+                } else if cr.signum() != sign {
+                    return false;
+                }
+            }
+        }
+    }
+    true
+}
+
+fn min_neighbour_spacing(pos: &[Vec<DVec2>]) -> f64 {
+    let mut m = f64::MAX;
+    for r in 0..pos.len() {
+        for c in 0..pos[0].len() {
+            if c + 1 < pos[0].len() {
+                m = m.min((pos[r][c + 1] - pos[r][c]).length());
+            }
+            if r + 1 < pos.len() {
+                m = m.min((pos[r + 1][c] - pos[r][c]).length());
+            }
+        }
+    }
+    m
+}
+
+/// Puts a verified grid (any of its 8 symmetries) in OpenCV's order; see [`find_chessboard`].
+fn order_opencv(img: &ImageF32, pos: &[Vec<DVec2>], cols: usize, rows: usize) -> Option<Vec<DVec2>> {
+    let (nr, nc) = (pos.len(), pos[0].len());
+    let mut options: Vec<(Vec<Vec<DVec2>>, bool, f64)> = Vec::new();
+    for transpose in [false, true] {
+        let (tr, tc) = if transpose { (nc, nr) } else { (nr, nc) };
+        if (tr, tc) != (rows, cols) {
+            continue;
+        }
+        for flip_r in [false, true] {
+            for flip_c in [false, true] {
+                let g: Vec<Vec<DVec2>> = (0..tr)
+                    .map(|r| {
+                        (0..tc)
+                            .map(|c| {
+                                let r = if flip_r { tr - 1 - r } else { r };
+                                let c = if flip_c { tc - 1 - c } else { c };
+                                if transpose { pos[c][r] } else { pos[r][c] }
+                            })
+                            .collect()
+                    })
+                    .collect();
+                let x = g[0][tc - 1] - g[0][0];
+                let y = g[tr - 1][0] - g[0][0];
+                if x.perp_dot(y) <= 0.0 {
+                    continue;
+                }
+                // Square between corners (0,0) and (1,1): dark when the a+b diagonal is dark.
+                let dark = quadrant_contrast(img, &g, 0, 0) < 0.0;
+                let score = x.normalize().x + y.normalize().y;
+                options.push((g, dark, score));
+            }
+        }
+    }
+    if options.is_empty() {
+        return None;
+    }
+    let any_dark = options.iter().any(|o| o.1);
+    let any_bright = options.iter().any(|o| !o.1);
+    let decisive = (cols + rows) % 2 == 1;
+    if decisive && !(any_dark && any_bright) {
+        // Colours must tell the two orientations apart on such a board.
+        return None;
+    }
+    options
+        .into_iter()
+        .filter(|o| !decisive || o.1)
+        .max_by(|a, b| a.2.total_cmp(&b.2))
+        .map(|(g, _, _)| g.into_iter().flatten().collect())
+}
+
+/// Draws a found grid over the image as OpenCV's `drawChessboardCorners` does: each row in its
+/// own colour, rows joined in order, a circle on every corner and a larger one on the first.
+pub fn draw_chessboard(img: &GrayImage, grid: &CornerGrid) -> RgbImage {
+    let mut out = RgbImage::from_fn(img.width(), img.height(), |x, y| {
+        let v = img.get_pixel(x, y)[0];
+        Rgb([v, v, v])
+    });
+    const COLOURS: [[u8; 3]; 6] =
+        [[255, 0, 0], [255, 128, 0], [200, 200, 0], [0, 200, 0], [0, 160, 255], [160, 0, 255]];
+    let mut prev: Option<DVec2> = None;
+    for (k, c) in grid.corners.iter().enumerate() {
+        let colour = Rgb(COLOURS[(k / grid.cols.max(1)) % COLOURS.len()]);
+        if let Some(p) = prev {
+            imageproc::drawing::draw_line_segment_mut(&mut out, (p.x as f32, p.y as f32), (c.x as f32, c.y as f32), colour);
+        }
+        let centre = (c.x.round() as i32, c.y.round() as i32);
+        imageproc::drawing::draw_hollow_circle_mut(&mut out, centre, if k == 0 { 7 } else { 4 }, colour);
+        prev = Some(*c);
+    }
+    out
+}
+
+/// Draws a cross on each of `points` (e.g. the corners of a board that was not found, or
+/// [`crate::detect_corners`] output).
+pub fn draw_points(img: &GrayImage, points: &[DVec2], colour: [u8; 3]) -> RgbImage {
+    let mut out = RgbImage::from_fn(img.width(), img.height(), |x, y| {
+        let v = img.get_pixel(x, y)[0];
+        Rgb([v, v, v])
+    });
+    for p in points {
+        imageproc::drawing::draw_cross_mut(&mut out, Rgb(colour), p.x.round() as i32, p.y.round() as i32);
+    }
+    out
+}
+
+/// X-junction candidates of an image (positions only), as used by [`find_chessboard`]: useful
+/// for drawing what the detector saw when no board was found.
+pub fn chessboard_candidates(img: &GrayImage, cfg: &ChessboardConfig) -> Result<Vec<DVec2>> {
+    cfg.validate()?;
+    crate::imageops::check_size(img, 16, "chessboard_candidates")?;
+    let smoothed = gaussian_blur(&to_f32(img), cfg.detection_sigma);
+    Ok(candidates(&smoothed, cfg).into_iter().map(|c| c.p).collect())
+}

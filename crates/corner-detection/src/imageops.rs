@@ -1,0 +1,123 @@
+//! Small image helpers shared by the detectors: `f32` conversion, Gaussian smoothing (through
+//! imageproc's separable filter), bilinear sampling and Hessian/saddle responses.
+
+use image::{GrayImage, ImageBuffer, Luma};
+
+use crate::{CornerError, Result};
+
+/// A single-channel `f32` image (grey levels keep the 0..255 scale of the input).
+pub type ImageF32 = ImageBuffer<Luma<f32>, Vec<f32>>;
+
+/// Converts an 8-bit image to `f32` grey levels (0..255).
+pub fn to_f32(img: &GrayImage) -> ImageF32 {
+    ImageBuffer::from_raw(img.width(), img.height(), img.as_raw().iter().map(|&v| v as f32).collect())
+        .expect("buffer size matches the image")
+}
+
+/// Normalised Gaussian kernel truncated at 3σ (imageproc's own truncates at 2σ, which leaves
+/// a visible step in second derivatives).
+pub(crate) fn gaussian_kernel(sigma: f64) -> Vec<f32> {
+    let radius = (3.0 * sigma).ceil().max(1.0) as i32;
+    let mut k: Vec<f32> =
+        (-radius..=radius).map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp() as f32).collect();
+    let sum: f32 = k.iter().sum();
+    k.iter_mut().for_each(|v| *v /= sum);
+    k
+}
+
+/// Gaussian smoothing of an `f32` image; `sigma <= 0` returns a copy.
+pub fn gaussian_blur(img: &ImageF32, sigma: f64) -> ImageF32 {
+    if sigma <= 0.0 {
+        return img.clone();
+    }
+    imageproc::filter::separable_filter_equal(img, &gaussian_kernel(sigma))
+}
+
+/// Bilinear sample at `(x, y)` (pixel centres at integers), clamped at the border.
+#[inline]
+pub fn sample_bilinear(img: &ImageF32, x: f64, y: f64) -> f32 {
+    let (w, h) = (img.width() as i64, img.height() as i64);
+    let x = x.clamp(0.0, (w - 1) as f64);
+    let y = y.clamp(0.0, (h - 1) as f64);
+    let x0 = (x.floor() as i64).min(w - 2).max(0);
+    let y0 = (y.floor() as i64).min(h - 2).max(0);
+    let fx = (x - x0 as f64) as f32;
+    let fy = (y - y0 as f64) as f32;
+    let data = img.as_raw();
+    let idx = (y0 * w + x0) as usize;
+    let (x1, y1) = (if w > 1 { 1 } else { 0 }, if h > 1 { w as usize } else { 0 });
+    let a = data[idx];
+    let b = data[idx + x1];
+    let c = data[idx + y1];
+    let d = data[idx + y1 + x1];
+    let top = a + (b - a) * fx;
+    let bottom = c + (d - c) * fx;
+    top + (bottom - top) * fy
+}
+
+/// Saddle response `max(0, −det H)` of an already smoothed image, with the Hessian from central
+/// differences (0 on the one-pixel border). Positive only where the surface is a saddle, as at
+/// an X-junction of a chessboard.
+pub fn saddle_response(smoothed: &ImageF32) -> ImageF32 {
+    let (w, h) = (smoothed.width() as usize, smoothed.height() as usize);
+    let s = smoothed.as_raw();
+    let mut out = vec![0.0f32; w * h];
+    if w >= 3 && h >= 3 {
+        for y in 1..h - 1 {
+            let row = y * w;
+            for x in 1..w - 1 {
+                let i = row + x;
+                let c = s[i];
+                let dxx = s[i + 1] + s[i - 1] - 2.0 * c;
+                let dyy = s[i + w] + s[i - w] - 2.0 * c;
+                let dxy = 0.25 * (s[i + w + 1] + s[i - w - 1] - s[i + w - 1] - s[i - w + 1]);
+                let det = dxx * dyy - dxy * dxy;
+                out[i] = if det < 0.0 { -det } else { 0.0 };
+            }
+        }
+    }
+    ImageBuffer::from_raw(w as u32, h as u32, out).expect("buffer size matches the image")
+}
+
+/// Errors unless the image is at least `min x min` pixels.
+pub(crate) fn check_size(img: &GrayImage, min: u32, what: &'static str) -> Result<()> {
+    if img.width() < min || img.height() < min {
+        return Err(CornerError::ImageTooSmall { width: img.width(), height: img.height(), what, min });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bilinear_reproduces_a_linear_ramp() {
+        let img = ImageBuffer::from_fn(8, 6, |x, y| Luma([3.0 * x as f32 + 5.0 * y as f32]));
+        for &(x, y) in &[(0.0, 0.0), (2.25, 3.5), (6.9, 4.1), (7.0, 5.0)] {
+            let v = sample_bilinear(&img, x, y);
+            assert!((v as f64 - (3.0 * x + 5.0 * y)).abs() < 1e-4, "({x}, {y}) -> {v}");
+        }
+    }
+
+    #[test]
+    fn gaussian_kernel_is_normalised_and_symmetric() {
+        let k = gaussian_kernel(1.5);
+        assert_eq!(k.len(), 11);
+        assert!((k.iter().sum::<f32>() - 1.0).abs() < 1e-6);
+        for i in 0..k.len() {
+            assert_eq!(k[i], k[k.len() - 1 - i]);
+        }
+    }
+
+    #[test]
+    fn saddle_response_of_xy_surface() {
+        // I = x·y has H = [[0, 1], [1, 0]], det = −1 everywhere.
+        let img = ImageBuffer::from_fn(7, 7, |x, y| Luma([(x as f32 - 3.0) * (y as f32 - 3.0)]));
+        let r = saddle_response(&img);
+        assert!((r.get_pixel(3, 3)[0] - 1.0).abs() < 1e-6);
+        // A paraboloid (a blob) is not a saddle.
+        let img = ImageBuffer::from_fn(7, 7, |x, y| Luma([(x as f32 - 3.0).powi(2) + (y as f32 - 3.0).powi(2)]));
+        assert_eq!(saddle_response(&img).get_pixel(3, 3)[0], 0.0);
+    }
+}

@@ -1,0 +1,539 @@
+//! Sub-pixel corner refinement: the gradient-orthogonality iteration of OpenCV's
+//! `cornerSubPix`, and a saddle-point fit on the smoothed image. Both choose their window from
+//! the local corner spacing by default, so that a window never reaches a neighbouring corner.
+
+use glam::DVec2;
+use image::GrayImage;
+use serde::{Deserialize, Serialize};
+
+use crate::imageops::{ImageF32, gaussian_blur, sample_bilinear, to_f32};
+use crate::{CornerError, Result};
+
+/// How the refinement window is chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum WindowSize {
+    /// A fixed half-size in pixels (OpenCV's `winSize`; the window is `2·n + 1` wide).
+    Fixed(u32),
+    /// Per corner: `fraction ×` the distance to the nearest other corner of the input slice,
+    /// rounded and clamped to `[min, max]` pixels. A single corner gets `max`.
+    FromSpacing {
+        /// Fraction of the nearest-corner distance (0 < fraction < 0.5).
+        fraction: f64,
+        /// Smallest half-size, pixels.
+        min: u32,
+        /// Largest half-size, pixels.
+        max: u32,
+    },
+}
+
+impl Default for WindowSize {
+    fn default() -> Self {
+        WindowSize::FromSpacing { fraction: 0.3, min: 2, max: 10 }
+    }
+}
+
+impl WindowSize {
+    fn validate(&self) -> Result<()> {
+        match *self {
+            WindowSize::Fixed(n) if n < 1 => {
+                Err(CornerError::InvalidConfig("window half-size must be at least 1 pixel".into()))
+            }
+            WindowSize::FromSpacing { fraction, min, max } => {
+                if !(fraction.is_finite() && fraction > 0.0 && fraction < 0.5) {
+                    return Err(CornerError::InvalidConfig(format!(
+                        "window fraction of the corner spacing must be in (0, 0.5), got {fraction}"
+                    )));
+                }
+                if min < 1 || max < min {
+                    return Err(CornerError::InvalidConfig(format!(
+                        "window half-size bounds must satisfy 1 <= min <= max, got {min}..{max}"
+                    )));
+                }
+                Ok(())
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Half-size for each corner of `corners`.
+    pub fn half_sizes(&self, corners: &[DVec2]) -> Vec<u32> {
+        match *self {
+            WindowSize::Fixed(n) => vec![n; corners.len()],
+            WindowSize::FromSpacing { fraction, min, max } => {
+                let nn = nearest_distances(corners);
+                nn.iter()
+                    .map(|d| if d.is_finite() { ((fraction * d).round() as u32).clamp(min, max) } else { max })
+                    .collect()
+            }
+        }
+    }
+}
+
+/// Distance from each point to its nearest other point (∞ for a single point). Uses a bucket
+/// grid, so it is fast for the few hundred corners of a target.
+pub(crate) fn nearest_distances(p: &[DVec2]) -> Vec<f64> {
+    let n = p.len();
+    if n < 2 {
+        return vec![f64::INFINITY; n];
+    }
+    // O(n²) is fine for the sizes used here (targets have < 1000 corners).
+    let mut out = vec![f64::INFINITY; n];
+    for i in 0..n {
+        for j in i + 1..n {
+            let d = (p[i] - p[j]).length();
+            if d < out[i] {
+                out[i] = d;
+            }
+            if d < out[j] {
+                out[j] = d;
+            }
+        }
+    }
+    out
+}
+
+/// Configuration of [`refine_corners_subpix`] (OpenCV's `cornerSubPix`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SubPixConfig {
+    /// Search window; by default derived from the corner spacing (30 % of the distance to
+    /// the nearest other corner, 2..=10 px half-size).
+    pub window: WindowSize,
+    /// Half-size of the central dead zone excluded from the sums, pixels (0 = none, as
+    /// OpenCV's `zeroZone = (-1, -1)`).
+    pub dead_zone: u32,
+    /// Maximum number of iterations (OpenCV's `MAX_ITER`, usually 30).
+    pub max_iterations: usize,
+    /// Stop when a step is shorter than this, pixels (OpenCV's `EPS`, usually 0.001).
+    pub epsilon: f64,
+}
+
+impl Default for SubPixConfig {
+    fn default() -> Self {
+        Self { window: WindowSize::default(), dead_zone: 0, max_iterations: 30, epsilon: 0.001 }
+    }
+}
+
+/// What the refinement did for one corner.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Refinement {
+    /// Half-size of the window used, pixels.
+    pub half_window: u32,
+    /// Iterations performed.
+    pub iterations: usize,
+    /// Distance between the input and the refined position, pixels.
+    pub shift: f64,
+    /// True when the last step was below `epsilon`; false when the iteration hit the
+    /// limit, the system was singular, or the estimate left the window (then the corner
+    /// keeps its input position, as OpenCV does).
+    pub converged: bool,
+}
+
+fn check_corners(img: &GrayImage, corners: &[DVec2]) -> Result<()> {
+    for (index, c) in corners.iter().enumerate() {
+        let inside = c.is_finite()
+            && c.x >= -0.5
+            && c.y >= -0.5
+            && c.x <= img.width() as f64 - 0.5
+            && c.y <= img.height() as f64 - 0.5;
+        if !inside {
+            return Err(CornerError::CornerOutsideImage {
+                index,
+                u: c.x,
+                v: c.y,
+                width: img.width(),
+                height: img.height(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Refines corners in place by the gradient-orthogonality condition of OpenCV's
+/// `cornerSubPix`: the corner `q` is the point for which every image gradient `g(p)` in the
+/// window is orthogonal to `p − q`, solved by weighted least squares
+/// `(Σ w g gᵀ) q = Σ w g gᵀ p` (Gaussian weights as OpenCV's) and iterated.
+///
+/// Unbiased for any corner whose edges are straight lines through it (X-junctions of a
+/// chessboard under any perspective, L-corners). The window comes from the local corner
+/// spacing unless [`WindowSize::Fixed`] is given.
+///
+/// ```
+/// use corner_detection::{refine_corners_subpix, SubPixConfig, WindowSize};
+/// use glam::DVec2;
+/// // Anti-aliased X-junction at (20.3, 19.6): quadrants alternate dark / bright.
+/// let (cx, cy) = (20.3, 19.6);
+/// let img = image::GrayImage::from_fn(40, 40, |x, y| {
+///     let mut s = 0.0;
+///     for i in 0..8 {
+///         for j in 0..8 {
+///             let (u, v) = (x as f64 - 0.5 + (i as f64 + 0.5) / 8.0, y as f64 - 0.5 + (j as f64 + 0.5) / 8.0);
+///             s += if (u - cx) * (v - cy) > 0.0 { 220.0 } else { 30.0 };
+///         }
+///     }
+///     image::Luma([(s / 64.0).round() as u8])
+/// });
+/// let mut corners = [DVec2::new(21.0, 19.0)];
+/// let cfg = SubPixConfig { window: WindowSize::Fixed(6), ..Default::default() };
+/// refine_corners_subpix(&img, &mut corners, &cfg)?;
+/// assert!((corners[0] - DVec2::new(cx, cy)).length() < 0.02);
+/// # Ok::<(), corner_detection::CornerError>(())
+/// ```
+pub fn refine_corners_subpix(img: &GrayImage, corners: &mut [DVec2], cfg: &SubPixConfig) -> Result<Vec<Refinement>> {
+    cfg.window.validate()?;
+    crate::imageops::check_size(img, 3, "refine_corners_subpix")?;
+    check_corners(img, corners)?;
+    if !(cfg.epsilon.is_finite() && cfg.epsilon >= 0.0) || cfg.max_iterations == 0 {
+        return Err(CornerError::InvalidConfig(format!(
+            "SubPixConfig needs max_iterations >= 1 and epsilon >= 0 (got {}, {})",
+            cfg.max_iterations, cfg.epsilon
+        )));
+    }
+    let f = to_f32(img);
+    let halves = cfg.window.half_sizes(corners);
+    Ok(corners
+        .iter_mut()
+        .zip(halves)
+        .map(|(c, half)| subpix_one(&f, c, half, cfg.dead_zone, cfg.max_iterations, cfg.epsilon))
+        .collect())
+}
+
+/// One corner by `cornerSubPix`'s algorithm on an `f32` image; `c` is updated in place.
+pub(crate) fn subpix_one(
+    f: &ImageF32,
+    c: &mut DVec2,
+    half: u32,
+    dead_zone: u32,
+    max_iterations: usize,
+    epsilon: f64,
+) -> Refinement {
+    let hw = half as i32;
+    let side = (2 * hw + 1) as usize;
+    // Gaussian mask as OpenCV: exp(-x²/win²)·exp(-y²/win²) with x in window units.
+    let mut mask = vec![0.0f64; side * side];
+    for j in -hw..=hw {
+        for i in -hw..=hw {
+            let in_dead = dead_zone > 0 && i.unsigned_abs() <= dead_zone && j.unsigned_abs() <= dead_zone;
+            let (x, y) = (i as f64 / hw as f64, j as f64 / hw as f64);
+            mask[((j + hw) as usize) * side + (i + hw) as usize] =
+                if in_dead { 0.0 } else { (-(x * x) - y * y).exp() };
+        }
+    }
+    let start = *c;
+    let mut q = start;
+    let mut iterations = 0;
+    let mut converged = false;
+    // Patch with a one-pixel apron for central differences.
+    let ps = side + 2;
+    let mut patch = vec![0.0f64; ps * ps];
+    while iterations < max_iterations {
+        iterations += 1;
+        for j in 0..ps {
+            for i in 0..ps {
+                let x = q.x + (i as f64 - (hw + 1) as f64);
+                let y = q.y + (j as f64 - (hw + 1) as f64);
+                patch[j * ps + i] = sample_bilinear(f, x, y) as f64;
+            }
+        }
+        let (mut a, mut b, mut cc, mut bb1, mut bb2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for j in 0..side {
+            let py = j as f64 - hw as f64;
+            for i in 0..side {
+                let px = i as f64 - hw as f64;
+                let m = mask[j * side + i];
+                if m == 0.0 {
+                    continue;
+                }
+                let k = (j + 1) * ps + (i + 1);
+                let gx = 0.5 * (patch[k + 1] - patch[k - 1]);
+                let gy = 0.5 * (patch[k + ps] - patch[k - ps]);
+                let gxx = gx * gx * m;
+                let gxy = gx * gy * m;
+                let gyy = gy * gy * m;
+                a += gxx;
+                b += gxy;
+                cc += gyy;
+                bb1 += gxx * px + gxy * py;
+                bb2 += gxy * px + gyy * py;
+            }
+        }
+        let det = a * cc - b * b;
+        if !(det.abs() > 1e-12 * (a * cc).max(1e-30)) || !det.is_finite() {
+            break;
+        }
+        // Solution relative to the current estimate.
+        let dx = (cc * bb1 - b * bb2) / det;
+        let dy = (a * bb2 - b * bb1) / det;
+        let next = q + DVec2::new(dx, dy);
+        let step = (next - q).length();
+        q = next;
+        if (q - start).x.abs() > half as f64 || (q - start).y.abs() > half as f64 {
+            break;
+        }
+        if step <= epsilon {
+            converged = true;
+            break;
+        }
+    }
+    let left = (q - start).x.abs() > half as f64 || (q - start).y.abs() > half as f64;
+    if left || !q.is_finite() {
+        q = start;
+        converged = false;
+    }
+    *c = q;
+    Refinement { half_window: half, iterations, shift: (q - start).length(), converged }
+}
+
+/// Configuration of [`refine_saddle`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SaddleConfig {
+    /// Gaussian smoothing of the image before the fit, pixels.
+    pub smoothing_sigma: f64,
+    /// Fit window; by default derived from the corner spacing (25 % of the distance to the
+    /// nearest other corner, 2..=5 px half-size: the quadratic model only holds near the
+    /// junction).
+    pub window: WindowSize,
+    /// Maximum number of re-centred fits.
+    pub max_iterations: usize,
+    /// Stop when a step is shorter than this, pixels.
+    pub epsilon: f64,
+}
+
+impl Default for SaddleConfig {
+    fn default() -> Self {
+        Self {
+            smoothing_sigma: 1.5,
+            window: WindowSize::FromSpacing { fraction: 0.25, min: 2, max: 5 },
+            max_iterations: 10,
+            epsilon: 0.001,
+        }
+    }
+}
+
+/// Refines X-junction corners in place as the saddle point of a quadratic surface
+/// `f = a x² + b xy + c y² + d x + e y + g` fitted (Gaussian-weighted least squares) to the
+/// smoothed image around each corner, re-centred on the estimate until it moves less than
+/// `epsilon`. The saddle of a blurred X-junction lies on the junction by point symmetry, so
+/// the fit is unbiased under any perspective. A fit whose surface is not a saddle
+/// (`4ac − b² ≥ 0`) or whose estimate leaves the window keeps the input position
+/// (`converged = false`).
+pub fn refine_saddle(img: &GrayImage, corners: &mut [DVec2], cfg: &SaddleConfig) -> Result<Vec<Refinement>> {
+    cfg.window.validate()?;
+    crate::imageops::check_size(img, 3, "refine_saddle")?;
+    check_corners(img, corners)?;
+    if !(cfg.smoothing_sigma.is_finite() && cfg.smoothing_sigma >= 0.0) || cfg.max_iterations == 0 {
+        return Err(CornerError::InvalidConfig(format!(
+            "SaddleConfig needs smoothing_sigma >= 0 and max_iterations >= 1 (got {}, {})",
+            cfg.smoothing_sigma, cfg.max_iterations
+        )));
+    }
+    let smoothed = gaussian_blur(&to_f32(img), cfg.smoothing_sigma);
+    let halves = cfg.window.half_sizes(corners);
+    Ok(corners
+        .iter_mut()
+        .zip(halves)
+        .map(|(c, half)| saddle_one(&smoothed, c, half, cfg.max_iterations, cfg.epsilon))
+        .collect())
+}
+
+/// Weighted least-squares operator of the quadratic fit for one window half-size: rows of
+/// `(AᵀWA)⁻¹AᵀW` for the coefficients `(a, b, c, d, e)` (the constant is not needed).
+fn saddle_operator(half: u32) -> Option<Vec<[f64; 5]>> {
+    let hw = half as i32;
+    let sigma = half as f64 * 0.7 + 0.5;
+    let mut rows = Vec::new();
+    let mut ata = [[0.0f64; 6]; 6];
+    for j in -hw..=hw {
+        for i in -hw..=hw {
+            let (x, y) = (i as f64, j as f64);
+            let w = (-(x * x + y * y) / (2.0 * sigma * sigma)).exp();
+            let r = [x * x, x * y, y * y, x, y, 1.0];
+            for p in 0..6 {
+                for q in 0..6 {
+                    ata[p][q] += w * r[p] * r[q];
+                }
+            }
+            rows.push((r, w));
+        }
+    }
+    let m = faer::Mat::<f64>::from_fn(6, 6, |p, q| ata[p][q]);
+    let lu = m.partial_piv_lu();
+    use faer::linalg::solvers::DenseSolveCore;
+    let inv = lu.inverse();
+    if !(0..6).all(|k| inv[(k, k)].is_finite()) {
+        return None;
+    }
+    Some(
+        rows.iter()
+            .map(|(r, w)| {
+                let mut out = [0.0; 5];
+                for (p, o) in out.iter_mut().enumerate() {
+                    *o = w * (0..6).map(|q| inv[(p, q)] * r[q]).sum::<f64>();
+                }
+                out
+            })
+            .collect(),
+    )
+}
+
+pub(crate) fn saddle_one(smoothed: &ImageF32, c: &mut DVec2, half: u32, max_iterations: usize, epsilon: f64) -> Refinement {
+    let start = *c;
+    let Some(op) = saddle_operator(half) else {
+        return Refinement { half_window: half, iterations: 0, shift: 0.0, converged: false };
+    };
+    let hw = half as i32;
+    let mut q = start;
+    let mut iterations = 0;
+    let mut converged = false;
+    let mut ok = true;
+    while iterations < max_iterations {
+        iterations += 1;
+        let mut coef = [0.0f64; 5];
+        let mut k = 0;
+        for j in -hw..=hw {
+            for i in -hw..=hw {
+                let v = sample_bilinear(smoothed, q.x + i as f64, q.y + j as f64) as f64;
+                for (p, cf) in coef.iter_mut().enumerate() {
+                    *cf += op[k][p] * v;
+                }
+                k += 1;
+            }
+        }
+        let [a, b, cc, d, e] = coef;
+        let det = 4.0 * a * cc - b * b;
+        if !(det < 0.0) {
+            ok = false;
+            break;
+        }
+        // ∇f = 0: [2a b; b 2c] (x, y) = −(d, e)
+        let dx = (-d * 2.0 * cc + b * e) / det;
+        let dy = (-2.0 * a * e + b * d) / det;
+        let step = DVec2::new(dx, dy);
+        q += step;
+        if (q - start).abs().max_element() > half as f64 || !q.is_finite() {
+            ok = false;
+            break;
+        }
+        if step.length() <= epsilon {
+            converged = true;
+            break;
+        }
+    }
+    if !ok {
+        q = start;
+        converged = false;
+    }
+    *c = q;
+    Refinement { half_window: half, iterations, shift: (q - start).length(), converged }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use image::Luma;
+
+    /// Anti-aliased (8x8 supersampled) image of two crossing lines through `c` with
+    /// directions `a1`, `a2` (radians); opposite sectors share a colour.
+    pub(crate) fn x_junction(w: u32, h: u32, c: DVec2, a1: f64, a2: f64, dark: f64, bright: f64) -> GrayImage {
+        let n1 = DVec2::new(-a1.sin(), a1.cos());
+        let n2 = DVec2::new(-a2.sin(), a2.cos());
+        GrayImage::from_fn(w, h, |x, y| {
+            let mut s = 0.0;
+            for i in 0..8 {
+                for j in 0..8 {
+                    let p = DVec2::new(x as f64 - 0.5 + (i as f64 + 0.5) / 8.0, y as f64 - 0.5 + (j as f64 + 0.5) / 8.0);
+                    let d = p - c;
+                    s += if d.dot(n1) * d.dot(n2) > 0.0 { bright } else { dark };
+                }
+            }
+            Luma([(s / 64.0).round() as u8])
+        })
+    }
+
+    #[test]
+    fn subpix_is_exact_on_skewed_junctions() {
+        for (k, &(a1, a2)) in [(0.0, 1.5708), (0.3, 1.2), (-0.4, 0.6), (1.0, 2.6)].iter().enumerate() {
+            let truth = DVec2::new(30.37 + k as f64 * 0.11, 29.71 - k as f64 * 0.07);
+            let img = x_junction(60, 60, truth, a1, a2, 30.0, 220.0);
+            let mut c = [truth + DVec2::new(1.2, -0.9)];
+            let cfg = SubPixConfig { window: WindowSize::Fixed(7), ..Default::default() };
+            let r = refine_corners_subpix(&img, &mut c, &cfg).unwrap();
+            assert!(r[0].converged);
+            assert!((c[0] - truth).length() < 0.02, "angles {a1},{a2}: error {}", (c[0] - truth).length());
+        }
+    }
+
+    #[test]
+    fn saddle_fit_is_exact_on_skewed_junctions() {
+        for (k, &(a1, a2)) in [(0.0, 1.5708), (0.3, 1.2), (-0.4, 0.6)].iter().enumerate() {
+            let truth = DVec2::new(30.37 + k as f64 * 0.13, 29.71 - k as f64 * 0.05);
+            let img = x_junction(60, 60, truth, a1, a2, 30.0, 220.0);
+            let mut c = [truth + DVec2::new(0.8, -0.6)];
+            let cfg = SaddleConfig { window: WindowSize::Fixed(4), ..Default::default() };
+            let r = refine_saddle(&img, &mut c, &cfg).unwrap();
+            assert!(r[0].converged, "{r:?}");
+            assert!((c[0] - truth).length() < 0.03, "angles {a1},{a2}: error {}", (c[0] - truth).length());
+        }
+    }
+
+    #[test]
+    fn saddle_fit_rejects_a_blob() {
+        let img = GrayImage::from_fn(40, 40, |x, y| {
+            let d2 = (x as f64 - 20.0).powi(2) + (y as f64 - 20.0).powi(2);
+            Luma([(200.0 * (-d2 / 50.0).exp()) as u8 + 20])
+        });
+        let mut c = [DVec2::new(20.5, 19.5)];
+        let r = refine_saddle(&img, &mut c, &SaddleConfig::default()).unwrap();
+        assert!(!r[0].converged);
+        assert_eq!(c[0], DVec2::new(20.5, 19.5));
+    }
+
+    #[test]
+    fn automatic_window_follows_the_spacing() {
+        let corners = [DVec2::new(10.0, 10.0), DVec2::new(30.0, 10.0), DVec2::new(10.0, 22.0), DVec2::new(100.0, 100.0)];
+        let w = WindowSize::FromSpacing { fraction: 0.3, min: 2, max: 10 };
+        // nearest distances 12, 20, 12, ~102 -> 3.6→4, 6, 4, 10 (clamped)
+        assert_eq!(w.half_sizes(&corners), vec![4, 6, 4, 10]);
+        assert_eq!(w.half_sizes(&corners[..1]), vec![10]);
+    }
+
+    #[test]
+    fn automatic_window_is_not_dragged_by_close_neighbours() {
+        // Fine chequerboard with 12 px squares: an 11x11 OpenCV-style window (half 11) reaches
+        // the neighbouring corners; the spacing-derived window does not.
+        let sq = 12.0;
+        let off = DVec2::new(0.3, 0.45);
+        let img = GrayImage::from_fn(96, 96, |x, y| {
+            let mut s = 0.0;
+            for i in 0..4 {
+                for j in 0..4 {
+                    let u = x as f64 - 0.5 + (i as f64 + 0.5) / 4.0 - off.x;
+                    let v = y as f64 - 0.5 + (j as f64 + 0.5) / 4.0 - off.y;
+                    let c = ((u / sq).floor() as i64 + (v / sq).floor() as i64).rem_euclid(2);
+                    s += if c == 0 { 40.0 } else { 200.0 };
+                }
+            }
+            Luma([(s / 16.0).round() as u8])
+        });
+        let truth: Vec<DVec2> = (3..6)
+            .flat_map(|r| (3..6).map(move |c| DVec2::new(c as f64 * sq, r as f64 * sq) + off))
+            .collect();
+        let mut auto: Vec<DVec2> = truth.iter().map(|t| *t + DVec2::new(0.7, -0.5)).collect();
+        refine_corners_subpix(&img, &mut auto, &SubPixConfig::default()).unwrap();
+        let worst = auto.iter().zip(&truth).map(|(a, t)| (*a - *t).length()).fold(0.0, f64::max);
+        assert!(worst < 0.05, "auto window error {worst}");
+    }
+
+    #[test]
+    fn corners_outside_the_image_are_errors() {
+        let img = GrayImage::new(20, 20);
+        let mut c = [DVec2::new(5.0, 5.0), DVec2::new(f64::NAN, 3.0)];
+        let e = refine_corners_subpix(&img, &mut c, &SubPixConfig::default()).unwrap_err();
+        assert!(matches!(e, CornerError::CornerOutsideImage { index: 1, .. }));
+        let mut c = [DVec2::new(25.0, 5.0)];
+        assert!(refine_saddle(&img, &mut c, &SaddleConfig::default()).is_err());
+        let bad = SubPixConfig { window: WindowSize::FromSpacing { fraction: 0.7, min: 2, max: 5 }, ..Default::default() };
+        assert!(matches!(refine_corners_subpix(&img, &mut [], &bad), Err(CornerError::InvalidConfig(_))));
+    }
+}

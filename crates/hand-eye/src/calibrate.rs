@@ -1,0 +1,245 @@
+//! The entry point: every method on absolute station poses, with quality.
+
+use std::fmt;
+use std::str::FromStr;
+
+use camera_model::Isometry3;
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use crate::motion::{
+    DegeneracyConfig, Motion, PairSelection, Setup, check_motions, check_stations, motions_from_internal, robot_side,
+};
+use crate::quality::{Quality, quality};
+use crate::refine::{RefineConfig, Refinement, initial_cost, refine};
+use crate::{HandEyeError, Result, linear, robot_world};
+
+/// A hand-eye method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Method {
+    /// Tsai–Lenz, modified Rodrigues vectors ([`linear::tsai`]).
+    Tsai,
+    /// Park–Martin, log map ([`linear::park`]).
+    Park,
+    /// Horaud–Dornaika, quaternions ([`linear::horaud`]).
+    Horaud,
+    /// Andreff, Kronecker product null vector ([`linear::andreff`]).
+    Andreff,
+    /// Daniilidis, dual quaternions ([`linear::daniilidis`]).
+    Daniilidis,
+    /// The thesis's Rodrigues-axis method ([`linear::rodrigues`]).
+    Rodrigues,
+    /// Nonlinear maximum-likelihood refinement from the best linear solution (see [`RefineConfig`]).
+    Refined,
+    /// Robot-world-hand-eye `A X = Z B`, Shah's Kronecker method ([`robot_world::shah`]).
+    Shah,
+    /// Robot-world-hand-eye `A X = Z B`, Li's joint linear method ([`robot_world::li`]).
+    Li,
+}
+
+impl Method {
+    /// Every method, linear `A X = X B` solvers first.
+    pub const ALL: [Method; 9] = [
+        Method::Tsai,
+        Method::Park,
+        Method::Horaud,
+        Method::Andreff,
+        Method::Daniilidis,
+        Method::Rodrigues,
+        Method::Refined,
+        Method::Shah,
+        Method::Li,
+    ];
+    /// The closed-form `A X = X B` solvers.
+    pub const LINEAR: [Method; 6] =
+        [Method::Tsai, Method::Park, Method::Horaud, Method::Andreff, Method::Daniilidis, Method::Rodrigues];
+
+    /// Lower-case name (as accepted by [`FromStr`] and printed by `cargo xtask handeye`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Tsai => "tsai",
+            Method::Park => "park",
+            Method::Horaud => "horaud",
+            Method::Andreff => "andreff",
+            Method::Daniilidis => "daniilidis",
+            Method::Rodrigues => "rodrigues",
+            Method::Refined => "refined",
+            Method::Shah => "shah",
+            Method::Li => "li",
+        }
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Method {
+    type Err = HandEyeError;
+    fn from_str(s: &str) -> Result<Self> {
+        Method::ALL.into_iter().find(|m| m.name().eq_ignore_ascii_case(s.trim())).ok_or_else(|| {
+            HandEyeError::InvalidConfig(format!(
+                "unknown hand-eye method {s:?} (expected one of {})",
+                Method::ALL.map(Method::name).join(", ")
+            ))
+        })
+    }
+}
+
+/// Options of [`calibrate`].
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct HandEyeConfig {
+    /// Eye-in-hand (default) or eye-to-hand.
+    pub setup: Setup,
+    /// Which station pairs form the relative motions (default: all pairs).
+    pub pairs: PairSelection,
+    /// Thresholds of the degeneracy check.
+    pub degeneracy: DegeneracyConfig,
+    /// Noise model and options of the refinement.
+    pub refine: RefineConfig,
+}
+
+/// A hand-eye solution with its quality.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HandEyeSolution {
+    /// The method that produced it.
+    pub method: Method,
+    /// Eye-in-hand or eye-to-hand.
+    pub setup: Setup,
+    /// `X`: `gripper_from_camera` (eye-in-hand) or `base_from_camera` (eye-to-hand).
+    pub transform: Isometry3,
+    /// The fixed frame: `base_from_board` (eye-in-hand) or `gripper_from_board` (eye-to-hand);
+    /// estimated by the robot-world methods and the refinement, the stations' mean otherwise.
+    pub board: Isometry3,
+    /// Residuals and consistency measures.
+    pub quality: Quality,
+    /// For [`Method::Refined`]: the linear method it started from.
+    pub start: Option<Method>,
+    /// For [`Method::Refined`]: covariance, standard deviations and fit statistics.
+    pub refinement: Option<Refinement>,
+}
+
+/// Solves `A X = X B` over the given motions with one closed-form method
+/// ([`Method::LINEAR`]; other methods need absolute poses: use [`calibrate`]).
+pub fn solve_motions(method: Method, motions: &[Motion]) -> Result<Isometry3> {
+    if motions.len() < 2 {
+        return Err(HandEyeError::NotEnoughData(format!("{} motion(s), at least 2 needed", motions.len())));
+    }
+    match method {
+        Method::Tsai => linear::tsai(motions),
+        Method::Park => linear::park(motions),
+        Method::Horaud => linear::horaud(motions),
+        Method::Andreff => linear::andreff(motions),
+        Method::Daniilidis => linear::daniilidis(motions),
+        Method::Rodrigues => linear::rodrigues(motions),
+        other => Err(HandEyeError::InvalidConfig(format!("{other} needs absolute poses: call calibrate()"))),
+    }
+}
+
+/// Hand-eye calibration from `N ≥ 3` stations: `base_from_gripper[i]` (robot forward
+/// kinematics) and `camera_from_board[i]` (calibration extrinsics) taken at the same time.
+///
+/// Checks the inputs and the motions ([`check_motions`]) first: a degenerate set is an error
+/// naming the stations, never a silently wrong answer.
+///
+/// ```
+/// use camera_model::Isometry3;
+/// use glam::DVec3;
+/// use hand_eye::{calibrate, HandEyeConfig, Method};
+///
+/// let x = Isometry3::from_rvec_tvec(DVec3::new(0.1, -0.2, 1.5), DVec3::new(0.05, -0.03, 0.1));
+/// let base_from_board = Isometry3::from_rvec_tvec(DVec3::new(0.0, 0.0, 0.3), DVec3::new(0.6, 0.0, 0.0));
+/// let rvecs = [[0.0, 0.0, 0.0], [0.4, 0.0, 0.1], [0.0, 0.5, -0.2], [0.3, -0.3, 0.6]];
+/// let camera_from_board: Vec<Isometry3> = rvecs
+///     .iter()
+///     .map(|r| Isometry3::from_rvec_tvec(DVec3::from_array(*r), DVec3::new(0.05, -0.02, 0.5)))
+///     .collect();
+/// // G_i X C_i = W  ⇒  G_i = W C_i⁻¹ X⁻¹
+/// let base_from_gripper: Vec<Isometry3> =
+///     camera_from_board.iter().map(|c| base_from_board * c.inverse() * x.inverse()).collect();
+/// let sol = calibrate(&base_from_gripper, &camera_from_board, Method::Park, &HandEyeConfig::default())?;
+/// let (angle, dist) = sol.transform.distance(&x);
+/// assert!(angle < 1e-9 && dist < 1e-9);
+/// assert!(sol.quality.mean_rotation_deg < 1e-6);
+/// # Ok::<(), hand_eye::HandEyeError>(())
+/// ```
+pub fn calibrate(
+    base_from_gripper: &[Isometry3],
+    camera_from_board: &[Isometry3],
+    method: Method,
+    config: &HandEyeConfig,
+) -> Result<HandEyeSolution> {
+    check_stations(base_from_gripper, camera_from_board, 3)?;
+    let robot = robot_side(base_from_gripper, config.setup);
+    let motions = motions_from_internal(&robot, camera_from_board, config.pairs);
+    check_motions(&motions, &config.degeneracy)?;
+    let (transform, board, start, refinement) = match method {
+        Method::Shah | Method::Li => {
+            let b: Vec<Isometry3> = camera_from_board.iter().map(Isometry3::inverse).collect();
+            let (x, z) =
+                if method == Method::Shah { robot_world::shah(&robot, &b)? } else { robot_world::li(&robot, &b)? };
+            (x, Some(z), None, None)
+        }
+        Method::Refined => {
+            let mut best: Option<(Method, Isometry3, f64)> = None;
+            let mut last_err = None;
+            for m in Method::LINEAR {
+                match solve_motions(m, &motions) {
+                    Ok(x) => {
+                        let cost = initial_cost(&robot, camera_from_board, config.setup, &x, &config.refine)?;
+                        if cost.is_finite() && best.as_ref().is_none_or(|b| cost < b.2) {
+                            best = Some((m, x, cost));
+                        }
+                    }
+                    Err(e) => last_err = Some(e),
+                }
+            }
+            let (m, x0, _) = best.ok_or_else(|| last_err.expect("six solvers tried"))?;
+            let r = refine(&robot, camera_from_board, &motions, config.setup, &x0, &config.refine)?;
+            (r.transform, Some(r.board), Some(m), Some(r))
+        }
+        linear => (solve_motions(linear, &motions)?, None, None, None),
+    };
+    let quality = quality(&robot, camera_from_board, &motions, &transform)?;
+    Ok(HandEyeSolution {
+        method,
+        setup: config.setup,
+        transform,
+        board: board.unwrap_or(quality.mean_board),
+        quality,
+        start,
+        refinement,
+    })
+}
+
+/// Runs every method of `methods` on the same data; each result is independent (one failing
+/// method does not hide the others).
+pub fn calibrate_all(
+    base_from_gripper: &[Isometry3],
+    camera_from_board: &[Isometry3],
+    methods: &[Method],
+    config: &HandEyeConfig,
+) -> Vec<(Method, Result<HandEyeSolution>)> {
+    methods.iter().map(|&m| (m, calibrate(base_from_gripper, camera_from_board, m, config))).collect()
+}
+
+/// Points measured in the camera frame, expressed in the gripper frame (eye-in-hand:
+/// `p_g = gripper_from_camera · p_c`).
+pub fn points_to_gripper(gripper_from_camera: &Isometry3, points_in_camera: &[DVec3]) -> Vec<DVec3> {
+    points_in_camera.iter().map(|p| gripper_from_camera.transform_point(*p)).collect()
+}
+
+/// Points measured in the camera frame, expressed in the robot base frame at the station
+/// where they were measured: `p_b = base_from_gripper · gripper_from_camera · p_c` (the
+/// thesis's eq. 4.46). For eye-to-hand use `base_from_camera.transform_point` directly.
+pub fn points_to_base(
+    base_from_gripper: &Isometry3,
+    gripper_from_camera: &Isometry3,
+    points_in_camera: &[DVec3],
+) -> Vec<DVec3> {
+    let base_from_camera = *base_from_gripper * *gripper_from_camera;
+    points_in_camera.iter().map(|p| base_from_camera.transform_point(*p)).collect()
+}

@@ -1,0 +1,118 @@
+//! Readers for robot and camera pose lists in the common conventions.
+//!
+//! Parsed by hand: the formats are a few numbers each, and a YAML or XML crate would be the
+//! largest dependency of the crate.
+
+use camera_model::Isometry3;
+use glam::{DQuat, DVec3};
+use serde::{Deserialize, Serialize};
+
+use crate::{HandEyeError, Result};
+
+/// How the rotation of a 6-number pose line `[tx, ty, tz, a, b, c]` is written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum RotationFormat {
+    /// Axis × angle in radians (OpenCV's `rvec`, ViSP's `θu`).
+    #[default]
+    AxisAngle,
+    /// Roll, pitch, yaw in degrees, ZYX order: `R = Rz(yaw) · Ry(pitch) · Rx(roll)`
+    /// (the thesis's robot file).
+    RollPitchYawDeg,
+}
+
+/// A pose from translation and rotation in the given format.
+pub fn pose_from_six(v: [f64; 6], format: RotationFormat) -> Isometry3 {
+    let t = DVec3::new(v[0], v[1], v[2]);
+    match format {
+        RotationFormat::AxisAngle => Isometry3::from_rvec_tvec(DVec3::new(v[3], v[4], v[5]), t),
+        RotationFormat::RollPitchYawDeg => {
+            let q = DQuat::from_rotation_z(v[5].to_radians())
+                * DQuat::from_rotation_y(v[4].to_radians())
+                * DQuat::from_rotation_x(v[3].to_radians());
+            Isometry3::from_quat_translation(q, t)
+        }
+    }
+}
+
+fn parse_err(what: &str, message: String) -> HandEyeError {
+    HandEyeError::Parse { what: what.to_string(), message }
+}
+
+/// Parses a text pose list: one pose per line, six numbers separated by spaces, tabs, commas or
+/// semicolons; empty lines and lines starting with `#` or `//` are skipped. `what` names the
+/// input in errors (e.g. the file name).
+pub fn parse_pose_lines(text: &str, format: RotationFormat, what: &str) -> Result<Vec<Isometry3>> {
+    let mut out = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') || line.starts_with("//") {
+            continue;
+        }
+        let nums: std::result::Result<Vec<f64>, _> = line
+            .split(|c: char| c.is_whitespace() || c == ',' || c == ';')
+            .filter(|s| !s.is_empty())
+            .map(str::parse::<f64>)
+            .collect();
+        let nums = nums.map_err(|e| parse_err(what, format!("line {}: {e} in {line:?}", n + 1)))?;
+        if nums.len() != 6 {
+            return Err(parse_err(what, format!("line {}: expected 6 numbers, found {}", n + 1, nums.len())));
+        }
+        if nums.iter().any(|v| !v.is_finite()) {
+            return Err(parse_err(what, format!("line {}: non-finite number", n + 1)));
+        }
+        out.push(pose_from_six(std::array::from_fn(|i| nums[i]), format));
+    }
+    if out.is_empty() {
+        return Err(parse_err(what, "no pose found".into()));
+    }
+    Ok(out)
+}
+
+/// Parses ViSP's 6x1 pose file (`vpPoseVector` saved as YAML):
+///
+/// ```text
+/// rows: 6
+/// cols: 1
+/// data:
+///   - [0.335091]
+///   ...
+/// ```
+///
+/// holding `[tx, ty, tz, θux, θuy, θuz]` (metres, axis × angle radians). Also accepts the
+/// inline form `data: [a, b, c, d, e, f]`.
+pub fn parse_visp_pose(text: &str, what: &str) -> Result<Isometry3> {
+    let start = text.find("data:").ok_or_else(|| parse_err(what, "no `data:` entry".into()))?;
+    let mut nums = Vec::new();
+    for tok in text[start + 5..].split(|c: char| c.is_whitespace() || c == ',') {
+        let tok = tok.trim_matches(|c: char| c == '[' || c == ']' || c == ',');
+        if tok.is_empty() || tok == "-" {
+            continue;
+        }
+        match tok.parse::<f64>() {
+            Ok(v) => nums.push(v),
+            Err(_) => break, // the next YAML key ends the list
+        }
+    }
+    if nums.len() != 6 {
+        return Err(parse_err(what, format!("`data:` holds {} numbers, expected 6", nums.len())));
+    }
+    if nums.iter().any(|v| !v.is_finite()) {
+        return Err(parse_err(what, "non-finite number in `data:`".into()));
+    }
+    Ok(pose_from_six(std::array::from_fn(|i| nums[i]), RotationFormat::AxisAngle))
+}
+
+/// Parses a RON list of poses (`[(rotation: (x, y, z, w), translation: (x, y, z)), …]`, the
+/// serde form of [`Isometry3`]).
+pub fn parse_pose_ron(text: &str, what: &str) -> Result<Vec<Isometry3>> {
+    let poses: Vec<Isometry3> = ron::from_str(text).map_err(|e| parse_err(what, e.to_string()))?;
+    if poses.is_empty() {
+        return Err(parse_err(what, "empty pose list".into()));
+    }
+    for (k, p) in poses.iter().enumerate() {
+        if !p.is_finite() || (p.rotation.length() - 1.0).abs() > 1e-6 {
+            return Err(parse_err(what, format!("pose {k}: rotation is not a finite unit quaternion")));
+        }
+    }
+    Ok(poses)
+}

@@ -1,0 +1,300 @@
+//! The bundle problem shared by mono calibration, stereo calibration and pose-only solving:
+//! global parameters (the free intrinsics of one or two cameras, then the rig pose) followed by
+//! one 6-vector pose per view. `normal_equations` accumulates `JᵀJ` block by block (camera
+//! block, rig block, per-view 6x6 blocks and their couplings) without forming `J`.
+
+use camera_model::{Camera, Distortion, Intrinsics, Isometry3};
+use faer::{Col, Mat, MatMut};
+use glam::{DVec2, DVec3};
+use least_squares::{EvaluationError, Problem};
+
+/// Length of the full intrinsic vector `(fx, fy, cx, cy, skew, k1, k2, p1, p2, k3, k4, k5, k6)`.
+pub(crate) const N_INTR: usize = 13;
+
+/// How one full intrinsic parameter is obtained from the parameter vector.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Slot {
+    /// Held at this value.
+    Fixed(f64),
+    /// `value = scale · params[camera offset + index]`.
+    Free { index: usize, scale: f64 },
+}
+
+/// The parametrisation of one camera's intrinsics.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct CameraModelSlots {
+    pub slots: [Slot; N_INTR],
+    pub num_free: usize,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl CameraModelSlots {
+    /// The free-parameter vector of `camera` under this parametrisation.
+    pub fn free_values(&self, camera: &Camera) -> Vec<f64> {
+        let theta = theta_of(camera);
+        let mut out = vec![0.0; self.num_free];
+        for (i, s) in self.slots.iter().enumerate() {
+            if let Slot::Free { index, scale } = *s {
+                out[index] = theta[i] / scale;
+            }
+        }
+        out
+    }
+
+    pub fn camera(&self, free: &[f64]) -> Camera {
+        let theta: [f64; N_INTR] = std::array::from_fn(|i| match self.slots[i] {
+            Slot::Fixed(v) => v,
+            Slot::Free { index, scale } => scale * free[index],
+        });
+        camera_of(&theta, self.width, self.height)
+    }
+}
+
+pub(crate) fn theta_of(c: &Camera) -> [f64; N_INTR] {
+    let k = &c.intrinsics;
+    let d = c.distortion.to_array();
+    [k.fx, k.fy, k.cx, k.cy, k.skew, d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7]]
+}
+
+pub(crate) fn camera_of(t: &[f64; N_INTR], width: u32, height: u32) -> Camera {
+    Camera {
+        intrinsics: Intrinsics { fx: t[0], fy: t[1], cx: t[2], cy: t[3], skew: t[4] },
+        distortion: Distortion::from_array([t[5], t[6], t[7], t[8], t[9], t[10], t[11], t[12]]),
+        width,
+        height,
+    }
+}
+
+pub(crate) fn pose_at(p: &[f64]) -> Isometry3 {
+    Isometry3::from_rvec_tvec(DVec3::new(p[0], p[1], p[2]), DVec3::new(p[3], p[4], p[5]))
+}
+
+pub(crate) fn store_pose(pose: &Isometry3, out: &mut [f64]) {
+    let r = pose.rvec();
+    out[..3].copy_from_slice(&r.to_array());
+    out[3..6].copy_from_slice(&pose.translation.to_array());
+}
+
+/// One view: the object points and, per camera, the observed pixels (same order), if seen.
+pub(crate) struct ViewObs<'a> {
+    pub object: &'a [DVec3],
+    pub image: [Option<&'a [DVec2]>; 2],
+}
+
+pub(crate) struct Bundle<'a> {
+    pub cams: Vec<CameraModelSlots>,
+    pub cam_offsets: Vec<usize>,
+    /// Offset of the rig pose (`right_from_left`, camera 1 = rig ∘ camera 0 pose), if stereo.
+    pub rig_offset: Option<usize>,
+    pub num_global: usize,
+    pub views: Vec<ViewObs<'a>>,
+    pub num_residuals: usize,
+}
+
+impl<'a> Bundle<'a> {
+    pub fn new(cams: Vec<CameraModelSlots>, stereo: bool, views: Vec<ViewObs<'a>>) -> Self {
+        let mut cam_offsets = Vec::with_capacity(cams.len());
+        let mut off = 0;
+        for c in &cams {
+            cam_offsets.push(off);
+            off += c.num_free;
+        }
+        let rig_offset = stereo.then_some(off);
+        if stereo {
+            off += 6;
+        }
+        let num_residuals = views
+            .iter()
+            .map(|v| v.image.iter().flatten().map(|img| 2 * img.len()).sum::<usize>())
+            .sum();
+        Self { cams, cam_offsets, rig_offset, num_global: off, views, num_residuals }
+    }
+
+    pub fn view_offset(&self, v: usize) -> usize {
+        self.num_global + 6 * v
+    }
+
+    /// Visits every observation: `f(view, camera, point, residual, entries)` where `entries`
+    /// lists `(parameter index, ∂r/∂p)` (the non-zero Jacobian columns of this 2-row block).
+    fn for_each_observation(
+        &self,
+        params: &[f64],
+        mut f: impl FnMut(usize, usize, usize, DVec2, &[(usize, [f64; 2])]),
+    ) -> Result<(), EvaluationError> {
+        let cameras: Vec<Camera> =
+            self.cams.iter().zip(&self.cam_offsets).map(|(c, &o)| c.camera(&params[o..o + c.num_free])).collect();
+        for c in &cameras {
+            if !(c.intrinsics.fx > 0.0 && c.intrinsics.fy > 0.0) {
+                return Err(EvaluationError("non-positive focal length".into()));
+            }
+        }
+        let rig = self.rig_offset.map(|o| pose_at(&params[o..o + 6]));
+        // Adjoint of the rig for the left perturbation (ω, v): [[R, 0], [[t]× R, R]].
+        let adj = rig.map(|e| {
+            let r = e.rotation_matrix();
+            let tx = camera_model::skew_symmetric(e.translation) * r;
+            let mut a = [[0.0; 6]; 6];
+            for i in 0..3 {
+                for j in 0..3 {
+                    a[i][j] = r.col(j)[i];
+                    a[3 + i][3 + j] = r.col(j)[i];
+                    a[3 + i][j] = tx.col(j)[i];
+                }
+            }
+            a
+        });
+        let mut entries: Vec<(usize, [f64; 2])> = Vec::with_capacity(32);
+        for (v, view) in self.views.iter().enumerate() {
+            let vo = self.view_offset(v);
+            let left = pose_at(&params[vo..vo + 6]);
+            for (c, img) in view.image.iter().enumerate() {
+                let Some(img) = img else { continue };
+                let slots = &self.cams[c.min(self.cams.len() - 1)];
+                let cam_index = c.min(self.cams.len() - 1);
+                let camera = &cameras[cam_index];
+                let pose = if c == 0 { left } else { rig.expect("stereo bundle has a rig") * left };
+                for (i, (x, q)) in view.object.iter().zip(img.iter()).enumerate() {
+                    let pj = camera
+                        .project_with_jacobians(&pose, *x)
+                        .map_err(|e| EvaluationError(format!("view {v}, camera {c}, point {i}: {e}")))?;
+                    let r = pj.pixel - *q;
+                    entries.clear();
+                    // Intrinsics.
+                    let co = self.cam_offsets[cam_index];
+                    let start = entries.len();
+                    for k in 0..slots.num_free {
+                        entries.push((co + k, [0.0, 0.0]));
+                    }
+                    for (t, s) in slots.slots.iter().enumerate() {
+                        if let Slot::Free { index, scale } = *s {
+                            let (a, b) = if t < 5 {
+                                (pj.d_intrinsics[0][t], pj.d_intrinsics[1][t])
+                            } else {
+                                (pj.d_distortion[0][t - 5], pj.d_distortion[1][t - 5])
+                            };
+                            let e = &mut entries[start + index].1;
+                            e[0] += scale * a;
+                            e[1] += scale * b;
+                        }
+                    }
+                    if c == 0 {
+                        for k in 0..6 {
+                            entries.push((vo + k, [pj.d_pose[0][k], pj.d_pose[1][k]]));
+                        }
+                    } else {
+                        let ro = self.rig_offset.expect("stereo bundle has a rig");
+                        let a = adj.as_ref().expect("stereo bundle has a rig");
+                        for k in 0..6 {
+                            entries.push((ro + k, [pj.d_pose[0][k], pj.d_pose[1][k]]));
+                        }
+                        for k in 0..6 {
+                            let mut d = [0.0; 2];
+                            for l in 0..6 {
+                                d[0] += pj.d_pose[0][l] * a[l][k];
+                                d[1] += pj.d_pose[1][l] * a[l][k];
+                            }
+                            entries.push((vo + k, d));
+                        }
+                    }
+                    f(v, c, i, r, &entries);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Per-view, per-camera residual vectors (projected − observed) at `params`.
+    pub fn residuals_by_view(&self, params: &[f64]) -> Result<Vec<[Vec<DVec2>; 2]>, EvaluationError> {
+        let mut out: Vec<[Vec<DVec2>; 2]> = (0..self.views.len()).map(|_| [Vec::new(), Vec::new()]).collect();
+        self.for_each_observation(params, |v, c, _, r, _| out[v][c].push(r))?;
+        Ok(out)
+    }
+}
+
+impl Problem for Bundle<'_> {
+    fn num_params(&self) -> usize {
+        self.num_global + 6 * self.views.len()
+    }
+    fn num_residuals(&self) -> usize {
+        self.num_residuals
+    }
+    fn evaluate(
+        &self,
+        params: &[f64],
+        residuals: &mut [f64],
+        mut jacobian: Option<MatMut<'_, f64>>,
+    ) -> Result<(), EvaluationError> {
+        if let Some(j) = jacobian.as_mut() {
+            j.fill(0.0);
+        }
+        let mut row = 0;
+        self.for_each_observation(params, |_, _, _, r, entries| {
+            residuals[row] = r.x;
+            residuals[row + 1] = r.y;
+            if let Some(j) = jacobian.as_mut() {
+                for &(col, d) in entries {
+                    j[(row, col)] += d[0];
+                    j[(row + 1, col)] += d[1];
+                }
+            }
+            row += 2;
+        })
+    }
+
+    fn retract(&self, params: &[f64], delta: &[f64], out: &mut [f64]) {
+        for i in 0..self.num_params() {
+            out[i] = params[i] + delta[i];
+        }
+        let mut pose_offsets: Vec<usize> = (0..self.views.len()).map(|v| self.view_offset(v)).collect();
+        if let Some(o) = self.rig_offset {
+            pose_offsets.push(o);
+        }
+        for o in pose_offsets {
+            let d: [f64; 6] = std::array::from_fn(|k| delta[o + k]);
+            let p = pose_at(&params[o..o + 6]).retract(&d);
+            store_pose(&p, &mut out[o..o + 6]);
+        }
+    }
+
+    fn normal_equations(
+        &self,
+        params: &[f64],
+        jtj: &mut Mat<f64>,
+        jtr: &mut Col<f64>,
+        residuals: &mut [f64],
+    ) -> Result<(), EvaluationError> {
+        let n = self.num_params();
+        if jtj.nrows() != n || jtj.ncols() != n {
+            *jtj = Mat::zeros(n, n);
+        } else {
+            jtj.fill(0.0);
+        }
+        if jtr.nrows() != n {
+            *jtr = Col::zeros(n);
+        } else {
+            jtr.fill(0.0);
+        }
+        let mut row = 0;
+        self.for_each_observation(params, |_, _, _, r, entries| {
+            residuals[row] = r.x;
+            residuals[row + 1] = r.y;
+            row += 2;
+            for (a, &(ia, da)) in entries.iter().enumerate() {
+                jtr[ia] += da[0] * r.x + da[1] * r.y;
+                // Upper triangle (column ≥ row) only, mirrored below.
+                for &(ib, db) in &entries[a..] {
+                    let v = da[0] * db[0] + da[1] * db[1];
+                    let (lo, hi) = if ia <= ib { (ia, ib) } else { (ib, ia) };
+                    jtj[(lo, hi)] += v;
+                }
+            }
+        })?;
+        for j in 0..n {
+            for i in (j + 1)..n {
+                jtj[(i, j)] = jtj[(j, i)];
+            }
+        }
+        Ok(())
+    }
+}

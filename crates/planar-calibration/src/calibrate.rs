@@ -1,0 +1,674 @@
+//! Mono calibration: closed-form initialisation, full maximum-likelihood refinement with
+//! OpenCV-like options, uncertainty and diagnostics.
+
+use camera_model::{Camera, Chessboard, CornerGrid, Distortion, Intrinsics, Isometry3};
+use glam::{DMat3, DVec2, DVec3};
+use least_squares::{LmConfig, LmReport, levenberg_marquardt};
+use serde::{Deserialize, Serialize};
+
+use crate::bundle::{Bundle, CameraModelSlots, N_INTR, Slot, ViewObs, store_pose, theta_of};
+use crate::homography::estimate_homography_named;
+use crate::zhang::{
+    focal_lengths_with_principal_point, intrinsics_from_homographies, pose_from_homography, radial_distortion_linear,
+};
+use crate::{CalibrationError, Result};
+
+/// Options of [`calibrate_camera`], named after OpenCV's `calibrateCamera` flags. The default
+/// is OpenCV's default: estimate `fx, fy, cx, cy, k1, k2, p1, p2, k3`, no skew, no rational terms.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct CalibrationConfig {
+    /// Hold `cx, cy` (`CALIB_FIX_PRINCIPAL_POINT`): at the guess if one is given, else at the
+    /// image centre `((w−1)/2, (h−1)/2)`.
+    pub fix_principal_point: bool,
+    /// Estimate only `fy`, with `fx = a·fy` (`CALIB_FIX_ASPECT_RATIO`); `a = fx/fy` of the guess,
+    /// 1 without one.
+    pub fix_aspect_ratio: bool,
+    /// Hold `p1 = p2 = 0` (or at the guess) (`CALIB_ZERO_TANGENT_DIST`).
+    pub zero_tangential: bool,
+    /// Hold `k1` (at the guess, else 0).
+    pub fix_k1: bool,
+    /// Hold `k2` (at the guess, else 0).
+    pub fix_k2: bool,
+    /// Hold `k3` (at the guess, else 0): with `zero_tangential` this is the "k1, k2 only" model.
+    pub fix_k3: bool,
+    /// Also estimate the rational terms `k4, k5, k6` (`CALIB_RATIONAL_MODEL`).
+    pub rational_model: bool,
+    /// Estimate the skew `K[0][1]` (OpenCV never does; Zhang's model does).
+    pub estimate_skew: bool,
+    /// Start from these intrinsics and distortion instead of the closed form
+    /// (`CALIB_USE_INTRINSIC_GUESS`); fixed parameters keep its values. The image size must match.
+    pub intrinsic_guess: Option<Camera>,
+    /// Levenberg–Marquardt settings of the refinement.
+    pub lm: LmConfig,
+    /// A view is an outlier when its RMS exceeds this multiple of the median view RMS (and the
+    /// median plus 4 robust standard deviations).
+    pub outlier_view_factor: f64,
+    /// Views whose board normals all lie within this angle (degrees) of each other are
+    /// reported as too similar.
+    pub min_view_spread_deg: f64,
+}
+
+impl Default for CalibrationConfig {
+    fn default() -> Self {
+        Self {
+            fix_principal_point: false,
+            fix_aspect_ratio: false,
+            zero_tangential: false,
+            fix_k1: false,
+            fix_k2: false,
+            fix_k3: false,
+            rational_model: false,
+            estimate_skew: false,
+            intrinsic_guess: None,
+            lm: LmConfig {
+                max_iterations: 100,
+                gradient_tolerance: 1e-10,
+                step_tolerance: 1e-12,
+                cost_tolerance: 1e-12,
+                ..LmConfig::default()
+            },
+            outlier_view_factor: 2.0,
+            min_view_spread_deg: 10.0,
+        }
+    }
+}
+
+/// Standard deviation (1σ) of every intrinsic parameter; `None` for parameters held fixed.
+/// A parameter tied to another (`fx = a·fy`) gets the propagated value.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[allow(missing_docs)]
+pub struct IntrinsicStdDevs {
+    pub fx: Option<f64>,
+    pub fy: Option<f64>,
+    pub cx: Option<f64>,
+    pub cy: Option<f64>,
+    pub skew: Option<f64>,
+    pub k1: Option<f64>,
+    pub k2: Option<f64>,
+    pub p1: Option<f64>,
+    pub p2: Option<f64>,
+    pub k3: Option<f64>,
+    pub k4: Option<f64>,
+    pub k5: Option<f64>,
+    pub k6: Option<f64>,
+}
+
+impl IntrinsicStdDevs {
+    /// In the order `(fx, fy, cx, cy, skew, k1, k2, p1, p2, k3, k4, k5, k6)`.
+    pub fn to_array(&self) -> [Option<f64>; 13] {
+        [
+            self.fx, self.fy, self.cx, self.cy, self.skew, self.k1, self.k2, self.p1, self.p2, self.k3, self.k4,
+            self.k5, self.k6,
+        ]
+    }
+
+    pub(crate) fn from_array(a: [Option<f64>; 13]) -> Self {
+        Self {
+            fx: a[0],
+            fy: a[1],
+            cx: a[2],
+            cy: a[3],
+            skew: a[4],
+            k1: a[5],
+            k2: a[6],
+            p1: a[7],
+            p2: a[8],
+            k3: a[9],
+            k4: a[10],
+            k5: a[11],
+            k6: a[12],
+        }
+    }
+}
+
+/// Standard deviation of a pose: rotation as the left perturbation `ω` (radians, about the
+/// target frame's axes, i.e. the camera's for `camera_from_board`), translation in board units.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct PoseStdDevs {
+    /// 1σ of the rotation perturbation about x, y, z (radians).
+    pub rotation_rad: DVec3,
+    /// 1σ of the translation components.
+    pub translation: DVec3,
+}
+
+/// Where the radial distortion folds back (its radius stops increasing) inside the image.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DistortionFold {
+    /// Undistorted normalised radius where `d(r·radial(r))/dr = 0`.
+    pub undistorted_radius: f64,
+    /// Distance from the principal point (pixels, along x: `fx ·` distorted radius) of the fold.
+    pub radius_px: f64,
+    /// Distance from the principal point to the farthest image corner (pixels, along x).
+    pub image_radius_px: f64,
+}
+
+/// Something the user should know about a calibration that nevertheless succeeded.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum CalibrationWarning {
+    /// A view's reprojection error is far above the others (bad corners, a moved board).
+    OutlierView {
+        /// View index (camera 0 = left, 1 = right for stereo).
+        view: usize,
+        /// Camera index (0 for mono and left).
+        camera: usize,
+        /// The view's RMS error, pixels.
+        rms_px: f64,
+        /// The median of the per-view RMS errors, pixels.
+        median_rms_px: f64,
+    },
+    /// The radial distortion is not monotonic inside the image: pixels beyond the fold have
+    /// two (or no) rays; the model is extrapolating outside the corners' coverage.
+    NonMonotonicDistortion {
+        /// Camera index.
+        camera: usize,
+        /// Where it folds.
+        fold: DistortionFold,
+    },
+    /// Fewer views than recommended for the parameters estimated.
+    TooFewViews {
+        /// Views given.
+        views: usize,
+        /// Recommended minimum.
+        recommended: usize,
+    },
+    /// All board orientations are within a small angle of each other: focal length and
+    /// principal point are poorly determined.
+    SimilarViews {
+        /// Largest angle between two board normals, degrees.
+        max_angle_deg: f64,
+        /// The threshold, degrees.
+        threshold_deg: f64,
+    },
+    /// The refinement stopped at its iteration cap.
+    NotConverged {
+        /// Iterations performed.
+        iterations: usize,
+    },
+}
+
+impl std::fmt::Display for CalibrationWarning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::OutlierView { view, camera, rms_px, median_rms_px } => write!(
+                f,
+                "view {view} (camera {camera}) is an outlier: RMS {rms_px:.3} px vs median {median_rms_px:.3} px"
+            ),
+            Self::NonMonotonicDistortion { camera, fold } => write!(
+                f,
+                "camera {camera}: radial distortion folds back {:.0} px from the principal point, inside the image (corner at {:.0} px)",
+                fold.radius_px, fold.image_radius_px
+            ),
+            Self::TooFewViews { views, recommended } => {
+                write!(f, "only {views} view(s) for the parameters estimated; at least {recommended} recommended")
+            }
+            Self::SimilarViews { max_angle_deg, threshold_deg } => write!(
+                f,
+                "the board orientations differ by at most {max_angle_deg:.1}° (< {threshold_deg}°): tilt the board more"
+            ),
+            Self::NotConverged { iterations } => write!(f, "refinement did not converge in {iterations} iterations"),
+        }
+    }
+}
+
+/// The result of [`calibrate_camera`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationResult {
+    /// The calibrated camera.
+    pub camera: Camera,
+    /// Per-view `camera_from_board` (board units).
+    pub camera_from_board: Vec<Isometry3>,
+    /// RMS reprojection error over all corners, `sqrt(Σ‖e‖² / N)` (OpenCV's definition), pixels.
+    pub rms_px: f64,
+    /// The same per view.
+    pub per_view_rms_px: Vec<f64>,
+    /// Per view, per corner: observed − projected, pixels.
+    pub residuals_px: Vec<Vec<DVec2>>,
+    /// 1σ of every intrinsic parameter (`None` = held fixed), from `σ²(JᵀJ)⁻¹` with
+    /// `σ² = Σ e² / (2N − n)`.
+    pub std_devs: IntrinsicStdDevs,
+    /// 1σ of every view pose.
+    pub pose_std_devs: Vec<PoseStdDevs>,
+    /// Estimated corner noise per coordinate, `σ`, pixels.
+    pub sigma_px: f64,
+    /// Degrees of freedom `2N − n` (residuals minus estimated parameters).
+    pub dof: usize,
+    /// Estimated parameters `n` (free intrinsics + 6 per view).
+    pub num_parameters: usize,
+    /// LM iterations.
+    pub iterations: usize,
+    /// Whether LM met a convergence criterion.
+    pub converged: bool,
+    /// Diagnostics.
+    pub warnings: Vec<CalibrationWarning>,
+}
+
+pub(crate) fn validate_views(object_points: &[Vec<DVec3>], image_points: &[Vec<DVec2>], what: &str) -> Result<()> {
+    if object_points.is_empty() {
+        return Err(CalibrationError::Empty("views"));
+    }
+    if object_points.len() != image_points.len() {
+        return Err(CalibrationError::SizeMismatch(format!(
+            "{what}: {} views of object points but {} views of image points",
+            object_points.len(),
+            image_points.len()
+        )));
+    }
+    for (v, (o, i)) in object_points.iter().zip(image_points).enumerate() {
+        if o.len() != i.len() {
+            return Err(CalibrationError::SizeMismatch(format!(
+                "{what} view {v}: {} object points but {} image points",
+                o.len(),
+                i.len()
+            )));
+        }
+        if o.len() < 4 {
+            return Err(CalibrationError::TooFewPoints { what: format!("{what} view {v}"), got: o.len(), needed: 4 });
+        }
+        if o.iter().any(|p| !p.is_finite()) {
+            return Err(CalibrationError::NonFinite(format!("{what} view {v} object points")));
+        }
+        if i.iter().any(|p| !p.is_finite()) {
+            return Err(CalibrationError::NonFinite(format!("{what} view {v} image points")));
+        }
+        let extent = o.iter().map(|p| p.truncate().length()).fold(0.0, f64::max);
+        let max_z = o.iter().map(|p| p.z.abs()).fold(0.0, f64::max);
+        if max_z > 1e-9 * extent.max(1.0) {
+            return Err(CalibrationError::NotPlanar { what: format!("{what} view {v}"), max_abs_z: max_z });
+        }
+    }
+    Ok(())
+}
+
+/// The parametrisation implied by the flags.
+pub(crate) fn model_slots(cfg: &CalibrationConfig, init: &Camera) -> CameraModelSlots {
+    let theta = theta_of(init);
+    let mut slots = [Slot::Fixed(0.0); N_INTR];
+    let mut n = 0;
+    let mut free = |slots: &mut [Slot; N_INTR], i: usize| {
+        slots[i] = Slot::Free { index: n, scale: 1.0 };
+        n += 1;
+    };
+    let fixed = |slots: &mut [Slot; N_INTR], i: usize| slots[i] = Slot::Fixed(theta[i]);
+    // fy first so fx can be tied to it.
+    free(&mut slots, 1);
+    if cfg.fix_aspect_ratio {
+        let Slot::Free { index, .. } = slots[1] else { unreachable!() };
+        slots[0] = Slot::Free { index, scale: theta[0] / theta[1] };
+    } else {
+        free(&mut slots, 0);
+    }
+    for i in [2, 3] {
+        if cfg.fix_principal_point { fixed(&mut slots, i) } else { free(&mut slots, i) }
+    }
+    if cfg.estimate_skew { free(&mut slots, 4) } else { fixed(&mut slots, 4) }
+    for (i, hold) in [(5, cfg.fix_k1), (6, cfg.fix_k2), (9, cfg.fix_k3)] {
+        if hold { fixed(&mut slots, i) } else { free(&mut slots, i) }
+    }
+    for i in [7, 8] {
+        if cfg.zero_tangential { fixed(&mut slots, i) } else { free(&mut slots, i) }
+    }
+    for i in [10, 11, 12] {
+        if cfg.rational_model { free(&mut slots, i) } else { fixed(&mut slots, i) }
+    }
+    CameraModelSlots { slots, num_free: n, width: init.width, height: init.height }
+}
+
+/// Closed-form start: intrinsics (Zhang, or focal lengths with a fixed principal point),
+/// per-view poses from `K⁻¹H`, and Zhang's linear `k1, k2` when those are estimated.
+fn initial_estimate(
+    object_points: &[Vec<DVec3>],
+    image_points: &[Vec<DVec2>],
+    width: u32,
+    height: u32,
+    cfg: &CalibrationConfig,
+) -> Result<(Camera, Vec<Isometry3>)> {
+    if let Some(guess) = &cfg.intrinsic_guess {
+        guess.validate()?;
+        if guess.width != width || guess.height != height {
+            return Err(CalibrationError::InvalidConfig(format!(
+                "intrinsic guess is for {}x{} images, the views are {width}x{height}",
+                guess.width, guess.height
+            )));
+        }
+        let poses = object_points
+            .iter()
+            .zip(image_points)
+            .enumerate()
+            .map(|(v, (o, i))| crate::pnp::initial_pose(guess, o, i, &format!("view {v}")))
+            .collect::<Result<Vec<_>>>()?;
+        return Ok((*guess, poses));
+    }
+    let homographies = object_points
+        .iter()
+        .zip(image_points)
+        .enumerate()
+        .map(|(v, (o, i))| {
+            let plane: Vec<DVec2> = o.iter().map(|p| p.truncate()).collect();
+            estimate_homography_named(&plane, i, &format!("view {v}")).map(|h| h.matrix)
+        })
+        .collect::<Result<Vec<DMat3>>>()?;
+    let centre = (0.5 * (width as f64 - 1.0), 0.5 * (height as f64 - 1.0));
+    let mut k = if cfg.fix_principal_point {
+        let (fx, fy) = focal_lengths_with_principal_point(&homographies, centre.0, centre.1)?;
+        Intrinsics::new(fx, fy, centre.0, centre.1)
+    } else {
+        match intrinsics_from_homographies(&homographies, width, height, cfg.estimate_skew) {
+            Ok(k) if k.cx.is_finite() && k.cx.abs() < 4.0 * width as f64 && k.cy.abs() < 4.0 * height as f64 => k,
+            // B not positive definite (noise, few views): OpenCV's start.
+            Ok(_) | Err(CalibrationError::EstimationFailed(_)) => {
+                let (fx, fy) = focal_lengths_with_principal_point(&homographies, centre.0, centre.1)?;
+                Intrinsics::new(fx, fy, centre.0, centre.1)
+            }
+            Err(e) => return Err(e),
+        }
+    };
+    if cfg.fix_aspect_ratio {
+        k.fx = k.fy;
+    }
+    let poses = homographies
+        .iter()
+        .enumerate()
+        .map(|(v, h)| {
+            pose_from_homography(&k, h)
+                .map_err(|e| CalibrationError::EstimationFailed(format!("initial pose of view {v}: {e}")))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let mut camera = Camera::new(k, Distortion::default(), width, height)?;
+    if !cfg.fix_k1 && !cfg.fix_k2 {
+        if let Ok((k1, k2)) = radial_distortion_linear(&k, &poses, object_points, image_points) {
+            // Keep the linear estimate only when it is plausible and lowers the error.
+            let with = Camera { distortion: Distortion::new(k1, k2, 0.0, 0.0, 0.0), ..camera };
+            if k1.abs() < 2.0 && k2.abs() < 5.0 && rms(&with, &poses, object_points, image_points) < rms(&camera, &poses, object_points, image_points) {
+                camera = with;
+            }
+        }
+    }
+    Ok((camera, poses))
+}
+
+fn rms(camera: &Camera, poses: &[Isometry3], object_points: &[Vec<DVec3>], image_points: &[Vec<DVec2>]) -> f64 {
+    let mut s = 0.0;
+    let mut n = 0usize;
+    for ((p, o), i) in poses.iter().zip(object_points).zip(image_points) {
+        for (x, q) in o.iter().zip(i) {
+            s += camera.project_from(p, *x).map_or(1e12, |u| (u - *q).length_squared());
+            n += 1;
+        }
+    }
+    (s / n.max(1) as f64).sqrt()
+}
+
+/// Intrinsic std devs of camera `slots` whose free parameters start at `offset` in `cov`.
+pub(crate) fn intrinsic_std_devs(
+    slots: &CameraModelSlots,
+    offset: usize,
+    cov: Option<&faer::Mat<f64>>,
+) -> IntrinsicStdDevs {
+    let a: [Option<f64>; 13] = std::array::from_fn(|i| match slots.slots[i] {
+        Slot::Fixed(_) => None,
+        Slot::Free { index, scale } => {
+            Some(cov.map_or(f64::NAN, |c| scale.abs() * c[(offset + index, offset + index)].max(0.0).sqrt()))
+        }
+    });
+    IntrinsicStdDevs::from_array(a)
+}
+
+/// Std devs of a pose stored at `offset` (rvec, t) with left-perturbation covariance.
+pub(crate) fn pose_std_devs(pose: &Isometry3, offset: usize, cov: Option<&faer::Mat<f64>>) -> PoseStdDevs {
+    let Some(c) = cov else {
+        return PoseStdDevs { rotation_rad: DVec3::splat(f64::NAN), translation: DVec3::splat(f64::NAN) };
+    };
+    let rot = DVec3::new(c[(offset, offset)], c[(offset + 1, offset + 1)], c[(offset + 2, offset + 2)]).max(DVec3::ZERO);
+    // t' = t − [t]× ω + v  ⇒  J = [−[t]×, I].
+    let t = pose.translation;
+    let tx = [[0.0, -t.z, t.y], [t.z, 0.0, -t.x], [-t.y, t.x, 0.0]];
+    let mut j = [[0.0; 6]; 3];
+    for r in 0..3 {
+        for k in 0..3 {
+            j[r][k] = -tx[r][k];
+        }
+        j[r][3 + r] = 1.0;
+    }
+    let mut var = [0.0; 3];
+    for r in 0..3 {
+        let mut s = 0.0;
+        for a in 0..6 {
+            for b in 0..6 {
+                s += j[r][a] * c[(offset + a, offset + b)] * j[r][b];
+            }
+        }
+        var[r] = s.max(0.0);
+    }
+    PoseStdDevs { rotation_rad: rot.map(f64::sqrt), translation: DVec3::from_array(var).map(f64::sqrt) }
+}
+
+/// Where the radial part of the distortion stops being monotonic, if that happens inside the
+/// image. Scans the undistorted radius in steps of 1e-3 (normalised) until the distorted
+/// radius reaches the farthest image corner; tangential terms are ignored.
+pub fn distortion_fold(camera: &Camera) -> Option<DistortionFold> {
+    let k = &camera.intrinsics;
+    let corners = [
+        DVec2::new(-0.5, -0.5),
+        DVec2::new(camera.width as f64 - 0.5, -0.5),
+        DVec2::new(-0.5, camera.height as f64 - 0.5),
+        DVec2::new(camera.width as f64 - 0.5, camera.height as f64 - 0.5),
+    ];
+    let rho_max = corners.iter().map(|c| k.to_normalized(*c).length()).fold(0.0, f64::max);
+    let d = Distortion { p1: 0.0, p2: 0.0, ..camera.distortion };
+    let g = |r: f64| d.distort(DVec2::new(r, 0.0)).x;
+    let step = 1e-3;
+    let mut r = 0.0;
+    let mut prev = 0.0;
+    while r < 20.0 {
+        r += step;
+        let cur = g(r);
+        if !cur.is_finite() || cur <= prev {
+            // Fold between r − step and r: the maximum reached is `prev`.
+            return (prev < rho_max).then_some(DistortionFold {
+                undistorted_radius: r - step,
+                radius_px: prev * k.fx,
+                image_radius_px: rho_max * k.fx,
+            });
+        }
+        if cur >= rho_max {
+            return None;
+        }
+        prev = cur;
+    }
+    None
+}
+
+pub(crate) fn median(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    if n % 2 == 1 { s[n / 2] } else { 0.5 * (s[n / 2 - 1] + s[n / 2]) }
+}
+
+/// Outlier views by per-view RMS.
+pub(crate) fn outlier_views(per_view: &[f64], factor: f64, camera: usize) -> Vec<CalibrationWarning> {
+    if per_view.len() < 3 {
+        return Vec::new();
+    }
+    let med = median(per_view);
+    let dev: Vec<f64> = per_view.iter().map(|r| (r - med).abs()).collect();
+    let mad = 1.4826 * median(&dev);
+    per_view
+        .iter()
+        .enumerate()
+        .filter(|&(_, &r)| r > factor * med && r > med + 4.0 * mad)
+        .map(|(view, &r)| CalibrationWarning::OutlierView { view, camera, rms_px: r, median_rms_px: med })
+        .collect()
+}
+
+/// Largest angle (degrees) between the board normals of the views.
+pub(crate) fn view_spread_deg(poses: &[Isometry3]) -> f64 {
+    let normals: Vec<DVec3> = poses.iter().map(|p| p.transform_vector(DVec3::Z)).collect();
+    let mut best: f64 = 0.0;
+    for i in 0..normals.len() {
+        for j in (i + 1)..normals.len() {
+            best = best.max(normals[i].angle_between(normals[j]).to_degrees());
+        }
+    }
+    best
+}
+
+pub(crate) fn recommended_views(cfg: &CalibrationConfig) -> usize {
+    if cfg.fix_principal_point {
+        2
+    } else if cfg.estimate_skew {
+        4
+    } else {
+        3
+    }
+}
+
+/// Calibrates one camera from views of a planar target (Zhang's method + maximum-likelihood
+/// refinement). `object_points[v]` are the target points of view `v` (on the plane `z = 0`,
+/// board units), `image_points[v]` their observed pixels in the same order.
+///
+/// Errors: fewer than 2 views, fewer than 4 points in a view, mismatched sizes, non-finite
+/// values, non-planar targets, collinear points (naming the view), parallel views.
+pub fn calibrate_camera(
+    object_points: &[Vec<DVec3>],
+    image_points: &[Vec<DVec2>],
+    width: u32,
+    height: u32,
+    config: &CalibrationConfig,
+) -> Result<CalibrationResult> {
+    validate_views(object_points, image_points, "calibration")?;
+    if width == 0 || height == 0 {
+        return Err(CalibrationError::InvalidConfig(format!("image size {width}x{height}")));
+    }
+    let needed = if config.intrinsic_guess.is_some() && config.fix_principal_point { 1 } else { 2 };
+    if object_points.len() < needed {
+        return Err(CalibrationError::TooFewViews {
+            got: object_points.len(),
+            needed,
+            why: "a planar target fixes only 2 of the intrinsics per view (give more views, or an intrinsic guess with a fixed principal point)",
+        });
+    }
+    let (init_camera, init_poses) = initial_estimate(object_points, image_points, width, height, config)?;
+    let slots = model_slots(config, &init_camera);
+    let views: Vec<ViewObs> = object_points
+        .iter()
+        .zip(image_points)
+        .map(|(o, i)| ViewObs { object: o, image: [Some(i.as_slice()), None] })
+        .collect();
+    let bundle = Bundle::new(vec![slots.clone()], false, views);
+    let n = least_squares::Problem::num_params(&bundle);
+    if bundle.num_residuals <= n {
+        return Err(CalibrationError::TooFewPoints {
+            what: "calibration (all views)".into(),
+            got: bundle.num_residuals / 2,
+            needed: n / 2 + 1,
+        });
+    }
+    let mut x0 = vec![0.0; n];
+    x0[..slots.num_free].copy_from_slice(&slots.free_values(&init_camera));
+    for (v, p) in init_poses.iter().enumerate() {
+        let o = bundle.view_offset(v);
+        store_pose(p, &mut x0[o..o + 6]);
+    }
+    let report = levenberg_marquardt(&bundle, &x0, &LmConfig { covariance: true, ..config.lm })?;
+    let camera = slots.camera(&report.params[..slots.num_free]);
+    camera.validate().map_err(|e| CalibrationError::EstimationFailed(format!("refined camera is invalid: {e}")))?;
+    let poses: Vec<Isometry3> =
+        (0..object_points.len()).map(|v| crate::bundle::pose_at(&report.params[bundle.view_offset(v)..])).collect();
+    let by_view =
+        bundle.residuals_by_view(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
+    let residuals_px: Vec<Vec<DVec2>> = by_view.into_iter().map(|[r, _]| r.into_iter().map(|e| -e).collect()).collect();
+    let per_view_rms_px: Vec<f64> = residuals_px.iter().map(|r| rms_of(r)).collect();
+    let all: Vec<DVec2> = residuals_px.iter().flatten().copied().collect();
+    let cov = report.covariance.as_ref();
+    let std_devs = intrinsic_std_devs(&slots, 0, cov);
+    let pose_std_devs = poses.iter().enumerate().map(|(v, p)| pose_std_devs(p, bundle.view_offset(v), cov)).collect();
+    let mut warnings = outlier_views(&per_view_rms_px, config.outlier_view_factor, 0);
+    diagnostics(&mut warnings, &camera, 0, &poses, config, &report);
+    Ok(CalibrationResult {
+        camera,
+        camera_from_board: poses,
+        rms_px: rms_of(&all),
+        per_view_rms_px,
+        residuals_px,
+        std_devs,
+        pose_std_devs,
+        sigma_px: report.sigma2.sqrt(),
+        dof: report.dof,
+        num_parameters: n,
+        iterations: report.iterations,
+        converged: report.stop_reason.converged(),
+        warnings,
+    })
+}
+
+pub(crate) fn diagnostics(
+    warnings: &mut Vec<CalibrationWarning>,
+    camera: &Camera,
+    index: usize,
+    poses: &[Isometry3],
+    config: &CalibrationConfig,
+    report: &LmReport,
+) {
+    if let Some(fold) = distortion_fold(camera) {
+        warnings.push(CalibrationWarning::NonMonotonicDistortion { camera: index, fold });
+    }
+    if index == 0 {
+        let recommended = recommended_views(config);
+        if poses.len() < recommended {
+            warnings.push(CalibrationWarning::TooFewViews { views: poses.len(), recommended });
+        }
+        let spread = view_spread_deg(poses);
+        if config.intrinsic_guess.is_none() && spread < config.min_view_spread_deg {
+            warnings.push(CalibrationWarning::SimilarViews {
+                max_angle_deg: spread,
+                threshold_deg: config.min_view_spread_deg,
+            });
+        }
+        if !report.stop_reason.converged() {
+            warnings.push(CalibrationWarning::NotConverged { iterations: report.iterations });
+        }
+    }
+}
+
+pub(crate) fn rms_of(r: &[DVec2]) -> f64 {
+    if r.is_empty() {
+        return 0.0;
+    }
+    (r.iter().map(|e| e.length_squared()).sum::<f64>() / r.len() as f64).sqrt()
+}
+
+/// Object points of a chessboard (row-major, OpenCV order, `z = 0`), once per view.
+pub(crate) fn board_views(board: &Chessboard, grids: &[CornerGrid], what: &str) -> Result<Vec<Vec<DVec3>>> {
+    board.validate()?;
+    for (v, g) in grids.iter().enumerate() {
+        if g.cols != board.cols || g.rows != board.rows || g.corners.len() != board.len() {
+            return Err(CalibrationError::SizeMismatch(format!(
+                "{what} view {v}: corner grid {}x{} ({} corners) but board {}x{}",
+                g.cols,
+                g.rows,
+                g.corners.len(),
+                board.cols,
+                board.rows
+            )));
+        }
+    }
+    Ok(vec![board.object_points(); grids.len()])
+}
+
+/// [`calibrate_camera`] for chessboard corner grids (`CornerGrid` in OpenCV order).
+pub fn calibrate_chessboard(
+    board: &Chessboard,
+    grids: &[CornerGrid],
+    width: u32,
+    height: u32,
+    config: &CalibrationConfig,
+) -> Result<CalibrationResult> {
+    let object = board_views(board, grids, "calibration")?;
+    let image: Vec<Vec<DVec2>> = grids.iter().map(|g| g.corners.clone()).collect();
+    calibrate_camera(&object, &image, width, height, config)
+}

@@ -1,0 +1,90 @@
+//! The build-once [`Rectifier`]: a rig's rectification and both maps.
+
+use camera_model::StereoRig;
+
+use crate::remap::{Image, Sample};
+use crate::{
+    Border, Interpolation, Rectification, RectifyConfig, RectifyError, RemapTable, Result, init_undistort_rectify_map,
+    remap, stereo_rectify,
+};
+
+/// Rectifies image pairs of one rig: built once (rectification + both undistort/rectify maps),
+/// then applied to every frame with [`Rectifier::rectify_pair`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rectifier {
+    rectification: Rectification,
+    left_map: RemapTable,
+    right_map: RemapTable,
+    input_size: (u32, u32),
+    interpolation: Interpolation,
+}
+
+impl Rectifier {
+    /// Rectifies the rig ([`stereo_rectify`]) and builds both maps (bilinear by default).
+    pub fn new(rig: &StereoRig, config: &RectifyConfig) -> Result<Self> {
+        let rectification = stereo_rectify(rig, config)?;
+        Self::from_rectification(rig, rectification)
+    }
+
+    /// Builds the maps of an existing rectification of `rig`.
+    pub fn from_rectification(rig: &StereoRig, rectification: Rectification) -> Result<Self> {
+        let (w, h) = (rectification.width, rectification.height);
+        let (left_map, right_map) = rayon::join(
+            || init_undistort_rectify_map(&rig.left, rectification.r1, rectification.left_camera_matrix(), w, h),
+            || init_undistort_rectify_map(&rig.right, rectification.r2, rectification.right_camera_matrix(), w, h),
+        );
+        Ok(Self {
+            rectification,
+            left_map: left_map?,
+            right_map: right_map?,
+            input_size: (rig.left.width, rig.left.height),
+            interpolation: Interpolation::Bilinear,
+        })
+    }
+
+    /// Chooses the interpolation of [`Self::rectify_pair`].
+    pub fn with_interpolation(mut self, interpolation: Interpolation) -> Self {
+        self.interpolation = interpolation;
+        self
+    }
+
+    /// The rectification (`R1`, `R2`, `P1`, `P2`, `Q`, ROIs).
+    pub fn rectification(&self) -> &Rectification {
+        &self.rectification
+    }
+
+    /// The left map.
+    pub fn left_map(&self) -> &RemapTable {
+        &self.left_map
+    }
+
+    /// The right map.
+    pub fn right_map(&self) -> &RemapTable {
+        &self.right_map
+    }
+
+    /// Rectifies a left/right pair (both images at the rig's calibrated size); the two images
+    /// are resampled in parallel. `border` fills pixels without a source.
+    pub fn rectify_pair<P>(&self, left: &Image<P>, right: &Image<P>, border: Border<P>) -> Result<(Image<P>, Image<P>)>
+    where
+        P: image::Pixel + Send + Sync,
+        P::Subpixel: Sample,
+    {
+        for (what, img) in [("left", left), ("right", right)] {
+            if img.dimensions() != self.input_size {
+                return Err(RectifyError::SizeMismatch(format!(
+                    "{what} image is {}x{}, the rig was calibrated at {}x{}",
+                    img.width(),
+                    img.height(),
+                    self.input_size.0,
+                    self.input_size.1
+                )));
+            }
+        }
+        let (l, r) = rayon::join(
+            || remap(left, &self.left_map, self.interpolation, border),
+            || remap(right, &self.right_map, self.interpolation, border),
+        );
+        Ok((l?, r?))
+    }
+}

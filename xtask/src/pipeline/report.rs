@@ -1,0 +1,233 @@
+//! The pipeline's result table and its Markdown report.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use serde::Serialize;
+
+/// How a figure is compared with its tolerance.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum Bound {
+    /// Passes when `value ≤ tolerance`.
+    AtMost,
+    /// Passes when `value ≥ tolerance`.
+    AtLeast,
+}
+
+/// One line of the table: a stage's figure against ground truth and its tolerance.
+#[derive(Debug, Clone, Serialize)]
+pub struct Row {
+    /// Stage name (`corners`, `calibration`, ...).
+    pub stage: String,
+    /// What is measured.
+    pub figure: String,
+    /// The measured value.
+    pub value: f64,
+    /// The tolerance from the scene file.
+    pub tolerance: f64,
+    /// Unit of value and tolerance.
+    pub unit: String,
+    /// Direction of the comparison.
+    pub bound: Bound,
+}
+
+impl Row {
+    /// True when the value is within tolerance (a NaN value fails).
+    pub fn pass(&self) -> bool {
+        match self.bound {
+            Bound::AtMost => self.value <= self.tolerance,
+            Bound::AtLeast => self.value >= self.tolerance,
+        }
+    }
+}
+
+/// The collected rows plus notes and artifacts.
+#[derive(Debug, Default, Serialize)]
+pub struct Report {
+    /// Scene name.
+    pub scene: String,
+    /// Table rows in stage order.
+    pub rows: Vec<Row>,
+    /// Free-form lines per stage (results without a truth column).
+    pub notes: Vec<(String, String)>,
+    /// Images written to the output directory (file name, caption).
+    pub images: Vec<(String, String)>,
+}
+
+impl Report {
+    /// Adds a row with an upper bound.
+    pub fn at_most(&mut self, stage: &str, figure: &str, value: f64, tolerance: f64, unit: &str) {
+        self.rows.push(Row {
+            stage: stage.into(),
+            figure: figure.into(),
+            value,
+            tolerance,
+            unit: unit.into(),
+            bound: Bound::AtMost,
+        });
+    }
+
+    /// Adds a row with a lower bound.
+    pub fn at_least(&mut self, stage: &str, figure: &str, value: f64, tolerance: f64, unit: &str) {
+        self.rows.push(Row {
+            stage: stage.into(),
+            figure: figure.into(),
+            value,
+            tolerance,
+            unit: unit.into(),
+            bound: Bound::AtLeast,
+        });
+    }
+
+    /// Adds a note line for a stage.
+    pub fn note(&mut self, stage: &str, text: impl Into<String>) {
+        self.notes.push((stage.into(), text.into()));
+    }
+
+    /// The stages with at least one failing row, in order, without repeats.
+    pub fn failed_stages(&self) -> Vec<String> {
+        let mut out: Vec<String> = Vec::new();
+        for r in self.rows.iter().filter(|r| !r.pass()) {
+            if !out.contains(&r.stage) {
+                out.push(r.stage.clone());
+            }
+        }
+        out
+    }
+
+    /// The plain-text table printed at the end of a run.
+    pub fn table(&self) -> String {
+        let mut s = String::new();
+        let w_stage = self.rows.iter().map(|r| r.stage.len()).max().unwrap_or(5).max(5);
+        let w_fig = self.rows.iter().map(|r| r.figure.len()).max().unwrap_or(6).max(6);
+        let _ = writeln!(s, "{:<w_stage$}  {:<w_fig$}  {:>12}  {:>12}  {:<6}  result", "stage", "figure", "value", "tolerance", "unit");
+        let _ = writeln!(s, "{}", "-".repeat(w_stage + w_fig + 50));
+        for r in &self.rows {
+            let op = if r.bound == Bound::AtMost { "≤" } else { "≥" };
+            let _ = writeln!(
+                s,
+                "{:<w_stage$}  {:<w_fig$}  {:>12}  {op}{:>11}  {:<6}  {}",
+                r.stage,
+                r.figure,
+                fmt_value(r.value),
+                fmt_value(r.tolerance),
+                r.unit,
+                if r.pass() { "pass" } else { "FAIL" }
+            );
+        }
+        s
+    }
+
+    /// The closing line of the output contract: `pipeline: PASS` or `pipeline: FAIL (<stages>)`.
+    pub fn verdict(&self) -> String {
+        let failed = self.failed_stages();
+        if failed.is_empty() { "pipeline: PASS".into() } else { format!("pipeline: FAIL ({})", failed.join(", ")) }
+    }
+
+    /// A Markdown report with the table, the notes and the images inline.
+    pub fn markdown(&self) -> String {
+        let mut s = format!("# parallax pipeline — scene `{}`\n\n", self.scene);
+        s.push_str("| stage | figure | value | tolerance | unit | result |\n|---|---|---|---|---|---|\n");
+        for r in &self.rows {
+            let op = if r.bound == Bound::AtMost { "≤" } else { "≥" };
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {op} {} | {} | {} |",
+                r.stage,
+                r.figure,
+                fmt_value(r.value),
+                fmt_value(r.tolerance),
+                r.unit,
+                if r.pass() { "pass" } else { "**FAIL**" }
+            );
+        }
+        let _ = writeln!(s, "\n**{}**\n", self.verdict());
+        if !self.notes.is_empty() {
+            s.push_str("## Notes\n\n");
+            for (stage, text) in &self.notes {
+                let _ = writeln!(s, "- **{stage}**: {text}");
+            }
+            s.push('\n');
+        }
+        if !self.images.is_empty() {
+            s.push_str("## Images\n\n");
+            for (file, caption) in &self.images {
+                let _ = writeln!(s, "### {caption}\n\n![{caption}]({file})\n");
+            }
+        }
+        s
+    }
+
+    /// Writes `report.md` and `report.html` (the same content, images inline) into `dir`.
+    pub fn write(&self, dir: &Path) -> anyhow::Result<()> {
+        crate::util::write_atomic(&dir.join("report.md"), self.markdown().as_bytes())?;
+        crate::util::write_atomic(&dir.join("report.html"), self.html().as_bytes())?;
+        crate::util::write_ron(&dir.join("report.ron"), self)
+    }
+
+    /// A self-contained HTML page (images referenced relative to the report).
+    pub fn html(&self) -> String {
+        let esc = |t: &str| t.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
+        let mut s = format!(
+            "<!doctype html><html><head><meta charset=\"utf-8\"><title>parallax pipeline — {0}</title>\
+             <style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto}}td,th{{padding:2px 10px;text-align:right}}\
+             td:first-child,td:nth-child(2){{text-align:left}}.FAIL{{color:#b00;font-weight:bold}}img{{max-width:100%}}</style>\
+             </head><body><h1>parallax pipeline — scene <code>{0}</code></h1><table><tr><th>stage</th><th>figure</th>\
+             <th>value</th><th>tolerance</th><th>unit</th><th>result</th></tr>",
+            esc(&self.scene)
+        );
+        for r in &self.rows {
+            let op = if r.bound == Bound::AtMost { "≤" } else { "≥" };
+            let res = if r.pass() { "pass" } else { "FAIL" };
+            let _ = write!(
+                s,
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{op} {}</td><td>{}</td><td class=\"{res}\">{res}</td></tr>",
+                esc(&r.stage),
+                esc(&r.figure),
+                fmt_value(r.value),
+                fmt_value(r.tolerance),
+                esc(&r.unit)
+            );
+        }
+        let _ = write!(s, "</table><p><b>{}</b></p>", esc(&self.verdict()));
+        if !self.notes.is_empty() {
+            s.push_str("<h2>Notes</h2><ul>");
+            for (stage, text) in &self.notes {
+                let _ = write!(s, "<li><b>{}</b>: {}</li>", esc(stage), esc(text));
+            }
+            s.push_str("</ul>");
+        }
+        for (file, caption) in &self.images {
+            let _ = write!(s, "<h3>{0}</h3><img src=\"{1}\" alt=\"{0}\">", esc(caption), esc(file));
+        }
+        s.push_str("</body></html>\n");
+        s
+    }
+}
+
+fn fmt_value(v: f64) -> String {
+    if !v.is_finite() {
+        return format!("{v}");
+    }
+    let a = v.abs();
+    if a != 0.0 && !(1e-3..1e5).contains(&a) { format!("{v:.3e}") } else { format!("{v:.4}") }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn verdict_names_failing_stages_once_and_nan_fails() {
+        let mut r = Report { scene: "t".into(), ..Report::default() };
+        r.at_most("calibration", "focal error", 0.05, 0.1, "%");
+        r.at_most("disparity", "bad-2", 12.0, 10.0, "%");
+        r.at_least("disparity", "density", 80.0, 85.0, "%");
+        r.at_most("hand-eye", "rotation error", f64::NAN, 0.5, "deg");
+        assert_eq!(r.failed_stages(), vec!["disparity".to_string(), "hand-eye".to_string()]);
+        assert_eq!(r.verdict(), "pipeline: FAIL (disparity, hand-eye)");
+        let ok = Report { scene: "t".into(), rows: vec![r.rows[0].clone()], ..Report::default() };
+        assert_eq!(ok.verdict(), "pipeline: PASS");
+        assert!(r.table().contains("FAIL") && r.markdown().contains("**FAIL**") && r.html().contains("class=\"FAIL\""));
+    }
+}
