@@ -1,16 +1,202 @@
-//! `cargo xtask disparity`.
+//! `cargo xtask disparity`: dense disparity of a rectified pair with the block-matching crate,
+//! optional evaluation against a ground truth (Middlebury style), timing in Mde/s.
 
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::Context;
+use block_matching::{BlockMatcher, CostFunction, Gray16Image, MatcherConfig, Prefilter};
+use camera_model::DisparityMap;
+
+use crate::util;
 
 /// Arguments of `cargo xtask disparity`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Arguments not yet defined (the stage is not available yet).
-    #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
-    rest: Vec<String>,
+    /// Left rectified image (8- or 16-bit grayscale; colour is converted).
+    #[arg(long)]
+    left: PathBuf,
+    /// Right rectified image.
+    #[arg(long)]
+    right: PathBuf,
+    /// Matching cost: sad, ssd or ncc.
+    #[arg(long, default_value = "sad")]
+    cost: String,
+    /// Window side in pixels (odd, 3..=31).
+    #[arg(long, default_value_t = 9)]
+    block: usize,
+    /// Number of disparities searched.
+    #[arg(long, default_value_t = 64)]
+    disparities: usize,
+    /// Smallest disparity searched.
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
+    min_disparity: i32,
+    /// Prefilter: xsobel (default, cap 31), norm (9x9, cap 31) or none.
+    #[arg(long, default_value = "xsobel")]
+    prefilter: String,
+    /// Uniqueness ratio in percent (default: the crate's default).
+    #[arg(long)]
+    uniqueness: Option<u32>,
+    /// Texture threshold (default: the crate's default).
+    #[arg(long)]
+    texture: Option<u32>,
+    /// Left–right tolerance in px; negative disables the check (default: the crate's default).
+    #[arg(long, allow_hyphen_values = true)]
+    lr_max_diff: Option<i32>,
+    /// Speckle filter region size in px, 0 disables (default: the crate's default).
+    #[arg(long)]
+    speckle_window: Option<usize>,
+    /// Ground-truth disparity (PFM, or PNG of disparity x --gt-scale with 0 = unknown).
+    #[arg(long)]
+    gt: Option<PathBuf>,
+    /// Ground-truth PNG value per pixel of disparity (Middlebury: info.txt).
+    #[arg(long, default_value_t = 1.0)]
+    gt_scale: f32,
+    /// Evaluation mask (pixels > 128 are evaluated), e.g. Middlebury nonocc.png.
+    #[arg(long)]
+    mask: Option<PathBuf>,
+    /// Worker threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Timed runs after one warm-up run; the median is reported.
+    #[arg(long, default_value_t = 5)]
+    runs: usize,
+    /// Output directory (disparity.pfm, disparity16.png at 1/256 px, disparity_colour.png).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+enum Pair {
+    U8(image::GrayImage, image::GrayImage),
+    U16(Gray16Image, Gray16Image),
+}
+
+fn is_16_bit(path: &Path) -> anyhow::Result<bool> {
+    let img = image::open(path).with_context(|| format!("reading image {}", path.display()))?;
+    Ok(img.color().bytes_per_pixel() / img.color().channel_count() > 1)
+}
+
+fn load_pair(left: &Path, right: &Path) -> anyhow::Result<Pair> {
+    if is_16_bit(left)? || is_16_bit(right)? {
+        let l = image::open(left).with_context(|| format!("reading image {}", left.display()))?.into_luma16();
+        let r = image::open(right).with_context(|| format!("reading image {}", right.display()))?.into_luma16();
+        Ok(Pair::U16(l, r))
+    } else {
+        Ok(Pair::U8(util::load_gray(left)?, util::load_gray(right)?))
+    }
+}
+
+fn load_truth(path: &Path, scale: f32) -> anyhow::Result<DisparityMap> {
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("pfm")) {
+        let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+        return Ok(block_matching::from_pfm(&bytes, &path.display().to_string())?);
+    }
+    let img = image::open(path).with_context(|| format!("reading ground truth {}", path.display()))?;
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let values: Vec<u16> = if img.color().bytes_per_pixel() / img.color().channel_count() > 1 {
+        img.into_luma16().into_raw()
+    } else {
+        img.into_luma8().into_raw().into_iter().map(u16::from).collect()
+    };
+    block_matching::from_scaled(&values, w, h, scale).with_context(|| format!("ground truth {}", path.display()))
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let _ = args.rest;
-    anyhow::bail!("`cargo xtask disparity` is not yet available")
+    let cost = match args.cost.to_ascii_lowercase().as_str() {
+        "sad" => CostFunction::Sad,
+        "ssd" => CostFunction::Ssd,
+        "ncc" => CostFunction::Ncc,
+        other => anyhow::bail!("--cost must be sad, ssd or ncc (got {other:?})"),
+    };
+    let prefilter = match args.prefilter.to_ascii_lowercase().as_str() {
+        "xsobel" => Prefilter::XSobel { cap: 31 },
+        "norm" => Prefilter::NormalizedResponse { size: 9, cap: 31 },
+        "none" => Prefilter::None,
+        other => anyhow::bail!("--prefilter must be xsobel, norm or none (got {other:?})"),
+    };
+    anyhow::ensure!(args.runs >= 1, "--runs must be at least 1");
+    let d = MatcherConfig::default();
+    let cfg = MatcherConfig {
+        cost,
+        block_size: args.block,
+        min_disparity: args.min_disparity,
+        num_disparities: args.disparities,
+        prefilter,
+        uniqueness_ratio: args.uniqueness.unwrap_or(d.uniqueness_ratio),
+        texture_threshold: args.texture.unwrap_or(d.texture_threshold),
+        lr_max_diff: match args.lr_max_diff {
+            Some(v) if v < 0 => None,
+            Some(v) => Some(v as u32),
+            None => d.lr_max_diff,
+        },
+        speckle_window_size: args.speckle_window.unwrap_or(d.speckle_window_size),
+        threads: args.threads,
+        ..d
+    };
+    let mut matcher = BlockMatcher::new(cfg.clone()).context("block-matching configuration")?;
+    let pair = load_pair(&args.left, &args.right)?;
+    let truth = args.gt.as_deref().map(|p| load_truth(p, args.gt_scale)).transpose()?;
+    let mask = match &args.mask {
+        Some(p) => Some(util::load_gray(p)?.into_raw().into_iter().map(|v| v > 128).collect::<Vec<bool>>()),
+        None => None,
+    };
+    let mut compute = || -> anyhow::Result<DisparityMap> {
+        Ok(match &pair {
+            Pair::U8(l, r) => matcher.compute(l, r)?,
+            Pair::U16(l, r) => matcher.compute_u16(l, r)?,
+        })
+    };
+    let mut map = compute()?; // warm-up (buffers, thread pool, caches)
+    let mut times = Vec::with_capacity(args.runs);
+    for _ in 0..args.runs {
+        let t = Instant::now();
+        map = compute()?;
+        times.push(t.elapsed().as_secs_f64());
+    }
+    times.sort_by(f64::total_cmp);
+    let seconds = times[times.len() / 2];
+    let stats = matcher.last_stats();
+    let mdes = (map.width * map.height * cfg.num_disparities) as f64 / seconds / 1e6;
+
+    util::write_atomic(&args.out.join("disparity.pfm"), &block_matching::to_pfm(&map))?;
+    util::save_png(&args.out.join("disparity16.png"), &block_matching::to_png16(&map, 256.0))?;
+    let lo = cfg.min_disparity as f32;
+    let range = (lo, lo + cfg.num_disparities as f32 - 1.0);
+    util::save_png(&args.out.join("disparity_colour.png"), &block_matching::false_colour(&map, Some(range)))?;
+
+    println!(
+        "{}x{} cost {:?} block {} disparities [{}, {}) simd {:?}, median of {} runs",
+        map.width,
+        map.height,
+        cfg.cost,
+        cfg.block_size,
+        cfg.min_disparity,
+        cfg.min_disparity + cfg.num_disparities as i32,
+        matcher.simd(),
+        args.runs
+    );
+    println!(
+        "invalid: {} no candidate, {} low texture, {} not unique, {} left-right, {} speckle; map density {:.2} %",
+        stats.no_candidate,
+        stats.low_texture,
+        stats.not_unique,
+        stats.lr_inconsistent,
+        stats.speckle,
+        100.0 * stats.density
+    );
+    println!("wrote {}/disparity.pfm, disparity16.png, disparity_colour.png", args.out.display());
+    if let Some(truth) = &truth {
+        let e = block_matching::evaluate(&map, truth, mask.as_deref(), &[1.0, 2.0])
+            .context("evaluating against the ground truth")?;
+        println!("evaluated {} px, rms {:.3} px", e.evaluated, e.rms);
+        println!("bad1: {:.2}", e.bad_at(1.0).unwrap_or(f64::NAN));
+        println!("bad2: {:.2}", e.bad_at(2.0).unwrap_or(f64::NAN));
+        println!("density: {:.2}", e.density);
+    } else {
+        println!("density: {:.2}", 100.0 * stats.density);
+    }
+    println!("seconds: {seconds:.6}");
+    println!("mdes: {mdes:.0}");
+    Ok(ExitCode::SUCCESS)
 }

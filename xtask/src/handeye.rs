@@ -1,16 +1,329 @@
-//! `cargo xtask handeye`.
+//! `cargo xtask handeye`: every hand-eye method on the user's robot and camera poses.
+//!
+//! ```text
+//! cargo xtask handeye --robot 'data/franka_pose_rPe_*.yaml' --camera-poses cam.ron [--method all] [--eye-to-hand]
+//! cargo xtask handeye --robot POSES --images 'data/franka_image-*.png' --board 9x6 --square 0.0236 --intrinsics franka_camera.xml
+//! ```
+//!
+//! Prints one line per method (`method: NAME tx: … rot_residual_deg: … trans_residual: …`),
+//! translation in the square-size unit (which must be the robot poses' unit), rotation as
+//! axis-angle in degrees; residuals are means over the station pairs of `A X = X B`.
 
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+
+use anyhow::{Context, ensure};
+use camera_model::Isometry3;
+use hand_eye::io::{RotationFormat, parse_pose_lines, parse_pose_ron, parse_visp_pose};
+use hand_eye::{HandEyeConfig, HandEyeSolution, Method, PairSelection, Setup, calibrate};
+
+use crate::util;
+
+/// Format of a pose file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum PoseFormat {
+    /// By extension: `.ron` RON list, `.yaml`/`.yml` ViSP 6x1 `data:` file (one pose per
+    /// file), anything else text lines `tx ty tz rx ry rz` (axis-angle, radians).
+    Auto,
+    /// RON list of `Isometry3`.
+    Ron,
+    /// ViSP `vpPoseVector` YAML: `[tx ty tz θux θuy θuz]`, metres and radians, one per file.
+    Visp,
+    /// Text lines `tx ty tz rx ry rz`, axis-angle in radians.
+    AxisAngle,
+    /// Text lines `x y z roll pitch yaw`, degrees, `R = Rz(yaw) Ry(pitch) Rx(roll)`.
+    RpyDeg,
+}
 
 /// Arguments of `cargo xtask handeye`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Arguments not yet defined (the stage is not available yet).
-    #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
-    rest: Vec<String>,
+    /// Robot poses `base_from_gripper`: one file holding a list, or a glob of one-pose files
+    /// (sorted by the number in the name, e.g. ViSP's `franka_pose_rPe_*.yaml`).
+    #[arg(long)]
+    robot: String,
+    /// Format of the robot poses.
+    #[arg(long, value_enum, default_value = "auto")]
+    robot_format: PoseFormat,
+    /// Camera poses `camera_from_board`, one per station (instead of `--images`).
+    #[arg(long, conflicts_with = "images")]
+    camera_poses: Option<PathBuf>,
+    /// Format of the camera poses.
+    #[arg(long, value_enum, default_value = "auto")]
+    camera_format: PoseFormat,
+    /// Board images, one per station in the same order as the robot poses (glob, sorted by
+    /// the number in the name).
+    #[arg(long)]
+    images: Option<String>,
+    /// Inner corners, `COLSxROWS` (with `--images`).
+    #[arg(long, default_value = "9x6")]
+    board: String,
+    /// Square size, in the robot poses' length unit (with `--images`).
+    #[arg(long)]
+    square: Option<f64>,
+    /// Camera intrinsics: ViSP XML (`px py u0 v0`) or a RON `Camera` (with `--images`).
+    #[arg(long)]
+    intrinsics: Option<PathBuf>,
+    /// Method: all, tsai, park, horaud, andreff, daniilidis, rodrigues, refined, shah, li.
+    #[arg(long, default_value = "all")]
+    method: String,
+    /// Eye-to-hand (camera fixed, board on the gripper): solves `base_from_camera`.
+    #[arg(long)]
+    eye_to_hand: bool,
+    /// Use consecutive station pairs only (default: all pairs).
+    #[arg(long)]
+    consecutive: bool,
+    /// Write the camera poses (`camera_from_board` of the kept stations, RON) to this file, for
+    /// reuse with `--camera-poses`.
+    #[arg(long)]
+    save_camera_poses: Option<PathBuf>,
+    /// Write every solution (with residuals and covariance) to this RON file.
+    #[arg(long)]
+    output: Option<PathBuf>,
+}
+
+/// Sorts paths by their name with embedded numbers compared as numbers (`pose_2` < `pose_10`).
+fn natural_sort(paths: &mut [PathBuf]) {
+    fn key(p: &Path) -> Vec<(String, u64)> {
+        let s = p.to_string_lossy();
+        let mut out = Vec::new();
+        let mut text = String::new();
+        let mut num = String::new();
+        for ch in s.chars() {
+            if ch.is_ascii_digit() {
+                num.push(ch);
+            } else {
+                if !num.is_empty() {
+                    out.push((std::mem::take(&mut text), num.parse().unwrap_or(u64::MAX)));
+                    num.clear();
+                }
+                text.push(ch);
+            }
+        }
+        out.push((text, num.parse().unwrap_or(0)));
+        out
+    }
+    paths.sort_by_key(|p| key(p));
+}
+
+fn expand(pattern: &str) -> anyhow::Result<Vec<PathBuf>> {
+    let mut paths = util::expand_glob(pattern)?;
+    natural_sort(&mut paths);
+    Ok(paths)
+}
+
+fn resolve_format(path: &Path, format: PoseFormat) -> PoseFormat {
+    if format != PoseFormat::Auto {
+        return format;
+    }
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("ron") => PoseFormat::Ron,
+        Some("yaml" | "yml") => PoseFormat::Visp,
+        _ => PoseFormat::AxisAngle,
+    }
+}
+
+fn read_pose_file(path: &Path, format: PoseFormat) -> anyhow::Result<Vec<Isometry3>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let name = path.display().to_string();
+    Ok(match resolve_format(path, format) {
+        PoseFormat::Ron => parse_pose_ron(&text, &name)?,
+        PoseFormat::Visp => vec![parse_visp_pose(&text, &name)?],
+        PoseFormat::RpyDeg => parse_pose_lines(&text, RotationFormat::RollPitchYawDeg, &name)?,
+        PoseFormat::AxisAngle | PoseFormat::Auto => parse_pose_lines(&text, RotationFormat::AxisAngle, &name)?,
+    })
+}
+
+/// Reads poses from one file or a glob of files (concatenated in natural order).
+pub fn read_poses(spec: &str, format: PoseFormat) -> anyhow::Result<Vec<Isometry3>> {
+    let paths = if Path::new(spec).is_file() { vec![PathBuf::from(spec)] } else { expand(spec)? };
+    let mut poses = Vec::new();
+    for p in &paths {
+        poses.extend(read_pose_file(p, format)?);
+    }
+    Ok(poses)
+}
+
+/// Pinhole intrinsics `(fx, fy, cx, cy)` from ViSP's camera XML (`<px>`, `<py>`, `<u0>`, `<v0>`
+/// of the first `<model>`); parsed by hand, the format is four tags.
+pub fn parse_visp_intrinsics(xml: &str, what: &str) -> anyhow::Result<[f64; 4]> {
+    let tag = |name: &str| -> anyhow::Result<f64> {
+        let open = format!("<{name}>");
+        let close = format!("</{name}>");
+        let start = xml.find(&open).with_context(|| format!("{what}: no <{name}> element"))? + open.len();
+        let end = xml[start..].find(&close).with_context(|| format!("{what}: <{name}> is not closed"))? + start;
+        let v: f64 = xml[start..end].trim().parse().with_context(|| format!("{what}: <{name}> is not a number"))?;
+        ensure!(v.is_finite(), "{what}: <{name}> is not finite");
+        Ok(v)
+    };
+    Ok([tag("px")?, tag("py")?, tag("u0")?, tag("v0")?])
+}
+
+fn parse_methods(spec: &str) -> anyhow::Result<Vec<Method>> {
+    if spec.trim().eq_ignore_ascii_case("all") {
+        return Ok(Method::ALL.to_vec());
+    }
+    spec.split(',').map(|s| s.parse::<Method>().map_err(anyhow::Error::from)).collect()
+}
+
+/// Camera poses from board images: chessboard corners (corner-detection) and a planar pose
+/// (planar-calibration) per image. Images where the board is not found are dropped together
+/// with their robot pose (reported). Returns the kept robot and camera poses.
+fn camera_poses_from_images(args: &Args, robot: Vec<Isometry3>) -> anyhow::Result<(Vec<Isometry3>, Vec<Isometry3>)> {
+    let pattern = args.images.as_deref().context("--images or --camera-poses is required")?;
+    let images = expand(pattern)?;
+    ensure!(
+        images.len() == robot.len(),
+        "{} images match {pattern:?} but there are {} robot poses",
+        images.len(),
+        robot.len()
+    );
+    let (cols, rows) = args
+        .board
+        .split_once(['x', 'X'])
+        .and_then(|(c, r)| Some((c.trim().parse::<usize>().ok()?, r.trim().parse::<usize>().ok()?)))
+        .with_context(|| format!("--board {:?}: expected COLSxROWS, e.g. 9x6", args.board))?;
+    let square = args.square.context("--square is required with --images")?;
+    let board = camera_model::Chessboard::new(cols, rows, square)?;
+    let intr = args.intrinsics.as_deref().context("--intrinsics is required with --images")?;
+    let ron_camera: Option<camera_model::Camera> = if intr.extension().is_some_and(|e| e.eq_ignore_ascii_case("ron")) {
+        Some(util::read_ron(intr)?)
+    } else {
+        None
+    };
+    let xml_intrinsics = match ron_camera {
+        Some(_) => None,
+        None => {
+            let text = std::fs::read_to_string(intr).with_context(|| format!("reading {}", intr.display()))?;
+            Some(parse_visp_intrinsics(&text, &intr.display().to_string())?)
+        }
+    };
+    let cfg = corner_detection::ChessboardConfig::default();
+    let (mut kept_robot, mut camera) = (Vec::new(), Vec::new());
+    for (path, g) in images.iter().zip(robot) {
+        let img = util::load_gray(path)?;
+        let cam = match (&ron_camera, xml_intrinsics) {
+            (Some(c), _) => *c,
+            (None, Some([fx, fy, cx, cy])) => camera_model::Camera::new(
+                camera_model::Intrinsics::new(fx, fy, cx, cy),
+                camera_model::Distortion::default(),
+                img.width(),
+                img.height(),
+            )?,
+            (None, None) => unreachable!("one intrinsics source is always read"),
+        };
+        let name = path.display();
+        match corner_detection::find_chessboard(&img, cols, rows, &cfg).with_context(|| format!("corners of {name}"))? {
+            Some(grid) => {
+                let (pose, rms) = planar_calibration::solve_pnp_planar(&cam, &board, &grid.corners)
+                    .with_context(|| format!("board pose in {name}"))?;
+                println!("  {name}: board found, pose RMS reprojection {rms:.3} px");
+                kept_robot.push(g);
+                camera.push(pose);
+            }
+            None => println!("  {name}: board not found, station skipped"),
+        }
+    }
+    Ok((kept_robot, camera))
+}
+
+fn print_solution(s: &HandEyeSolution) {
+    let t = s.transform.translation;
+    let r = s.transform.rvec() * (180.0 / std::f64::consts::PI);
+    println!(
+        "method: {} tx: {:.6} ty: {:.6} tz: {:.6} rx_deg: {:.4} ry_deg: {:.4} rz_deg: {:.4} rot_residual_deg: {:.4} trans_residual: {:.6}",
+        s.method, t.x, t.y, t.z, r.x, r.y, r.z, s.quality.mean_rotation_deg, s.quality.mean_translation
+    );
+    println!(
+        "    board spread {:.4}° / {:.6}, table-4 error {:.6}",
+        s.quality.board_spread_rotation_deg, s.quality.board_spread_translation, s.quality.mean_matrix_error
+    );
+    if let Some((rf, sd)) = s.refinement.as_ref().and_then(|rf| rf.std_devs.map(|sd| (rf, sd))) {
+        println!(
+            "    std devs: rotation [{:.4}, {:.4}, {:.4}]°, translation [{:.6}, {:.6}, {:.6}]; variance factor {:.3}, from {}",
+            sd[0].to_degrees(),
+            sd[1].to_degrees(),
+            sd[2].to_degrees(),
+            sd[3],
+            sd[4],
+            sd[5],
+            rf.variance_factor,
+            s.start.map(Method::name).unwrap_or("?")
+        );
+    }
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let _ = args.rest;
-    anyhow::bail!("`cargo xtask handeye` is not yet available")
+    let robot = read_poses(&args.robot, args.robot_format).with_context(|| format!("robot poses {:?}", args.robot))?;
+    let (robot, camera) = match &args.camera_poses {
+        Some(path) => {
+            let c =
+                read_pose_file(path, args.camera_format).with_context(|| format!("camera poses {}", path.display()))?;
+            (robot, c)
+        }
+        None => camera_poses_from_images(&args, robot)?,
+    };
+    ensure!(
+        robot.len() == camera.len(),
+        "{} robot poses but {} camera poses: they must pair up station by station",
+        robot.len(),
+        camera.len()
+    );
+    if let Some(path) = &args.save_camera_poses {
+        util::write_ron(path, &camera)?;
+        println!("wrote camera poses to {}", path.display());
+    }
+    let methods = parse_methods(&args.method)?;
+    let config = HandEyeConfig {
+        setup: if args.eye_to_hand { Setup::EyeToHand } else { Setup::EyeInHand },
+        pairs: if args.consecutive { PairSelection::Consecutive } else { PairSelection::All },
+        ..Default::default()
+    };
+    let what = if args.eye_to_hand { "base_from_camera" } else { "gripper_from_camera" };
+    println!("hand-eye: {} stations, solving {what}, {:?} pairs", robot.len(), config.pairs);
+    let mut ok = Vec::new();
+    let mut failed = 0;
+    for m in methods {
+        let start = std::time::Instant::now();
+        let r = calibrate(&robot, &camera, m, &config);
+        let elapsed = start.elapsed();
+        match r {
+            Ok(s) => {
+                print_solution(&s);
+                println!("    time {:.1} µs", elapsed.as_secs_f64() * 1e6);
+                ok.push(s);
+            }
+            Err(e) => {
+                failed += 1;
+                eprintln!("{m}: {e}");
+            }
+        }
+    }
+    if let Some(out) = &args.output {
+        util::write_ron(out, &ok)?;
+        println!("wrote {}", out.display());
+    }
+    println!("{} of {} methods succeeded", ok.len(), ok.len() + failed);
+    Ok(if ok.is_empty() { ExitCode::FAILURE } else { ExitCode::SUCCESS })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn natural_sort_orders_numbers_numerically() {
+        let mut p: Vec<PathBuf> =
+            ["a/pose_10.yaml", "a/pose_2.yaml", "a/pose_1.yaml"].iter().map(PathBuf::from).collect();
+        natural_sort(&mut p);
+        let names: Vec<_> = p.iter().map(|p| p.to_string_lossy().into_owned()).collect();
+        assert_eq!(names, ["a/pose_1.yaml", "a/pose_2.yaml", "a/pose_10.yaml"]);
+    }
+
+    #[test]
+    fn visp_intrinsics_are_read() {
+        let xml = "<camera><model><px>607.59</px><py>607.57</py><u0>323.46</u0><v0>243.25</v0></model></camera>";
+        assert_eq!(parse_visp_intrinsics(xml, "x").unwrap(), [607.59, 607.57, 323.46, 243.25]);
+        assert!(parse_visp_intrinsics("<px>1</px>", "cam.xml").unwrap_err().to_string().contains("cam.xml: no <py>"));
+    }
 }

@@ -59,8 +59,10 @@ pub struct MatchStats {
     pub low_texture: usize,
     /// Rejected by the uniqueness ratio.
     pub not_unique: usize,
-    /// Rejected by the left–right check.
+    /// Rejected by the left–right check (including those filled afterwards).
     pub lr_inconsistent: usize,
+    /// Left–right rejects filled from their background neighbour (`lr_fill`); counted as valid.
+    pub lr_filled: usize,
     /// Removed by the speckle filter.
     pub speckle: usize,
     /// `valid / pixels` in `[0, 1]`.
@@ -73,20 +75,18 @@ impl MatchStats {
         self.low_texture += o.low_texture;
         self.not_unique += o.not_unique;
         self.lr_inconsistent += o.lr_inconsistent;
+        self.lr_filled += o.lr_filled;
     }
 }
 
 /// Accumulator of the exact integer window sums.
 pub(crate) trait Acc: Cost + Ord + Default {
-    const MAX: Self;
     fn from_u32(v: u32) -> Self;
     fn wadd(self, o: Self) -> Self;
     fn wsub(self, o: Self) -> Self;
-    fn to_f64(self) -> f64;
 }
 
 impl Acc for u32 {
-    const MAX: Self = u32::MAX;
     #[inline(always)]
     fn from_u32(v: u32) -> Self {
         v
@@ -99,14 +99,9 @@ impl Acc for u32 {
     fn wsub(self, o: Self) -> Self {
         self.wrapping_sub(o)
     }
-    #[inline(always)]
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
 }
 
 impl Acc for u64 {
-    const MAX: Self = u64::MAX;
     #[inline(always)]
     fn from_u32(v: u32) -> Self {
         v as u64
@@ -118,10 +113,6 @@ impl Acc for u64 {
     #[inline(always)]
     fn wsub(self, o: Self) -> Self {
         self.wrapping_sub(o)
-    }
-    #[inline(always)]
-    fn to_f64(self) -> f64 {
-        self as f64
     }
 }
 
@@ -189,14 +180,14 @@ const K_NCC: u8 = 2;
 /// Per-pixel term of the window sum: |a−b|, (a−b)² or a·b (all fit in u32 for u16 inputs).
 #[inline(always)]
 fn pixel_term<const K: u8>(a: u16, b: u16) -> u32 {
-    let (a, b) = (a as u32, b as u32);
+    let (a, b) = (a as i32, b as i32);
     match K {
-        K_SAD => a.abs_diff(b),
+        K_SAD => (a - b).unsigned_abs(),
         K_SSD => {
-            let d = a.abs_diff(b);
+            let d = (a - b).unsigned_abs();
             d.wrapping_mul(d)
         }
-        _ => a.wrapping_mul(b),
+        _ => (a as u32).wrapping_mul(b as u32),
     }
 }
 
@@ -237,6 +228,7 @@ struct Shared<'a> {
     n: f64,
     uniq: u32,
     lr: Option<u32>,
+    lr_fill: bool,
     subpixel: Subpixel,
 }
 
@@ -438,6 +430,7 @@ impl BlockMatcher {
             n: n as f64,
             uniq: cfg.uniqueness_ratio,
             lr: cfg.lr_max_diff,
+            lr_fill: cfg.lr_fill,
             subpixel: cfg.effective_subpixel(),
         };
         let simd = self.simd;
@@ -578,22 +571,36 @@ fn load_rows(sh: &Shared, y: usize, l: &mut [u16], rrev: &mut [u16]) {
 #[inline(always)]
 fn vertical<A: Acc, const K: u8>(sc: &mut Scratch<A>, nd: usize, sub: bool) {
     let wp = sc.l_in.len();
-    for xp in 0..wp {
+    let (colsum, l_in, r_in, l_out, r_out) = (&mut sc.colsum, &sc.l_in, &sc.r_in, &sc.l_out, &sc.r_out);
+    for (xp, cs) in colsum.chunks_exact_mut(nd).enumerate().take(wp) {
         let base = wp - 1 - xp;
-        let cs = &mut sc.colsum[xp * nd..][..nd];
-        let ri = &sc.r_in[base..][..nd];
-        let li = sc.l_in[xp];
+        let ri = &r_in[base..base + nd];
+        let li = l_in[xp];
         if sub {
-            let ro = &sc.r_out[base..][..nd];
-            let lo = sc.l_out[xp];
-            for k in 0..nd {
-                cs[k] = cs[k].wadd(A::from_u32(pixel_term::<K>(li, ri[k]))).wsub(A::from_u32(pixel_term::<K>(lo, ro[k])));
-            }
+            let ro = &r_out[base..base + nd];
+            let lo = l_out[xp];
+            vert_add_sub::<A, K>(cs, ri, ro, li, lo);
         } else {
-            for k in 0..nd {
-                cs[k] = cs[k].wadd(A::from_u32(pixel_term::<K>(li, ri[k])));
-            }
+            vert_add::<A, K>(cs, ri, li);
         }
+    }
+}
+
+#[inline(always)]
+fn vert_add_sub<A: Acc, const K: u8>(cs: &mut [A], ri: &[u16], ro: &[u16], li: u16, lo: u16) {
+    let n = cs.len().min(ri.len()).min(ro.len());
+    let (cs, ri, ro) = (&mut cs[..n], &ri[..n], &ro[..n]);
+    for k in 0..n {
+        cs[k] = cs[k].wadd(A::from_u32(pixel_term::<K>(li, ri[k]))).wsub(A::from_u32(pixel_term::<K>(lo, ro[k])));
+    }
+}
+
+#[inline(always)]
+fn vert_add<A: Acc, const K: u8>(cs: &mut [A], ri: &[u16], li: u16) {
+    let n = cs.len().min(ri.len());
+    let (cs, ri) = (&mut cs[..n], &ri[..n]);
+    for k in 0..n {
+        cs[k] = cs[k].wadd(A::from_u32(pixel_term::<K>(li, ri[k])));
     }
 }
 
@@ -607,10 +614,7 @@ enum Decision {
 fn decide<C: Cost>(c: &[C], lo: usize, hi: usize, uniq: u32, subpixel: Subpixel) -> Decision {
     let s = &c[lo..=hi];
     let m = s.iter().fold(C::MAX, |a, &v| a.min2(v));
-    let kb = lo
-        + s.iter()
-            .enumerate()
-            .fold(u32::MAX, |a, (i, &v)| if v == m { a.min(i as u32) } else { a }) as usize;
+    let kb = lo + s.iter().zip(0u32..).map(|(&v, i)| if v == m { i } else { u32::MAX }).min().unwrap_or(0) as usize;
     if uniq > 0 {
         let t = m.uniq_thresh(uniq);
         let all: u32 = s.iter().map(|&v| (v <= t) as u32).sum();
@@ -674,7 +678,13 @@ fn band<A: Acc, const K: u8>(sh: &Shared, sc: &mut Scratch<A>, out: &mut [f32], 
 }
 
 #[inline(always)]
-fn row_decisions<A: Acc, const K: u8>(sh: &Shared, sc: &mut Scratch<A>, y: usize, out: &mut [f32], st: &mut MatchStats) {
+fn row_decisions<A: Acc, const K: u8>(
+    sh: &Shared,
+    sc: &mut Scratch<A>,
+    y: usize,
+    out: &mut [f32],
+    st: &mut MatchStats,
+) {
     let (w, r, nd, dmin) = (sh.w, sh.r, sh.nd, sh.dmin);
     let ncc = K == K_NCC;
     // box sums of x = 0: padded columns 0..=2r
@@ -757,10 +767,49 @@ fn row_decisions<A: Acc, const K: u8>(sh: &Shared, sc: &mut Scratch<A>, y: usize
             let kr = sc.rk[w - 1 - u as usize];
             if (kr as i64 - k as i64).unsigned_abs() > tol as u64 {
                 out[x] = DisparityMap::INVALID;
+                sc.best[x] = -2;
                 st.lr_inconsistent += 1;
                 continue;
             }
         }
         out[x] = ((dmin + k as i64) as f64 + sc.sub[x] as f64) as f32;
+    }
+    if sh.lr.is_some() && sh.lr_fill {
+        fill_lr_rejected(&sc.best, out, &mut sc.sub, st);
+    }
+}
+
+/// Fills pixels rejected by the left–right check (`best == −2`; occlusions and the fattened
+/// side of depth edges) with the smaller — background — of the nearest valid disparities to the
+/// left and right on the same row. `tmp` is scratch of the row's length.
+#[inline(always)]
+fn fill_lr_rejected(best: &[i32], out: &mut [f32], tmp: &mut [f32], st: &mut MatchStats) {
+    let w = out.len();
+    // nearest valid value to the left of each pixel (NaN if none)
+    let mut last = f32::NAN;
+    for x in 0..w {
+        tmp[x] = last;
+        if best[x] >= 0 && out[x].is_finite() {
+            last = out[x];
+        }
+    }
+    let mut next = f32::NAN;
+    for x in (0..w).rev() {
+        if best[x] == -2 {
+            let (a, b) = (tmp[x], next);
+            let v = if a.is_nan() {
+                b
+            } else if b.is_nan() {
+                a
+            } else {
+                a.min(b)
+            };
+            if v.is_finite() {
+                out[x] = v;
+                st.lr_filled += 1;
+            }
+        } else if best[x] >= 0 && out[x].is_finite() {
+            next = out[x];
+        }
     }
 }

@@ -18,9 +18,8 @@ pub fn x_sobel(src: &[u16], width: usize, height: usize, cap: u32) -> Vec<u16> {
         for x in 0..width {
             let xm = x.saturating_sub(1);
             let xp = (x + 1).min(width - 1);
-            let v = (r0[xp] as i32 - r0[xm] as i32)
-                + 2 * (r1[xp] as i32 - r1[xm] as i32)
-                + (r2[xp] as i32 - r2[xm] as i32);
+            let v =
+                (r0[xp] as i32 - r0[xm] as i32) + 2 * (r1[xp] as i32 - r1[xm] as i32) + (r2[xp] as i32 - r2[xm] as i32);
             o[x] = (v.clamp(-cap, cap) + cap) as u16;
         }
     }

@@ -74,10 +74,9 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
         Prefilter::XSobel { cap } => {
             (sobel_naive(left, w, h, cap as i64 * scale), sobel_naive(right, w, h, cap as i64 * scale))
         }
-        Prefilter::NormalizedResponse { size, cap } => (
-            norm_naive(left, w, h, size, cap as i64 * scale),
-            norm_naive(right, w, h, size, cap as i64 * scale),
-        ),
+        Prefilter::NormalizedResponse { size, cap } => {
+            (norm_naive(left, w, h, size, cap as i64 * scale), norm_naive(right, w, h, size, cap as i64 * scale))
+        }
     };
     let pl = |x: i64, y: i64| l[clampi(y, h) * w + clampi(x, w)] as i64;
     let pr = |x: i64, y: i64| rt[clampi(y, h) * w + clampi(x, w)] as i64;
@@ -95,7 +94,8 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
                 if u < 0 || u >= w as i64 {
                     continue;
                 }
-                let (mut sad, mut ssd, mut sl, mut sr, mut sll, mut srr, mut slr) = (0i64, 0i64, 0i64, 0i64, 0i64, 0i64, 0i64);
+                let (mut sad, mut ssd, mut sl, mut sr, mut sll, mut srr, mut slr) =
+                    (0i64, 0i64, 0i64, 0i64, 0i64, 0i64, 0i64);
                 for dy in -r..=r {
                     for dx in -r..=r {
                         let a = pl(x + dx, y + dy);
@@ -127,6 +127,7 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
     };
     let mut out = vec![f32::NAN; w * h];
     for y in 0..h {
+        let mut lr_rejected = vec![false; w];
         // right winners
         let mut rbest = vec![usize::MAX; w];
         for u in 0..w {
@@ -169,6 +170,7 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
             if let Some(tol) = cfg.lr_max_diff {
                 let u = (x as i64 - dmin - kb as i64) as usize;
                 if (rbest[u] as i64 - kb as i64).abs() > tol as i64 {
+                    lr_rejected[x] = true;
                     continue;
                 }
             }
@@ -181,6 +183,22 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
                 }
             }
             out[y * w + x] = (dmin + kb as i64) as f32 + off as f32;
+        }
+        if cfg.lr_max_diff.is_some() && cfg.lr_fill {
+            let row: Vec<f32> = out[y * w..][..w].to_vec();
+            for x in 0..w {
+                if !lr_rejected[x] {
+                    continue;
+                }
+                let left = (0..x).rev().map(|i| row[i]).find(|v| !v.is_nan());
+                let right = (x + 1..w).map(|i| row[i]).find(|v| !v.is_nan());
+                let v = match (left, right) {
+                    (Some(a), Some(b)) => a.min(b),
+                    (Some(a), None) | (None, Some(a)) => a,
+                    (None, None) => f32::NAN,
+                };
+                out[y * w + x] = v;
+            }
         }
     }
     out
@@ -210,7 +228,11 @@ fn make_pair(seed: u64, w: usize, h: usize, maxv: u32) -> (Vec<u16>, Vec<u16>) {
     let right: Vec<u16> = (0..w * h)
         .map(|i| {
             let v = tex[(i / w) * big + i % w + 20 + shift];
-            if noise > 0 && rnd() % 4 == 0 { v.saturating_add((rnd() % noise as u64) as u16).min(maxv as u16) } else { v }
+            if noise > 0 && rnd() % 4 == 0 {
+                v.saturating_add((rnd() % noise as u64) as u16).min(maxv as u16)
+            } else {
+                v
+            }
         })
         .collect();
     (left, right)
@@ -256,24 +278,28 @@ fn config_strategy() -> impl Strategy<Value = MatcherConfig> {
         prop_oneof![Just(0u32), Just(10), Just(200)],
         prop_oneof![Just(0u32), Just(5), Just(30)],
         prop_oneof![Just(None), Just(Some(0u32)), Just(Some(1))],
+        any::<bool>(),
         prop_oneof![Just(Subpixel::None), Just(Subpixel::Auto), Just(Subpixel::Parabola), Just(Subpixel::Equiangular)],
     )
-        .prop_map(|(cost, block_size, min_disparity, num_disparities, prefilter, tex, uniq, lr, subpixel)| {
-            MatcherConfig {
-                cost,
-                block_size,
-                min_disparity,
-                num_disparities,
-                prefilter,
-                texture_threshold: tex,
-                uniqueness_ratio: uniq,
-                lr_max_diff: lr,
-                speckle_window_size: 0,
-                speckle_range: 1.0,
-                subpixel,
-                threads: 0,
-            }
-        })
+        .prop_map(
+            |(cost, block_size, min_disparity, num_disparities, prefilter, tex, uniq, lr, lr_fill, subpixel)| {
+                MatcherConfig {
+                    cost,
+                    block_size,
+                    min_disparity,
+                    num_disparities,
+                    prefilter,
+                    texture_threshold: tex,
+                    uniqueness_ratio: uniq,
+                    lr_max_diff: lr,
+                    lr_fill,
+                    speckle_window_size: 0,
+                    speckle_range: 1.0,
+                    subpixel,
+                    threads: 0,
+                }
+            },
+        )
 }
 
 proptest! {

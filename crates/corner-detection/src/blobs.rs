@@ -76,8 +76,9 @@ impl Default for BlobConfig {
 /// One blob.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Blob {
-    /// Sub-pixel centre: the centroid weighted by each pixel's distance from the threshold
-    /// (grey levels), so partial pixels on the rim count partially.
+    /// Sub-pixel centre: the centroid weighted by each pixel's coverage by the mark, estimated
+    /// from the two Otsu class means, over the blob and the pixels touching it (rim pixels
+    /// count by the part the mark covers).
     pub centroid: DVec2,
     /// Unweighted centroid of the binary component.
     pub binary_centroid: DVec2,
@@ -124,7 +125,7 @@ pub fn detect_blobs(img: &GrayImage, cfg: &BlobConfig) -> Result<BlobDetection> 
             cfg.min_area, cfg.max_area
         )));
     }
-    if !(cfg.max_aspect_ratio >= 1.0) || !(cfg.min_fill.is_finite() && cfg.min_fill >= 0.0) {
+    if cfg.max_aspect_ratio.is_nan() || cfg.max_aspect_ratio < 1.0 || !cfg.min_fill.is_finite() || cfg.min_fill < 0.0 {
         return Err(CornerError::InvalidConfig(format!(
             "BlobConfig needs max_aspect_ratio >= 1 and min_fill >= 0, got {} and {}",
             cfg.max_aspect_ratio, cfg.min_fill
@@ -153,8 +154,21 @@ pub fn detect_blobs(img: &GrayImage, cfg: &BlobConfig) -> Result<BlobDetection> 
         wy: f64,
         bbox: (u32, u32, u32, u32),
     }
-    let mut acc =
-        vec![Acc { n: 0.0, sx: 0.0, sy: 0.0, sxx: 0.0, syy: 0.0, sxy: 0.0, w: 0.0, wx: 0.0, wy: 0.0, bbox: (u32::MAX, u32::MAX, 0, 0) }; n + 1];
+    let mut acc = vec![
+        Acc {
+            n: 0.0,
+            sx: 0.0,
+            sy: 0.0,
+            sxx: 0.0,
+            syy: 0.0,
+            sxy: 0.0,
+            w: 0.0,
+            wx: 0.0,
+            wy: 0.0,
+            bbox: (u32::MAX, u32::MAX, 0, 0)
+        };
+        n + 1
+    ];
     for (x, y, l) in labels.enumerate_pixels() {
         let l = l[0] as usize;
         if l == 0 {
@@ -179,9 +193,25 @@ pub fn detect_blobs(img: &GrayImage, cfg: &BlobConfig) -> Result<BlobDetection> 
         a.wy += w * fy;
         a.bbox = (a.bbox.0.min(x), a.bbox.1.min(y), a.bbox.2.max(x), a.bbox.3.max(y));
     }
+    // Class means of the threshold (Otsu's two classes): the ideal mark and background levels.
+    let (mut n_lo, mut s_lo, mut n_hi, mut s_hi) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for &v in img.as_raw() {
+        if v <= t {
+            n_lo += 1.0;
+            s_lo += v as f64;
+        } else {
+            n_hi += 1.0;
+            s_hi += v as f64;
+        }
+    }
+    let (lo, hi) = (if n_lo > 0.0 { s_lo / n_lo } else { 0.0 }, if n_hi > 0.0 { s_hi / n_hi } else { 255.0 });
+    let (mark, background) = match cfg.polarity {
+        BlobPolarity::Dark => (lo, hi),
+        BlobPolarity::Bright => (hi, lo),
+    };
     let mut blobs = Vec::new();
     let mut rejected = 0;
-    for a in acc.iter().skip(1) {
+    for (label, a) in acc.iter().enumerate().skip(1) {
         let area = a.n as usize;
         if area == 0 {
             continue;
@@ -207,7 +237,8 @@ pub fn detect_blobs(img: &GrayImage, cfg: &BlobConfig) -> Result<BlobDetection> 
             rejected += 1;
             continue;
         }
-        let centroid = if a.w > 0.0 { DVec2::new(a.wx / a.w, a.wy / a.w) } else { DVec2::new(mx, my) };
+        let centroid = coverage_centroid(img, &labels, label as u32, a.bbox, mark, background)
+            .unwrap_or(if a.w > 0.0 { DVec2::new(a.wx / a.w, a.wy / a.w) } else { DVec2::new(mx, my) });
         blobs.push(Blob {
             centroid,
             binary_centroid: DVec2::new(mx, my),
@@ -221,6 +252,47 @@ pub fn detect_blobs(img: &GrayImage, cfg: &BlobConfig) -> Result<BlobDetection> 
     Ok(BlobDetection { threshold: t, blobs, rejected })
 }
 
+/// Centroid weighted by each pixel's estimated coverage `(background − v) / (background −
+/// mark)` (clamped to 0..1) over the blob and the ring of pixels touching it, so rim pixels that
+/// fell on the other side of the threshold still count by the part of them the mark covers.
+fn coverage_centroid(
+    img: &GrayImage,
+    labels: &image::ImageBuffer<Luma<u32>, Vec<u32>>,
+    label: u32,
+    bbox: (u32, u32, u32, u32),
+    mark: f64,
+    background: f64,
+) -> Option<DVec2> {
+    let span = background - mark;
+    if span.abs() < 1.0 {
+        return None;
+    }
+    let (w, h) = (img.width() as i64, img.height() as i64);
+    let (mut sw, mut sx, mut sy) = (0.0, 0.0, 0.0);
+    for y in (bbox.1 as i64 - 1).max(0)..=(bbox.3 as i64 + 1).min(h - 1) {
+        for x in (bbox.0 as i64 - 1).max(0)..=(bbox.2 as i64 + 1).min(w - 1) {
+            let own = labels.get_pixel(x as u32, y as u32)[0];
+            let near = own == label
+                || (own == 0
+                    && (-1..=1i64).any(|dy| {
+                        (-1..=1i64).any(|dx| {
+                            let (xx, yy) = (x + dx, y + dy);
+                            xx >= 0 && yy >= 0 && xx < w && yy < h && labels.get_pixel(xx as u32, yy as u32)[0] == label
+                        })
+                    }));
+            if !near {
+                continue;
+            }
+            let v = img.get_pixel(x as u32, y as u32)[0] as f64;
+            let cov = ((background - v) / span).clamp(0.0, 1.0);
+            sw += cov;
+            sx += cov * x as f64;
+            sy += cov * y as f64;
+        }
+    }
+    (sw > 0.0).then(|| DVec2::new(sx / sw, sy / sw))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -229,11 +301,11 @@ mod tests {
     /// Anti-aliased dark discs (8x8 supersampling) on a bright background.
     fn discs(w: u32, h: u32, centres: &[(f64, f64, f64)]) -> GrayImage {
         GrayImage::from_fn(w, h, |x, y| {
-            let mut s = 0.0;
+            let mut s = 0.0f64;
             for i in 0..8 {
                 for j in 0..8 {
-                    let u = x as f64 - 0.5 + (i as f64 + 0.5) / 8.0;
-                    let v = y as f64 - 0.5 + (j as f64 + 0.5) / 8.0;
+                    let u = x as f64 - 0.5 + ((i * 8 + j) as f64 + 0.5) / 64.0;
+                    let v = y as f64 - 0.5 + ((j * 8 + i) as f64 + 0.5) / 64.0;
                     let inside = centres.iter().any(|&(cx, cy, r)| (u - cx).powi(2) + (v - cy).powi(2) < r * r);
                     s += if inside { 25.0 } else { 225.0 };
                 }

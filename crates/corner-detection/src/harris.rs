@@ -71,8 +71,12 @@ pub fn harris_response(img: &GrayImage, cfg: &HarrisConfig) -> Result<ImageF32> 
     crate::imageops::check_size(img, 3, "harris_response")?;
     let src = if cfg.pre_blur_sigma > 0.0 {
         let f = gaussian_blur(&crate::imageops::to_f32(img), cfg.pre_blur_sigma);
-        ImageBuffer::from_raw(img.width(), img.height(), f.as_raw().iter().map(|&v| v.round().clamp(0.0, 255.0) as u8).collect())
-            .expect("same size")
+        ImageBuffer::from_raw(
+            img.width(),
+            img.height(),
+            f.as_raw().iter().map(|&v| v.round().clamp(0.0, 255.0) as u8).collect(),
+        )
+        .expect("same size")
     } else {
         img.clone()
     };

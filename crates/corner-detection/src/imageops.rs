@@ -18,8 +18,7 @@ pub fn to_f32(img: &GrayImage) -> ImageF32 {
 /// a visible step in second derivatives).
 pub(crate) fn gaussian_kernel(sigma: f64) -> Vec<f32> {
     let radius = (3.0 * sigma).ceil().max(1.0) as i32;
-    let mut k: Vec<f32> =
-        (-radius..=radius).map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp() as f32).collect();
+    let mut k: Vec<f32> = (-radius..=radius).map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp() as f32).collect();
     let sum: f32 = k.iter().sum();
     k.iter_mut().for_each(|v| *v /= sum);
     k

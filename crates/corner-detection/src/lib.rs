@@ -43,5 +43,5 @@ pub use chessboard::{
 };
 pub use error::{CornerError, Result};
 pub use harris::{Corner, CornerConfig, CornerMeasure, HarrisConfig, detect_corners, harris_response};
-pub use imageops::{ImageF32, gaussian_blur, sample_bilinear, saddle_response, to_f32};
+pub use imageops::{ImageF32, gaussian_blur, saddle_response, sample_bilinear, to_f32};
 pub use subpix::{Refinement, SaddleConfig, SubPixConfig, WindowSize, refine_corners_subpix, refine_saddle};

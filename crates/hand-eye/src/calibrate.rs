@@ -215,6 +215,23 @@ pub fn calibrate(
     })
 }
 
+/// The [`Quality`] of any transform `x` (for example another tool's result) on these stations:
+/// residuals over the motions selected by `config.pairs` and the spread of the implied board.
+pub fn evaluate(
+    base_from_gripper: &[Isometry3],
+    camera_from_board: &[Isometry3],
+    x: &Isometry3,
+    config: &HandEyeConfig,
+) -> Result<Quality> {
+    check_stations(base_from_gripper, camera_from_board, 2)?;
+    if !x.is_finite() {
+        return Err(HandEyeError::NonFinite { what: "transform to evaluate", index: 0 });
+    }
+    let robot = robot_side(base_from_gripper, config.setup);
+    let motions = motions_from_internal(&robot, camera_from_board, config.pairs);
+    quality(&robot, camera_from_board, &motions, x)
+}
+
 /// Runs every method of `methods` on the same data; each result is independent (one failing
 /// method does not hide the others).
 pub fn calibrate_all(

@@ -116,3 +116,51 @@ pub fn parse_pose_ron(text: &str, what: &str) -> Result<Vec<Isometry3>> {
     }
     Ok(poses)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn visp_pose_file_is_read() {
+        // The first pose of ViSP's Franka eye-in-hand data set.
+        let text = "rows: 6\ncols: 1\ndata: \n  - [0.335091]\n  - [-0.0321497]\n  - [0.30857]\n  - [-3.01226]\n  - [0.0236777]\n  - [-0.451343]\n";
+        let p = parse_visp_pose(text, "pose").unwrap();
+        assert!((p.translation - DVec3::new(0.335091, -0.0321497, 0.30857)).length() < 1e-15);
+        assert!((p.rvec() - DVec3::new(-3.01226, 0.0236777, -0.451343)).length() < 1e-12);
+        let inline = parse_visp_pose("data: [0.1, 0.2, 0.3, 0.0, 0.0, 0.5]\n", "inline").unwrap();
+        assert!((inline.angle() - 0.5).abs() < 1e-15);
+        let short = parse_visp_pose("rows: 6\ndata:\n  - [1]\n  - [2]\nfoo: 3\n", "short.yaml").unwrap_err();
+        assert!(short.to_string().contains("short.yaml") && short.to_string().contains("2 numbers"), "{short}");
+    }
+
+    #[test]
+    fn rpy_lines_follow_zyx_order() {
+        let text = "# x y z roll pitch yaw\n100, 200, 300, 10, 20, 30\n\n1 2 3 0 0 90\n";
+        let poses = parse_pose_lines(text, RotationFormat::RollPitchYawDeg, "robot.txt").unwrap();
+        assert_eq!(poses.len(), 2);
+        // Independent composition with axis-angle matrices: Rz(30°) Ry(20°) Rx(10°).
+        let expect = glam::DMat3::from_axis_angle(DVec3::Z, 30f64.to_radians())
+            * glam::DMat3::from_axis_angle(DVec3::Y, 20f64.to_radians())
+            * glam::DMat3::from_axis_angle(DVec3::X, 10f64.to_radians());
+        let m = poses[0].rotation_matrix();
+        assert!((m - expect).abs().to_cols_array().iter().all(|v| *v < 1e-14));
+        assert_eq!(poses[0].translation, DVec3::new(100.0, 200.0, 300.0));
+        // yaw 90°: x axis → y axis.
+        assert!((poses[1].transform_vector(DVec3::X) - DVec3::Y).length() < 1e-15);
+        let bad = parse_pose_lines("1 2 3 4 5\n", RotationFormat::AxisAngle, "robot.txt").unwrap_err();
+        assert!(bad.to_string().contains("line 1") && bad.to_string().contains("robot.txt"), "{bad}");
+        assert!(parse_pose_lines("1 2 x 4 5 6\n", RotationFormat::AxisAngle, "r").is_err());
+        assert!(parse_pose_lines("# nothing\n", RotationFormat::AxisAngle, "r").is_err());
+    }
+
+    #[test]
+    fn ron_round_trip() {
+        let poses =
+            vec![Isometry3::from_rvec_tvec(DVec3::new(0.1, 0.2, 0.3), DVec3::new(1.0, 2.0, 3.0)), Isometry3::IDENTITY];
+        let text = ron::to_string(&poses).unwrap();
+        assert_eq!(parse_pose_ron(&text, "p.ron").unwrap(), poses);
+        assert!(parse_pose_ron("[]", "p.ron").is_err());
+        assert!(parse_pose_ron("[(rotation: (0.0, 0.0, 0.0, 2.0), translation: (0.0, 0.0, 0.0))]", "p.ron").is_err());
+    }
+}

@@ -51,7 +51,8 @@ mod refine;
 pub mod robot_world;
 
 pub use calibrate::{
-    HandEyeConfig, HandEyeSolution, Method, calibrate, calibrate_all, points_to_base, points_to_gripper, solve_motions,
+    HandEyeConfig, HandEyeSolution, Method, calibrate, calibrate_all, evaluate, points_to_base, points_to_gripper,
+    solve_motions,
 };
 pub use error::HandEyeError;
 pub use motion::{DegeneracyConfig, Motion, PairSelection, Setup, check_motions, relative_motions};

@@ -3,7 +3,7 @@
 use camera_model::Isometry3;
 use faer::{Col, Mat, Side};
 use glam::{DMat3, DQuat, DVec3};
-use least_squares::{dmat3_from_mat, nearest_rotation, null_vector, solve_linear_least_squares};
+use least_squares::{nearest_rotation, null_vector, solve_linear_least_squares};
 
 use crate::motion::Motion;
 use crate::{HandEyeError, Result};
@@ -39,7 +39,8 @@ pub fn solve_translation(motions: &[Motion], r_x: DMat3) -> Result<DVec3> {
             b[3 * k + r] = rhs[r];
         }
     }
-    let t = solve_linear_least_squares(a.as_ref(), b.as_ref()).map_err(|e| HandEyeError::numerical("translation", e))?;
+    let t =
+        solve_linear_least_squares(a.as_ref(), b.as_ref()).map_err(|e| HandEyeError::numerical("translation", e))?;
     Ok(DVec3::new(t[0], t[1], t[2]))
 }
 
@@ -47,12 +48,43 @@ pub fn solve_translation(motions: &[Motion], r_x: DMat3) -> Result<DVec3> {
 /// `[P_a + P_b]× P'_x = P_b − P_a` with `P'_x = tan(θ_x/2) k_x`; translation by
 /// [`solve_translation`].
 pub fn tsai(motions: &[Motion]) -> Result<Isometry3> {
+    // tan(θ/2) is singular at θ = 180°: when the solution is beyond ~170° (or the system is
+    // singular) the same least-squares problem is solved for X·R0ᵀ, with R0 a 90° rotation about x, y or z
+    // (A X R0ᵀ = X R0ᵀ · R0 B R0ᵀ), and the better-conditioned answer is kept.
+    let mut best: Option<(f64, DMat3)> = None;
+    let mut last_err = None;
+    let h = std::f64::consts::FRAC_PI_2;
+    // A half-turn about n composed with a quarter-turn about a is a half-turn again iff n ⟂ a:
+    // n cannot be perpendicular to all three axes.
+    for r0 in [DMat3::IDENTITY, DMat3::from_rotation_x(h), DMat3::from_rotation_y(h), DMat3::from_rotation_z(h)] {
+        let q0 = glam::DQuat::from_mat3(&r0);
+        match tsai_modified_rodrigues(motions, q0) {
+            Ok(p) => {
+                let norm = p.length();
+                let r = if norm == 0.0 { DMat3::IDENTITY } else { DMat3::from_axis_angle(p / norm, 2.0 * norm.atan()) };
+                if best.as_ref().is_none_or(|b| norm < b.0) {
+                    best = Some((norm, r * r0));
+                }
+                if norm < 10.0 {
+                    break;
+                }
+            }
+            Err(e) => last_err = Some(e),
+        }
+    }
+    let (_, r_x) = best.ok_or_else(|| last_err.expect("tried"))?;
+    let t = solve_translation(motions, r_x)?;
+    rotation_to_isometry("Tsai", r_x, t)
+}
+
+/// Tsai–Lenz's rotation step for `X' = X R0ᵀ` (motions `B' = R0 B R0ᵀ`): `P'_x'`.
+fn tsai_modified_rodrigues(motions: &[Motion], q0: DQuat) -> Result<DVec3> {
     let n = motions.len();
     let mut a = Mat::<f64>::zeros(3 * n, 3);
     let mut b = Col::<f64>::zeros(3 * n);
     for (k, m) in motions.iter().enumerate() {
         let pa = 2.0 * positive_quat(m.a.rotation).xyz();
-        let pb = 2.0 * positive_quat(m.b.rotation).xyz();
+        let pb = 2.0 * positive_quat((q0 * m.b.rotation * q0.conjugate()).normalize()).xyz();
         let s = skew(pa + pb);
         let rhs = pb - pa;
         for r in 0..3 {
@@ -63,11 +95,7 @@ pub fn tsai(motions: &[Motion]) -> Result<Isometry3> {
         }
     }
     let p = solve_linear_least_squares(a.as_ref(), b.as_ref()).map_err(|e| HandEyeError::numerical("Tsai", e))?;
-    let p = DVec3::new(p[0], p[1], p[2]);
-    let norm = p.length();
-    let r_x = if norm == 0.0 { DMat3::IDENTITY } else { DMat3::from_axis_angle(p / norm, 2.0 * norm.atan()) };
-    let t = solve_translation(motions, r_x)?;
-    rotation_to_isometry("Tsai", r_x, t)
+    Ok(DVec3::new(p[0], p[1], p[2]))
 }
 
 /// Park–Martin (1994): with the log maps `α = log R_a`, `β = log R_b` (so `α = R_x β`), `R_x`
@@ -112,7 +140,7 @@ pub fn horaud(motions: &[Motion]) -> Result<Isometry3> {
     let evd = s.self_adjoint_eigen(Side::Lower).map_err(|e| HandEyeError::numerical("Horaud", format!("{e:?}")))?;
     let v = evd.U().col(0);
     let q = DQuat::from_xyzw(v[1], v[2], v[3], v[0]);
-    if !(q.length() > 0.5) {
+    if q.length().is_nan() || q.length() <= 0.5 {
         return Err(HandEyeError::numerical("Horaud", "no unit eigenvector"));
     }
     let r_x = DMat3::from_quat(q.normalize());
@@ -154,7 +182,7 @@ pub fn andreff(motions: &[Motion]) -> Result<Isometry3> {
     let v = &nv.vector;
     let m = DMat3::from_cols(DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]), DVec3::new(v[6], v[7], v[8]));
     let det = m.determinant();
-    if !(det.abs() > 1e-12) {
+    if det.is_nan() || det.abs() <= 1e-12 {
         return Err(HandEyeError::numerical("Andreff", "null vector is not a scaled rotation (det ≈ 0)"));
     }
     let r_x = nearest_rotation(m * (1.0 / det.cbrt())).map_err(|e| HandEyeError::numerical("Andreff", e))?;

@@ -4,9 +4,9 @@ use camera_model::Isometry3;
 use glam::DMat4;
 use serde::{Deserialize, Serialize};
 
+use crate::Result;
 use crate::motion::Motion;
 use crate::refine::mean_board;
-use crate::Result;
 
 /// Residual of `A X = X B` for one motion.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -57,7 +57,12 @@ pub fn motion_residual(m: &Motion, x: &Isometry3) -> MotionResidual {
 
 /// Every quality measure of `x` given the stations (robot poses already in the `G_i X C_i = W`
 /// form) and the motions.
-pub(crate) fn quality(robot: &[Isometry3], camera_from_board: &[Isometry3], motions: &[Motion], x: &Isometry3) -> Result<Quality> {
+pub(crate) fn quality(
+    robot: &[Isometry3],
+    camera_from_board: &[Isometry3],
+    motions: &[Motion],
+    x: &Isometry3,
+) -> Result<Quality> {
     let res: Vec<MotionResidual> = motions.iter().map(|m| motion_residual(m, x)).collect();
     let n = res.len().max(1) as f64;
     let boards: Vec<Isometry3> = robot.iter().zip(camera_from_board).map(|(g, c)| *g * *x * *c).collect();

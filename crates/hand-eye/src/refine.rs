@@ -114,7 +114,7 @@ fn whitening(sigma: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
         for j in 0..=i {
             let s = sigma[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
             if i == j {
-                if !(s > 0.0) {
+                if s.is_nan() || s <= 0.0 {
                     return None;
                 }
                 l[i][i] = s.sqrt();
@@ -249,7 +249,12 @@ impl Problem for AbsoluteProblem {
     fn num_residuals(&self) -> usize {
         6 * self.g_inv.len()
     }
-    fn evaluate(&self, params: &[f64], r: &mut [f64], jac: Option<MatMut<'_, f64>>) -> std::result::Result<(), EvaluationError> {
+    fn evaluate(
+        &self,
+        params: &[f64],
+        r: &mut [f64],
+        jac: Option<MatMut<'_, f64>>,
+    ) -> std::result::Result<(), EvaluationError> {
         self.residual(params, r);
         if let Some(j) = jac {
             numeric_jacobian(self, params, |p, out| self.residual(p, out), j);
@@ -281,7 +286,12 @@ impl Problem for RelativeProblem<'_> {
     fn num_residuals(&self) -> usize {
         6 * self.motions.len()
     }
-    fn evaluate(&self, params: &[f64], r: &mut [f64], jac: Option<MatMut<'_, f64>>) -> std::result::Result<(), EvaluationError> {
+    fn evaluate(
+        &self,
+        params: &[f64],
+        r: &mut [f64],
+        jac: Option<MatMut<'_, f64>>,
+    ) -> std::result::Result<(), EvaluationError> {
         self.residual(params, r);
         if let Some(j) = jac {
             numeric_jacobian(self, params, |p, out| self.residual(p, out), j);
@@ -354,7 +364,10 @@ pub(crate) fn refine(
                     Setup::EyeToHand => w,
                 };
                 let s = whitening(&station_covariance(&m, cfg)).ok_or_else(|| {
-                    HandEyeError::numerical("refinement", format!("noise covariance of station {k} is not positive definite"))
+                    HandEyeError::numerical(
+                        "refinement",
+                        format!("noise covariance of station {k} is not positive definite"),
+                    )
                 })?;
                 whiten.push(s);
             }

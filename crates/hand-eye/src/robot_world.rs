@@ -68,7 +68,7 @@ fn finish(
 
 fn scaled_rotations(solver: &'static str, vx: DMat3, vz: DMat3) -> Result<(DMat3, DMat3)> {
     let det = vx.determinant();
-    if !(det.abs() > 1e-12) {
+    if det.is_nan() || det.abs() <= 1e-12 {
         return Err(HandEyeError::numerical(solver, "rotation block of the solution is singular"));
     }
     let s = 1.0 / det.cbrt();
@@ -129,7 +129,10 @@ fn check_len(a: &[Isometry3], b: &[Isometry3]) -> Result<()> {
         return Err(HandEyeError::SizeMismatch(format!("{} A poses but {} B poses", a.len(), b.len())));
     }
     if a.len() < 3 {
-        return Err(HandEyeError::NotEnoughData(format!("{} stations, robot-world calibration needs at least 3", a.len())));
+        return Err(HandEyeError::NotEnoughData(format!(
+            "{} stations, robot-world calibration needs at least 3",
+            a.len()
+        )));
     }
     Ok(())
 }

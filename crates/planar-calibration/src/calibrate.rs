@@ -517,6 +517,10 @@ pub(crate) fn view_spread_deg(poses: &[Isometry3]) -> f64 {
     best
 }
 
+/// Board normals all within this angle (degrees): the views count as parallel (an error
+/// unless the principal point is fixed or an intrinsic guess is given).
+pub(crate) const PARALLEL_VIEWS_DEG: f64 = 2.0;
+
 pub(crate) fn recommended_views(cfg: &CalibrationConfig) -> usize {
     if cfg.fix_principal_point {
         2
@@ -575,10 +579,18 @@ pub fn calibrate_camera(
         store_pose(p, &mut x0[o..o + 6]);
     }
     let report = levenberg_marquardt(&bundle, &x0, &LmConfig { covariance: true, ..config.lm })?;
-    let camera = slots.camera(&report.params[..slots.num_free]);
-    camera.validate().map_err(|e| CalibrationError::EstimationFailed(format!("refined camera is invalid: {e}")))?;
     let poses: Vec<Isometry3> =
         (0..object_points.len()).map(|v| crate::bundle::pose_at(&report.params[bundle.view_offset(v)..])).collect();
+    let spread = view_spread_deg(&poses);
+    if config.intrinsic_guess.is_none() && !config.fix_principal_point && spread < PARALLEL_VIEWS_DEG {
+        return Err(CalibrationError::Degenerate(format!(
+            "all {} board views are parallel (normals within {spread:.2}°): they do not determine the focal \
+             length and principal point; tilt the board differently in each view",
+            poses.len()
+        )));
+    }
+    let camera = slots.camera(&report.params[..slots.num_free]);
+    camera.validate().map_err(|e| CalibrationError::EstimationFailed(format!("refined camera is invalid: {e}")))?;
     let by_view =
         bundle.residuals_by_view(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
     let residuals_px: Vec<Vec<DVec2>> = by_view.into_iter().map(|[r, _]| r.into_iter().map(|e| -e).collect()).collect();

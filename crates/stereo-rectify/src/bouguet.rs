@@ -14,8 +14,8 @@ pub enum ExtentMethod {
     /// OpenCV's own procedure, reproduced step by step so `P1`, `P2`, `Q` and the rectangles
     /// agree with `cv::stereoRectify` (OpenCV 4.x / 5.0) to ~1e-9: the four image corners are
     /// undistorted by OpenCV's 5 fixed-point iterations and rounded to `f32` where OpenCV
-    /// rounds; the rectangles come from 28 samples of the image border (corners excluded),
-    /// undistorted the same way. The 5 iterations leave up to ~1e-3 px of undistortion error
+    /// rounds; the rectangles come from 32 samples of the image border (a 9x9 grid's edge,
+    /// corners included), undistorted the same way. The 5 iterations leave up to ~1e-3 px of undistortion error
     /// on strongly distorted lenses, and the sparse border samples can leave a fraction of a
     /// pixel of invalid border inside the `alpha = 0` rectangle.
     #[default]
@@ -386,9 +386,7 @@ pub(crate) fn rectangles(
             let step_y = (h as f64 - 1.0) / (N - 1) as f64;
             for y in 0..N {
                 for x in 0..N {
-                    let border = x == 0 || x == N - 1 || y == 0 || y == N - 1;
-                    let corner = (x == 0 || x == N - 1) && (y == 0 || y == N - 1);
-                    if border && !corner {
+                    if x == 0 || x == N - 1 || y == 0 || y == N - 1 {
                         let p = opencv_compat::undistort_point(camera, DVec2::new(x as f64 * step_x, y as f64 * step_y));
                         samples.push(([x == 0, x == N - 1, y == 0, y == N - 1], apply_homography(rr, p)));
                     }

@@ -91,19 +91,40 @@ pub fn init_undistort_rectify_map(
         return Err(RectifyError::Degenerate("new camera matrix · R is singular".into()));
     }
     let ir = m.inverse();
+    check_size(width, height)?;
     let k = camera.intrinsics;
-    let d = camera.distortion;
-    let plain = d.is_zero();
-    RemapTable::from_fn(width, height, move |u, v| {
-        let h = ir * DVec3::new(u as f64, v as f64, 1.0);
-        if h.z <= 0.0 {
-            return None;
-        }
-        let iw = 1.0 / h.z;
-        let n = DVec2::new(h.x * iw, h.y * iw);
-        let nd = if plain { n } else { d.distort(n) };
-        Some(k.to_pixel(nd))
-    })
+    let [k1, k2, p1, p2, k3, k4, k5, k6] = camera.distortion.to_array();
+    let rational = camera.distortion.is_rational();
+    let n = width as usize * height as usize;
+    let mut map_x = vec![0f32; n];
+    let mut map_y = vec![0f32; n];
+    let step = ir.x_axis; // d(ray)/du
+    // Written as one straight-line loop per row (no calls, a select for invalid pixels) so the
+    // compiler vectorises it; the formula is camera-model's `Distortion::distort`.
+    map_x.par_chunks_mut(width as usize).zip(map_y.par_chunks_mut(width as usize)).enumerate().for_each(
+        |(v, (mx, my))| {
+            let base = ir * DVec3::new(0.0, v as f64, 1.0);
+            for (u, (ox, oy)) in mx.iter_mut().zip(my.iter_mut()).enumerate() {
+                let h = base + step * u as f64;
+                let iw = 1.0 / h.z;
+                let (x, y) = (h.x * iw, h.y * iw);
+                let (x2, y2, xy) = (x * x, y * y, x * y);
+                let r2 = x2 + y2;
+                let mut radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+                if rational {
+                    radial /= 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
+                }
+                let xd = x * radial + 2.0 * p1 * xy + p2 * (r2 + 2.0 * x2);
+                let yd = y * radial + p1 * (r2 + 2.0 * y2) + 2.0 * p2 * xy;
+                let su = k.fx * xd + k.skew * yd + k.cx;
+                let sv = k.fy * yd + k.cy;
+                let valid = h.z > 0.0;
+                *ox = if valid { su as f32 } else { f32::NAN };
+                *oy = if valid { sv as f32 } else { f32::NAN };
+            }
+        },
+    );
+    Ok(RemapTable { width, height, map_x, map_y })
 }
 
 /// The undistort-only map of one camera (OpenCV's `initUndistortRectifyMap` with `R = I`), for

@@ -2,10 +2,10 @@
 
 use camera_model::StereoRig;
 
-use crate::remap::{Image, Sample};
+use crate::remap::{FastBilinear, Image, Sample, remap_impl};
 use crate::{
     Border, Interpolation, Rectification, RectifyConfig, RectifyError, RemapTable, Result, init_undistort_rectify_map,
-    remap, stereo_rectify,
+    stereo_rectify,
 };
 
 /// Rectifies image pairs of one rig: built once (rectification + both undistort/rectify maps),
@@ -15,6 +15,8 @@ pub struct Rectifier {
     rectification: Rectification,
     left_map: RemapTable,
     right_map: RemapTable,
+    left_fast: FastBilinear,
+    right_fast: FastBilinear,
     input_size: (u32, u32),
     interpolation: Interpolation,
 }
@@ -33,10 +35,16 @@ impl Rectifier {
             || init_undistort_rectify_map(&rig.left, rectification.r1, rectification.left_camera_matrix(), w, h),
             || init_undistort_rectify_map(&rig.right, rectification.r2, rectification.right_camera_matrix(), w, h),
         );
+        let (left_map, right_map) = (left_map?, right_map?);
+        let (iw, ih) = (rig.left.width, rig.left.height);
+        let (left_fast, right_fast) =
+            rayon::join(|| FastBilinear::new(&left_map, iw, ih), || FastBilinear::new(&right_map, iw, ih));
         Ok(Self {
             rectification,
-            left_map: left_map?,
-            right_map: right_map?,
+            left_map,
+            right_map,
+            left_fast,
+            right_fast,
             input_size: (rig.left.width, rig.left.height),
             interpolation: Interpolation::Bilinear,
         })
@@ -64,7 +72,9 @@ impl Rectifier {
     }
 
     /// Rectifies a left/right pair (both images at the rig's calibrated size); the two images
-    /// are resampled in parallel. `border` fills pixels without a source.
+    /// are resampled in parallel. `border` fills pixels without a source. Bilinear resampling
+    /// uses maps precompiled to fixed point (1/256 px, as OpenCV's `CV_16SC2` maps at 1/32 px):
+    /// within 1 grey level of [`remap`](crate::remap) with the `f32` maps.
     pub fn rectify_pair<P>(&self, left: &Image<P>, right: &Image<P>, border: Border<P>) -> Result<(Image<P>, Image<P>)>
     where
         P: image::Pixel + Send + Sync,
@@ -82,8 +92,8 @@ impl Rectifier {
             }
         }
         let (l, r) = rayon::join(
-            || remap(left, &self.left_map, self.interpolation, border),
-            || remap(right, &self.right_map, self.interpolation, border),
+            || remap_impl(left, &self.left_map, Some(&self.left_fast), self.interpolation, border),
+            || remap_impl(right, &self.right_map, Some(&self.right_fast), self.interpolation, border),
         );
         Ok((l?, r?))
     }

@@ -33,6 +33,10 @@ pub trait Sample: Copy + Send + Sync + 'static {
     fn to_f32(self) -> f32;
     /// Rounds to nearest and saturates.
     fn from_f32(v: f32) -> Self;
+    /// The value as `u32`.
+    fn to_u32(self) -> u32;
+    /// From a value known to be in range.
+    fn from_u32(v: u32) -> Self;
 }
 
 impl Sample for u8 {
@@ -43,6 +47,14 @@ impl Sample for u8 {
     #[inline(always)]
     fn from_f32(v: f32) -> Self {
         (v + 0.5) as u8
+    }
+    #[inline(always)]
+    fn to_u32(self) -> u32 {
+        self as u32
+    }
+    #[inline(always)]
+    fn from_u32(v: u32) -> Self {
+        v as u8
     }
 }
 
@@ -55,6 +67,14 @@ impl Sample for u16 {
     fn from_f32(v: f32) -> Self {
         (v + 0.5) as u16
     }
+    #[inline(always)]
+    fn to_u32(self) -> u32 {
+        self as u32
+    }
+    #[inline(always)]
+    fn from_u32(v: u32) -> Self {
+        v as u16
+    }
 }
 
 /// An owned image of pixel type `P`.
@@ -66,6 +86,21 @@ pub type Image<P> = ImageBuffer<P, Vec<<P as Pixel>::Subpixel>>;
 /// `Luma<u16>`, `Rgb<u8>`, …); rows run in parallel (rayon). Map entries that are NaN give
 /// the constant border value (black for [`Border::Replicate`]).
 pub fn remap<P>(src: &Image<P>, table: &RemapTable, interpolation: Interpolation, border: Border<P>) -> Result<Image<P>>
+where
+    P: Pixel + Send + Sync,
+    P::Subpixel: Sample,
+{
+    remap_impl(src, table, None, interpolation, border)
+}
+
+/// [`remap`] with an optional precomputed fixed-point table for the bilinear fast path.
+pub(crate) fn remap_impl<P>(
+    src: &Image<P>,
+    table: &RemapTable,
+    fast: Option<&FastBilinear>,
+    interpolation: Interpolation,
+    border: Border<P>,
+) -> Result<Image<P>>
 where
     P: Pixel + Send + Sync,
     P::Subpixel: Sample,
@@ -96,9 +131,18 @@ where
     out.par_chunks_mut(w * c).enumerate().for_each(|(v, row)| {
         let mx = &table.map_x[v * w..(v + 1) * w];
         let my = &table.map_y[v * w..(v + 1) * w];
-        match interpolation {
-            Interpolation::Bilinear => ctx.bilinear_row(mx, my, row),
-            Interpolation::Nearest => ctx.nearest_row(mx, my, row),
+        match (interpolation, fast) {
+            (Interpolation::Bilinear, Some(f)) if f.source_size == (sw, sh) => {
+                let (idx, frac) = (&f.index[v * w..(v + 1) * w], &f.frac[v * w..(v + 1) * w]);
+                match c {
+                    1 => ctx.fast_row::<1>(idx, frac, mx, my, row),
+                    3 => ctx.fast_row::<3>(idx, frac, mx, my, row),
+                    4 => ctx.fast_row::<4>(idx, frac, mx, my, row),
+                    _ => ctx.bilinear_row(mx, my, row),
+                }
+            }
+            (Interpolation::Bilinear, _) => ctx.bilinear_row(mx, my, row),
+            (Interpolation::Nearest, _) => ctx.nearest_row(mx, my, row),
         }
     });
     ImageBuffer::from_raw(table.width, table.height, out)
@@ -132,42 +176,76 @@ impl<S: Sample> Ctx<'_, S> {
     #[inline(always)]
     fn bilinear_row(&self, mx: &[f32], my: &[f32], row: &mut [S]) {
         let c = self.c;
-        // Positions far outside are clamped before the integer conversion (no overflow).
-        let lim_x = (self.sw + 2) as f32;
-        let lim_y = (self.sh + 2) as f32;
         for (i, (&x, &y)) in mx.iter().zip(my).enumerate() {
-            let dst = &mut row[i * c..(i + 1) * c];
-            if !(x.is_finite() && y.is_finite()) {
-                dst.copy_from_slice(self.fill);
+            self.bilinear_px(x, y, &mut row[i * c..(i + 1) * c]);
+        }
+    }
+
+    /// Fixed-point bilinear with precomputed offsets and 8-bit weights for the pixels whose
+    /// four neighbours are inside; the others go through [`Self::bilinear_px`].
+    #[inline(always)]
+    fn fast_row<const C: usize>(&self, idx: &[u32], frac: &[u16], mx: &[f32], my: &[f32], row: &mut [S]) {
+        let sw = self.sw as usize;
+        for (i, dst) in row.chunks_exact_mut(C).enumerate() {
+            let k = idx[i];
+            if k == u32::MAX {
+                self.bilinear_px(mx[i], my[i], dst);
                 continue;
             }
-            let xf = x.clamp(-3.0, lim_x).floor();
-            let yf = y.clamp(-3.0, lim_y).floor();
-            let (a, b) = (x.clamp(-3.0, lim_x) - xf, y.clamp(-3.0, lim_y) - yf);
-            let (x0, y0) = (xf as isize, yf as isize);
-            if x0 >= 0 && y0 >= 0 && x0 + 1 < self.sw && y0 + 1 < self.sh {
-                let i00 = (y0 * self.sw + x0) as usize * c;
-                let i10 = i00 + (self.sw as usize) * c;
-                for ch in 0..c {
-                    let p00 = self.raw[i00 + ch].to_f32();
-                    let p01 = self.raw[i00 + c + ch].to_f32();
-                    let p10 = self.raw[i10 + ch].to_f32();
-                    let p11 = self.raw[i10 + c + ch].to_f32();
-                    let top = p00 + (p01 - p00) * a;
-                    let bottom = p10 + (p11 - p10) * a;
-                    dst[ch] = S::from_f32(top + (bottom - top) * b);
-                }
-            } else {
-                for ch in 0..c {
-                    let p00 = self.at(x0, y0, ch);
-                    let p01 = self.at(x0 + 1, y0, ch);
-                    let p10 = self.at(x0, y0 + 1, ch);
-                    let p11 = self.at(x0 + 1, y0 + 1, ch);
-                    let top = p00 + (p01 - p00) * a;
-                    let bottom = p10 + (p11 - p10) * a;
-                    dst[ch] = S::from_f32(top + (bottom - top) * b);
-                }
+            let o = k as usize * C;
+            let px = &self.raw[o..o + (sw + 1) * C + C];
+            let fx = (frac[i] & 0xff) as u32;
+            let fy = (frac[i] >> 8) as u32;
+            for ch in 0..C {
+                let p00 = px[ch].to_u32();
+                let p01 = px[C + ch].to_u32();
+                let p10 = px[sw * C + ch].to_u32();
+                let p11 = px[sw * C + C + ch].to_u32();
+                let top = p00 * (256 - fx) + p01 * fx;
+                let bottom = p10 * (256 - fx) + p11 * fx;
+                dst[ch] = S::from_u32((top * (256 - fy) + bottom * fy + (1 << 15)) >> 16);
             }
+        }
+    }
+
+    #[inline(always)]
+    fn bilinear_px(&self, x: f32, y: f32, dst: &mut [S]) {
+        let c = self.c;
+        let (last_x, last_y) = ((self.sw - 1) as f32, (self.sh - 1) as f32);
+        let (xf, yf) = (x.floor(), y.floor());
+        // Fast path: all four neighbours inside (false for NaN).
+        if xf >= 0.0 && yf >= 0.0 && xf < last_x && yf < last_y {
+            let (a, b) = (x - xf, y - yf);
+            let i00 = (yf as usize * self.sw as usize + xf as usize) * c;
+            let i10 = i00 + (self.sw as usize) * c;
+            for ch in 0..c {
+                let p00 = self.raw[i00 + ch].to_f32();
+                let p01 = self.raw[i00 + c + ch].to_f32();
+                let p10 = self.raw[i10 + ch].to_f32();
+                let p11 = self.raw[i10 + c + ch].to_f32();
+                let top = p00 + (p01 - p00) * a;
+                let bottom = p10 + (p11 - p10) * a;
+                dst[ch] = S::from_f32(top + (bottom - top) * b);
+            }
+            return;
+        }
+        if !(x.is_finite() && y.is_finite()) {
+            dst.copy_from_slice(self.fill);
+            return;
+        }
+        // Positions far outside are clamped before the integer conversion (no overflow).
+        let (x, y) = (x.clamp(-3.0, (self.sw + 2) as f32), y.clamp(-3.0, (self.sh + 2) as f32));
+        let (xf, yf) = (x.floor(), y.floor());
+        let (a, b) = (x - xf, y - yf);
+        let (x0, y0) = (xf as isize, yf as isize);
+        for ch in 0..c {
+            let p00 = self.at(x0, y0, ch);
+            let p01 = self.at(x0 + 1, y0, ch);
+            let p10 = self.at(x0, y0 + 1, ch);
+            let p11 = self.at(x0 + 1, y0 + 1, ch);
+            let top = p00 + (p01 - p00) * a;
+            let bottom = p10 + (p11 - p10) * a;
+            dst[ch] = S::from_f32(top + (bottom - top) * b);
         }
     }
 
@@ -193,5 +271,36 @@ impl<S: Sample> Ctx<'_, S> {
                 }
             }
         }
+    }
+}
+
+/// A [`RemapTable`] precompiled for one source size (as OpenCV's `convertMaps` to fixed point):
+/// per output pixel the offset of the top-left neighbour and the two fractions quantised to
+/// 1/256 px (OpenCV: 1/32 px); `u32::MAX` marks pixels that need border handling, which take
+/// the exact `f32` path. Value error against the `f32` path: ≤ 1 grey level.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct FastBilinear {
+    pub source_size: (u32, u32),
+    pub index: Vec<u32>,
+    pub frac: Vec<u16>,
+}
+
+impl FastBilinear {
+    pub(crate) fn new(table: &RemapTable, source_width: u32, source_height: u32) -> Self {
+        let (last_x, last_y) = (source_width as f32 - 1.0, source_height as f32 - 1.0);
+        let mut index = vec![u32::MAX; table.map_x.len()];
+        let mut frac = vec![0u16; table.map_x.len()];
+        let usable = (source_width as u64) * (source_height as u64) < u32::MAX as u64;
+        index.par_iter_mut().zip(frac.par_iter_mut()).enumerate().for_each(|(i, (k, f))| {
+            let (x, y) = (table.map_x[i], table.map_y[i]);
+            let (xf, yf) = (x.floor(), y.floor());
+            if usable && xf >= 0.0 && yf >= 0.0 && xf < last_x && yf < last_y {
+                let fx = (((x - xf) * 256.0).round() as u32).min(255);
+                let fy = (((y - yf) * 256.0).round() as u32).min(255);
+                *k = yf as u32 * source_width + xf as u32;
+                *f = (fx | (fy << 8)) as u16;
+            }
+        });
+        Self { source_size: (source_width, source_height), index, frac }
     }
 }

@@ -6,7 +6,9 @@
 //! - calibration view sets ([`calibration_poses`], [`stereo_calibration_poses`]) and the true
 //!   corner positions ([`project_corners`], through `camera-model`'s projection);
 //! - rendered chessboard views with exact anti-aliasing ([`render_chessboard`]);
-//! - robot trajectories for hand-eye calibration ([`hand_eye_trajectory`]).
+//! - rectified stereo pairs with exact disparity and occlusion masks ([`render_stereo_scene`]);
+//! - robot trajectories for hand-eye calibration ([`hand_eye_trajectory`]);
+//! - scene descriptions in RON with the pipeline's tolerances ([`SceneDescription`]).
 //!
 //! Everything is deterministic for a given seed (ChaCha8).
 //!
@@ -26,11 +28,15 @@
 mod error;
 mod noise;
 mod render;
+mod scene;
+mod stereo;
 mod trajectory;
 mod views;
 
 pub use error::SyntheticError;
 pub use noise::{add_pixel_noise, perturb_pose, rng};
 pub use render::{RenderOptions, RenderedView, render_chessboard};
+pub use scene::{SceneDescription, Tolerances};
+pub use stereo::{StereoScene, StereoSceneConfig, render_stereo_scene};
 pub use trajectory::{HandEyeTruth, Trajectory, TrajectoryConfig, hand_eye_trajectory};
 pub use views::{ViewSetConfig, calibration_poses, project_corners, stereo_calibration_poses};

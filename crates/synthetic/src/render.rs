@@ -140,8 +140,8 @@ pub fn render_chessboard(
         }
     });
     apply_lighting(&mut radiance, camera, opts, &mut rng);
-    let mut img = ImageBuffer::<Luma<f32>, Vec<f32>>::from_raw(w as u32, h as u32, radiance)
-        .expect("buffer of width x height");
+    let mut img =
+        ImageBuffer::<Luma<f32>, Vec<f32>>::from_raw(w as u32, h as u32, radiance).expect("buffer of width x height");
     if opts.blur_sigma > 0.0 {
         img = imageproc::filter::gaussian_blur_f32(&img, opts.blur_sigma as f32);
     }
@@ -179,8 +179,7 @@ impl Pattern {
         for iy in 0..ys.len() - 1 {
             for ix in 0..xs.len() - 1 {
                 let (x0, x1, y0, y1) = (xs[ix], xs[ix + 1], ys[iy], ys[iy + 1]);
-                let in_squares =
-                    x0 >= -1.0 && x1 <= board.cols as f64 && y0 >= -1.0 && y1 <= board.rows as f64;
+                let in_squares = x0 >= -1.0 && x1 <= board.cols as f64 && y0 >= -1.0 && y1 <= board.rows as f64;
                 let colour = if in_squares {
                     let (i, j) = (x0.round() as i64, y0.round() as i64);
                     if (i + j).rem_euclid(2) == 0 { black } else { white }
@@ -424,10 +423,8 @@ fn point_sampled(
     let mut sum = 0.0;
     for j in 0..N {
         for i in 0..N {
-            let px = DVec2::new(
-                u as f64 - 0.5 + (i as f64 + 0.5) / N as f64,
-                v as f64 - 0.5 + (j as f64 + 0.5) / N as f64,
-            );
+            let px =
+                DVec2::new(u as f64 - 0.5 + (i as f64 + 0.5) / N as f64, v as f64 - 0.5 + (j as f64 + 0.5) / N as f64);
             sum += plane.hit(camera, px).and_then(|p| pattern.at(p)).unwrap_or(background);
         }
     }
@@ -445,10 +442,11 @@ fn apply_lighting(radiance: &mut [f32], camera: &Camera, opts: &RenderOptions, r
     let dir = DVec2::new(angle.cos(), angle.sin());
     let half_extent = 0.5 * ((w - 1.0) * dir.x.abs() + (h - 1.0) * dir.y.abs()).max(1e-9);
     let pp = DVec2::new(camera.intrinsics.cx, camera.intrinsics.cy);
-    let r_max2 = [DVec2::new(0.0, 0.0), DVec2::new(w - 1.0, 0.0), DVec2::new(0.0, h - 1.0), DVec2::new(w - 1.0, h - 1.0)]
-        .iter()
-        .map(|c| (*c - pp).length_squared())
-        .fold(1e-9, f64::max);
+    let r_max2 =
+        [DVec2::new(0.0, 0.0), DVec2::new(w - 1.0, 0.0), DVec2::new(0.0, h - 1.0), DVec2::new(w - 1.0, h - 1.0)]
+            .iter()
+            .map(|c| (*c - pp).length_squared())
+            .fold(1e-9, f64::max);
     let width = camera.width as usize;
     radiance.par_chunks_mut(width).enumerate().for_each(|(v, row)| {
         for (u, out) in row.iter_mut().enumerate() {
@@ -520,7 +518,8 @@ fn clutter(w: usize, h: usize, level: f64, rng: &mut impl Rng) -> Vec<f64> {
             for u in (lo.x.max(0.0) as usize)..(hi.x.max(0.0) as usize).min(w) {
                 let mut hits = 0;
                 for s in 0..16 {
-                    let p = DVec2::new(u as f64 - 0.375 + 0.25 * (s % 4) as f64, v as f64 - 0.375 + 0.25 * (s / 4) as f64);
+                    let p =
+                        DVec2::new(u as f64 - 0.375 + 0.25 * (s % 4) as f64, v as f64 - 0.375 + 0.25 * (s / 4) as f64);
                     let t = ((p - a).dot(ab) / len2).clamp(0.0, 1.0);
                     if (a + ab * t - p).length() <= half_width {
                         hits += 1;

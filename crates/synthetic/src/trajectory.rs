@@ -147,9 +147,8 @@ pub fn hand_eye_trajectory(cfg: &TrajectoryConfig) -> Result<Trajectory, Synthet
     cfg.validate()?;
     let mut rng = rng(cfg.seed);
     let r = cfg.hand_eye_offset;
-    let rand_t = |rng: &mut rand_chacha::ChaCha8Rng| {
-        DVec3::new(uniform(rng, -r, r), uniform(rng, -r, r), uniform(rng, -r, r))
-    };
+    let rand_t =
+        |rng: &mut rand_chacha::ChaCha8Rng| DVec3::new(uniform(rng, -r, r), uniform(rng, -r, r), uniform(rng, -r, r));
     // The hand-eye transform (X, or Z eye-to-hand) and the fixed frame (W, or Y eye-to-hand).
     let hand_q = uniform_rotation(&mut rng);
     let hand_t = rand_t(&mut rng);

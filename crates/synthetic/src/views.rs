@@ -165,8 +165,7 @@ fn generate(
             let rotation = DQuat::from_axis_angle(axis, tilt) * DQuat::from_rotation_z(roll);
             let Ok(ray) = reference.unproject(target) else { continue };
             let centre_in_camera = ray.normalize() * distance;
-            let reference_from_board =
-                Isometry3::from_quat_translation(rotation, centre_in_camera - rotation * centre);
+            let reference_from_board = Isometry3::from_quat_translation(rotation, centre_in_camera - rotation * centre);
             if accept(cameras, &reference_from_board, &samples, &corners, cfg.margin_px, partial) {
                 found = Some(reference_from_board);
                 break;

@@ -5,8 +5,13 @@ use glam::{DVec2, DVec3};
 use synthetic::*;
 
 fn camera() -> Camera {
-    Camera::new(Intrinsics::new(800.0, 790.0, 322.0, 241.0), Distortion::new(-0.12, 0.08, 0.001, -0.0005, 0.0), 640, 480)
-        .unwrap()
+    Camera::new(
+        Intrinsics::new(800.0, 790.0, 322.0, 241.0),
+        Distortion::new(-0.12, 0.08, 0.001, -0.0005, 0.0),
+        640,
+        480,
+    )
+    .unwrap()
 }
 
 fn board() -> Chessboard {
@@ -28,21 +33,24 @@ fn reference_projection(c: &Camera, p: DVec3) -> DVec2 {
 #[test]
 fn rng_is_deterministic_and_seed_dependent() {
     use rand::Rng;
-    let a: Vec<u64> = (0..8).map({
-        let mut r = rng(7);
-        move |_| r.random()
-    })
-    .collect();
-    let b: Vec<u64> = (0..8).map({
-        let mut r = rng(7);
-        move |_| r.random()
-    })
-    .collect();
-    let c: Vec<u64> = (0..8).map({
-        let mut r = rng(8);
-        move |_| r.random()
-    })
-    .collect();
+    let a: Vec<u64> = (0..8)
+        .map({
+            let mut r = rng(7);
+            move |_| r.random()
+        })
+        .collect();
+    let b: Vec<u64> = (0..8)
+        .map({
+            let mut r = rng(7);
+            move |_| r.random()
+        })
+        .collect();
+    let c: Vec<u64> = (0..8)
+        .map({
+            let mut r = rng(8);
+            move |_| r.random()
+        })
+        .collect();
     assert_eq!(a, b);
     assert_ne!(a, c);
 }
@@ -159,8 +167,9 @@ fn partial_views_show_part_of_the_board() {
 #[test]
 fn stereo_views_are_visible_in_both_cameras() {
     let left = camera();
-    let right = Camera::new(Intrinsics::new(805.0, 795.0, 318.0, 243.0), Distortion::new(-0.1, 0.05, 0.0, 0.0, 0.0), 640, 480)
-        .unwrap();
+    let right =
+        Camera::new(Intrinsics::new(805.0, 795.0, 318.0, 243.0), Distortion::new(-0.1, 0.05, 0.0, 0.0, 0.0), 640, 480)
+            .unwrap();
     let right_from_left = Isometry3::from_rvec_tvec(DVec3::new(0.01, -0.02, 0.005), DVec3::new(-60.0, 0.5, 0.3));
     let rig = StereoRig::new(left, right, right_from_left).unwrap();
     let b = board();
@@ -226,7 +235,8 @@ fn eye_in_hand_trajectory_closes_the_chain() {
 
 #[test]
 fn eye_to_hand_trajectory_closes_the_chain() {
-    let cfg = TrajectoryConfig { eye_in_hand: false, rot_noise_rad: 0.0, trans_noise: 0.0, seed: 5, ..Default::default() };
+    let cfg =
+        TrajectoryConfig { eye_in_hand: false, rot_noise_rad: 0.0, trans_noise: 0.0, seed: 5, ..Default::default() };
     let t = hand_eye_trajectory(&cfg).unwrap();
     assert!(!t.eye_in_hand);
     for (g, c) in t.base_from_gripper.iter().zip(&t.camera_from_board) {

@@ -86,10 +86,8 @@ fn brute_force(cam: &Camera, pose: &Isometry3, board: &Chessboard, o: &RenderOpt
     let mut sum = 0.0;
     for j in 0..n {
         for i in 0..n {
-            let px = DVec2::new(
-                u as f64 - 0.5 + (i as f64 + 0.5) / n as f64,
-                v as f64 - 0.5 + (j as f64 + 0.5) / n as f64,
-            );
+            let px =
+                DVec2::new(u as f64 - 0.5 + (i as f64 + 0.5) / n as f64, v as f64 - 0.5 + (j as f64 + 0.5) / n as f64);
             let ray = cam.unproject(px).unwrap();
             let lambda = normal.dot(pose.translation) / normal.dot(ray);
             let p = inv.transform_point(ray * lambda) / board.square_size;
@@ -100,8 +98,13 @@ fn brute_force(cam: &Camera, pose: &Isometry3, board: &Chessboard, o: &RenderOpt
 }
 
 fn distorted_camera() -> Camera {
-    Camera::new(Intrinsics::new(620.0, 615.0, 322.5, 236.0), Distortion::new(-0.25, 0.12, 0.001, -0.002, -0.02), 640, 480)
-        .unwrap()
+    Camera::new(
+        Intrinsics::new(620.0, 615.0, 322.5, 236.0),
+        Distortion::new(-0.25, 0.12, 0.001, -0.002, -0.02),
+        640,
+        480,
+    )
+    .unwrap()
 }
 
 #[test]
@@ -149,8 +152,13 @@ fn corners_are_the_camera_model_projection() {
     for r in 0..board.rows {
         for c in 0..board.cols {
             let k = r * board.cols + c;
-            let right = if c + 1 < board.cols { view.corners[k + 1] } else { 2.0 * view.corners[k] - view.corners[k - 1] };
-            let down = if r + 1 < board.rows { view.corners[k + board.cols] } else { 2.0 * view.corners[k] - view.corners[k - board.cols] };
+            let right =
+                if c + 1 < board.cols { view.corners[k + 1] } else { 2.0 * view.corners[k] - view.corners[k - 1] };
+            let down = if r + 1 < board.rows {
+                view.corners[k + board.cols]
+            } else {
+                2.0 * view.corners[k] - view.corners[k - board.cols]
+            };
             let (dx, dy) = ((right - view.corners[k]) * 0.3, (down - view.corners[k]) * 0.3);
             let ctr = view.corners[k];
             // Square (c, r) (lower right of the corner) is black when c + r is even.
@@ -203,11 +211,8 @@ fn rendering_is_deterministic_and_effects_have_their_size() {
     let vig = RenderOptions { vignetting: 0.5, background: 200, ..Default::default() };
     let img = render_chessboard(&cam, &board, &away, &vig).unwrap().image;
     assert_eq!(img.get_pixel(322, 236).0[0], 200);
-    let far = [(0u32, 0u32), (639, 0), (0, 479), (639, 479)]
-        .iter()
-        .map(|&(u, v)| img.get_pixel(u, v).0[0])
-        .min()
-        .unwrap();
+    let far =
+        [(0u32, 0u32), (639, 0), (0, 479), (639, 479)].iter().map(|&(u, v)| img.get_pixel(u, v).0[0]).min().unwrap();
     assert!((f64::from(far) - 100.0).abs() <= 0.5 + 1e-9, "corner {far}");
 
     // Gradient: brightness runs from 1 − g to 1 + g, so the image mean stays and the extremes are ±g.
@@ -232,7 +237,12 @@ fn bad_render_inputs_are_errors() {
     assert!(render_chessboard(&cam, &board, &nan, &RenderOptions::default()).is_err());
     let mut bad_cam = cam;
     bad_cam.width = 0;
-    assert!(render_chessboard(&bad_cam, &board, &pose, &RenderOptions::default()).unwrap_err().to_string().contains("camera"));
+    assert!(
+        render_chessboard(&bad_cam, &board, &pose, &RenderOptions::default())
+            .unwrap_err()
+            .to_string()
+            .contains("camera")
+    );
 }
 
 #[test]
@@ -247,5 +257,8 @@ fn report_render_time_640x480() {
     for _ in 0..n {
         let _ = render_chessboard(&cam, &board, &pose, &o).unwrap();
     }
-    println!("render_chessboard 640x480 (distortion, clutter, blur, noise): {:.1} ms per view", t.elapsed().as_secs_f64() * 1e3 / n as f64);
+    println!(
+        "render_chessboard 640x480 (distortion, clutter, blur, noise): {:.1} ms per view",
+        t.elapsed().as_secs_f64() * 1e3 / n as f64
+    );
 }

@@ -14,6 +14,11 @@ pub struct Distance {
     pub value: f64,
     /// Standard deviation from the points' covariances (0 when none was given).
     pub std_dev: f64,
+    /// Expected second-order excess of `value` over the true distance,
+    /// `tr(P⊥ C) / (2 value)` with `P⊥` the projector orthogonal to the segment and `C` the
+    /// covariance of `b − a`: noise across the segment always lengthens it. Not subtracted from
+    /// `value` (which stays the plain Euclidean distance, as OpenCV users compute it).
+    pub bias: f64,
 }
 
 /// Distance between two points with independent errors: `σ² = gᵀ (C_a + C_b) g`, `g` the unit
@@ -48,7 +53,9 @@ pub fn distance_with_joint_covariance(
     let g = delta / value;
     let c = *cov_a + *cov_b - *cross - cross.transpose();
     let var = g.dot(c * g);
-    Ok(Distance { value, std_dev: var.max(0.0).sqrt() })
+    let trace = c.x_axis.x + c.y_axis.y + c.z_axis.z;
+    let bias = ((trace - var) / (2.0 * value)).max(0.0);
+    Ok(Distance { value, std_dev: var.max(0.0).sqrt(), bias })
 }
 
 /// Distance between two triangulated points, using their covariances when both have one.
@@ -70,6 +77,8 @@ pub struct CornerDistance {
     pub distance: f64,
     /// Its first-order standard deviation from the configured pixel noise.
     pub std_dev: f64,
+    /// Expected second-order excess over the true distance (see [`Distance::bias`]).
+    pub bias: f64,
 }
 
 /// Triangulates every corner of a board seen in both cameras of `rig` (left/right grids of the
@@ -121,7 +130,7 @@ pub fn adjacent_corner_distances(
     let mut out = Vec::with_capacity((cols - 1) * rows + cols * (rows - 1));
     let mut push = |a: (usize, usize), b: (usize, usize)| -> Result<()> {
         let d = point_distance(&points[a.1 * cols + a.0], &points[b.1 * cols + b.0])?;
-        out.push(CornerDistance { from: a, to: b, distance: d.value, std_dev: d.std_dev });
+        out.push(CornerDistance { from: a, to: b, distance: d.value, std_dev: d.std_dev, bias: d.bias });
         Ok(())
     };
     for r in 0..rows {
@@ -206,7 +215,9 @@ pub fn measure_stereo(rig: &StereoRig, pairs: &[(DVec2, DVec2)], config: &Triang
         .enumerate()
         .map(|(i, (l, r))| {
             triangulate(&views, &[*l, *r], config).map_err(|e| match e {
-                TriangulationError::NonFinite { what } => TriangulationError::NonFinite { what: format!("pair {i}: {what}") },
+                TriangulationError::NonFinite { what } => {
+                    TriangulationError::NonFinite { what: format!("pair {i}: {what}") }
+                }
                 TriangulationError::ParallelRays { angle_rad } => TriangulationError::Degenerate(format!(
                     "pair {i}: rays are parallel ({angle_rad:e} rad), the point is at infinity"
                 )),
@@ -234,7 +245,7 @@ pub fn measure_stereo(rig: &StereoRig, pairs: &[(DVec2, DVec2)], config: &Triang
     for i in 0..tri.len() {
         for j in i + 1..tri.len() {
             // Coincident points have distance 0 and no gradient: report 0 ± 0 rather than fail.
-            let d = point_distance(&tri[i], &tri[j]).unwrap_or(Distance { value: 0.0, std_dev: 0.0 });
+            let d = point_distance(&tri[i], &tri[j]).unwrap_or(Distance { value: 0.0, std_dev: 0.0, bias: 0.0 });
             distances.push(MeasuredDistance { from: i, to: j, distance: d.value, std_dev: d.std_dev });
         }
     }

@@ -56,7 +56,8 @@ pub enum Method {
     /// rows of `P`, solved for `X, Y, Z` by QR), on undistorted pixels.
     Linear,
     /// The homogeneous DLT `A X = 0`, `X` the null vector of `A` by SVD (as OpenCV's
-    /// `triangulatePoints`), on undistorted pixels, rows and columns equilibrated.
+    /// `triangulatePoints`), on undistorted pixels, rows scaled to unit norm and the world
+    /// normalised (Hartley) so the result does not depend on the length unit.
     Dlt,
     /// The point closest to all rays in the least-squares sense; for two views the midpoint of
     /// the common perpendicular.
@@ -178,11 +179,7 @@ fn check_inputs(views: &[View], pixels: &[DVec2]) -> Result<()> {
         return Err(TriangulationError::TooFew { what: "views", needed: 2, got: views.len() });
     }
     if views.len() != pixels.len() {
-        return Err(TriangulationError::SizeMismatch(format!(
-            "{} views but {} pixels",
-            views.len(),
-            pixels.len()
-        )));
+        return Err(TriangulationError::SizeMismatch(format!("{} views but {} pixels", views.len(), pixels.len())));
     }
     for (i, (v, p)) in views.iter().zip(pixels).enumerate() {
         if !p.is_finite() {
@@ -232,7 +229,8 @@ pub fn triangulate(views: &[View], pixels: &[DVec2], config: &TriangulationConfi
     let (point, iterations) = match config.method {
         Method::Linear | Method::Dlt => {
             let projections: Vec<ProjectionMatrix> = views.iter().map(View::projection_matrix).collect();
-            let undistorted = views.iter().zip(pixels).map(|(v, p)| v.undistorted_pixel(*p)).collect::<Result<Vec<_>>>()?;
+            let undistorted =
+                views.iter().zip(pixels).map(|(v, p)| v.undistorted_pixel(*p)).collect::<Result<Vec<_>>>()?;
             let x = if config.method == Method::Linear {
                 linear_from_projections(&projections, &undistorted)?
             } else {
@@ -243,8 +241,10 @@ pub fn triangulate(views: &[View], pixels: &[DVec2], config: &TriangulationConfi
         Method::Midpoint => (midpoint_from_rays(&centers, &dirs)?, 0),
         Method::Optimal => {
             let projections: Vec<ProjectionMatrix> = views.iter().map(View::projection_matrix).collect();
-            let undistorted = views.iter().zip(pixels).map(|(v, p)| v.undistorted_pixel(*p)).collect::<Result<Vec<_>>>()?;
-            let init = dlt_from_projections(&projections, &undistorted).or_else(|_| midpoint_from_rays(&centers, &dirs))?;
+            let undistorted =
+                views.iter().zip(pixels).map(|(v, p)| v.undistorted_pixel(*p)).collect::<Result<Vec<_>>>()?;
+            let init =
+                dlt_from_projections(&projections, &undistorted).or_else(|_| midpoint_from_rays(&centers, &dirs))?;
             refine(views, pixels, init, config)
         }
     };
@@ -277,7 +277,13 @@ pub fn triangulate_stereo_batch(
 }
 
 /// Reprojection errors, flags and covariance of a point.
-fn assess(views: &[View], pixels: &[DVec2], point: DVec3, config: &TriangulationConfig, iterations: usize) -> TriangulatedPoint {
+fn assess(
+    views: &[View],
+    pixels: &[DVec2],
+    point: DVec3,
+    config: &TriangulationConfig,
+    iterations: usize,
+) -> TriangulatedPoint {
     let mut behind = false;
     let mut errors = Vec::with_capacity(views.len());
     for (v, p) in views.iter().zip(pixels) {
@@ -300,11 +306,8 @@ fn assess(views: &[View], pixels: &[DVec2], point: DVec3, config: &Triangulation
     let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
     let at_point: Vec<DVec3> = views.iter().map(|v| point - v.center()).collect();
     let parallax_deg = max_pairwise_angle(&at_point).to_degrees();
-    let covariance = if config.covariance && !behind {
-        point_covariance(views, point, config.pixel_sigma).ok()
-    } else {
-        None
-    };
+    let covariance =
+        if config.covariance && !behind { point_covariance(views, point, config.pixel_sigma).ok() } else { None };
     TriangulatedPoint {
         point,
         method: config.method,
@@ -458,47 +461,61 @@ pub fn linear_from_projections(projections: &[ProjectionMatrix], pixels: &[DVec2
 }
 
 /// Homogeneous DLT: rows `u p3 − p1`, `v p3 − p2` of every view stacked into `A`, each row
-/// scaled to unit norm and each column equilibrated, `X` the right singular vector of the
-/// smallest singular value ([`least_squares::null_vector`]). Pixels must be undistorted.
-/// Errors when the solution is at infinity (`W ≈ 0`).
+/// scaled to unit norm, `X` the right singular vector of the smallest singular value
+/// ([`least_squares::null_vector`]). Pixels must be undistorted. Errors when the solution is
+/// at infinity (`W ≈ 0`).
+///
+/// The unit-norm constraint of the homogeneous method is not invariant to the world's units
+/// (in millimetres `‖X‖ ≈ |Z|` swamps `W = 1` and the estimate degrades badly with noise), so
+/// the world is first normalised as Hartley recommends: origin at the centroid of the camera
+/// centres, unit length = distance from there to the inhomogeneous linear estimate. Without
+/// noise the result is the same as the raw DLT.
 pub fn dlt_from_projections(projections: &[ProjectionMatrix], pixels: &[DVec2]) -> Result<DVec3> {
     check_projections(projections, pixels)?;
     let n = projections.len();
+    // World normalisation X = c + s X'.
+    let mut centroid = DVec3::ZERO;
+    for p in projections {
+        let m = p.left_block();
+        let det = m.determinant();
+        if det == 0.0 || !det.is_finite() {
+            return Err(TriangulationError::Degenerate("a projection matrix has a singular left 3x3 block".into()));
+        }
+        centroid += -(m.inverse() * p.last_column());
+    }
+    centroid /= n as f64;
+    let scale = linear_from_projections(projections, pixels)
+        .ok()
+        .map(|x| (x - centroid).length())
+        .filter(|s| s.is_finite() && *s > 0.0)
+        .unwrap_or(1.0);
     let mut a = Mat::<f64>::zeros(2 * n, 4);
     for (k, (p, px)) in projections.iter().zip(pixels).enumerate() {
         let m = &p.rows;
         for (row, coord) in [(0usize, px.x), (1usize, px.y)] {
             let i = 2 * k + row;
             let r: [f64; 4] = std::array::from_fn(|c| coord * m[2][c] - m[row][c]);
-            let norm = r.iter().map(|v| v * v).sum::<f64>().sqrt();
+            // r · [c + s X'; 1] = (s r₀₋₂) · X' + (r₀₋₂ · c + r₃)
+            let r3 = DVec3::new(r[0], r[1], r[2]);
+            let t: [f64; 4] = [r[0] * scale, r[1] * scale, r[2] * scale, r3.dot(centroid) + r[3]];
+            let norm = t.iter().map(|v| v * v).sum::<f64>().sqrt();
             let s = if norm > 0.0 { 1.0 / norm } else { 1.0 };
             for c in 0..4 {
-                a[(i, c)] = r[c] * s;
-            }
-        }
-    }
-    // Column equilibration: A D y = 0, X = D y (exact for consistent data, better conditioned).
-    let mut d = [1.0; 4];
-    for c in 0..4 {
-        let norm = (0..2 * n).map(|i| a[(i, c)] * a[(i, c)]).sum::<f64>().sqrt();
-        if norm > 0.0 {
-            d[c] = 1.0 / norm;
-            for i in 0..2 * n {
-                a[(i, c)] *= d[c];
+                a[(i, c)] = t[c] * s;
             }
         }
     }
     let nv = least_squares::null_vector(a.as_ref())?;
-    let h = DVec4::new(nv.vector[0] * d[0], nv.vector[1] * d[1], nv.vector[2] * d[2], nv.vector[3] * d[3]);
+    let h = DVec4::new(nv.vector[0], nv.vector[1], nv.vector[2], nv.vector[3]);
     let xyz = h.truncate();
-    if !(h.w.abs() > 1e-12 * xyz.length()) || !h.is_finite() {
+    if !h.is_finite() || h.w.abs() <= 1e-12 * xyz.length() {
         return Err(TriangulationError::Degenerate(format!(
             "DLT solution is at infinity (W = {:e}, |XYZ| = {:e})",
             h.w,
             xyz.length()
         )));
     }
-    Ok(xyz / h.w)
+    Ok(centroid + xyz / h.w * scale)
 }
 
 /// The point minimising the sum of squared distances to the rays `centers[i] + t·directions[i]`:

@@ -125,7 +125,7 @@ impl ReprojectionMatrix {
         }
         let h = self.apply(u, v, disparity);
         // W > 0 for a point in front of the rig (the sign convention of OpenCV's Q with Tx < 0).
-        if !(h.w > 0.0) {
+        if h.w.is_nan() || h.w <= 0.0 {
             return None;
         }
         let p = h.truncate() / h.w;
@@ -213,10 +213,7 @@ pub fn disparity_to_point_cloud(
 ) -> Result<PointCloud> {
     let (w, h) = (map.width, map.height);
     if map.data.len() != w * h {
-        return Err(TriangulationError::SizeMismatch(format!(
-            "disparity map {w}x{h} holds {} values",
-            map.data.len()
-        )));
+        return Err(TriangulationError::SizeMismatch(format!("disparity map {w}x{h} holds {} values", map.data.len())));
     }
     match colors {
         Some(PixelColors::Grey(g)) if g.len() != w * h => {
@@ -249,9 +246,9 @@ pub fn disparity_to_point_cloud(
         .into_par_iter()
         .map(|v| {
             let mut row = Row {
-                points: Vec::new(),
-                pixels: Vec::new(),
-                colors: Vec::new(),
+                points: Vec::with_capacity(w),
+                pixels: Vec::with_capacity(w),
+                colors: Vec::with_capacity(if colors.is_some() { w } else { 0 }),
                 invalid: 0,
                 non_positive: 0,
                 far: 0,
@@ -288,7 +285,8 @@ pub fn disparity_to_point_cloud(
         })
         .collect();
     let total: usize = rows.iter().map(|r| r.points.len()).sum();
-    let mut cloud = PointCloud { points: Vec::with_capacity(total), pixels: Vec::with_capacity(total), ..Default::default() };
+    let mut cloud =
+        PointCloud { points: Vec::with_capacity(total), pixels: Vec::with_capacity(total), ..Default::default() };
     let mut cols = Vec::with_capacity(if colors.is_some() { total } else { 0 });
     for r in rows {
         cloud.points.extend(r.points);
@@ -332,5 +330,7 @@ pub fn parallax_covariance(
     let jv = DVec3::new(0.0, z / focal, 0.0);
     let jd = -p / disparity;
     let outer = |a: DVec3, b: DVec3| glam::DMat3::from_cols(a * b.x, a * b.y, a * b.z);
-    Ok(outer(ju, ju) * (sigma_uv * sigma_uv) + outer(jv, jv) * (sigma_uv * sigma_uv) + outer(jd, jd) * (sigma_d * sigma_d))
+    Ok(outer(ju, ju) * (sigma_uv * sigma_uv)
+        + outer(jv, jv) * (sigma_uv * sigma_uv)
+        + outer(jd, jd) * (sigma_d * sigma_d))
 }

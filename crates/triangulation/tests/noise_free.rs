@@ -3,7 +3,7 @@
 
 mod common;
 
-use camera_model::{Camera, Distortion, DisparityMap, Intrinsics, Isometry3, ProjectionMatrix};
+use camera_model::{Camera, DisparityMap, Distortion, Intrinsics, Isometry3, ProjectionMatrix};
 use common::*;
 use glam::{DVec2, DVec3};
 use triangulation::*;
@@ -43,7 +43,8 @@ fn n_view_triangulation_recovers_noise_free_points() {
     )
     .unwrap();
     // A third camera above the rig looking down 10°.
-    let third_from_world = Isometry3::from_rvec_tvec(DVec3::new(-10f64.to_radians(), 0.0, 0.0), DVec3::new(-50.0, 80.0, 10.0));
+    let third_from_world =
+        Isometry3::from_rvec_tvec(DVec3::new(-10f64.to_radians(), 0.0, 0.0), DVec3::new(-50.0, 80.0, 10.0));
     let views = [stereo_views(&rig)[0], stereo_views(&rig)[1], View::new(third_cam, third_from_world)];
     let mut rng = rng(2);
     for _ in 0..50 {
@@ -152,11 +153,11 @@ fn points_behind_the_rig_and_far_points_are_flagged_not_nan() {
         assert!(p.covariance.is_none());
         assert!(!p.is_reliable());
     }
-    // 20 m away with a 100 mm baseline: parallax 0.29° < 1°.
+    // 20 m away on the left optical axis, 100 mm baseline: parallax atan(0.1/20) = 0.29° < 1°.
     let truth = DVec3::new(0.0, 0.0, 20_000.0);
     let (l, r) = project_pair(&rig, truth);
     let p = triangulate_stereo(&rig, l, r, &TriangulationConfig::default()).unwrap();
-    assert!((p.parallax_deg - (BASELINE / 2.0 / 20_000.0).atan().to_degrees() * 2.0).abs() < 1e-6);
+    assert!((p.parallax_deg - (BASELINE / 20_000.0).atan().to_degrees()).abs() < 1e-6);
     assert!(p.low_parallax && !p.behind_camera);
     assert!((p.point - truth).length() < 1e-9 * truth.length());
 }
@@ -170,9 +171,9 @@ fn disparity_map_to_point_cloud_skips_and_counts_invalid_pixels() {
     for v in 0..h {
         for u in 0..w {
             let d = match (u + 3 * v) % 7 {
-                0 => None,             // invalid
-                1 => Some(0.0f32),     // zero disparity (+ offset cx − cx' = 2.5 px: W < 0)
-                2 => Some(-4.0f32),    // negative
+                0 => None,          // invalid
+                1 => Some(0.0f32),  // zero disparity (+ offset cx − cx' = 2.5 px: W < 0)
+                2 => Some(-4.0f32), // negative
                 _ => {
                     expect_valid += 1;
                     Some(10.0 + (u as f32) * 0.25 + (v as f32) * 0.1)
@@ -225,4 +226,40 @@ fn covariance_matches_the_rectified_closed_form() {
     // The figures: 0.16 mm at 0.3 m, 0.44 mm at 0.5 m, 1.8 mm at 1 m.
     let s = |z: f64| depth_std_dev(z, FOCAL, BASELINE, 2f64.sqrt() * 0.1);
     assert!((s(300.0) - 0.159).abs() < 0.001 && (s(500.0) - 0.442).abs() < 0.001 && (s(1000.0) - 1.768).abs() < 0.001);
+}
+
+#[test]
+fn measure_stereo_reports_points_and_all_pairwise_distances() {
+    // The thesis's ranging experiment: four targets, the lengths between them.
+    let rig = general_rig();
+    let targets = [
+        DVec3::new(0.0, 0.0, 600.0),
+        DVec3::new(120.0, 0.0, 610.0),
+        DVec3::new(120.0, 90.0, 620.0),
+        DVec3::new(0.0, 90.0, 630.0),
+    ];
+    let pairs: Vec<(DVec2, DVec2)> = targets.iter().map(|t| project_pair(&rig, *t)).collect();
+    let m = measure_stereo(&rig, &pairs, &TriangulationConfig::default()).unwrap();
+    assert_eq!(m.points.len(), 4);
+    assert_eq!(m.distances.len(), 6);
+    for p in &m.points {
+        assert!((p.point - targets[p.index]).length() < 1e-9 * 600.0);
+        assert!(p.std_dev.z > 0.0 && p.std_dev.z < 1.0);
+    }
+    for d in &m.distances {
+        let expect = (targets[d.to] - targets[d.from]).length();
+        assert!((d.distance - expect).abs() < 1e-8, "{d:?} vs {expect}");
+        assert!(d.std_dev > 0.0 && d.std_dev < 1.0);
+    }
+    // The batch form gives the same points as one call per pair.
+    let batch = triangulate_stereo_batch(&rig, &pairs, &TriangulationConfig::default());
+    for (b, p) in batch.iter().zip(&m.points) {
+        assert_eq!(b.as_ref().unwrap().point, p.point);
+    }
+    // Bad input names the pair.
+    let mut bad = pairs.clone();
+    bad[2].1.x = f64::NAN;
+    let e = measure_stereo(&rig, &bad, &TriangulationConfig::default()).unwrap_err().to_string();
+    assert!(e.contains("pair 2"), "{e}");
+    assert!(measure_stereo(&rig, &[], &TriangulationConfig::default()).is_err());
 }

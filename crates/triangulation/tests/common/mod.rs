@@ -33,10 +33,8 @@ pub fn general_rig() -> StereoRig {
         960,
     )
     .unwrap();
-    let right_from_left = Isometry3::from_rvec_tvec(
-        DVec3::new(0.004, -3f64.to_radians(), 0.002),
-        DVec3::new(-99.8, 1.2, 0.5),
-    );
+    let right_from_left =
+        Isometry3::from_rvec_tvec(DVec3::new(0.004, -3f64.to_radians(), 0.002), DVec3::new(-99.8, 1.2, 0.5));
     StereoRig::new(left, right, right_from_left).unwrap()
 }
 

@@ -1,0 +1,49 @@
+//! Chessboard detection + sub-pixel refinement on a 640x480 view (issue 4's speed figure, to
+//! compare side by side with OpenCV's `findChessboardCorners` + `cornerSubPix`, 5–8 ms there).
+//! Uses the first real image of `../shared/data/opencv-stereo-chessboard` when present, and a
+//! rendered synthetic view (blur 0.8, noise 2) always.
+
+use camera_model::{Camera, Chessboard, Distortion, Intrinsics};
+use corner_detection::{ChessboardConfig, CornerRefinement, find_chessboard};
+use criterion::{Criterion, criterion_group, criterion_main};
+use std::hint::black_box;
+
+fn synthetic_view() -> image::GrayImage {
+    let camera = Camera {
+        intrinsics: Intrinsics::new(600.0, 600.0, 322.0, 238.0),
+        distortion: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0),
+        width: 640,
+        height: 480,
+    };
+    let board = Chessboard { cols: 9, rows: 6, square_size: 25.0 };
+    let poses = synthetic::calibration_poses(
+        &camera,
+        &board,
+        &synthetic::ViewSetConfig { views: 1, seed: 3, ..Default::default() },
+    )
+    .expect("poses");
+    let opts = synthetic::RenderOptions { blur_sigma: 0.8, noise_sigma: 2.0, seed: 1, ..Default::default() };
+    synthetic::render_chessboard(&camera, &board, &poses[0], &opts).expect("render").image
+}
+
+fn bench(c: &mut Criterion) {
+    let mut images = vec![("synthetic", synthetic_view())];
+    let real = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/opencv-stereo-chessboard/left01.jpg");
+    if let Ok(img) = image::open(real) {
+        images.push(("left01", img.into_luma8()));
+    } else {
+        eprintln!("skipped real image: ../shared not found");
+    }
+    for (name, img) in &images {
+        for (label, refinement) in [("saddle", CornerRefinement::Saddle), ("subpix", CornerRefinement::SubPix)] {
+            let cfg = ChessboardConfig { refinement, ..Default::default() };
+            assert!(find_chessboard(img, 9, 6, &cfg).expect("valid input").is_some(), "{name}: board not found");
+            c.bench_function(&format!("find_chessboard 9x6 640x480 {name} {label}"), |b| {
+                b.iter(|| find_chessboard(black_box(img), 9, 6, &cfg).expect("valid input"))
+            });
+        }
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,344 @@
+//! Scene descriptions in RON: cameras, board, view generators, rendering, stereo scene,
+//! robot trajectory and the pipeline's pass/fail tolerances.
+
+use camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3, StereoRig};
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use crate::{
+    RenderOptions, RenderedView, StereoSceneConfig, SyntheticError, TrajectoryConfig, ViewSetConfig, calibration_poses,
+    render_chessboard, stereo_calibration_poses,
+};
+
+/// Pass/fail bars of `cargo xtask pipeline`, one per stage. Lengths are in the scene's unit
+/// ([`SceneDescription::unit`], millimetres in the built-in scenes).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Tolerances {
+    /// Largest RMS distance of detected chessboard corners from the true corners, pixels.
+    pub corner_rms_px: f64,
+    /// Largest relative error of `fx` and `fy` after mono and stereo calibration, percent.
+    pub focal_error_pct: f64,
+    /// Largest principal point error `|(cx, cy) − truth|`, pixels.
+    pub principal_point_px: f64,
+    /// Largest RMS reprojection error of a calibration (mono or stereo), pixels.
+    pub reprojection_rms_px: f64,
+    /// Largest error of the calibrated baseline (the translation of `right_from_left`), scene
+    /// length unit.
+    pub baseline_error: f64,
+    /// Largest rotation error of the calibrated `right_from_left`, degrees.
+    pub rig_rotation_deg: f64,
+    /// Largest RMS vertical disparity `|v_left − v_right|` of corresponding board corners after
+    /// rectification, pixels.
+    pub rectification_dv_px: f64,
+    /// Largest Middlebury bad-2.0 rate of block matching on the stereo scene: percent of the
+    /// non-occluded pixels whose disparity is invalid or off by more than 2 px.
+    pub disparity_bad2_pct: f64,
+    /// Smallest density of block matching: percent of the non-occluded pixels with a valid
+    /// disparity.
+    pub disparity_density_pct: f64,
+    /// Largest median relative depth error of the triangulated disparity map, percent.
+    pub cloud_depth_error_pct: f64,
+    /// Largest RMS 3-D error of triangulated chessboard corners (stereo views), scene unit.
+    pub point_error: f64,
+    /// Largest error of a measured distance between two triangulated corners, scene unit.
+    pub distance_error: f64,
+    /// Largest rotation error of the hand-eye transform, degrees.
+    pub handeye_rot_deg: f64,
+    /// Largest translation error of the hand-eye transform, scene length unit.
+    pub handeye_trans: f64,
+    /// Largest error of a measured point expressed in the robot base frame, scene length unit.
+    pub base_point_error: f64,
+}
+
+impl Default for Tolerances {
+    fn default() -> Self {
+        Self {
+            corner_rms_px: 0.1,
+            focal_error_pct: 0.5,
+            principal_point_px: 2.0,
+            reprojection_rms_px: 0.15,
+            baseline_error: 0.5,
+            rig_rotation_deg: 0.1,
+            rectification_dv_px: 0.2,
+            disparity_bad2_pct: 10.0,
+            disparity_density_pct: 85.0,
+            cloud_depth_error_pct: 2.0,
+            point_error: 2.0,
+            distance_error: 1.0,
+            handeye_rot_deg: 0.5,
+            handeye_trans: 5.0,
+            base_point_error: 5.0,
+        }
+    }
+}
+
+impl Tolerances {
+    fn validate(&self) -> Result<(), SyntheticError> {
+        for (field, v) in [
+            ("tolerances.corner_rms_px", self.corner_rms_px),
+            ("tolerances.focal_error_pct", self.focal_error_pct),
+            ("tolerances.principal_point_px", self.principal_point_px),
+            ("tolerances.rig_rotation_deg", self.rig_rotation_deg),
+            ("tolerances.disparity_density_pct", self.disparity_density_pct),
+            ("tolerances.cloud_depth_error_pct", self.cloud_depth_error_pct),
+            ("tolerances.base_point_error", self.base_point_error),
+            ("tolerances.reprojection_rms_px", self.reprojection_rms_px),
+            ("tolerances.baseline_error", self.baseline_error),
+            ("tolerances.rectification_dv_px", self.rectification_dv_px),
+            ("tolerances.disparity_bad2_pct", self.disparity_bad2_pct),
+            ("tolerances.point_error", self.point_error),
+            ("tolerances.distance_error", self.distance_error),
+            ("tolerances.handeye_rot_deg", self.handeye_rot_deg),
+            ("tolerances.handeye_trans", self.handeye_trans),
+        ] {
+            crate::error::positive(field, v)?;
+        }
+        Ok(())
+    }
+}
+
+/// A synthetic scene a user can describe in RON: the mono camera, the stereo rig, the board,
+/// how views are generated (or explicit poses), how they are rendered, the stereo scene with
+/// true disparity, the robot trajectory, and the tolerances the pipeline checks.
+///
+/// All lengths (board squares, distances, baseline, trajectory) are in [`Self::unit`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SceneDescription {
+    /// Short name (used for output folders).
+    pub name: String,
+    /// Length unit of every length in the scene, for reports (e.g. `"mm"`).
+    pub unit: String,
+    /// The camera of the mono session.
+    pub camera: Camera,
+    /// The stereo rig of the stereo session.
+    pub rig: StereoRig,
+    /// The calibration board.
+    pub board: Chessboard,
+    /// Generator of the mono session's `camera_from_board` poses.
+    pub views: ViewSetConfig,
+    /// Explicit mono poses (`camera_from_board`); when set they replace the generator.
+    #[serde(default)]
+    pub mono_poses: Option<Vec<Isometry3>>,
+    /// Generator of the stereo session's left `camera_from_board` poses.
+    pub stereo_views: ViewSetConfig,
+    /// Explicit stereo poses (left `camera_from_board`); when set they replace the generator.
+    #[serde(default)]
+    pub stereo_poses: Option<Vec<Isometry3>>,
+    /// Appearance of every rendered view (each view gets its own noise seed derived from
+    /// `render.seed`).
+    pub render: RenderOptions,
+    /// The rectified stereo scene with true disparity.
+    pub stereo_scene: StereoSceneConfig,
+    /// The robot trajectory for hand-eye calibration.
+    pub trajectory: TrajectoryConfig,
+    /// Pass/fail bars of the pipeline.
+    #[serde(default)]
+    pub tolerances: Tolerances,
+}
+
+impl SceneDescription {
+    /// The built-in scene of `cargo xtask pipeline` ("easy"): a 640x480 camera with moderate
+    /// distortion, a 9x6 board of 25 mm squares, 12 mono and 10 stereo views at 300–600 mm, a
+    /// 60 mm baseline, light noise, and an eye-in-hand trajectory of 10 stations (board centre
+    /// 450–700 mm in front of the left camera, ±25 mm laterally, within 45° of facing it, so
+    /// the board stays in view of both cameras) with 0.1° / 1 mm pose noise. Lengths in
+    /// millimetres.
+    pub fn builtin() -> Self {
+        let camera = Camera {
+            intrinsics: Intrinsics::new(600.0, 600.0, 322.0, 238.0),
+            distortion: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0),
+            width: 640,
+            height: 480,
+        };
+        let right = Camera {
+            intrinsics: Intrinsics::new(603.0, 602.0, 317.0, 242.0),
+            distortion: Distortion::new(-0.1, 0.04, -0.0004, 0.0002, 0.0),
+            width: 640,
+            height: 480,
+        };
+        let right_from_left = Isometry3::from_rvec_tvec(DVec3::new(0.005, -0.01, 0.002), DVec3::new(-60.0, 0.4, -0.3));
+        let board = Chessboard { cols: 9, rows: 6, square_size: 25.0 };
+        let views =
+            ViewSetConfig { views: 12, min_distance: 300.0, max_distance: 600.0, seed: 1, ..Default::default() };
+        Self {
+            name: "easy".into(),
+            unit: "mm".into(),
+            camera,
+            rig: StereoRig { left: camera, right, right_from_left },
+            board,
+            views: views.clone(),
+            mono_poses: None,
+            stereo_views: ViewSetConfig { views: 10, seed: 2, ..views },
+            stereo_poses: None,
+            render: RenderOptions { blur_sigma: 0.5, noise_sigma: 1.0, seed: 3, ..Default::default() },
+            stereo_scene: StereoSceneConfig {
+                noise_sigma: 1.0,
+                focal_px: 600.0,
+                baseline: 60.0,
+                seed: 4,
+                ..Default::default()
+            },
+            trajectory: TrajectoryConfig {
+                min_distance: 450.0,
+                max_distance: 700.0,
+                trans_noise: 1.0,
+                lateral_range: 25.0,
+                hand_eye_offset: 100.0,
+                base_distance: 600.0,
+                board_centre: DVec3::new(100.0, 62.5, 0.0),
+                seed: 5,
+                ..Default::default()
+            },
+            tolerances: Tolerances::default(),
+        }
+    }
+
+    /// A harder variant of [`Self::builtin`] ("hard"): strong distortion, tilts up to 60°,
+    /// blur, noise, impulse noise, uneven lighting, clutter, a brightness change between the
+    /// stereo images, doubled robot noise, and looser tolerances.
+    pub fn builtin_hard() -> Self {
+        let mut s = Self::builtin();
+        s.name = "hard".into();
+        s.camera.distortion = Distortion::new(-0.3, 0.12, 0.001, -0.001, -0.02);
+        s.rig.left = s.camera;
+        s.rig.right.distortion = Distortion::new(-0.28, 0.1, -0.0008, 0.0006, -0.015);
+        s.views.max_tilt_deg = 60.0;
+        s.stereo_views.max_tilt_deg = 60.0;
+        s.render = RenderOptions {
+            blur_sigma: 1.0,
+            noise_sigma: 3.0,
+            salt_fraction: 0.002,
+            illumination_gradient: 0.3,
+            vignetting: 0.3,
+            clutter: true,
+            seed: 13,
+            ..Default::default()
+        };
+        s.stereo_scene.noise_sigma = 3.0;
+        s.stereo_scene.right_gain = 1.2;
+        s.stereo_scene.right_offset = -10.0;
+        s.trajectory.rot_noise_rad = 0.2f64.to_radians();
+        s.trajectory.trans_noise = 2.0;
+        s.tolerances = Tolerances {
+            corner_rms_px: 0.3,
+            focal_error_pct: 1.0,
+            principal_point_px: 4.0,
+            reprojection_rms_px: 0.3,
+            baseline_error: 1.0,
+            rig_rotation_deg: 0.2,
+            rectification_dv_px: 0.4,
+            disparity_bad2_pct: 20.0,
+            disparity_density_pct: 70.0,
+            cloud_depth_error_pct: 4.0,
+            point_error: 4.0,
+            distance_error: 2.0,
+            handeye_rot_deg: 1.0,
+            handeye_trans: 10.0,
+            base_point_error: 10.0,
+        };
+        s
+    }
+
+    /// [`Self::builtin`] with the camera fixed in the robot base (eye-to-hand).
+    pub fn builtin_eye_to_hand() -> Self {
+        let mut s = Self::builtin();
+        s.name = "eye-to-hand".into();
+        s.trajectory.eye_in_hand = false;
+        s
+    }
+
+    /// Parses and validates a RON description.
+    pub fn from_ron(text: &str) -> Result<Self, SyntheticError> {
+        let scene: Self = ron::from_str(text).map_err(|e| SyntheticError::Scene(format!("parse error: {e}")))?;
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// Pretty RON text ([`Self::from_ron`] reads it back exactly).
+    pub fn to_ron(&self) -> String {
+        ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default())
+            .expect("a scene description always serialises to RON")
+    }
+
+    /// Checks every part of the description (cameras, rig, board, generators, options).
+    pub fn validate(&self) -> Result<(), SyntheticError> {
+        self.camera.validate().map_err(SyntheticError::model("camera"))?;
+        self.rig.left.validate().map_err(SyntheticError::model("rig.left"))?;
+        self.rig.right.validate().map_err(SyntheticError::model("rig.right"))?;
+        if !self.rig.right_from_left.is_finite() {
+            return Err(SyntheticError::config("rig.right_from_left", "pose is not finite"));
+        }
+        self.board.validate().map_err(SyntheticError::model("board"))?;
+        self.views.validate()?;
+        self.stereo_views.validate()?;
+        self.render.validate()?;
+        self.stereo_scene.validate()?;
+        self.trajectory.validate()?;
+        self.tolerances.validate()?;
+        for (field, poses) in [("mono_poses", &self.mono_poses), ("stereo_poses", &self.stereo_poses)] {
+            if let Some(p) = poses {
+                if p.is_empty() {
+                    return Err(SyntheticError::config(field, "is an empty list"));
+                }
+                if p.iter().any(|x| !x.is_finite()) {
+                    return Err(SyntheticError::config(field, "contains a non-finite pose"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The mono session's `camera_from_board` poses (explicit or generated).
+    pub fn mono_poses(&self) -> Result<Vec<Isometry3>, SyntheticError> {
+        match &self.mono_poses {
+            Some(p) => Ok(p.clone()),
+            None => calibration_poses(&self.camera, &self.board, &self.views),
+        }
+    }
+
+    /// The stereo session's left `camera_from_board` poses (explicit or generated).
+    pub fn stereo_poses(&self) -> Result<Vec<Isometry3>, SyntheticError> {
+        match &self.stereo_poses {
+            Some(p) => Ok(p.clone()),
+            None => stereo_calibration_poses(&self.rig, &self.board, &self.stereo_views),
+        }
+    }
+
+    /// Renders the mono session; view `i` uses noise seed `render.seed + i`.
+    pub fn render_mono_views(&self) -> Result<Vec<RenderedView>, SyntheticError> {
+        self.mono_poses()?
+            .iter()
+            .enumerate()
+            .map(|(i, pose)| {
+                let opts = RenderOptions { seed: self.render.seed.wrapping_add(i as u64), ..self.render.clone() };
+                render_chessboard(&self.camera, &self.board, pose, &opts)
+            })
+            .collect()
+    }
+
+    /// Renders the stereo session as `(left, right)` views; the right view's pose is
+    /// `rig.right_from_left * left pose`; view `i` uses noise seeds `render.seed + 1000 + 2i`
+    /// (left) and `+ 1` (right).
+    pub fn render_stereo_views(&self) -> Result<Vec<(RenderedView, RenderedView)>, SyntheticError> {
+        self.stereo_poses()?
+            .iter()
+            .enumerate()
+            .map(|(i, pose)| {
+                let seed = self.render.seed.wrapping_add(1000 + 2 * i as u64);
+                let left_opts = RenderOptions { seed, ..self.render.clone() };
+                let right_opts = RenderOptions { seed: seed.wrapping_add(1), ..self.render.clone() };
+                let left = render_chessboard(&self.rig.left, &self.board, pose, &left_opts)?;
+                let right_pose = self.rig.right_from_left * *pose;
+                let right = render_chessboard(&self.rig.right, &self.board, &right_pose, &right_opts)?;
+                Ok((left, right))
+            })
+            .collect()
+    }
+}
+
+impl Default for SceneDescription {
+    fn default() -> Self {
+        Self::builtin()
+    }
+}
