@@ -7,11 +7,24 @@ use glam::{DVec2, DVec3};
 use planar_calibration::{CalibrationConfig, StereoConfig, calibrate_camera, calibrate_stereo};
 use synthetic::{ViewSetConfig, add_pixel_noise, project_corners, rng, stereo_calibration_poses};
 
-fn setup() -> (StereoRig, Vec<Vec<DVec3>>, Vec<Vec<DVec2>>, Vec<Vec<DVec2>>) {
-    let left = Camera::new(Intrinsics::new(533.0, 533.0, 341.6, 234.3), Distortion::new(-0.28, 0.05, 0.001, 0.0, 0.1), 640, 480)
-        .unwrap();
-    let right = Camera::new(Intrinsics::new(537.0, 536.6, 326.5, 249.3), Distortion::new(-0.29, 0.13, 0.0, 0.0, -0.04), 640, 480)
-        .unwrap();
+/// Object points and the left and right corners of every view.
+type Views = (Vec<Vec<DVec3>>, Vec<Vec<DVec2>>, Vec<Vec<DVec2>>);
+
+fn setup() -> Views {
+    let left = Camera::new(
+        Intrinsics::new(533.0, 533.0, 341.6, 234.3),
+        Distortion::new(-0.28, 0.05, 0.001, 0.0, 0.1),
+        640,
+        480,
+    )
+    .unwrap();
+    let right = Camera::new(
+        Intrinsics::new(537.0, 536.6, 326.5, 249.3),
+        Distortion::new(-0.29, 0.13, 0.0, 0.0, -0.04),
+        640,
+        480,
+    )
+    .unwrap();
     let rig = StereoRig::new(
         left,
         right,
@@ -19,7 +32,8 @@ fn setup() -> (StereoRig, Vec<Vec<DVec3>>, Vec<Vec<DVec2>>, Vec<Vec<DVec2>>) {
     )
     .unwrap();
     let board = Chessboard::new(9, 6, 30.0).unwrap();
-    let cfg = ViewSetConfig { views: 14, seed: 5, min_distance: 350.0, max_distance: 600.0, ..ViewSetConfig::default() };
+    let cfg =
+        ViewSetConfig { views: 14, seed: 5, min_distance: 350.0, max_distance: 600.0, ..ViewSetConfig::default() };
     let poses = stereo_calibration_poses(&rig, &board, &cfg).unwrap();
     let mut r = rng(6);
     let mut proj = |cam: &Camera, p: &Isometry3| {
@@ -29,11 +43,11 @@ fn setup() -> (StereoRig, Vec<Vec<DVec3>>, Vec<Vec<DVec2>>, Vec<Vec<DVec2>>) {
     };
     let l: Vec<Vec<DVec2>> = poses.iter().map(|p| proj(&rig.left, p)).collect();
     let rr: Vec<Vec<DVec2>> = poses.iter().map(|p| proj(&rig.right, &(rig.right_from_left * *p))).collect();
-    (rig, vec![board.object_points(); poses.len()], l, rr)
+    (vec![board.object_points(); poses.len()], l, rr)
 }
 
 fn bench(c: &mut Criterion) {
-    let (_, object, left, right) = setup();
+    let (object, left, right) = setup();
     let cfg = CalibrationConfig::default();
     c.bench_function("calibrate_camera 14 views x 54 corners", |b| {
         b.iter(|| calibrate_camera(&object, &left, 640, 480, &cfg).unwrap())

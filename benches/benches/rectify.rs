@@ -10,7 +10,7 @@ use glam::DVec3;
 use image::{GrayImage, Luma};
 use rand::{Rng, SeedableRng};
 use std::hint::black_box;
-use stereo_rectify::{Border, Interpolation, RectifyConfig, Rectifier, init_undistort_rectify_map, stereo_rectify};
+use stereo_rectify::{Border, Interpolation, Rectifier, RectifyConfig, init_undistort_rectify_map, stereo_rectify};
 
 fn rig() -> StereoRig {
     let left = Camera::new(

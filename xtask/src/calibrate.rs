@@ -8,8 +8,8 @@ use anyhow::Context;
 use camera_model::{Chessboard, CornerGrid};
 use corner_detection::{ChessboardConfig, find_chessboard};
 use planar_calibration::{
-    CalibrationConfig, CalibrationResult, IntrinsicStdDevs, StereoCalibrationResult, StereoConfig, calibrate_chessboard,
-    calibrate_stereo_chessboard,
+    CalibrationConfig, CalibrationResult, IntrinsicStdDevs, StereoCalibrationResult, StereoConfig,
+    calibrate_chessboard, calibrate_stereo_chessboard,
 };
 use serde::Serialize;
 
@@ -63,8 +63,11 @@ fn parse_board(s: &str) -> Result<(usize, usize), String> {
     Ok((c, r))
 }
 
-/// Detected corners of one image list: `(path, size, grid or None)`.
-fn detect(paths: &[PathBuf], board: &Chessboard) -> anyhow::Result<Vec<(PathBuf, (u32, u32), Option<CornerGrid>)>> {
+/// One image: path, size, and the corner grid if a board was found.
+type Detected = (PathBuf, (u32, u32), Option<CornerGrid>);
+
+/// Detected corners of one image list.
+fn detect(paths: &[PathBuf], board: &Chessboard) -> anyhow::Result<Vec<Detected>> {
     let cfg = ChessboardConfig::default();
     let mut out = Vec::with_capacity(paths.len());
     for p in paths {
@@ -79,7 +82,7 @@ fn detect(paths: &[PathBuf], board: &Chessboard) -> anyhow::Result<Vec<(PathBuf,
     Ok(out)
 }
 
-fn common_size(found: &[&(PathBuf, (u32, u32), Option<CornerGrid>)]) -> anyhow::Result<(u32, u32)> {
+fn common_size(found: &[&Detected]) -> anyhow::Result<(u32, u32)> {
     let size = found.first().context("no image with a detected board")?.1;
     for f in found {
         anyhow::ensure!(f.1 == size, "{} is {}x{}, the others {}x{}", f.0.display(), f.1.0, f.1.1, size.0, size.1);
@@ -147,7 +150,7 @@ struct StereoOutput<'a> {
     result: &'a StereoCalibrationResult,
 }
 
-fn names(v: &[&(PathBuf, (u32, u32), Option<CornerGrid>)]) -> Vec<String> {
+fn names(v: &[&Detected]) -> Vec<String> {
     v.iter().map(|f| f.0.display().to_string()).collect()
 }
 
@@ -173,19 +176,19 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
 }
 
-fn run_mono(
-    args: &Args,
-    board: &Chessboard,
-    views: &[(PathBuf, (u32, u32), Option<CornerGrid>)],
-    t0: Instant,
-) -> anyhow::Result<ExitCode> {
+fn run_mono(args: &Args, board: &Chessboard, views: &[Detected], t0: Instant) -> anyhow::Result<ExitCode> {
     let found: Vec<_> = views.iter().filter(|v| v.2.is_some()).collect();
     println!("board found in {}/{} images ({:.0} ms)", found.len(), views.len(), t0.elapsed().as_secs_f64() * 1e3);
     let size = common_size(&found)?;
     let grids: Vec<CornerGrid> = found.iter().filter_map(|v| v.2.clone()).collect();
     let t1 = Instant::now();
     let r = calibrate_chessboard(board, &grids, size.0, size.1, &config(args))?;
-    println!("calibrated {} views in {:.1} ms, {} iterations", grids.len(), t1.elapsed().as_secs_f64() * 1e3, r.iterations);
+    println!(
+        "calibrated {} views in {:.1} ms, {} iterations",
+        grids.len(),
+        t1.elapsed().as_secs_f64() * 1e3,
+        r.iterations
+    );
     print_camera("camera", &r.camera, &r.std_devs);
     println!("RMS {:.4} px (σ per coordinate {:.4} px, dof {})", r.rms_px, r.sigma_px, r.dof);
     for (f, e) in found.iter().zip(&r.per_view_rms_px) {
@@ -205,8 +208,8 @@ fn run_mono(
 fn run_stereo(
     args: &Args,
     board: &Chessboard,
-    left: &[(PathBuf, (u32, u32), Option<CornerGrid>)],
-    right: &[(PathBuf, (u32, u32), Option<CornerGrid>)],
+    left: &[Detected],
+    right: &[Detected],
     t0: Instant,
 ) -> anyhow::Result<ExitCode> {
     let pairs: Vec<_> = left.iter().zip(right).filter(|(l, r)| l.2.is_some() && r.2.is_some()).collect();
@@ -227,10 +230,20 @@ fn run_stereo(
     let ml = calibrate_chessboard(board, &lg, lsize.0, lsize.1, &mono)?;
     let mr = calibrate_chessboard(board, &rg, rsize.0, rsize.1, &mono)?;
     println!("mono: left RMS {:.4} px, right RMS {:.4} px", ml.rms_px, mr.rms_px);
-    let cfg = StereoConfig { fix_intrinsics: args.fix_intrinsics, left: mono.clone(), right: mono, ..StereoConfig::default() };
+    let cfg = StereoConfig {
+        fix_intrinsics: args.fix_intrinsics,
+        left: mono.clone(),
+        right: mono,
+        ..StereoConfig::default()
+    };
     let t1 = Instant::now();
     let r = calibrate_stereo_chessboard(board, &lg, &rg, lsize, rsize, &cfg)?;
-    println!("stereo calibration of {} pairs in {:.1} ms, {} iterations", lg.len(), t1.elapsed().as_secs_f64() * 1e3, r.iterations);
+    println!(
+        "stereo calibration of {} pairs in {:.1} ms, {} iterations",
+        lg.len(),
+        t1.elapsed().as_secs_f64() * 1e3,
+        r.iterations
+    );
     print_camera("left", &r.rig.left, &r.left_std_devs);
     print_camera("right", &r.rig.right, &r.right_std_devs);
     let e = r.rig.right_from_left;
@@ -254,7 +267,10 @@ fn run_stereo(
         println!("warning: {w}");
     }
     if let Some(out) = &args.out {
-        util::write_ron(out, &StereoOutput { left_images: names(&lf), right_images: names(&rf), board: *board, result: &r })?;
+        util::write_ron(
+            out,
+            &StereoOutput { left_images: names(&lf), right_images: names(&rf), board: *board, result: &r },
+        )?;
         println!("wrote {}", out.display());
     }
     key_lines("left_", r.left_rms_px, &r.rig.left);
@@ -262,7 +278,28 @@ fn run_stereo(
     println!("stereo_rms_px: {:.6}", r.rms_px);
     println!("baseline: {:.6}", r.rig.baseline());
     println!("rotation_deg: {:.6}", e.angle().to_degrees());
-    // ---- LEAD: rectification keys go here (`rectified_mean_abs_dv_px`,
-    // `adjacent_corner_distance_rms`) once stereo-rectify and triangulation are wired. ----
+    // Rectification of the detected corners (point-level, no resampling) and triangulated
+    // distances between adjacent corners, both from the calibration just made.
+    let rect = stereo_rectify::stereo_rectify(&r.rig, &stereo_rectify::RectifyConfig::default())?;
+    let mut dv = Vec::new();
+    let mut distances = Vec::new();
+    let tri = triangulation::TriangulationConfig { pixel_sigma: r.sigma_px, ..Default::default() };
+    for (l, rr) in lg.iter().zip(&rg) {
+        let lp = stereo_rectify::rectify_points(&r.rig.left, rect.r1, &rect.p1, &l.corners)?;
+        let rp = stereo_rectify::rectify_points(&r.rig.right, rect.r2, &rect.p2, &rr.corners)?;
+        dv.extend(lp.iter().zip(&rp).map(|(a, b)| (a.y - b.y).abs()));
+        distances.extend(triangulation::adjacent_corner_distances(&r.rig, l, rr, &tri)?);
+    }
+    let mean_dv = dv.iter().sum::<f64>() / dv.len().max(1) as f64;
+    let max_dv = dv.iter().fold(0.0f64, |a, b| a.max(*b));
+    let dist_rms = triangulation::distance_rms(&distances, board.square_size).unwrap_or(f64::NAN);
+    println!(
+        "rectified: focal {:.3} px, {} corners, mean |Δv| {mean_dv:.4} px, max {max_dv:.4} px",
+        rect.focal(),
+        dv.len()
+    );
+    println!("adjacent corners: {} distances, RMS error {dist_rms:.4} (square units)", distances.len());
+    println!("rectified_mean_abs_dv_px: {mean_dv:.6}");
+    println!("adjacent_corner_distance_rms: {dist_rms:.6}");
     Ok(ExitCode::SUCCESS)
 }

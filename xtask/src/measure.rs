@@ -151,7 +151,7 @@ fn blob_pairs(
     let ul: Vec<DVec2> = bl.iter().map(|b| rig.left.undistort_pixel(b.centroid)).collect::<Result<_, _>>()?;
     let ur: Vec<DVec2> = br.iter().map(|b| rig.right.undistort_pixel(b.centroid)).collect::<Result<_, _>>()?;
     let f = rig.fundamental();
-    let views = triangulation::stereo_views(&rig);
+    let views = triangulation::stereo_views(rig);
     let cfg = TriangulationConfig { method: Method::Midpoint, covariance: false, ..Default::default() };
     // candidates[i] = right blobs compatible with left blob i.
     let candidates: Vec<Vec<usize>> = ul

@@ -12,7 +12,7 @@ use std::time::Instant;
 use anyhow::Context;
 use camera_model::StereoRig;
 use image::{DynamicImage, GenericImageView, Luma, Rgb, RgbImage};
-use stereo_rectify::{Border, ExtentMethod, Image, RectifyConfig, Rectifier};
+use stereo_rectify::{Border, ExtentMethod, Image, Rectifier, RectifyConfig};
 
 use crate::util::{save_png, write_ron};
 
@@ -47,9 +47,12 @@ pub struct Args {
     line_spacing: u32,
 }
 
-#[derive(serde::Deserialize)]
-struct WithRig {
-    rig: StereoRig,
+/// The `rig` field of any RON struct (whatever its name and other fields).
+fn rig_field(text: &str) -> anyhow::Result<StereoRig> {
+    let value: ron::Value = ron::from_str(text)?;
+    let ron::Value::Map(map) = value else { anyhow::bail!("not a struct") };
+    let rig = map.get(&ron::Value::String("rig".into())).ok_or_else(|| anyhow::anyhow!("no `rig` field"))?;
+    Ok(rig.clone().into_rust()?)
 }
 
 /// Reads a rig from a RON file holding either a `StereoRig` or a struct with a `rig` field.
@@ -59,9 +62,10 @@ pub fn load_rig(path: &Path) -> anyhow::Result<StereoRig> {
         Ok(rig) => rig,
         Err(e_rig) => match ron::from_str::<planar_calibration::StereoCalibrationResult>(&text) {
             Ok(result) => result.rig,
-            Err(_) => ron::from_str::<WithRig>(&text).map(|w| w.rig).map_err(|e| {
+            Err(e_result) => rig_field(&text).map_err(|e| {
                 anyhow::anyhow!(
-                    "{} holds neither a StereoRig ({e_rig}) nor a struct with a `rig` field ({e})",
+                    "{} holds neither a StereoRig ({e_rig}) nor a StereoCalibrationResult ({e_result}) nor a \
+                     struct with a `rig` field ({e})",
                     path.display()
                 )
             })?,
@@ -103,7 +107,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let t1 = Instant::now();
     let (l, r) = match (&left, &right) {
         (DynamicImage::ImageLuma16(_), _) | (_, DynamicImage::ImageLuma16(_)) => {
-            let (l, r) = rectifier.rectify_pair(&left.to_luma16(), &right.to_luma16(), Border::Constant(Luma([0u16])))?;
+            let (l, r) =
+                rectifier.rectify_pair(&left.to_luma16(), &right.to_luma16(), Border::Constant(Luma([0u16])))?;
             write_pair(&args.out, &l, &r)?;
             (to_rgb16(&l), to_rgb16(&r))
         }
@@ -137,7 +142,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         t_maps.as_secs_f64() * 1e3,
         t_remap.as_secs_f64() * 1e3
     );
-    println!("  wrote left_rectified.png, right_rectified.png, side_by_side.png, rectification.ron to {}", args.out.display());
+    println!(
+        "  wrote left_rectified.png, right_rectified.png, side_by_side.png, rectification.ron to {}",
+        args.out.display()
+    );
     Ok(ExitCode::SUCCESS)
 }
 

@@ -26,7 +26,11 @@ fn main() {
                         }
                         // SPEED_ONLY=1: only SAD, default options, 9x9, 1 thread, best SIMD (for profiling)
                         if std::env::var_os("SPEED_ONLY").is_some()
-                            && (cost != CostFunction::Sad || lr.is_none() || block != 9 || threads != 1 || simd != SimdLevel::Avx512)
+                            && (cost != CostFunction::Sad
+                                || lr.is_none()
+                                || block != 9
+                                || threads != 1
+                                || simd != SimdLevel::Avx512)
                         {
                             continue;
                         }

@@ -142,7 +142,7 @@ impl MatcherConfig {
 
     /// Checks every field against its documented range.
     pub fn validate(&self) -> Result<()> {
-        if self.block_size % 2 == 0 || !(3..=31).contains(&self.block_size) {
+        if self.block_size.is_multiple_of(2) || !(3..=31).contains(&self.block_size) {
             return Err(invalid("block_size", self.block_size, "must be odd, 3..=31"));
         }
         if !(1..=1024).contains(&self.num_disparities) {
@@ -162,7 +162,7 @@ impl MatcherConfig {
                 if !(1..=63).contains(&cap) {
                     return Err(invalid("prefilter.cap", cap, "must be 1..=63"));
                 }
-                if size % 2 == 0 || !(3..=31).contains(&size) {
+                if size.is_multiple_of(2) || !(3..=31).contains(&size) {
                     return Err(invalid("prefilter.size", size, "must be odd, 3..=31"));
                 }
             }

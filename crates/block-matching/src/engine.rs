@@ -376,6 +376,7 @@ impl BlockMatcher {
         // texture from the clipped x-Sobel magnitude of the raw left image (OpenCV's measure)
         let r = cfg.block_size / 2;
         let use_texture = cfg.texture_threshold > 0;
+        let mut sobel31 = None;
         if use_texture {
             let cap = 31 * scale;
             let sob = x_sobel(&self.left, w, h, cap);
@@ -383,11 +384,16 @@ impl BlockMatcher {
             let thr = cfg.texture_threshold as u64 * scale as u64;
             self.texture_ok.clear();
             self.texture_ok.extend(sums.iter().map(|&s| s >= thr));
+            sobel31 = Some(sob);
         }
         match cfg.prefilter {
             Prefilter::None => {}
             Prefilter::XSobel { cap } => {
-                self.left = x_sobel(&self.left, w, h, cap as u32 * scale);
+                self.left = match sobel31 {
+                    // the texture measure already computed this exact plane
+                    Some(sob) if cap == 31 => sob,
+                    _ => x_sobel(&self.left, w, h, cap as u32 * scale),
+                };
                 self.right = x_sobel(&self.right, w, h, cap as u32 * scale);
             }
             Prefilter::NormalizedResponse { size, cap } => {
@@ -738,12 +744,10 @@ fn row_decisions<A: Acc, const K: u8>(
             right_update::<A>(&sc.boxs[lo..=hi], &mut sc.rc[j0..][..len], &mut sc.rk[j0..][..len], lo);
             decide::<A>(&sc.boxs, lo, hi, sh.uniq, sh.subpixel)
         };
-        if let Some(t) = sh.texture_ok {
-            if !t[y * w + x] {
-                sc.best[x] = -1;
-                st.low_texture += 1;
-                continue;
-            }
+        if sh.texture_ok.is_some_and(|t| !t[y * w + x]) {
+            sc.best[x] = -1;
+            st.low_texture += 1;
+            continue;
         }
         match dec {
             Decision::Best(k, off) => {

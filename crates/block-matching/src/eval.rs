@@ -45,16 +45,14 @@ pub fn evaluate(
             got_height: truth.height,
         });
     }
-    if let Some(m) = mask {
-        if m.len() != w * h {
-            return Err(BlockMatchingError::SizeMismatch {
-                what: "evaluation mask",
-                width: w,
-                height: h,
-                got_width: m.len(),
-                got_height: 1,
-            });
-        }
+    if let Some(m) = mask.filter(|m| m.len() != w * h) {
+        return Err(BlockMatchingError::SizeMismatch {
+            what: "evaluation mask",
+            width: w,
+            height: h,
+            got_width: m.len(),
+            got_height: 1,
+        });
     }
     let mut evaluated = 0usize;
     let mut valid = 0usize;

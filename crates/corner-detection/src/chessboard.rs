@@ -13,7 +13,7 @@ use glam::DVec2;
 use image::{GrayImage, Rgb, RgbImage};
 use serde::{Deserialize, Serialize};
 
-use crate::harris::peaks;
+use crate::harris::peaks_above;
 use crate::imageops::{ImageF32, gaussian_blur, saddle_response, sample_bilinear, to_f32};
 use crate::subpix::{Refinement, SaddleConfig, SubPixConfig, saddle_one, subpix_one};
 use crate::{CornerError, Result};
@@ -66,7 +66,7 @@ impl Default for ChessboardConfig {
             detection_sigma: 1.5,
             ring_radius: 5.0,
             min_contrast: 20.0,
-            max_candidates: 3000,
+            max_candidates: 1000,
             max_angle_error: 0.3,
             search_fraction: 0.3,
             refinement: CornerRefinement::Saddle,
@@ -231,7 +231,11 @@ pub fn detect_chessboard(
                     .collect()
             }
             CornerRefinement::Saddle => {
-                let s = gaussian_blur(&f, cfg.saddle.smoothing_sigma);
+                let s = if cfg.saddle.smoothing_sigma == cfg.detection_sigma {
+                    smoothed.clone()
+                } else {
+                    gaussian_blur(&f, cfg.saddle.smoothing_sigma)
+                };
                 let halves = cfg.saddle.window.half_sizes(&corners);
                 corners
                     .iter_mut()
@@ -264,19 +268,21 @@ pub fn detect_chessboard(
 fn candidates(smoothed: &ImageF32, cfg: &ChessboardConfig) -> Vec<Candidate> {
     let resp = saddle_response(smoothed);
     // Ideal X-junction of contrast C smoothed by σ: −det H = (C / (π σ²))². Keep peaks of at
-    // least a quarter of the minimum contrast's response amplitude.
+    // least half the minimum contrast's response amplitude (a junction whose edges meet at 30°
+    // still gives half the response of a square one).
     let s2 = cfg.detection_sigma * cfg.detection_sigma;
-    let min_resp = (0.25 * cfg.min_contrast / (std::f64::consts::PI * s2)).powi(2) as f32;
+    let min_resp = (0.5 * cfg.min_contrast / (std::f64::consts::PI * s2)).powi(2) as f32;
     let border = (cfg.ring_radius + 2.0).ceil() as u32;
-    let peaks = peaks(&resp, 1e-4, 2.5, cfg.max_candidates, border);
-    peaks
-        .into_iter()
-        .filter(|c| c.response >= min_resp)
-        .filter_map(|c| ring_test(smoothed, c.position, cfg.ring_radius, cfg.min_contrast))
-        .collect()
+    let peaks = peaks_above(&resp, 1e-4, min_resp, 2.5, cfg.max_candidates, border);
+    peaks.into_iter().filter_map(|c| ring_test(smoothed, c.position, cfg.ring_radius, cfg.min_contrast)).collect()
 }
 
 const RING_SAMPLES: usize = 48;
+
+/// `(sin, cos)` of the ring's sample angles `k · 2π / RING_SAMPLES`.
+static RING_UNIT: std::sync::LazyLock<[(f64, f64); RING_SAMPLES]> = std::sync::LazyLock::new(|| {
+    std::array::from_fn(|k| (k as f64 * std::f64::consts::TAU / RING_SAMPLES as f64).sin_cos())
+});
 
 /// Checks for exactly four alternating sectors on a ring around `p` whose boundaries form two
 /// lines through `p`; returns the candidate with its line directions.
@@ -284,8 +290,8 @@ fn ring_test(img: &ImageF32, p: DVec2, radius: f64, min_contrast: f64) -> Option
     let mut v = [0.0f64; RING_SAMPLES];
     let step = std::f64::consts::TAU / RING_SAMPLES as f64;
     for (k, s) in v.iter_mut().enumerate() {
-        let a = k as f64 * step;
-        *s = sample_bilinear(img, p.x + radius * a.cos(), p.y + radius * a.sin()) as f64;
+        let (sin, cos) = RING_UNIT[k];
+        *s = sample_bilinear(img, p.x + radius * cos, p.y + radius * sin) as f64;
     }
     let (lo, hi) = v.iter().fold((f64::MAX, f64::MIN), |(lo, hi), &x| (lo.min(x), hi.max(x)));
     if hi - lo < min_contrast {

@@ -176,13 +176,25 @@ pub fn detect_corners(img: &GrayImage, cfg: &CornerConfig) -> Result<Vec<Corner>
 /// Local maxima of a response map above `quality × max`, suppressed to `min_distance`,
 /// strongest first, at most `max` (0 = all). Positions are refined by 1D parabola fits.
 pub(crate) fn peaks(r: &ImageF32, quality: f32, min_distance: f64, max: usize, border: u32) -> Vec<Corner> {
+    peaks_above(r, quality, 0.0, min_distance, max, border)
+}
+
+/// As [`peaks`], with an absolute floor `min_abs` on the response as well.
+pub(crate) fn peaks_above(
+    r: &ImageF32,
+    quality: f32,
+    min_abs: f32,
+    min_distance: f64,
+    max: usize,
+    border: u32,
+) -> Vec<Corner> {
     let (w, h) = (r.width() as usize, r.height() as usize);
     let d = r.as_raw();
     let max_r = d.iter().copied().fold(0.0f32, f32::max);
     if max_r <= 0.0 || !max_r.is_finite() {
         return Vec::new();
     }
-    let thr = quality * max_r;
+    let thr = (quality * max_r).max(min_abs);
     let b = border as usize;
     let mut cand: Vec<(f32, usize, usize)> = Vec::new();
     if w > 2 * b && h > 2 * b {

@@ -180,3 +180,31 @@ fn negative_cases_on_rendered_views() {
     let blank = image::GrayImage::from_pixel(640, 480, image::Luma([200]));
     assert!(find_chessboard(&blank, 9, 6, &cfg).unwrap().is_none());
 }
+
+#[test]
+fn hard_scene_strong_distortion_tilt_lighting_clutter() {
+    // synthetic's "hard" scene: k1 = −0.3 barrel distortion, tilts up to 60°, blur 1 px,
+    // noise 3, impulse noise, illumination gradient, vignetting and background clutter.
+    let scene = synthetic::SceneDescription::builtin_hard();
+    let poses =
+        calibration_poses(&scene.camera, &scene.board, &ViewSetConfig { views: 12, seed: 31, ..scene.views.clone() })
+            .unwrap();
+    let mut s = Stats::default();
+    for (k, pose) in poses.iter().enumerate() {
+        let opts = RenderOptions { seed: 500 + k as u64, ..scene.render.clone() };
+        let view = render_chessboard(&scene.camera, &scene.board, pose, &opts).unwrap();
+        let grid = find_chessboard(&view.image, 9, 6, &ChessboardConfig::default()).unwrap();
+        s.add(grid.as_ref().map(|g| g.corners.as_slice()), &view.corners);
+    }
+    println!(
+        "hard scene: found {}/{}, misordered {}, RMS {:.4} px, worst {:.4} px",
+        s.found,
+        s.views,
+        s.misordered,
+        rms(&s),
+        s.worst
+    );
+    assert_eq!(s.misordered, 0);
+    assert!(s.found >= 11, "found only {}/12", s.found);
+    assert!(rms(&s) < 0.08, "RMS {}", rms(&s));
+}

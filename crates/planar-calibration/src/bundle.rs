@@ -104,10 +104,8 @@ impl<'a> Bundle<'a> {
         if stereo {
             off += 6;
         }
-        let num_residuals = views
-            .iter()
-            .map(|v| v.image.iter().flatten().map(|img| 2 * img.len()).sum::<usize>())
-            .sum();
+        let num_residuals =
+            views.iter().map(|v| v.image.iter().flatten().map(|img| 2 * img.len()).sum::<usize>()).sum();
         Self { cams, cam_offsets, rig_offset, num_global: off, views, num_residuals }
     }
 
@@ -296,5 +294,100 @@ impl Problem for Bundle<'_> {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use least_squares::Problem;
+
+    fn slots(cam: &Camera, free: &[usize]) -> CameraModelSlots {
+        let theta = theta_of(cam);
+        let mut s = [Slot::Fixed(0.0); N_INTR];
+        for i in 0..N_INTR {
+            s[i] = Slot::Fixed(theta[i]);
+        }
+        for (k, &i) in free.iter().enumerate() {
+            s[i] = Slot::Free { index: k, scale: 1.0 };
+        }
+        CameraModelSlots { slots: s, num_free: free.len(), width: cam.width, height: cam.height }
+    }
+
+    /// The analytic Jacobian (through `retract`) matches central differences, and the
+    /// block-accumulated normal equations equal `JᵀJ`, `Jᵀr` of the dense Jacobian.
+    #[test]
+    fn stereo_jacobian_matches_finite_differences_and_normal_equations() {
+        let cam = Camera::new(
+            Intrinsics { fx: 520.0, fy: 515.0, cx: 320.0, cy: 240.0, skew: 0.3 },
+            Distortion { k1: -0.2, k2: 0.05, p1: 0.001, p2: -0.002, k3: 0.01, k4: 0.02, k5: 0.0, k6: 0.0 },
+            640,
+            480,
+        )
+        .unwrap();
+        let object: Vec<DVec3> =
+            (0..12).map(|i| DVec3::new((i % 4) as f64 * 30.0, (i / 4) as f64 * 30.0, 0.0)).collect();
+        let image: Vec<DVec2> = (0..12).map(|i| DVec2::new(300.0 + i as f64, 200.0 - i as f64)).collect();
+        let all: Vec<usize> = (0..N_INTR).collect();
+        let views = vec![
+            ViewObs { object: &object, image: [Some(&image), Some(&image)] },
+            ViewObs { object: &object, image: [Some(&image), Some(&image)] },
+        ];
+        let b = Bundle::new(vec![slots(&cam, &all), slots(&cam, &[0, 2, 5])], true, views);
+        let n = b.num_params();
+        let mut x = vec![0.0; n];
+        x[..N_INTR].copy_from_slice(&theta_of(&cam));
+        x[N_INTR..N_INTR + 3].copy_from_slice(&[cam.intrinsics.fx, cam.intrinsics.cx, cam.distortion.k1]);
+        let ro = b.rig_offset.unwrap();
+        store_pose(
+            &Isometry3::from_rvec_tvec(DVec3::new(0.01, -0.02, 0.03), DVec3::new(-100.0, 2.0, 1.0)),
+            &mut x[ro..ro + 6],
+        );
+        store_pose(
+            &Isometry3::from_rvec_tvec(DVec3::new(0.3, -0.2, 0.1), DVec3::new(-40.0, -30.0, 500.0)),
+            &mut x[b.view_offset(0)..b.view_offset(0) + 6],
+        );
+        store_pose(
+            &Isometry3::from_rvec_tvec(DVec3::new(-0.2, 0.3, 0.0), DVec3::new(-20.0, -50.0, 600.0)),
+            &mut x[b.view_offset(1)..b.view_offset(1) + 6],
+        );
+        let m = b.num_residuals();
+        let mut r = vec![0.0; m];
+        let mut j = Mat::<f64>::zeros(m, n);
+        b.evaluate(&x, &mut r, Some(j.as_mut())).unwrap();
+        let mut xp = vec![0.0; n];
+        let mut xm = vec![0.0; n];
+        let (mut rp, mut rm) = (vec![0.0; m], vec![0.0; m]);
+        for k in 0..n {
+            let h = if k < N_INTR + 3 { 1e-6 * x[k].abs().max(1e-3) } else { 1e-6 };
+            let mut d = vec![0.0; n];
+            d[k] = h;
+            b.retract(&x, &d, &mut xp);
+            d[k] = -h;
+            b.retract(&x, &d, &mut xm);
+            b.evaluate(&xp, &mut rp, None).unwrap();
+            b.evaluate(&xm, &mut rm, None).unwrap();
+            for i in 0..m {
+                let fd = (rp[i] - rm[i]) / (2.0 * h);
+                assert!(
+                    (fd - j[(i, k)]).abs() < 1e-4 * (1.0 + fd.abs()),
+                    "row {i} col {k}: fd {fd} analytic {}",
+                    j[(i, k)]
+                );
+            }
+        }
+        let mut jtj = Mat::<f64>::zeros(n, n);
+        let mut jtr = Col::<f64>::zeros(n);
+        let mut r2 = vec![0.0; m];
+        b.normal_equations(&x, &mut jtj, &mut jtr, &mut r2).unwrap();
+        let dense = j.transpose() * &j;
+        let rc = Col::from_fn(m, |i| r[i]);
+        let g = j.transpose() * &rc;
+        for a in 0..n {
+            assert!((jtr[a] - g[a]).abs() <= 1e-9 * (1.0 + g[a].abs()));
+            for c in 0..n {
+                assert!((jtj[(a, c)] - dense[(a, c)]).abs() <= 1e-9 * (1.0 + dense[(a, c)].abs()));
+            }
+        }
     }
 }

@@ -301,7 +301,11 @@ pub(crate) fn model_slots(cfg: &CalibrationConfig, init: &Camera) -> CameraModel
     for i in [2, 3] {
         if cfg.fix_principal_point { fixed(&mut slots, i) } else { free(&mut slots, i) }
     }
-    if cfg.estimate_skew { free(&mut slots, 4) } else { fixed(&mut slots, 4) }
+    if cfg.estimate_skew {
+        free(&mut slots, 4)
+    } else {
+        fixed(&mut slots, 4)
+    }
     for (i, hold) in [(5, cfg.fix_k1), (6, cfg.fix_k2), (9, cfg.fix_k3)] {
         if hold { fixed(&mut slots, i) } else { free(&mut slots, i) }
     }
@@ -375,13 +379,17 @@ fn initial_estimate(
         })
         .collect::<Result<Vec<_>>>()?;
     let mut camera = Camera::new(k, Distortion::default(), width, height)?;
-    if !cfg.fix_k1 && !cfg.fix_k2 {
-        if let Ok((k1, k2)) = radial_distortion_linear(&k, &poses, object_points, image_points) {
-            // Keep the linear estimate only when it is plausible and lowers the error.
-            let with = Camera { distortion: Distortion::new(k1, k2, 0.0, 0.0, 0.0), ..camera };
-            if k1.abs() < 2.0 && k2.abs() < 5.0 && rms(&with, &poses, object_points, image_points) < rms(&camera, &poses, object_points, image_points) {
-                camera = with;
-            }
+    if !cfg.fix_k1
+        && !cfg.fix_k2
+        && let Ok((k1, k2)) = radial_distortion_linear(&k, &poses, object_points, image_points)
+    {
+        // Keep the linear estimate only when it is plausible and lowers the error.
+        let with = Camera { distortion: Distortion::new(k1, k2, 0.0, 0.0, 0.0), ..camera };
+        if k1.abs() < 2.0
+            && k2.abs() < 5.0
+            && rms(&with, &poses, object_points, image_points) < rms(&camera, &poses, object_points, image_points)
+        {
+            camera = with;
         }
     }
     Ok((camera, poses))
@@ -419,7 +427,8 @@ pub(crate) fn pose_std_devs(pose: &Isometry3, offset: usize, cov: Option<&faer::
     let Some(c) = cov else {
         return PoseStdDevs { rotation_rad: DVec3::splat(f64::NAN), translation: DVec3::splat(f64::NAN) };
     };
-    let rot = DVec3::new(c[(offset, offset)], c[(offset + 1, offset + 1)], c[(offset + 2, offset + 2)]).max(DVec3::ZERO);
+    let rot =
+        DVec3::new(c[(offset, offset)], c[(offset + 1, offset + 1)], c[(offset + 2, offset + 2)]).max(DVec3::ZERO);
     // t' = t − [t]× ω + v  ⇒  J = [−[t]×, I].
     let t = pose.translation;
     let tx = [[0.0, -t.z, t.y], [t.z, 0.0, -t.x], [-t.y, t.x, 0.0]];
@@ -591,8 +600,7 @@ pub fn calibrate_camera(
     }
     let camera = slots.camera(&report.params[..slots.num_free]);
     camera.validate().map_err(|e| CalibrationError::EstimationFailed(format!("refined camera is invalid: {e}")))?;
-    let by_view =
-        bundle.residuals_by_view(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
+    let by_view = bundle.residuals_by_view(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
     let residuals_px: Vec<Vec<DVec2>> = by_view.into_iter().map(|[r, _]| r.into_iter().map(|e| -e).collect()).collect();
     let per_view_rms_px: Vec<f64> = residuals_px.iter().map(|r| rms_of(r)).collect();
     let all: Vec<DVec2> = residuals_px.iter().flatten().copied().collect();

@@ -62,6 +62,5 @@ pub use stereo::{
     RigStdDevs, StereoCalibrationResult, StereoConfig, calibrate_stereo, calibrate_stereo_chessboard, median_rig,
 };
 pub use zhang::{
-    ClosedForm, focal_lengths_with_principal_point, intrinsics_from_homographies, pose_from_homography,
-    radial_distortion_linear,
+    focal_lengths_with_principal_point, intrinsics_from_homographies, pose_from_homography, radial_distortion_linear,
 };

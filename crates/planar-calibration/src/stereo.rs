@@ -97,16 +97,14 @@ fn camera_and_poses(
     fixed: bool,
     which: &str,
 ) -> Result<(Camera, Vec<Isometry3>)> {
-    if fixed {
-        if let Some(guess) = &cfg.intrinsic_guess {
-            let poses = object
-                .iter()
-                .zip(image)
-                .enumerate()
-                .map(|(v, (o, i))| crate::pnp::initial_pose(guess, o, i, &format!("{which} view {v}")))
-                .collect::<Result<Vec<_>>>()?;
-            return Ok((*guess, poses));
-        }
+    if fixed && let Some(guess) = &cfg.intrinsic_guess {
+        let poses = object
+            .iter()
+            .zip(image)
+            .enumerate()
+            .map(|(v, (o, i))| crate::pnp::initial_pose(guess, o, i, &format!("{which} view {v}")))
+            .collect::<Result<Vec<_>>>()?;
+        return Ok((*guess, poses));
     }
     let r = calibrate_camera(object, image, size.0, size.1, cfg)?;
     Ok((r.camera, r.camera_from_board))
@@ -182,8 +180,10 @@ pub fn calibrate_stereo(
     let poses: Vec<Isometry3> =
         (0..object_points.len()).map(|v| pose_at(&report.params[bundle.view_offset(v)..])).collect();
     let by_view = bundle.residuals_by_view(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
-    let residuals_px: Vec<[Vec<DVec2>; 2]> =
-        by_view.into_iter().map(|[l, r]| [l.into_iter().map(|e| -e).collect(), r.into_iter().map(|e| -e).collect()]).collect();
+    let residuals_px: Vec<[Vec<DVec2>; 2]> = by_view
+        .into_iter()
+        .map(|[l, r]| [l.into_iter().map(|e| -e).collect(), r.into_iter().map(|e| -e).collect()])
+        .collect();
     let per_view_rms_px: Vec<[f64; 2]> = residuals_px.iter().map(|[l, r]| [rms_of(l), rms_of(r)]).collect();
     let all_l: Vec<DVec2> = residuals_px.iter().flat_map(|[l, _]| l.iter().copied()).collect();
     let all_r: Vec<DVec2> = residuals_px.iter().flat_map(|[_, r]| r.iter().copied()).collect();
@@ -200,8 +200,13 @@ pub fn calibrate_stereo(
         }
         s.max(0.0).sqrt()
     });
-    let mut warnings = outlier_views(&per_view_rms_px.iter().map(|r| r[0]).collect::<Vec<_>>(), config.left.outlier_view_factor, 0);
-    warnings.extend(outlier_views(&per_view_rms_px.iter().map(|r| r[1]).collect::<Vec<_>>(), config.right.outlier_view_factor, 1));
+    let mut warnings =
+        outlier_views(&per_view_rms_px.iter().map(|r| r[0]).collect::<Vec<_>>(), config.left.outlier_view_factor, 0);
+    warnings.extend(outlier_views(
+        &per_view_rms_px.iter().map(|r| r[1]).collect::<Vec<_>>(),
+        config.right.outlier_view_factor,
+        1,
+    ));
     let fixed_cfg = CalibrationConfig { intrinsic_guess: config.fix_intrinsics.then_some(left), ..config.left.clone() };
     diagnostics(&mut warnings, &left, 0, &poses, &fixed_cfg, &report);
     diagnostics(&mut warnings, &right, 1, &poses, &config.right, &report);

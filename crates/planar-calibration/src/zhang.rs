@@ -4,7 +4,6 @@
 use faer::{Col, Mat};
 use glam::{DMat3, DVec2, DVec3};
 use least_squares::{nearest_rotation, null_vector, solve_linear_least_squares};
-use serde::{Deserialize, Serialize};
 
 use camera_model::{Intrinsics, Isometry3};
 
@@ -88,9 +87,8 @@ pub fn intrinsics_from_homographies(
     for (j, &c) in cols.iter().enumerate() {
         b[c] = nv.vector[j];
     }
-    let kp = k_from_b(&b).ok_or_else(|| {
-        CalibrationError::EstimationFailed("Zhang's closed form: B is not positive definite".into())
-    })?;
+    let kp = k_from_b(&b)
+        .ok_or_else(|| CalibrationError::EstimationFailed("Zhang's closed form: B is not positive definite".into()))?;
     let kmat = n.inverse() * kp;
     let mut intr = Intrinsics::from_matrix(kmat)?;
     if !estimate_skew {
@@ -211,19 +209,6 @@ pub fn radial_distortion_linear(
     Ok((x[0], x[1]))
 }
 
-/// Output of Zhang's closed form.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ClosedForm {
-    /// Intrinsics from `V b = 0`.
-    pub intrinsics: Intrinsics,
-    /// `(k1, k2)` from the linear estimate.
-    pub radial: (f64, f64),
-    /// Per-view `camera_from_board` from `K⁻¹H`.
-    pub camera_from_board: Vec<Isometry3>,
-    /// Per-view plane-to-image homographies.
-    pub homographies: Vec<DMat3>,
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -279,7 +264,12 @@ mod tests {
         let k = Intrinsics::new(800.0, 800.0, 320.0, 240.0);
         let r = DVec3::new(0.3, 0.1, 0.0);
         let hs: Vec<DMat3> = (0..5)
-            .map(|i| h_of(&k, &Isometry3::from_rvec_tvec(r, DVec3::new(-100.0 + 20.0 * i as f64, -50.0, 600.0 + 50.0 * i as f64))))
+            .map(|i| {
+                h_of(
+                    &k,
+                    &Isometry3::from_rvec_tvec(r, DVec3::new(-100.0 + 20.0 * i as f64, -50.0, 600.0 + 50.0 * i as f64)),
+                )
+            })
             .collect();
         let e = intrinsics_from_homographies(&hs, 640, 480, false).unwrap_err();
         assert!(matches!(e, CalibrationError::Degenerate(_)), "{e}");
@@ -294,8 +284,10 @@ mod tests {
         let k = Intrinsics::new(700.0, 700.0, 320.0, 240.0);
         let cam = Camera::new(k, Distortion::new(-0.2, 0.05, 0.0, 0.0, 0.0), 640, 480).unwrap();
         let poses = views();
-        let obj: Vec<Vec<DVec3>> =
-            poses.iter().map(|_| (0..40).map(|i| DVec3::new((i % 8) as f64 * 30.0, (i / 8) as f64 * 30.0, 0.0)).collect()).collect();
+        let obj: Vec<Vec<DVec3>> = poses
+            .iter()
+            .map(|_| (0..40).map(|i| DVec3::new((i % 8) as f64 * 30.0, (i / 8) as f64 * 30.0, 0.0)).collect())
+            .collect();
         let img: Vec<Vec<DVec2>> =
             poses.iter().zip(&obj).map(|(p, o)| o.iter().map(|x| cam.project_from(p, *x).unwrap()).collect()).collect();
         let (k1, k2) = radial_distortion_linear(&k, &poses, &obj, &img).unwrap();

@@ -141,15 +141,21 @@ fn options_hold_what_they_say() {
 fn non_monotonic_distortion_is_flagged() {
     // r_d = r (1 − 0.45 r²) peaks at r = 0.861 (r_d = 0.574 → 287 px): inside a 640x480 image
     // of focal length 500 (corner at 400 px).
-    let cam = Camera::new(Intrinsics::new(500.0, 500.0, 319.5, 239.5), Distortion::new(-0.45, 0.0, 0.0, 0.0, 0.0), 640, 480)
-        .unwrap();
+    let cam =
+        Camera::new(Intrinsics::new(500.0, 500.0, 319.5, 239.5), Distortion::new(-0.45, 0.0, 0.0, 0.0, 0.0), 640, 480)
+            .unwrap();
     let fold = distortion_fold(&cam).expect("fold inside the image");
     assert!((fold.undistorted_radius - (1.0f64 / 1.35).sqrt()).abs() < 2e-3, "{fold:?}");
     assert!((fold.radius_px - 500.0 * 0.5738).abs() < 1.0, "{fold:?}");
     assert!(distortion_fold(&truth_camera()).is_none());
     // A calibration from boards near the centre recovers that lens and warns.
     let b = camera_model::Chessboard::new(7, 5, 12.0).unwrap();
-    let poses = tilted_poses(&Camera { width: 400, height: 300, intrinsics: Intrinsics::new(500.0, 500.0, 199.5, 149.5), ..cam }, &b, 12, 3);
+    let poses = tilted_poses(
+        &Camera { width: 400, height: 300, intrinsics: Intrinsics::new(500.0, 500.0, 199.5, 149.5), ..cam },
+        &b,
+        12,
+        3,
+    );
     let shift = Isometry3::IDENTITY;
     let object = vec![b.object_points(); poses.len()];
     let image: Vec<Vec<DVec2>> = poses
@@ -159,7 +165,11 @@ fn non_monotonic_distortion_is_flagged() {
     let cfg = CalibrationConfig { zero_tangential: true, fix_k3: true, fix_k2: true, ..Default::default() };
     let r = calibrate_camera(&object, &image, 640, 480, &cfg).unwrap();
     assert!((r.camera.distortion.k1 + 0.45).abs() < 1e-6, "{:?}", r.camera.distortion);
-    assert!(r.warnings.iter().any(|w| matches!(w, CalibrationWarning::NonMonotonicDistortion { .. })), "{:?}", r.warnings);
+    assert!(
+        r.warnings.iter().any(|w| matches!(w, CalibrationWarning::NonMonotonicDistortion { .. })),
+        "{:?}",
+        r.warnings
+    );
 }
 
 #[test]
@@ -183,8 +193,13 @@ fn bad_input_is_a_clear_error() {
     let mut r = rng(4);
     let par: Vec<Vec<DVec2>> = (0..5)
         .map(|i| {
-            let pose = pose_looking_at(rv, c, DVec3::new(-40.0 + 20.0 * i as f64, 10.0 * i as f64 - 20.0, 450.0 + 40.0 * i as f64));
-            let mut px: Vec<DVec2> = board().object_points().iter().map(|p| truth.project_from(&pose, *p).unwrap()).collect();
+            let pose = pose_looking_at(
+                rv,
+                c,
+                DVec3::new(-40.0 + 20.0 * i as f64, 10.0 * i as f64 - 20.0, 450.0 + 40.0 * i as f64),
+            );
+            let mut px: Vec<DVec2> =
+                board().object_points().iter().map(|p| truth.project_from(&pose, *p).unwrap()).collect();
             add_pixel_noise(&mut px, 0.1, &mut r);
             px
         })
@@ -233,7 +248,13 @@ fn truth_rig() -> StereoRig {
 fn stereo_calibration_recovers_the_rig() {
     let rig = truth_rig();
     let b = board();
-    let cfg = synthetic::ViewSetConfig { views: 15, seed: 21, min_distance: 350.0, max_distance: 600.0, ..Default::default() };
+    let cfg = synthetic::ViewSetConfig {
+        views: 15,
+        seed: 21,
+        min_distance: 350.0,
+        max_distance: 600.0,
+        ..Default::default()
+    };
     let poses = synthetic::stereo_calibration_poses(&rig, &b, &cfg).unwrap();
     let mut r = rng(22);
     let mut proj = |cam: &Camera, pose: &Isometry3| {
@@ -247,7 +268,12 @@ fn stereo_calibration_recovers_the_rig() {
     let res = calibrate_stereo(&object, &left, &right, (640, 480), (640, 480), &StereoConfig::default()).unwrap();
     let (da, dt) = res.rig.right_from_left.distance(&rig.right_from_left);
     let s = res.rig_std_devs;
-    assert!((res.rig.baseline() - rig.baseline()).abs() < 4.0 * s.baseline + 1e-9, "baseline {} σ {}", res.rig.baseline(), s.baseline);
+    assert!(
+        (res.rig.baseline() - rig.baseline()).abs() < 4.0 * s.baseline + 1e-9,
+        "baseline {} σ {}",
+        res.rig.baseline(),
+        s.baseline
+    );
     assert!((res.rig.baseline() - rig.baseline()).abs() < 0.2);
     assert!(da.to_degrees() < 0.05, "rotation error {}°", da.to_degrees());
     assert!(dt < 1.0);

@@ -12,7 +12,7 @@ fn one_calibration_is_accurate() {
     let r = calibrate_camera(&object, &image, 640, 480, &CalibrationConfig::default()).unwrap();
     let k = r.camera.intrinsics;
     let t = truth.intrinsics;
-        assert!((k.fx / t.fx - 1.0).abs() < 1e-3 && (k.fy / t.fy - 1.0).abs() < 1e-3);
+    assert!((k.fx / t.fx - 1.0).abs() < 1e-3 && (k.fy / t.fy - 1.0).abs() < 1e-3);
     assert!((k.cx - t.cx).abs() < 0.5 && (k.cy - t.cy).abs() < 0.5);
     // σ per coordinate ≈ 0.1 px; RMS per corner ≈ √2 σ √(dof / 2N).
     assert!((r.sigma_px - 0.1).abs() < 0.01, "sigma {}", r.sigma_px);

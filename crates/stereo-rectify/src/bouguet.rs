@@ -231,7 +231,9 @@ pub fn stereo_rectify(rig: &StereoRig, config: &RectifyConfig) -> Result<Rectifi
     for (k, (camera, r)) in [(&rig.left, r1), (&rig.right, r2)].into_iter().enumerate() {
         let avg = match config.extents {
             ExtentMethod::OpenCv => opencv_compat::mean_rotated_corners(camera, r, fc_new),
-            ExtentMethod::Exact => exact_mean_rotated_corners(camera, r, fc_new, if k == 0 { "left" } else { "right" })?,
+            ExtentMethod::Exact => {
+                exact_mean_rotated_corners(camera, r, fc_new, if k == 0 { "left" } else { "right" })?
+            }
         };
         cc[k] = DVec2::new((nx - 1.0) / 2.0 - avg.x, (ny - 1.0) / 2.0 - avg.y);
     }
@@ -255,10 +257,8 @@ pub fn stereo_rectify(rig: &StereoRig, config: &RectifyConfig) -> Result<Rectifi
     let (inner2, outer2) = rectangles(&rig.right, r2, k_new(cc[1]), config.extents, "right")?;
     let (nw_f, nh_f) = (new_w as f64, new_h as f64);
     let c0 = cc;
-    let c1 = [
-        DVec2::new(nw_f * c0[0].x / nx, nh_f * c0[0].y / ny),
-        DVec2::new(nw_f * c0[1].x / nx, nh_f * c0[1].y / ny),
-    ];
+    let c1 =
+        [DVec2::new(nw_f * c0[0].x / nx, nh_f * c0[0].y / ny), DVec2::new(nw_f * c0[1].x / nx, nh_f * c0[1].y / ny)];
     let mut s = 1.0;
     if let Some(alpha) = config.alpha {
         let fits = |inner: &RectF, c_0: DVec2, c_1: DVec2| {
@@ -351,11 +351,16 @@ fn clip_rect(x: f64, y: f64, w: f64, h: f64, width: u32, height: u32) -> Roi {
 fn exact_mean_rotated_corners(camera: &Camera, r: DMat3, fc: f64, which: &'static str) -> Result<DVec2> {
     let (nx, ny) = (camera.width as f64, camera.height as f64);
     let mut sum = DVec2::ZERO;
-    for corner in [DVec2::new(0.0, 0.0), DVec2::new(nx - 1.0, 0.0), DVec2::new(0.0, ny - 1.0), DVec2::new(nx - 1.0, ny - 1.0)] {
-        let ray = camera.unproject(corner).map_err(|source| RectifyError::Camera { what: camera_what(which), source })?;
+    for corner in
+        [DVec2::new(0.0, 0.0), DVec2::new(nx - 1.0, 0.0), DVec2::new(0.0, ny - 1.0), DVec2::new(nx - 1.0, ny - 1.0)]
+    {
+        let ray =
+            camera.unproject(corner).map_err(|source| RectifyError::Camera { what: camera_what(which), source })?;
         let p = r * ray;
         if p.z <= 0.0 {
-            return Err(RectifyError::Degenerate(format!("a corner of the {which} image turns behind the rectified camera")));
+            return Err(RectifyError::Degenerate(format!(
+                "a corner of the {which} image turns behind the rectified camera"
+            )));
         }
         sum += DVec2::new(fc * p.x / p.z, fc * p.y / p.z);
     }
@@ -387,7 +392,8 @@ pub(crate) fn rectangles(
             for y in 0..N {
                 for x in 0..N {
                     if x == 0 || x == N - 1 || y == 0 || y == N - 1 {
-                        let p = opencv_compat::undistort_point(camera, DVec2::new(x as f64 * step_x, y as f64 * step_y));
+                        let p =
+                            opencv_compat::undistort_point(camera, DVec2::new(x as f64 * step_x, y as f64 * step_y));
                         samples.push(([x == 0, x == N - 1, y == 0, y == N - 1], apply_homography(rr, p)));
                     }
                 }
@@ -396,7 +402,9 @@ pub(crate) fn rectangles(
         ExtentMethod::Exact => {
             let (wf, hf) = ((w - 1) as f64, (h - 1) as f64);
             let mut push = |pixel: DVec2| -> Result<()> {
-                let ray = camera.unproject(pixel).map_err(|source| RectifyError::Camera { what: camera_what(which), source })?;
+                let ray = camera
+                    .unproject(pixel)
+                    .map_err(|source| RectifyError::Camera { what: camera_what(which), source })?;
                 let edges = [pixel.x == 0.0, pixel.x == wf, pixel.y == 0.0, pixel.y == hf];
                 samples.push((edges, apply_homography(rr, ray.truncate())));
                 Ok(())

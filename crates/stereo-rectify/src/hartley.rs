@@ -64,7 +64,7 @@ pub fn stereo_rectify_uncalibrated(
     let u = dmat3_from_mat(svd.U());
     let v = dmat3_from_mat(svd.V());
     let s = svd.S().column_vector();
-    if !(s[0] > 0.0) {
+    if s[0].is_nan() || s[0] <= 0.0 {
         return Err(RectifyError::Degenerate("the fundamental matrix is zero".into()));
     }
     let f = u * DMat3::from_diagonal(DVec3::new(s[0], s[1], 0.0)) * v.transpose();

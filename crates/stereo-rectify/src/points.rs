@@ -28,7 +28,7 @@ pub fn rectify_points(camera: &Camera, r: DMat3, p: &ProjectionMatrix, pixels: &
             let fail = |reason: String| RectifyError::Point { what: "pixels", index, u: pixel.x, v: pixel.y, reason };
             let ray = camera.unproject(pixel).map_err(|e| fail(e.to_string()))?;
             let h = kr * ray;
-            if !(h.z > 0.0) {
+            if h.z.is_nan() || h.z <= 0.0 {
                 return Err(fail("it lies behind the rectified camera".into()));
             }
             let out = DVec2::new(h.x / h.z, h.y / h.z);

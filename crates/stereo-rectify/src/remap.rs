@@ -120,6 +120,9 @@ where
         )));
     }
     let c = P::CHANNEL_COUNT as usize;
+    if !(1..=4).contains(&c) {
+        return Err(RectifyError::Config(format!("remap supports 1 to 4 channels, the pixel type has {c}")));
+    }
     let zero = <P::Subpixel as Sample>::from_f32(0.0);
     let (fill, replicate) = match border {
         Border::Constant(p) => (p.channels().to_vec(), false),
@@ -142,7 +145,12 @@ where
                 }
             }
             (Interpolation::Bilinear, _) => ctx.bilinear_row(mx, my, row),
-            (Interpolation::Nearest, _) => ctx.nearest_row(mx, my, row),
+            (Interpolation::Nearest, _) => match c {
+                1 => ctx.nearest_row::<1>(mx, my, row),
+                2 => ctx.nearest_row::<2>(mx, my, row),
+                3 => ctx.nearest_row::<3>(mx, my, row),
+                _ => ctx.nearest_row::<4>(mx, my, row),
+            },
         }
     });
     ImageBuffer::from_raw(table.width, table.height, out)
@@ -212,11 +220,12 @@ impl<S: Sample> Ctx<'_, S> {
     fn bilinear_px(&self, x: f32, y: f32, dst: &mut [S]) {
         let c = self.c;
         let (last_x, last_y) = ((self.sw - 1) as f32, (self.sh - 1) as f32);
-        let (xf, yf) = (x.floor(), y.floor());
-        // Fast path: all four neighbours inside (false for NaN).
-        if xf >= 0.0 && yf >= 0.0 && xf < last_x && yf < last_y {
-            let (a, b) = (x - xf, y - yf);
-            let i00 = (yf as usize * self.sw as usize + xf as usize) * c;
+        // Fast path: all four neighbours inside (false for NaN); truncation is floor here
+        // (`f32::floor` is a libm call on the x86-64 baseline).
+        if x >= 0.0 && y >= 0.0 && x < last_x && y < last_y {
+            let (xi, yi) = (x as usize, y as usize);
+            let (a, b) = (x - xi as f32, y - yi as f32);
+            let i00 = (yi * self.sw as usize + xi) * c;
             let i10 = i00 + (self.sw as usize) * c;
             for ch in 0..c {
                 let p00 = self.raw[i00 + ch].to_f32();
@@ -250,23 +259,22 @@ impl<S: Sample> Ctx<'_, S> {
     }
 
     #[inline(always)]
-    fn nearest_row(&self, mx: &[f32], my: &[f32], row: &mut [S]) {
-        let c = self.c;
+    fn nearest_row<const C: usize>(&self, mx: &[f32], my: &[f32], row: &mut [S]) {
+        let (last_x, last_y) = ((self.sw - 1) as f32, (self.sh - 1) as f32);
         let lim_x = (self.sw + 2) as f32;
         let lim_y = (self.sh + 2) as f32;
-        for (i, (&x, &y)) in mx.iter().zip(my).enumerate() {
-            let dst = &mut row[i * c..(i + 1) * c];
-            if !(x.is_finite() && y.is_finite()) {
+        for (dst, (&x, &y)) in row.chunks_exact_mut(C).zip(mx.iter().zip(my)) {
+            // inside (false for NaN)
+            if x >= -0.5 && y >= -0.5 && x < last_x + 0.5 && y < last_y + 0.5 {
+                let (xr, yr) = (round_half_even(x), round_half_even(y));
+                let s = (yr * self.sw as usize + xr) * C;
+                dst.copy_from_slice(&self.raw[s..s + C]);
+            } else if !(x.is_finite() && y.is_finite()) {
                 dst.copy_from_slice(self.fill);
-                continue;
-            }
-            let xi = x.clamp(-3.0, lim_x).round_ties_even() as isize;
-            let yi = y.clamp(-3.0, lim_y).round_ties_even() as isize;
-            if xi >= 0 && yi >= 0 && xi < self.sw && yi < self.sh {
-                let s = (yi * self.sw + xi) as usize * c;
-                dst.copy_from_slice(&self.raw[s..s + c]);
             } else {
-                for ch in 0..c {
+                let xi = x.clamp(-3.0, lim_x).round_ties_even() as isize;
+                let yi = y.clamp(-3.0, lim_y).round_ties_even() as isize;
+                for ch in 0..C {
                     dst[ch] = S::from_f32(self.at(xi, yi, ch));
                 }
             }
@@ -293,14 +301,22 @@ impl FastBilinear {
         let usable = (source_width as u64) * (source_height as u64) < u32::MAX as u64;
         index.par_iter_mut().zip(frac.par_iter_mut()).enumerate().for_each(|(i, (k, f))| {
             let (x, y) = (table.map_x[i], table.map_y[i]);
-            let (xf, yf) = (x.floor(), y.floor());
-            if usable && xf >= 0.0 && yf >= 0.0 && xf < last_x && yf < last_y {
-                let fx = (((x - xf) * 256.0).round() as u32).min(255);
-                let fy = (((y - yf) * 256.0).round() as u32).min(255);
-                *k = yf as u32 * source_width + xf as u32;
+            if usable && x >= 0.0 && y >= 0.0 && x < last_x && y < last_y {
+                let (xi, yi) = (x as u32, y as u32); // truncation = floor for x ≥ 0
+                let fx = (((x - xi as f32) * 256.0 + 0.5) as u32).min(255);
+                let fy = (((y - yi as f32) * 256.0 + 0.5) as u32).min(255);
+                *k = yi * source_width + xi;
                 *f = (fx | (fy << 8)) as u16;
             }
         });
         Self { source_size: (source_width, source_height), index, frac }
     }
+}
+
+/// Round half to even (OpenCV's `cvRound`) of `v ≥ −0.5` without a libm call.
+#[inline(always)]
+fn round_half_even(v: f32) -> usize {
+    let t = v + 0.5;
+    let r = t as usize;
+    if r as f32 == t && r & 1 == 1 { r - 1 } else { r }
 }

@@ -8,7 +8,7 @@ use image::{ImageBuffer, Luma, Pixel, Rgb};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use stereo_rectify::{
-    Border, Image, Interpolation, RectifyConfig, RectifyError, Rectifier, RemapTable, Sample, init_undistort_map, remap,
+    Border, Image, Interpolation, Rectifier, RectifyConfig, RectifyError, RemapTable, Sample, init_undistort_map, remap,
 };
 
 /// A random table: mostly inside, some positions across and far beyond the border, some NaN,
@@ -42,7 +42,9 @@ where
     let c = P::CHANNEL_COUNT as usize;
     let fetch = |x: i64, y: i64, ch: usize| -> f64 {
         match border {
-            _ if x >= 0 && y >= 0 && x < sw && y < sh => src.get_pixel(x as u32, y as u32).channels()[ch].to_f32() as f64,
+            _ if x >= 0 && y >= 0 && x < sw && y < sh => {
+                src.get_pixel(x as u32, y as u32).channels()[ch].to_f32() as f64
+            }
             Border::Replicate => {
                 src.get_pixel(x.clamp(0, sw - 1) as u32, y.clamp(0, sh - 1) as u32).channels()[ch].to_f32() as f64
             }
@@ -111,12 +113,24 @@ fn remap_matches_naive_reference_for_all_pixel_types() {
     for interp in [Interpolation::Bilinear, Interpolation::Nearest] {
         // rounding of an exact .5 can go either way between f32 and f64: ≤ 0.5 + ε everywhere,
         // and exact for nearest.
-        let w8 = worst_difference(&gray8, &table, interp, Border::Constant(Luma([17])))
-            .max(worst_difference(&gray8, &table, interp, Border::Replicate));
-        let w16 = worst_difference(&gray16, &table, interp, Border::Constant(Luma([40000])))
-            .max(worst_difference(&gray16, &table, interp, Border::Replicate));
-        let wrgb = worst_difference(&rgb, &table, interp, Border::Constant(Rgb([1, 2, 3])))
-            .max(worst_difference(&rgb, &table, interp, Border::Replicate));
+        let w8 = worst_difference(&gray8, &table, interp, Border::Constant(Luma([17]))).max(worst_difference(
+            &gray8,
+            &table,
+            interp,
+            Border::Replicate,
+        ));
+        let w16 = worst_difference(&gray16, &table, interp, Border::Constant(Luma([40000]))).max(worst_difference(
+            &gray16,
+            &table,
+            interp,
+            Border::Replicate,
+        ));
+        let wrgb = worst_difference(&rgb, &table, interp, Border::Constant(Rgb([1, 2, 3]))).max(worst_difference(
+            &rgb,
+            &table,
+            interp,
+            Border::Replicate,
+        ));
         println!("{interp:?}: worst |fast - naive| u8 {w8:.3}, u16 {w16:.3}, rgb {wrgb:.3}");
         if interp == Interpolation::Nearest {
             assert_eq!(w8.max(w16).max(wrgb), 0.0);
@@ -176,5 +190,8 @@ fn rectifier_rectifies_pairs_with_its_maps() {
     assert!(matches!(remap(&empty, &table, Interpolation::Bilinear, Border::Replicate), Err(RectifyError::Empty(_))));
     let broken = RemapTable { width: 4, height: 4, map_x: vec![0.0; 3], map_y: vec![0.0; 16] };
     let img: Image<Luma<u8>> = ImageBuffer::new(4, 4);
-    assert!(matches!(remap(&img, &broken, Interpolation::Bilinear, Border::Replicate), Err(RectifyError::SizeMismatch(_))));
+    assert!(matches!(
+        remap(&img, &broken, Interpolation::Bilinear, Border::Replicate),
+        Err(RectifyError::SizeMismatch(_))
+    ));
 }

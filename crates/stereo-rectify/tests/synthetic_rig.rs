@@ -5,7 +5,7 @@ mod common;
 use camera_model::StereoRig;
 use glam::{DVec2, DVec3};
 use stereo_rectify::{
-    ExtentMethod, Rectification, RectifyConfig, Rectifier, RectifyError, init_undistort_rectify_map, rectify_points,
+    ExtentMethod, Rectification, Rectifier, RectifyConfig, RectifyError, init_undistort_rectify_map, rectify_points,
     stereo_rectify,
 };
 
@@ -54,10 +54,9 @@ fn maps_invert_point_rectification() {
     let rig = common::horizontal_rig();
     let rect = stereo_rectify(&rig, &RectifyConfig { alpha: Some(0.0), ..Default::default() }).unwrap();
     let rectifier = Rectifier::from_rectification(&rig, rect).unwrap();
-    for (camera, map, r, p) in [
-        (&rig.left, rectifier.left_map(), rect.r1, rect.p1),
-        (&rig.right, rectifier.right_map(), rect.r2, rect.p2),
-    ] {
+    for (camera, map, r, p) in
+        [(&rig.left, rectifier.left_map(), rect.r1, rect.p1), (&rig.right, rectifier.right_map(), rect.r2, rect.p2)]
+    {
         let mut worst = 0.0f64;
         for v in (0..480).step_by(7) {
             for u in (0..640).step_by(7) {
@@ -120,21 +119,29 @@ fn reproject(rect: &Rectification, pixel: DVec2, d: f64) -> DVec3 {
 #[test]
 fn alpha_zero_is_all_valid_and_alpha_one_keeps_every_pixel() {
     for rig in [common::horizontal_rig(), common::vertical_rig()] {
-        let rect0 = stereo_rectify(&rig, &RectifyConfig { alpha: Some(0.0), extents: ExtentMethod::Exact, ..Default::default() })
-            .unwrap();
+        let rect0 = stereo_rectify(
+            &rig,
+            &RectifyConfig { alpha: Some(0.0), extents: ExtentMethod::Exact, ..Default::default() },
+        )
+        .unwrap();
         assert!(rect0.roi1.area() > 600 * 450 && rect0.roi2.area() > 600 * 450, "{:?} {:?}", rect0.roi1, rect0.roi2);
         let (bad, _) = invalid_in_roi(&rig, &rect0);
         assert_eq!(bad, 0, "alpha 0: {bad} invalid pixels inside the ROIs");
 
-        let rect1 = stereo_rectify(&rig, &RectifyConfig { alpha: Some(1.0), extents: ExtentMethod::Exact, ..Default::default() })
-            .unwrap();
+        let rect1 = stereo_rectify(
+            &rig,
+            &RectifyConfig { alpha: Some(1.0), extents: ExtentMethod::Exact, ..Default::default() },
+        )
+        .unwrap();
         let lost = lost_source_pixels(&rig, &rect1, 1);
         assert_eq!(lost, 0, "alpha 1: {lost} source pixels outside the rectified image");
         // alpha = 1 is tight: some source border pixel lies within a pixel of the rectified border.
         assert!(rect1.focal() < rect0.focal());
-        let rect_tight =
-            stereo_rectify(&rig, &RectifyConfig { alpha: Some(1.0), extents: ExtentMethod::Exact, new_size: None, ..Default::default() })
-                .unwrap();
+        let rect_tight = stereo_rectify(
+            &rig,
+            &RectifyConfig { alpha: Some(1.0), extents: ExtentMethod::Exact, new_size: None, ..Default::default() },
+        )
+        .unwrap();
         let mut zoomed = rect_tight;
         zoomed.p1.rows[0][0] *= 1.01;
         zoomed.p1.rows[1][1] *= 1.01;
@@ -220,7 +227,8 @@ fn bad_input_is_rejected_with_clear_errors() {
 
     let rig = common::horizontal_rig();
     let rect = stereo_rectify(&rig, &RectifyConfig::default()).unwrap();
-    let err = rectify_points(&rig.left, rect.r1, &rect.p1, &[DVec2::new(1.0, 2.0), DVec2::new(f64::NAN, 0.0)]).unwrap_err();
+    let err =
+        rectify_points(&rig.left, rect.r1, &rect.p1, &[DVec2::new(1.0, 2.0), DVec2::new(f64::NAN, 0.0)]).unwrap_err();
     assert!(matches!(err, RectifyError::Point { index: 1, .. }), "{err}");
     assert!(rectify_points(&rig.left, rect.r1, &rect.p1, &[]).unwrap().is_empty());
 }

@@ -10,7 +10,8 @@ use stereo_rectify::{RectifyError, stereo_rectify_uncalibrated};
 
 fn pinhole_rig(t: DVec3) -> StereoRig {
     let cam = |f: f64, cx: f64| Camera::new(Intrinsics::new(f, f, cx, 245.0), Distortion::default(), 640, 480).unwrap();
-    StereoRig::new(cam(600.0, 318.0), cam(610.0, 325.0), Isometry3::from_rvec_tvec(DVec3::new(0.02, -0.05, 0.01), t)).unwrap()
+    StereoRig::new(cam(600.0, 318.0), cam(610.0, 325.0), Isometry3::from_rvec_tvec(DVec3::new(0.02, -0.05, 0.01), t))
+        .unwrap()
 }
 
 fn matches(rig: &StereoRig, n: usize, seed: u64) -> (Vec<DVec2>, Vec<DVec2>) {
@@ -72,13 +73,19 @@ fn uncalibrated_bad_input() {
     let rig = pinhole_rig(DVec3::new(-100.0, 3.0, 5.0));
     let (p1, p2) = matches(&rig, 50, 4);
     let f = rig.fundamental();
-    assert!(matches!(stereo_rectify_uncalibrated(&p1, &p2[1..], f, 640, 480, None), Err(RectifyError::SizeMismatch(_))));
+    assert!(matches!(
+        stereo_rectify_uncalibrated(&p1, &p2[1..], f, 640, 480, None),
+        Err(RectifyError::SizeMismatch(_))
+    ));
     assert!(matches!(stereo_rectify_uncalibrated(&[], &[], f, 640, 480, None), Err(RectifyError::Empty(_))));
     assert!(matches!(
         stereo_rectify_uncalibrated(&p1[..2], &p2[..2], f, 640, 480, None),
         Err(RectifyError::TooFewMatches { needed: 3, got: 2 })
     ));
-    assert!(matches!(stereo_rectify_uncalibrated(&p1, &p2, DMat3::ZERO, 640, 480, None), Err(RectifyError::Degenerate(_))));
+    assert!(matches!(
+        stereo_rectify_uncalibrated(&p1, &p2, DMat3::ZERO, 640, 480, None),
+        Err(RectifyError::Degenerate(_))
+    ));
     let mut nan = p1.clone();
     nan[3].x = f64::NAN;
     assert!(matches!(stereo_rectify_uncalibrated(&nan, &p2, f, 640, 480, None), Err(RectifyError::NonFinite(_))));

@@ -279,10 +279,10 @@ fn pixel_value(
     background: f64,
 ) -> f64 {
     let quad = [grid.at(u, v), grid.at(u + 1, v), grid.at(u + 1, v + 1), grid.at(u, v + 1)];
-    if let [Some(a), Some(b), Some(c), Some(d)] = quad {
-        if let Some(value) = exact_coverage(pattern, [a, b, c, d], background) {
-            return value;
-        }
+    if let [Some(a), Some(b), Some(c), Some(d)] = quad
+        && let Some(value) = exact_coverage(pattern, [a, b, c, d], background)
+    {
+        return value;
     }
     point_sampled(pattern, camera, camera_from_board, square, u, v, background)
 }

@@ -370,7 +370,7 @@ pub fn render_stereo_scene(cfg: &StereoSceneConfig) -> Result<StereoScene, Synth
         }
     }
 
-    let mut rng = rng(cfg.seed ^ 0x5eed_0f_5e7e0);
+    let mut rng = rng(cfg.seed ^ 0x05ee_d0f5_e7e0);
     let mut quantise = |values: &[f64], gain: f64, offset: f64| -> GrayImage {
         let bytes = values
             .iter()

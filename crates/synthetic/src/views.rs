@@ -243,7 +243,7 @@ fn accept(
         let to_camera = -camera_from_board.translation;
         let normal = camera_from_board.transform_vector(DVec3::Z);
         let cos = -normal.dot(to_camera) / to_camera.length();
-        if !(cos > 15f64.to_radians().sin()) {
+        if cos.is_nan() || cos <= 15f64.to_radians().sin() {
             return false;
         }
         if partial {

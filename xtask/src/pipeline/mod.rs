@@ -14,8 +14,6 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-pub use report::Report;
-
 /// A deliberate corruption of one stage's input, to check that the pipeline notices.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Corruption {

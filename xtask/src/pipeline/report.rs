@@ -100,7 +100,11 @@ impl Report {
         let mut s = String::new();
         let w_stage = self.rows.iter().map(|r| r.stage.len()).max().unwrap_or(5).max(5);
         let w_fig = self.rows.iter().map(|r| r.figure.len()).max().unwrap_or(6).max(6);
-        let _ = writeln!(s, "{:<w_stage$}  {:<w_fig$}  {:>12}  {:>12}  {:<6}  result", "stage", "figure", "value", "tolerance", "unit");
+        let _ = writeln!(
+            s,
+            "{:<w_stage$}  {:<w_fig$}  {:>12}  {:>12}  {:<6}  result",
+            "stage", "figure", "value", "tolerance", "unit"
+        );
         let _ = writeln!(s, "{}", "-".repeat(w_stage + w_fig + 50));
         for r in &self.rows {
             let op = if r.bound == Bound::AtMost { "≤" } else { "≥" };

@@ -68,7 +68,12 @@ fn rms(errors: impl IntoIterator<Item = f64>) -> f64 {
 
 /// Runs every stage; returns the report (a stage that cannot run records a failing row and the
 /// stages that depend on it are skipped with a note).
-pub fn run_all(name: &str, scene: &SceneDescription, out: &Path, corrupt: Option<Corruption>) -> anyhow::Result<Report> {
+pub fn run_all(
+    name: &str,
+    scene: &SceneDescription,
+    out: &Path,
+    corrupt: Option<Corruption>,
+) -> anyhow::Result<Report> {
     let mut report = Report { scene: name.to_string(), ..Report::default() };
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let tol = &scene.tolerances;
@@ -78,7 +83,7 @@ pub fn run_all(name: &str, scene: &SceneDescription, out: &Path, corrupt: Option
 
     // 1. Render the stereo calibration session.
     progress(1, "rendering and detecting the stereo calibration session");
-    let poses = synthetic::stereo_calibration_poses(&rig_true, &board, &scene.views)?;
+    let poses = scene.stereo_poses()?;
     let rendered: Vec<_> = poses
         .par_iter()
         .enumerate()
@@ -117,11 +122,9 @@ pub fn run_all(name: &str, scene: &SceneDescription, out: &Path, corrupt: Option
         })
         .collect();
     report.at_most("corners", "corner RMS error", rms(corner_errors.iter().copied()), tol.corner_rms_px, "px");
-    if let Some([l, _]) = &session.first {
-        if let Some(g) = &session.found[0][0] {
-            util::save_png(&out.join("corners-left-0.png"), &corner_detection::draw_chessboard(l, g))?;
-            report.images.push(("corners-left-0.png".into(), "detected corners, left view 0".into()));
-        }
+    if let (Some([l, _]), Some(g)) = (&session.first, &session.found[0][0]) {
+        util::save_png(&out.join("corners-left-0.png"), &corner_detection::draw_chessboard(l, g))?;
+        report.images.push(("corners-left-0.png".into(), "detected corners, left view 0".into()));
     }
 
     // 3. Stereo calibration.
@@ -133,11 +136,8 @@ pub fn run_all(name: &str, scene: &SceneDescription, out: &Path, corrupt: Option
         }
         _ => board,
     };
-    let pairs: Vec<(CornerGrid, CornerGrid)> = session
-        .found
-        .iter()
-        .filter_map(|[l, r]| Some((l.clone()?, r.clone()?)))
-        .collect();
+    let pairs: Vec<(CornerGrid, CornerGrid)> =
+        session.found.iter().filter_map(|[l, r]| Some((l.clone()?, r.clone()?))).collect();
     let (lgrids, rgrids): (Vec<_>, Vec<_>) = pairs.into_iter().unzip();
     let size = (rig_true.left.width, rig_true.left.height);
     let stereo = match planar_calibration::calibrate_stereo_chessboard(
@@ -168,9 +168,7 @@ pub fn run_all(name: &str, scene: &SceneDescription, out: &Path, corrupt: Option
     report.at_most("calibration", "focal length error (worst of 4)", focal_err, tol.focal_error_pct, "%");
     let pp_err = [(rig.left, rig_true.left), (rig.right, rig_true.right)]
         .iter()
-        .map(|(e, t)| {
-            DVec2::new(e.intrinsics.cx - t.intrinsics.cx, e.intrinsics.cy - t.intrinsics.cy).length()
-        })
+        .map(|(e, t)| DVec2::new(e.intrinsics.cx - t.intrinsics.cx, e.intrinsics.cy - t.intrinsics.cy).length())
         .fold(0.0, f64::max);
     report.at_most("calibration", "principal point error (worst)", pp_err, tol.principal_point_px, "px");
     report.at_most("calibration", "stereo RMS reprojection error", stereo.rms_px, tol.reprojection_rms_px, "px");
@@ -208,7 +206,7 @@ pub fn run_all(name: &str, scene: &SceneDescription, out: &Path, corrupt: Option
     let mean_dv = if dv.is_empty() { f64::NAN } else { dv.iter().sum::<f64>() / dv.len() as f64 };
     report.at_most("rectification", "mean |Δv| of detected corners", mean_dv, tol.rectification_dv_px, "px");
     if let Some([l, r]) = &session.first {
-        let rectifier = stereo_rectify::Rectifier::from_rectification(&rig, rect.clone())?;
+        let rectifier = stereo_rectify::Rectifier::from_rectification(&rig, rect)?;
         let (rl, rr) = rectifier.rectify_pair(l, r, stereo_rectify::Border::Constant(image::Luma([0u8])))?;
         util::save_png(&out.join("rectified-pair.png"), &side_by_side(&rl, &rr))?;
         report.images.push(("rectified-pair.png".into(), "rectified calibration view 0 (lines every 40 px)".into()));
@@ -254,7 +252,10 @@ pub fn run_all(name: &str, scene: &SceneDescription, out: &Path, corrupt: Option
         tol.cloud_depth_error_pct,
         "%",
     );
-    report.note("triangulation", format!("{} points written to cloud.ply ({} invalid pixels skipped)", cloud.len(), cloud.skipped_invalid));
+    report.note(
+        "triangulation",
+        format!("{} points written to cloud.ply ({} invalid pixels skipped)", cloud.len(), cloud.skipped_invalid),
+    );
 
     // 7. Four target points measured by the rig (Table 3), then hand-eye.
     progress(7, "measuring four targets and calibrating hand-eye");
@@ -275,16 +276,44 @@ pub fn run_all(name: &str, scene: &SceneDescription, out: &Path, corrupt: Option
         .collect::<anyhow::Result<Vec<_>>>()?;
     let mut bfg = Vec::new();
     let mut cfb = Vec::new();
+    let (mut pose_rot_err, mut pose_trans_err) = (0.0f64, 0.0f64);
     for (i, (_, found)) in station_views.iter().enumerate() {
         if let Some(g) = &found[0] {
             let (pose, _) = planar_calibration::solve_pnp_planar(&rig.left, &board_cal, &g.corners)?;
+            let (r, t) = pose.distance(&traj.camera_from_board[i]);
+            pose_rot_err = pose_rot_err.max(r.to_degrees());
+            pose_trans_err = pose_trans_err.max(t);
             bfg.push(robot[i]);
             cfb.push(pose);
         }
     }
-    report.at_least("hand-eye", "stations with the board found", cfb.len() as f64, traj.base_from_gripper.len() as f64, "stations");
+    report.at_least(
+        "hand-eye",
+        "stations with the board found",
+        cfb.len() as f64,
+        traj.base_from_gripper.len() as f64,
+        "stations",
+    );
+    report.note(
+        "hand-eye",
+        format!(
+            "camera_from_board by PnP: worst error {pose_rot_err:.4} deg, {pose_trans_err:.4} {unit} over {} stations",
+            cfb.len()
+        ),
+    );
     let setup = if traj.eye_in_hand { hand_eye::Setup::EyeInHand } else { hand_eye::Setup::EyeToHand };
-    let he_cfg = hand_eye::HandEyeConfig { setup, ..hand_eye::HandEyeConfig::default() };
+    // Noise model of the refinement in the scene's units: the robot's from the scene, the camera
+    // poses (from PnP on detected corners) taken as no better than the robot's.
+    let sigma_deg = scene.trajectory.rot_noise_rad.to_degrees().max(1e-3);
+    let sigma_t = scene.trajectory.trans_noise.max(1e-3 * board.square_size);
+    let refine = hand_eye::RefineConfig {
+        robot_rotation_sigma_deg: sigma_deg,
+        robot_translation_sigma: sigma_t,
+        camera_rotation_sigma_deg: sigma_deg,
+        camera_translation_sigma: sigma_t,
+        ..hand_eye::RefineConfig::default()
+    };
+    let he_cfg = hand_eye::HandEyeConfig { setup, refine, ..hand_eye::HandEyeConfig::default() };
     let solution = hand_eye::calibrate(&bfg, &cfb, hand_eye::Method::Refined, &he_cfg)?;
     util::write_ron(&out.join("handeye.ron"), &solution)?;
     let truth_x = if traj.eye_in_hand { traj.truth.gripper_from_camera } else { traj.truth.base_from_camera };
@@ -319,7 +348,10 @@ pub fn run_all(name: &str, scene: &SceneDescription, out: &Path, corrupt: Option
         .fold(0.0, f64::max);
     report.at_most("measurement", "target distance error (worst of 6)", dist_err, tol.distance_error, unit);
     for d in &measurement.distances {
-        report.note("measurement", format!("target {} – {}: {:.3} ± {:.3} {unit}", d.from + 1, d.to + 1, d.distance, d.std_dev));
+        report.note(
+            "measurement",
+            format!("target {} – {}: {:.3} ± {:.3} {unit}", d.from + 1, d.to + 1, d.distance, d.std_dev),
+        );
     }
 
     // 8. The targets in the robot base frame.
@@ -359,9 +391,10 @@ fn relative_depth_errors(
                 continue;
             }
             let (Some(de), Some(dt)) = (est.get(u, v), truth.get(u, v)) else { continue };
-            let (Ok(pe), Ok(pt)) =
-                (q_est.reproject(u as f64, v as f64, f64::from(de)), q_true.reproject(u as f64, v as f64, f64::from(dt)))
-            else {
+            let (Ok(pe), Ok(pt)) = (
+                q_est.reproject(u as f64, v as f64, f64::from(de)),
+                q_true.reproject(u as f64, v as f64, f64::from(dt)),
+            ) else {
                 continue;
             };
             out.push(100.0 * (pe.z - pt.z).abs() / pt.z);

@@ -23,15 +23,24 @@ pub fn horizontal_rig() -> StereoRig {
         480,
     )
     .unwrap();
-    StereoRig::new(left, right, Isometry3::from_rvec_tvec(DVec3::new(0.012, -0.018, 0.009), DVec3::new(-100.0, 2.0, 1.5)))
-        .unwrap()
+    StereoRig::new(
+        left,
+        right,
+        Isometry3::from_rvec_tvec(DVec3::new(0.012, -0.018, 0.009), DVec3::new(-100.0, 2.0, 1.5)),
+    )
+    .unwrap()
 }
 
 /// A vertical rig (right camera 80 mm below the left one), moderate distortion.
 pub fn vertical_rig() -> StereoRig {
     let cam = |fx: f64, cx: f64, k1: f64| {
-        Camera::new(Intrinsics::new(fx, fx * 1.001, cx, 241.0), Distortion::new(k1, 0.03, 0.0005, -0.0004, 0.0), 640, 480)
-            .unwrap()
+        Camera::new(
+            Intrinsics::new(fx, fx * 1.001, cx, 241.0),
+            Distortion::new(k1, 0.03, 0.0005, -0.0004, 0.0),
+            640,
+            480,
+        )
+        .unwrap()
     };
     StereoRig::new(
         cam(600.0, 322.0, -0.15),
