@@ -7,6 +7,7 @@
 //! (stored in the scene file); the run exits non-zero when any stage is out of tolerance.
 
 mod report;
+
 mod stages;
 
 use std::path::PathBuf;
@@ -63,4 +64,32 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 /// The workspace root (the parent of this crate's directory).
 fn workspace_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).parent().map(PathBuf::from).unwrap_or_else(|| PathBuf::from("."))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run_scene(corrupt: Option<Corruption>) -> report::Report {
+        let dir = std::env::temp_dir().join(format!("parallax-pipeline-{}-{:?}", std::process::id(), corrupt));
+        let report = stages::run_all("test", &synthetic::SceneDescription::builtin(), &dir, corrupt).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        report
+    }
+
+    /// The built-in scene passes every tolerance; corrupting a stage input makes the stage that
+    /// consumes it (and those downstream) fail by name.
+    #[test]
+    fn builtin_scene_passes_and_corruptions_name_the_stage() {
+        let ok = run_scene(None);
+        assert_eq!(ok.verdict(), "pipeline: PASS", "{}", ok.table());
+        let square = run_scene(Some(Corruption::SquareSize));
+        let failed = square.failed_stages();
+        assert!(failed.contains(&"calibration".to_string()), "{failed:?}");
+        assert!(failed.contains(&"measurement".to_string()), "{failed:?}");
+        assert!(square.table().contains("baseline vector error"));
+        let swapped = run_scene(Some(Corruption::SwapStereo));
+        assert!(swapped.failed_stages().contains(&"corners".to_string()), "{:?}", swapped.failed_stages());
+        assert!(swapped.verdict().starts_with("pipeline: FAIL (corners, calibration"));
+    }
 }
