@@ -281,13 +281,10 @@ fn run_stereo(
     // Rectification of the detected corners (point-level, no resampling) and triangulated
     // distances between adjacent corners, both from the calibration just made.
     let rect = stereo_rectify::stereo_rectify(&r.rig, &stereo_rectify::RectifyConfig::default())?;
-    let mut dv = Vec::new();
+    let dv = util::rectified_abs_dv(&r.rig, &rect, &lg, &rg)?;
     let mut distances = Vec::new();
     let tri = triangulation::TriangulationConfig { pixel_sigma: r.sigma_px, ..Default::default() };
     for (l, rr) in lg.iter().zip(&rg) {
-        let lp = stereo_rectify::rectify_points(&r.rig.left, rect.r1, &rect.p1, &l.corners)?;
-        let rp = stereo_rectify::rectify_points(&r.rig.right, rect.r2, &rect.p2, &rr.corners)?;
-        dv.extend(lp.iter().zip(&rp).map(|(a, b)| (a.y - b.y).abs()));
         distances.extend(triangulation::adjacent_corner_distances(&r.rig, l, rr, &tri)?);
     }
     let mean_dv = dv.iter().sum::<f64>() / dv.len().max(1) as f64;

@@ -12,7 +12,6 @@ mod handeye;
 mod measure;
 mod pipeline;
 mod rectify;
-#[allow(dead_code)] // helpers used as the stage commands land
 mod util;
 
 use clap::{Parser, Subcommand};

@@ -94,12 +94,7 @@ pub fn run_real(inputs: &RealInputs, out: &Path) -> anyhow::Result<Report> {
 
     eprintln!("[3/6] rectifying…");
     let rect = stereo_rectify::stereo_rectify(&rig, &stereo_rectify::RectifyConfig::default())?;
-    let mut dv = Vec::new();
-    for (l, r) in lg.iter().zip(&rg) {
-        let a = stereo_rectify::rectify_points(&rig.left, rect.r1, &rect.p1, &l.corners)?;
-        let b = stereo_rectify::rectify_points(&rig.right, rect.r2, &rect.p2, &r.corners)?;
-        dv.extend(a.iter().zip(&b).map(|(p, q)| (p.y - q.y).abs()));
-    }
+    let dv = util::rectified_abs_dv(&rig, &rect, &lg, &rg)?;
     report.note(
         "rectification",
         format!("mean |Δv| of {} detected corners {:.4} px", dv.len(), dv.iter().sum::<f64>() / dv.len() as f64),

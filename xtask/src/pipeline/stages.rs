@@ -197,12 +197,7 @@ pub fn run_all(
     let rect = stereo_rectify::stereo_rectify(&rig, &rect_cfg)?;
     let rect_true = stereo_rectify::stereo_rectify(&rig_true, &rect_cfg)?;
     util::write_ron(&out.join("rectification.ron"), &rect)?;
-    let mut dv = Vec::new();
-    for (l, r) in lgrids.iter().zip(&rgrids) {
-        let lp = stereo_rectify::rectify_points(&rig.left, rect.r1, &rect.p1, &l.corners)?;
-        let rp = stereo_rectify::rectify_points(&rig.right, rect.r2, &rect.p2, &r.corners)?;
-        dv.extend(lp.iter().zip(&rp).map(|(a, b)| (a.y - b.y).abs()));
-    }
+    let dv = util::rectified_abs_dv(&rig, &rect, &lgrids, &rgrids)?;
     let mean_dv = if dv.is_empty() { f64::NAN } else { dv.iter().sum::<f64>() / dv.len() as f64 };
     report.at_most("rectification", "mean |Δv| of detected corners", mean_dv, tol.rectification_dv_px, "px");
     if let Some([l, r]) = &session.first {
