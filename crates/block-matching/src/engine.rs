@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{CostFunction, MatcherConfig, Prefilter, Subpixel};
 use crate::error::{BlockMatchingError, Result};
-use crate::prefilter::{box_sum, normalized_response, x_sobel};
+use crate::prefilter::{box_sum, normalized_response, texture_mask_into, x_sobel_into};
 use crate::speckle::filter_speckles;
 
 /// A 16-bit grayscale image (`image` crate buffer).
@@ -125,6 +125,22 @@ pub(crate) trait Cost: Copy + PartialOrd + Send + Sync + 'static {
     fn to_f64(self) -> f64;
 }
 
+impl Cost for u16 {
+    const MAX: Self = u16::MAX;
+    #[inline(always)]
+    fn min2(self, o: Self) -> Self {
+        self.min(o)
+    }
+    #[inline(always)]
+    fn uniq_thresh(self, ratio: u32) -> Self {
+        (self as u64 + self as u64 * ratio as u64 / 100).min(u16::MAX as u64) as u16
+    }
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+}
+
 impl Cost for u32 {
     const MAX: Self = u32::MAX;
     #[inline(always)]
@@ -215,21 +231,21 @@ struct NccPlanes {
 }
 
 /// Read-only inputs shared by all bands.
-struct Shared<'a> {
-    w: usize,
-    h: usize,
-    r: usize,
-    nd: usize,
-    dmin: i64,
-    left: &'a [u16],
-    right: &'a [u16],
-    texture_ok: Option<&'a [bool]>,
+pub(crate) struct Shared<'a> {
+    pub(crate) w: usize,
+    pub(crate) h: usize,
+    pub(crate) r: usize,
+    pub(crate) nd: usize,
+    pub(crate) dmin: i64,
+    pub(crate) left: &'a [u16],
+    pub(crate) right: &'a [u16],
+    pub(crate) texture_ok: Option<&'a [bool]>,
     ncc: &'a NccPlanes,
     n: f64,
-    uniq: u32,
-    lr: Option<u32>,
-    lr_fill: bool,
-    subpixel: Subpixel,
+    pub(crate) uniq: u32,
+    pub(crate) lr: Option<u32>,
+    pub(crate) lr_fill: bool,
+    pub(crate) subpixel: Subpixel,
 }
 
 /// Buffers of one row band, reused across frames.
@@ -284,10 +300,16 @@ pub struct BlockMatcher {
     simd: SimdLevel,
     left: Vec<u16>,
     right: Vec<u16>,
+    pre_left: Vec<u16>,
+    pre_right: Vec<u16>,
+    sobel: Vec<u16>,
+    texture_tmp: Vec<u32>,
     texture_ok: Vec<bool>,
     ncc: NccPlanes,
     scratch32: Vec<Scratch<u32>>,
     scratch64: Vec<Scratch<u64>>,
+    #[cfg(target_arch = "x86_64")]
+    scratch16: Vec<crate::sad16::Scratch16>,
     stats: MatchStats,
 }
 
@@ -312,10 +334,16 @@ impl BlockMatcher {
             simd: SimdLevel::detect(),
             left: Vec::new(),
             right: Vec::new(),
+            pre_left: Vec::new(),
+            pre_right: Vec::new(),
+            sobel: Vec::new(),
+            texture_tmp: Vec::new(),
             texture_ok: Vec::new(),
             ncc: NccPlanes::default(),
             scratch32: Vec::new(),
             scratch64: Vec::new(),
+            #[cfg(target_arch = "x86_64")]
+            scratch16: Vec::new(),
             stats: MatchStats::default(),
         })
     }
@@ -372,35 +400,47 @@ impl BlockMatcher {
     }
 
     fn run(&mut self, w: usize, h: usize, scale: u32, out: &mut DisparityMap) -> Result<()> {
+        // everything parallel (prefilters, texture, bands) runs on the matcher's own pool if any
+        let pool = self.pool.take();
+        let res = match &pool {
+            Some(p) => p.install(|| self.run_in_pool(w, h, scale, out)),
+            None => self.run_in_pool(w, h, scale, out),
+        };
+        self.pool = pool;
+        res
+    }
+
+    fn run_in_pool(&mut self, w: usize, h: usize, scale: u32, out: &mut DisparityMap) -> Result<()> {
         let cfg = self.config.clone();
-        // texture from the clipped x-Sobel magnitude of the raw left image (OpenCV's measure)
         let r = cfg.block_size / 2;
         let use_texture = cfg.texture_threshold > 0;
-        let mut sobel31 = None;
+        // texture from the clipped x-Sobel magnitude of the raw left image (OpenCV's measure);
+        // with the default prefilter this is also the prefiltered left image
+        let sobel_is_prefilter = cfg.prefilter == Prefilter::XSobel { cap: 31 };
         if use_texture {
             let cap = 31 * scale;
-            let sob = x_sobel(&self.left, w, h, cap);
-            let sums = box_sum(&sob, w, h, r, |v| (v as i64 - cap as i64).unsigned_abs());
-            let thr = cfg.texture_threshold as u64 * scale as u64;
-            self.texture_ok.clear();
-            self.texture_ok.extend(sums.iter().map(|&s| s >= thr));
-            sobel31 = Some(sob);
+            let sob = if sobel_is_prefilter { &mut self.pre_left } else { &mut self.sobel };
+            x_sobel_into(&self.left, w, h, cap, sob);
+            let thr = cfg.texture_threshold * scale;
+            texture_mask_into(sob, w, h, r, cap, thr, &mut self.texture_tmp, &mut self.texture_ok);
         }
         match cfg.prefilter {
             Prefilter::None => {}
             Prefilter::XSobel { cap } => {
-                self.left = match sobel31 {
-                    // the texture measure already computed this exact plane
-                    Some(sob) if cap == 31 => sob,
-                    _ => x_sobel(&self.left, w, h, cap as u32 * scale),
-                };
-                self.right = x_sobel(&self.right, w, h, cap as u32 * scale);
+                if !(use_texture && sobel_is_prefilter) {
+                    x_sobel_into(&self.left, w, h, cap as u32 * scale, &mut self.pre_left);
+                }
+                x_sobel_into(&self.right, w, h, cap as u32 * scale, &mut self.pre_right);
             }
             Prefilter::NormalizedResponse { size, cap } => {
-                self.left = normalized_response(&self.left, w, h, size, cap as u32 * scale);
-                self.right = normalized_response(&self.right, w, h, size, cap as u32 * scale);
+                self.pre_left = normalized_response(&self.left, w, h, size, cap as u32 * scale);
+                self.pre_right = normalized_response(&self.right, w, h, size, cap as u32 * scale);
             }
         }
+        let (left, right) = match cfg.prefilter {
+            Prefilter::None => (&self.left[..], &self.right[..]),
+            _ => (&self.pre_left[..], &self.pre_right[..]),
+        };
         let n = (cfg.block_size * cfg.block_size) as u64;
         if cfg.cost == CostFunction::Ncc {
             let stats = |img: &[u16]| {
@@ -409,17 +449,21 @@ impl BlockMatcher {
                 let inv: Vec<f64> = s.iter().zip(&ss).map(|(&s, &ss)| inv_std(n, s, ss)).collect();
                 (s.into_iter().map(|v| v as f64).collect::<Vec<f64>>(), inv)
             };
-            (self.ncc.sl, self.ncc.inv_l) = stats(&self.left);
-            (self.ncc.sr, self.ncc.inv_r) = stats(&self.right);
+            (self.ncc.sl, self.ncc.inv_l) = stats(left);
+            (self.ncc.sr, self.ncc.inv_r) = stats(right);
         }
-        let maxv = self.left.iter().chain(&self.right).copied().max().unwrap_or(0) as u64;
+        let maxv = match cfg.prefilter {
+            // the prefilters' output range
+            Prefilter::XSobel { cap } | Prefilter::NormalizedResponse { cap, .. } => 2 * cap as u64 * scale as u64,
+            Prefilter::None => left.iter().chain(right).copied().max().unwrap_or(0) as u64,
+        };
         let max_term = if cfg.cost == CostFunction::Sad { maxv } else { maxv * maxv };
         let wide = n * max_term > u32::MAX as u64;
 
         if out.width != w || out.height != h || out.data.len() != w * h {
             *out = DisparityMap::new_invalid(w, h);
         }
-        let threads = self.pool.as_ref().map_or_else(rayon::current_num_threads, |p| p.current_num_threads());
+        let threads = rayon::current_num_threads();
         let nbands = if threads <= 1 { 1 } else { (threads * 2).min(h.div_ceil((4 * cfg.block_size).max(16))).max(1) };
         let band_rows = h.div_ceil(nbands);
         let nbands = h.div_ceil(band_rows);
@@ -429,8 +473,8 @@ impl BlockMatcher {
             r,
             nd: cfg.num_disparities,
             dmin: cfg.min_disparity as i64,
-            left: &self.left,
-            right: &self.right,
+            left,
+            right,
             texture_ok: use_texture.then_some(&self.texture_ok[..]),
             ncc: &self.ncc,
             n: n as f64,
@@ -442,17 +486,26 @@ impl BlockMatcher {
         let simd = self.simd;
         let data = &mut out.data;
         let mut stats = MatchStats::default();
+        // the 16-bit SAD path: every window sum ≤ 65534 (0xFFFF is its "no candidate" sentinel)
+        #[cfg(target_arch = "x86_64")]
+        let isa16 = match simd {
+            _ if cfg.cost != CostFunction::Sad || n * maxv > u16::MAX as u64 - 1 => None,
+            SimdLevel::Avx512 => Some(crate::sad16::Isa::Avx512),
+            SimdLevel::Avx2 => Some(crate::sad16::Isa::Avx2),
+            SimdLevel::Scalar => None,
+        };
         let mut job = || -> Vec<MatchStats> {
+            #[cfg(target_arch = "x86_64")]
+            if let Some(isa) = isa16 {
+                return run_bands16(&shared, &mut self.scratch16, nbands, band_rows, data, isa);
+            }
             if wide {
                 run_bands::<u64>(&shared, &mut self.scratch64, nbands, band_rows, data, cfg.cost, simd)
             } else {
                 run_bands::<u32>(&shared, &mut self.scratch32, nbands, band_rows, data, cfg.cost, simd)
             }
         };
-        let per_band = match &self.pool {
-            Some(p) => p.install(job),
-            None => job(),
-        };
+        let per_band = job();
         for s in &per_band {
             stats.add(s);
         }
@@ -481,6 +534,32 @@ fn check_pair(lw: u32, lh: u32, rw: u32, rh: u32) -> Result<(usize, usize)> {
         });
     }
     Ok((lw as usize, lh as usize))
+}
+
+#[cfg(target_arch = "x86_64")]
+fn run_bands16(
+    sh: &Shared,
+    scratch: &mut Vec<crate::sad16::Scratch16>,
+    nbands: usize,
+    band_rows: usize,
+    data: &mut [f32],
+    isa: crate::sad16::Isa,
+) -> Vec<MatchStats> {
+    if scratch.len() < nbands {
+        scratch.resize_with(nbands, Default::default);
+    }
+    data.par_chunks_mut(band_rows * sh.w)
+        .zip(scratch.par_iter_mut())
+        .enumerate()
+        .map(|(b, (rows, sc))| {
+            sc.resize(sh.w, sh.r, sh.nd, isa.lanes());
+            let y0 = b * band_rows;
+            let y1 = (y0 + band_rows).min(sh.h);
+            // SAFETY: `isa` comes from `SimdLevel::detect()`, `sc` was just resized for it, and
+            // the caller checked that every window sum fits below 0xFFFF.
+            unsafe { crate::sad16::band(isa, sh, sc, rows, y0, y1) }
+        })
+        .collect()
 }
 
 fn run_bands<A: Acc>(
@@ -560,7 +639,7 @@ unsafe fn band_avx512<A: Acc, const K: u8>(
 /// right row reversed and extended so that `rrev[(wp − 1 − xp) + k]` is the right pixel matched
 /// with padded left column `xp` at candidate `k`.
 #[inline(always)]
-fn load_rows(sh: &Shared, y: usize, l: &mut [u16], rrev: &mut [u16]) {
+pub(crate) fn load_rows(sh: &Shared, y: usize, l: &mut [u16], rrev: &mut [u16]) {
     let (w, r) = (sh.w, sh.r as i64);
     let lrow = &sh.left[y * w..][..w];
     let rrow = &sh.right[y * w..][..w];
@@ -621,14 +700,25 @@ fn decide<C: Cost>(c: &[C], lo: usize, hi: usize, uniq: u32, subpixel: Subpixel)
     let s = &c[lo..=hi];
     let m = s.iter().fold(C::MAX, |a, &v| a.min2(v));
     let kb = lo + s.iter().zip(0u32..).map(|(&v, i)| if v == m { i } else { u32::MAX }).min().unwrap_or(0) as usize;
-    if uniq > 0 {
-        let t = m.uniq_thresh(uniq);
-        let all: u32 = s.iter().map(|&v| (v <= t) as u32).sum();
-        let near: u32 = (kb.saturating_sub(1).max(lo)..=(kb + 1).min(hi)).map(|k| (c[k] <= t) as u32).sum();
-        if all > near {
-            return Decision::NotUnique;
-        }
+    if uniq > 0 && !unique(c, lo, hi, kb, uniq) {
+        return Decision::NotUnique;
     }
+    Decision::Best(kb as i32, subpixel_offset(c, lo, hi, kb, subpixel))
+}
+
+/// OpenCV's uniqueness rule for the winner `kb` of `c[lo..=hi]`: no candidate further than one
+/// disparity from it may cost at most `c[kb] + c[kb]·uniq/100`.
+#[inline(always)]
+pub(crate) fn unique<C: Cost>(c: &[C], lo: usize, hi: usize, kb: usize, uniq: u32) -> bool {
+    let t = c[kb].uniq_thresh(uniq);
+    let all: u32 = c[lo..=hi].iter().map(|&v| (v <= t) as u32).sum();
+    let near: u32 = (kb.saturating_sub(1).max(lo)..=(kb + 1).min(hi)).map(|k| (c[k] <= t) as u32).sum();
+    all <= near
+}
+
+/// Sub-pixel offset in `[−0.5, 0.5]` of the winner `kb` of `c[lo..=hi]` (0 at the range ends).
+#[inline(always)]
+pub(crate) fn subpixel_offset<C: Cost>(c: &[C], lo: usize, hi: usize, kb: usize, subpixel: Subpixel) -> f32 {
     let mut off = 0.0f64;
     if kb > lo && kb < hi && subpixel != Subpixel::None {
         let (cm, c0, cp) = (c[kb - 1].to_f64(), c[kb].to_f64(), c[kb + 1].to_f64());
@@ -644,7 +734,7 @@ fn decide<C: Cost>(c: &[C], lo: usize, hi: usize, uniq: u32, subpixel: Subpixel)
         };
         off = off.clamp(-0.5, 0.5);
     }
-    Decision::Best(kb as i32, off as f32)
+    off as f32
 }
 
 /// Keeps, per right pixel (reversed index `j`), the smallest cost and its candidate (first wins).
@@ -760,46 +850,70 @@ fn row_decisions<A: Acc, const K: u8>(
             }
         }
     }
-    for x in 0..w {
-        let k = sc.best[x];
+    let rk = &sc.rk;
+    finish_row(sh, &sc.best, &mut sc.sub, out, st, |x, k| rk[w - 1 - (x as i64 - dmin - k as i64) as usize]);
+}
+
+/// Writes the row's disparities from the winners `best` (−1 = none) and sub-pixel offsets `sub`,
+/// applying the left–right check (`right_winner(x, k)` is the right image's own winner at the
+/// pixel matched with `x` at candidate `k`) and the fill of its rejects. `sub` is reused as
+/// scratch by the fill.
+#[inline(always)]
+pub(crate) fn finish_row(
+    sh: &Shared,
+    best: &[i32],
+    sub: &mut [f32],
+    out: &mut [f32],
+    st: &mut MatchStats,
+    right_winner: impl Fn(usize, usize) -> u32,
+) {
+    let dmin = sh.dmin;
+    // a left–right reject is marked +inf until it is filled or invalidated
+    for x in 0..sh.w {
+        let k = best[x];
         if k < 0 {
             out[x] = DisparityMap::INVALID;
             continue;
         }
         if let Some(tol) = sh.lr {
-            let u = x as i64 - dmin - k as i64;
-            let kr = sc.rk[w - 1 - u as usize];
+            let kr = right_winner(x, k as usize);
             if (kr as i64 - k as i64).unsigned_abs() > tol as u64 {
-                out[x] = DisparityMap::INVALID;
-                sc.best[x] = -2;
+                out[x] = f32::INFINITY;
                 st.lr_inconsistent += 1;
                 continue;
             }
         }
-        out[x] = ((dmin + k as i64) as f64 + sc.sub[x] as f64) as f32;
+        out[x] = ((dmin + k as i64) as f64 + sub[x] as f64) as f32;
     }
     if sh.lr.is_some() && sh.lr_fill {
-        fill_lr_rejected(&sc.best, out, &mut sc.sub, st);
+        fill_lr_rejected(out, sub, st);
+    } else {
+        for v in out.iter_mut() {
+            if *v == f32::INFINITY {
+                *v = DisparityMap::INVALID;
+            }
+        }
     }
 }
 
-/// Fills pixels rejected by the left–right check (`best == −2`; occlusions and the fattened
+/// Fills pixels rejected by the left–right check (marked `+inf`; occlusions and the fattened
 /// side of depth edges) with the smaller — background — of the nearest valid disparities to the
-/// left and right on the same row. `tmp` is scratch of the row's length.
+/// left and right on the same row, or invalidates them when the row has none. `tmp` is scratch
+/// of the row's length.
 #[inline(always)]
-fn fill_lr_rejected(best: &[i32], out: &mut [f32], tmp: &mut [f32], st: &mut MatchStats) {
+fn fill_lr_rejected(out: &mut [f32], tmp: &mut [f32], st: &mut MatchStats) {
     let w = out.len();
     // nearest valid value to the left of each pixel (NaN if none)
     let mut last = f32::NAN;
     for x in 0..w {
         tmp[x] = last;
-        if best[x] >= 0 && out[x].is_finite() {
+        if out[x].is_finite() {
             last = out[x];
         }
     }
     let mut next = f32::NAN;
     for x in (0..w).rev() {
-        if best[x] == -2 {
+        if out[x] == f32::INFINITY {
             let (a, b) = (tmp[x], next);
             let v = if a.is_nan() {
                 b
@@ -808,11 +922,11 @@ fn fill_lr_rejected(best: &[i32], out: &mut [f32], tmp: &mut [f32], st: &mut Mat
             } else {
                 a.min(b)
             };
+            out[x] = v;
             if v.is_finite() {
-                out[x] = v;
                 st.lr_filled += 1;
             }
-        } else if best[x] >= 0 && out[x].is_finite() {
+        } else if out[x].is_finite() {
             next = out[x];
         }
     }

@@ -33,6 +33,8 @@ mod error;
 mod eval;
 mod io;
 pub mod prefilter;
+#[cfg(target_arch = "x86_64")]
+mod sad16;
 mod speckle;
 
 pub use config::{CostFunction, MatcherConfig, Prefilter, Subpixel};

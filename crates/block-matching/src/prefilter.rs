@@ -3,43 +3,119 @@
 //! Written by hand rather than with imageproc because the matcher needs exact integer output on
 //! `u16` planes with clamp-to-edge borders (imageproc's Sobel returns `i16` per pixel and its box
 //! filter rounds a mean), and because these run once per frame inside a build-once matcher.
+//! They run on rayon's current pool (the matcher's own pool when it has one).
+
+use rayon::prelude::*;
 
 /// 3x3 x-Sobel (`[-1 0 1; -2 0 2; -1 0 1]`) with clamp-to-edge borders, clipped to `[−cap, cap]`
 /// and shifted by `cap`: output in `0..=2·cap` (OpenCV's `PREFILTER_XSOBEL` with `preFilterCap`).
 /// `src` is row-major `width x height`.
 pub fn x_sobel(src: &[u16], width: usize, height: usize, cap: u32) -> Vec<u16> {
-    let mut out = vec![0u16; width * height];
-    let cap = cap as i32;
-    let w = width;
-    for y in 0..height {
-        let r0 = &src[y.saturating_sub(1) * w..][..w];
-        let r1 = &src[y * w..][..w];
-        let r2 = &src[(y + 1).min(height - 1) * w..][..w];
-        let o = &mut out[y * w..][..w];
-        let at = |xm: usize, xp: usize| {
-            let v =
-                (r0[xp] as i32 - r0[xm] as i32) + 2 * (r1[xp] as i32 - r1[xm] as i32) + (r2[xp] as i32 - r2[xm] as i32);
-            (v.clamp(-cap, cap) + cap) as u16
-        };
-        if w < 3 {
-            for x in 0..w {
-                o[x] = at(x.saturating_sub(1), (x + 1).min(w - 1));
-            }
-            continue;
-        }
-        o[0] = at(0, 1);
-        o[w - 1] = at(w - 2, w - 1);
-        // interior without clamping, so the compiler vectorises it
-        let n = w - 2;
-        let (a0, b0, c0) = (&r0[..n], &r1[..n], &r2[..n]);
-        let (a2, b2, c2) = (&r0[2..2 + n], &r1[2..2 + n], &r2[2..2 + n]);
-        for (i, v) in o[1..1 + n].iter_mut().enumerate() {
-            let s = (a2[i] as i32 - a0[i] as i32) + 2 * (b2[i] as i32 - b0[i] as i32) + (c2[i] as i32 - c0[i] as i32);
-            *v = (s.clamp(-cap, cap) + cap) as u16;
-        }
-    }
+    let mut out = Vec::new();
+    x_sobel_into(src, width, height, cap, &mut out);
     out
 }
+
+/// As [`x_sobel`], writing into `out` (resized to `width x height`; no allocation when it
+/// already has that size).
+pub fn x_sobel_into(src: &[u16], width: usize, height: usize, cap: u32, out: &mut Vec<u16>) {
+    out.resize(width * height, 0);
+    let cap = cap as i32;
+    let w = width;
+    if w == 0 || height == 0 {
+        return;
+    }
+    // rows are independent: parallel over blocks of rows (rayon's current pool)
+    out.par_chunks_mut(w * ROWS_PER_TASK).enumerate().for_each(|(t, block)| {
+        for (i, o) in block.chunks_exact_mut(w).enumerate() {
+            let y = t * ROWS_PER_TASK + i;
+            let r0 = &src[y.saturating_sub(1) * w..][..w];
+            let r1 = &src[y * w..][..w];
+            let r2 = &src[(y + 1).min(height - 1) * w..][..w];
+            let at = |xm: usize, xp: usize| {
+                let v = (r0[xp] as i32 - r0[xm] as i32)
+                    + 2 * (r1[xp] as i32 - r1[xm] as i32)
+                    + (r2[xp] as i32 - r2[xm] as i32);
+                (v.clamp(-cap, cap) + cap) as u16
+            };
+            if w < 3 {
+                for x in 0..w {
+                    o[x] = at(x.saturating_sub(1), (x + 1).min(w - 1));
+                }
+                continue;
+            }
+            o[0] = at(0, 1);
+            o[w - 1] = at(w - 2, w - 1);
+            // interior without clamping, so the compiler vectorises it
+            let n = w - 2;
+            let (a0, b0, c0) = (&r0[..n], &r1[..n], &r2[..n]);
+            let (a2, b2, c2) = (&r0[2..2 + n], &r1[2..2 + n], &r2[2..2 + n]);
+            for (i, v) in o[1..1 + n].iter_mut().enumerate() {
+                let s =
+                    (a2[i] as i32 - a0[i] as i32) + 2 * (b2[i] as i32 - b0[i] as i32) + (c2[i] as i32 - c0[i] as i32);
+                *v = (s.clamp(-cap, cap) + cap) as u16;
+            }
+        }
+    });
+}
+
+/// OpenCV's texture measure: for every pixel, whether the `(2r+1) x (2r+1)` window sum of
+/// `|sobel − cap|` (clamp-to-edge) reaches `threshold`. `sobel` is the output of [`x_sobel`] with
+/// that `cap`; `tmp` is scratch. Exact in `u32` for every supported input (`cap ≤ 63·257`,
+/// `r ≤ 15`).
+pub fn texture_mask_into(
+    sobel: &[u16],
+    width: usize,
+    height: usize,
+    r: usize,
+    cap: u32,
+    threshold: u32,
+    tmp: &mut Vec<u32>,
+    out: &mut Vec<bool>,
+) {
+    out.resize(width * height, false);
+    tmp.resize(width * height, 0);
+    if width == 0 || height == 0 {
+        return;
+    }
+    let f = |v: u16| (v as i32 - cap as i32).unsigned_abs();
+    let clamp_x = |x: isize| x.clamp(0, width as isize - 1) as usize;
+    tmp.par_chunks_mut(width).zip(sobel.par_chunks(width)).for_each(|(h, row)| {
+        let mut s: u32 = (-(r as isize)..=r as isize).map(|dx| f(row[clamp_x(dx)])).sum();
+        h[0] = s;
+        for x in 1..width {
+            s += f(row[clamp_x(x as isize + r as isize)]);
+            s -= f(row[clamp_x(x as isize - r as isize - 1)]);
+            h[x] = s;
+        }
+    });
+    let horiz = &tmp[..];
+    let clamp_y = |y: isize| y.clamp(0, height as isize - 1) as usize;
+    out.par_chunks_mut(width * ROWS_PER_TASK).enumerate().for_each(|(t, block)| {
+        let y0 = t * ROWS_PER_TASK;
+        let mut col = vec![0u32; width];
+        for dy in -(r as isize)..=r as isize {
+            let row = &horiz[clamp_y(y0 as isize + dy) * width..][..width];
+            col.iter_mut().zip(row).for_each(|(c, &v)| *c += v);
+        }
+        for (i, o) in block.chunks_exact_mut(width).enumerate() {
+            if i > 0 {
+                let y = (y0 + i) as isize;
+                let add = &horiz[clamp_y(y + r as isize) * width..][..width];
+                let sub = &horiz[clamp_y(y - r as isize - 1) * width..][..width];
+                for x in 0..width {
+                    col[x] = col[x] + add[x] - sub[x];
+                }
+            }
+            for (o, &c) in o.iter_mut().zip(&col) {
+                *o = c >= threshold;
+            }
+        }
+    });
+}
+
+/// Rows per rayon task of the prefilters and box sums (small images stay on one task).
+const ROWS_PER_TASK: usize = 32;
 
 /// Intensity minus the mean of the `size x size` window (clamp-to-edge), rounded to the nearest
 /// integer, clipped to `[−cap, cap]` and shifted by `cap` (output `0..=2·cap`): a local-contrast
@@ -61,13 +137,15 @@ pub fn normalized_response(src: &[u16], width: usize, height: usize, size: usize
 
 /// Sum of `f(pixel)` over the `(2r+1) x (2r+1)` window centred on every pixel, with clamp-to-edge
 /// borders (a pixel outside the image takes the value of the nearest edge pixel), exact in `u64`.
-pub fn box_sum(src: &[u16], width: usize, height: usize, r: usize, f: impl Fn(u16) -> u64) -> Vec<u64> {
+pub fn box_sum(src: &[u16], width: usize, height: usize, r: usize, f: impl Fn(u16) -> u64 + Sync) -> Vec<u64> {
+    let mut out = vec![0u64; width * height];
+    if width == 0 || height == 0 {
+        return out;
+    }
     let clamp_x = |x: isize| x.clamp(0, width as isize - 1) as usize;
-    // horizontal running sums
+    // horizontal running sums, rows in parallel
     let mut horiz = vec![0u64; width * height];
-    for y in 0..height {
-        let row = &src[y * width..][..width];
-        let h = &mut horiz[y * width..][..width];
+    horiz.par_chunks_mut(width).zip(src.par_chunks(width)).for_each(|(h, row)| {
         let mut s: u64 = (-(r as isize)..=r as isize).map(|dx| f(row[clamp_x(dx)])).sum();
         h[0] = s;
         for x in 1..width {
@@ -75,24 +153,28 @@ pub fn box_sum(src: &[u16], width: usize, height: usize, r: usize, f: impl Fn(u1
             s -= f(row[clamp_x(x as isize - r as isize - 1)]);
             h[x] = s;
         }
-    }
-    // vertical running sums
+    });
+    // vertical running sums, blocks of rows in parallel (each block starts its own sum)
     let clamp_y = |y: isize| y.clamp(0, height as isize - 1) as usize;
-    let mut out = vec![0u64; width * height];
-    let mut col = vec![0u64; width];
-    for dy in -(r as isize)..=r as isize {
-        let row = &horiz[clamp_y(dy) * width..][..width];
-        col.iter_mut().zip(row).for_each(|(c, &v)| *c += v);
-    }
-    out[..width].copy_from_slice(&col);
-    for y in 1..height {
-        let add = clamp_y(y as isize + r as isize);
-        let sub = clamp_y(y as isize - r as isize - 1);
-        for x in 0..width {
-            col[x] = col[x] + horiz[add * width + x] - horiz[sub * width + x];
+    out.par_chunks_mut(width * ROWS_PER_TASK).enumerate().for_each(|(t, block)| {
+        let y0 = t * ROWS_PER_TASK;
+        let mut col = vec![0u64; width];
+        for dy in -(r as isize)..=r as isize {
+            let row = &horiz[clamp_y(y0 as isize + dy) * width..][..width];
+            col.iter_mut().zip(row).for_each(|(c, &v)| *c += v);
         }
-        out[y * width..][..width].copy_from_slice(&col);
-    }
+        for (i, o) in block.chunks_exact_mut(width).enumerate() {
+            if i > 0 {
+                let y = (y0 + i) as isize;
+                let add = &horiz[clamp_y(y + r as isize) * width..][..width];
+                let sub = &horiz[clamp_y(y - r as isize - 1) * width..][..width];
+                for x in 0..width {
+                    col[x] = col[x] + add[x] - sub[x];
+                }
+            }
+            o.copy_from_slice(&col);
+        }
+    });
     out
 }
 

@@ -269,7 +269,7 @@ fn config_strategy() -> impl Strategy<Value = MatcherConfig> {
         prop_oneof![Just(CostFunction::Sad), Just(CostFunction::Ssd), Just(CostFunction::Ncc)],
         (1usize..=5).prop_map(|k| 2 * k + 1),
         -4i32..6,
-        1usize..20,
+        1usize..40,
         prop_oneof![
             Just(Prefilter::None),
             (1u16..40).prop_map(|cap| Prefilter::XSobel { cap }),
@@ -335,5 +335,33 @@ fn fast_equals_naive_on_a_larger_image_with_many_bands() {
     for cost in [CostFunction::Sad, CostFunction::Ssd, CostFunction::Ncc] {
         let cfg = MatcherConfig { cost, num_disparities: 24, speckle_window_size: 0, ..MatcherConfig::default() };
         run_case(7, 64, 160, 255, false, cfg, 2);
+    }
+}
+
+#[test]
+fn fast_equals_naive_with_several_disparity_chunks() {
+    // the vectorised SAD path works on 16 or 32 disparities per chunk: ranges that span several
+    // chunks, end inside one, and start off zero, with and without the decision options
+    let mut case = 0;
+    for (nd, dmin, block) in [(16, 0, 9), (33, -3, 5), (64, 5, 9), (47, 0, 15), (70, -20, 3)] {
+        for (uniq, lr, subpixel) in
+            [(0, Some(1), Subpixel::Auto), (10, None, Subpixel::Parabola), (0, Some(0), Subpixel::None)]
+        {
+            for cost in [CostFunction::Sad, CostFunction::Ssd] {
+                let cfg = MatcherConfig {
+                    cost,
+                    block_size: block,
+                    min_disparity: dmin,
+                    num_disparities: nd,
+                    uniqueness_ratio: uniq,
+                    lr_max_diff: lr,
+                    subpixel,
+                    speckle_window_size: 0,
+                    ..MatcherConfig::default()
+                };
+                run_case(100 + case, 112, 20, 255, false, cfg, 2);
+                case += 1;
+            }
+        }
     }
 }

@@ -1,0 +1,441 @@
+//! The SAD fast path: 16-bit window sums in explicit AVX2 / AVX-512 vectors.
+//!
+//! Used when the cost is SAD and every window sum fits in `u16` with one value to spare
+//! (`block² · max pixel ≤ 65534`; OpenCV's default x-Sobel prefilter gives pixels `0..=62`, so
+//! every window up to 31x31 qualifies). The generic engine keeps `u32`/`u64` sums and several
+//! passes per pixel; here one fused loop over disparity chunks does, for each pixel `x` of a row:
+//!
+//! 1. the vertical update of the column sums of the entering column (`+|L−R|` of the row that
+//!    enters the window, `−|L−R|` of the row that leaves it),
+//! 2. the horizontal running box sum (`+` entering column, `−` leaving column),
+//! 3. the left winner-take-all as a per-lane running minimum and arg-minimum (one horizontal
+//!    reduction per pixel: `(cost << 16) | d` keys, so ties go to the smallest disparity),
+//! 4. the right image's running minimum for the left–right check (strict `<` in increasing `x`,
+//!    i.e. first wins, as the generic engine and the naive reference).
+//!
+//! Lanes whose disparity is outside the searchable range (left border, `num_disparities` not a
+//! multiple of the lane count) are forced to the sentinel `0xFFFF`, above every real cost, so
+//! they never win and never update the right minimum. Written with intrinsics because the
+//! compiler's auto-vectorisation of the generic loops reached about a third of this speed
+//! (`benches/benches/disparity.rs`, `SimdLevel::Scalar` against `Avx2`/`Avx512`).
+
+use crate::engine::{MatchStats, Shared};
+
+/// Buffers of one row band, reused across frames.
+#[derive(Default)]
+pub(crate) struct Scratch16 {
+    /// Disparities per column, rounded up to the lane count.
+    ndp: usize,
+    colsum: Vec<u16>,
+    boxs: Vec<u16>,
+    l_in: Vec<u16>,
+    l_out: Vec<u16>,
+    r_in: Vec<u16>,
+    r_out: Vec<u16>,
+    rc: Vec<u16>,
+    rk: Vec<u16>,
+    dvec: Vec<u16>,
+    tail: Vec<u16>,
+    best: Vec<i32>,
+    sub: Vec<f32>,
+}
+
+impl Scratch16 {
+    pub(crate) fn resize(&mut self, w: usize, r: usize, nd: usize, lanes: usize) {
+        let ndp = nd.div_ceil(lanes) * lanes;
+        let wp = w + 2 * r;
+        self.ndp = ndp;
+        self.colsum.resize(wp * ndp, 0);
+        self.boxs.resize(ndp, 0);
+        self.l_in.resize(wp, 0);
+        self.l_out.resize(wp, 0);
+        // the reversed right rows are read at (wp − 1 − xp) + d for d < ndp
+        self.r_in.resize(wp + ndp - 1, 0);
+        self.r_out.resize(wp + ndp - 1, 0);
+        // right minima at (w − 1 − x) + d
+        self.rc.resize(w + ndp, u16::MAX);
+        self.rk.resize(w + ndp, u16::MAX);
+        self.dvec.clear();
+        self.dvec.extend((0..ndp).map(|d| d as u16));
+        self.tail.clear();
+        self.tail.extend((0..ndp).map(|d| if d < nd { 0 } else { u16::MAX }));
+        self.best.resize(w, -1);
+        self.sub.resize(w, 0.0);
+    }
+}
+
+/// The instruction sets this path exists for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Isa {
+    Avx2,
+    Avx512,
+}
+
+impl Isa {
+    pub(crate) fn lanes(self) -> usize {
+        match self {
+            Isa::Avx2 => 16,
+            Isa::Avx512 => 32,
+        }
+    }
+}
+
+/// Runs rows `y0..y1` of one band.
+///
+/// # Safety
+/// The CPU must support `isa` (checked by `SimdLevel::detect`), `sc` must have been resized for
+/// this frame with `isa.lanes()`, and every pixel of `sh.left` / `sh.right` must be at most
+/// `65534 / block²`.
+pub(crate) unsafe fn band(
+    isa: Isa,
+    sh: &Shared,
+    sc: &mut Scratch16,
+    out: &mut [f32],
+    y0: usize,
+    y1: usize,
+) -> MatchStats {
+    // SAFETY: forwarded from the caller.
+    unsafe {
+        match isa {
+            Isa::Avx2 => avx2::band(sh, sc, out, y0, y1),
+            Isa::Avx512 => avx512::band(sh, sc, out, y0, y1),
+        }
+    }
+}
+
+/// The kernel, instantiated once per instruction set inside a module that defines `V`, `L` and
+/// the vector helpers `ld`, `st`, `splat`, `add`, `sub`, `or`, `absdiff`, `outside`,
+/// `min_update` and `reduce`, all compiled with `$feat`.
+macro_rules! kernel {
+    ($feat:literal) => {
+        /// # Safety
+        /// See [`super::band`].
+        #[target_feature(enable = $feat)]
+        pub(super) unsafe fn band(
+            sh: &Shared,
+            sc: &mut Scratch16,
+            out: &mut [f32],
+            y0: usize,
+            y1: usize,
+        ) -> MatchStats {
+            let (w, h, r) = (sh.w, sh.h, sh.r);
+            let clamp_y = |y: i64| y.clamp(0, h as i64 - 1) as usize;
+            let mut st = MatchStats::default();
+            for y in y0..y1 {
+                let orow = &mut out[(y - y0) * w..][..w];
+                if y == y0 {
+                    sc.colsum.fill(0);
+                    for j in (y0 as i64 - r as i64)..=(y0 + r) as i64 {
+                        load_rows(sh, clamp_y(j), &mut sc.l_in, &mut sc.r_in);
+                        // SAFETY: buffers sized by `Scratch16::resize`.
+                        unsafe { add_row(sh, sc) };
+                    }
+                    // SAFETY: as above.
+                    unsafe { row::<false>(sh, sc, y, orow, &mut st) };
+                } else {
+                    let yi = clamp_y(y as i64 + r as i64);
+                    let yo = clamp_y(y as i64 - r as i64 - 1);
+                    if yi != yo {
+                        load_rows(sh, yi, &mut sc.l_in, &mut sc.r_in);
+                        load_rows(sh, yo, &mut sc.l_out, &mut sc.r_out);
+                        // SAFETY: as above.
+                        unsafe { row::<true>(sh, sc, y, orow, &mut st) };
+                    } else {
+                        // SAFETY: as above.
+                        unsafe { row::<false>(sh, sc, y, orow, &mut st) };
+                    }
+                }
+            }
+            st
+        }
+
+        /// Adds `|L − R|` of the row in `l_in` / `r_in` to every column sum.
+        #[target_feature(enable = $feat)]
+        unsafe fn add_row(sh: &Shared, sc: &mut Scratch16) {
+            let wp = sh.w + 2 * sh.r;
+            let ndp = sc.ndp;
+            let cs = sc.colsum.as_mut_ptr();
+            let rin = sc.r_in.as_ptr();
+            for xp in 0..wp {
+                let li = splat(sc.l_in[xp]);
+                let base = wp - 1 - xp;
+                for c in (0..ndp).step_by(L) {
+                    // SAFETY: xp·ndp + c + L ≤ wp·ndp; base + c + L ≤ wp − 1 + ndp.
+                    unsafe {
+                        let p = cs.add(xp * ndp + c);
+                        st(p, add(ld(p), absdiff(li, ld(rin.add(base + c)))));
+                    }
+                }
+            }
+        }
+
+        /// One row: column-sum update (when `VERT`), box sums, both winners, decisions.
+        #[target_feature(enable = $feat)]
+        unsafe fn row<const VERT: bool>(
+            sh: &Shared,
+            sc: &mut Scratch16,
+            y: usize,
+            out: &mut [f32],
+            stats: &mut MatchStats,
+        ) {
+            let (w, r, nd, dmin) = (sh.w, sh.r, sh.nd, sh.dmin);
+            let wp = w + 2 * r;
+            let ndp = sc.ndp;
+            sc.rc.fill(u16::MAX);
+            sc.rk.fill(u16::MAX);
+            let cs = sc.colsum.as_mut_ptr();
+            let bx = sc.boxs.as_mut_ptr();
+            let rin = sc.r_in.as_ptr();
+            let rout = sc.r_out.as_ptr();
+            let rc = sc.rc.as_mut_ptr();
+            let rk = sc.rk.as_mut_ptr();
+            let dvp = sc.dvec.as_ptr();
+            let tail = sc.tail.as_ptr();
+            // x = 0: vertical update of padded columns 0..=2r, box sums over them
+            for c in (0..ndp).step_by(L) {
+                let mut acc = splat(0);
+                for xp in 0..=2 * r {
+                    // SAFETY: as in `add_row`.
+                    unsafe {
+                        let p = cs.add(xp * ndp + c);
+                        let mut v = ld(p);
+                        if VERT {
+                            let base = wp - 1 - xp;
+                            let t = sub(
+                                absdiff(splat(sc.l_in[xp]), ld(rin.add(base + c))),
+                                absdiff(splat(sc.l_out[xp]), ld(rout.add(base + c))),
+                            );
+                            v = add(v, t);
+                            st(p, v);
+                        }
+                        acc = add(acc, v);
+                    }
+                }
+                // SAFETY: c + L ≤ ndp.
+                unsafe { st(bx.add(c), acc) };
+            }
+            for x in 0..w {
+                let xd = x as i64 - dmin;
+                let lo = (xd - (w as i64 - 1)).max(0);
+                let hi = xd.min(nd as i64 - 1);
+                let border = lo != 0 || hi != nd as i64 - 1;
+                let (lov, hiv) = (splat(lo.min(0x7fff) as u16), splat(hi.clamp(-1, 0x7fff) as u16));
+                let jb = w - 1 - x;
+                let xp = x + 2 * r;
+                let (li, lo_) = (splat(sc.l_in[xp]), splat(sc.l_out[xp]));
+                let base = wp - 1 - xp;
+                let mut minv = splat(u16::MAX);
+                let mut idxv = splat(u16::MAX);
+                for c in (0..ndp).step_by(L) {
+                    // SAFETY: column offsets as in `add_row` (xp < wp, x − 1 < wp); box, mask and
+                    // index buffers have ndp entries; jb + c + L ≤ w − 1 + ndp < rc.len().
+                    unsafe {
+                        let dv = ld(dvp.add(c));
+                        let mut m = ld(tail.add(c));
+                        if border {
+                            m = or(m, outside(dv, lov, hiv));
+                        }
+                        let b = if x == 0 {
+                            ld(bx.add(c))
+                        } else {
+                            let p = cs.add(xp * ndp + c);
+                            let mut v = ld(p);
+                            if VERT {
+                                let t = sub(absdiff(li, ld(rin.add(base + c))), absdiff(lo_, ld(rout.add(base + c))));
+                                v = add(v, t);
+                                st(p, v);
+                            }
+                            let b = add(ld(bx.add(c)), sub(v, ld(cs.add((x - 1) * ndp + c))));
+                            st(bx.add(c), b);
+                            b
+                        };
+                        let bm = or(b, m);
+                        min_update(&mut minv, &mut idxv, bm, dv);
+                        let (mut rcv, mut rkv) = (ld(rc.add(jb + c)), ld(rk.add(jb + c)));
+                        min_update(&mut rcv, &mut rkv, bm, dv);
+                        st(rc.add(jb + c), rcv);
+                        st(rk.add(jb + c), rkv);
+                    }
+                }
+                if lo > hi {
+                    sc.best[x] = -1;
+                    stats.no_candidate += 1;
+                    continue;
+                }
+                if sh.texture_ok.is_some_and(|t| !t[y * w + x]) {
+                    sc.best[x] = -1;
+                    stats.low_texture += 1;
+                    continue;
+                }
+                let key = reduce(minv, idxv);
+                let kb = (key & 0xffff) as usize;
+                let (lo, hi) = (lo as usize, hi as usize);
+                if sh.uniq > 0 && !unique(&sc.boxs, lo, hi, kb, sh.uniq) {
+                    sc.best[x] = -1;
+                    stats.not_unique += 1;
+                    continue;
+                }
+                sc.best[x] = kb as i32;
+                sc.sub[x] = if sh.subpixel == Subpixel::None {
+                    0.0
+                } else {
+                    subpixel_offset(&sc.boxs, lo, hi, kb, sh.subpixel)
+                };
+            }
+            let rkb = &sc.rk;
+            finish_row(sh, &sc.best, &mut sc.sub, out, stats, |x, k| {
+                let v = rkb[w - 1 - x + k];
+                if v == u16::MAX { u32::MAX } else { v as u32 }
+            });
+        }
+    };
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    use super::Scratch16;
+    use crate::config::Subpixel;
+    use crate::engine::{MatchStats, Shared, finish_row, load_rows, subpixel_offset, unique};
+
+    type V = __m256i;
+    const L: usize = 16;
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn ld(p: *const u16) -> V {
+        // SAFETY: the caller guarantees 16 readable u16 at p.
+        unsafe { _mm256_loadu_si256(p as *const V) }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn st(p: *mut u16, v: V) {
+        // SAFETY: the caller guarantees 16 writable u16 at p.
+        unsafe { _mm256_storeu_si256(p as *mut V, v) }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn splat(v: u16) -> V {
+        _mm256_set1_epi16(v as i16)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn add(a: V, b: V) -> V {
+        _mm256_add_epi16(a, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn sub(a: V, b: V) -> V {
+        _mm256_sub_epi16(a, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn or(a: V, b: V) -> V {
+        _mm256_or_si256(a, b)
+    }
+    /// `|a − b|` for values below 2^15.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn absdiff(a: V, b: V) -> V {
+        _mm256_abs_epi16(_mm256_sub_epi16(a, b))
+    }
+    /// All-ones lanes where `d < lo` or `d > hi` (signed 16-bit compares; all values < 2^15).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn outside(d: V, lo: V, hi: V) -> V {
+        _mm256_or_si256(_mm256_cmpgt_epi16(lo, d), _mm256_cmpgt_epi16(d, hi))
+    }
+    /// Per lane: if `c < min` (unsigned) then `min = c`, `idx = d`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn min_update(min: &mut V, idx: &mut V, c: V, d: V) {
+        let nm = _mm256_min_epu16(*min, c);
+        let keep = _mm256_cmpeq_epi16(nm, *min);
+        *idx = _mm256_blendv_epi8(d, *idx, keep);
+        *min = nm;
+    }
+    /// The smallest `(min << 16) | idx` over the lanes.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn reduce(min: V, idx: V) -> u32 {
+        let k = _mm256_min_epu32(_mm256_unpacklo_epi16(idx, min), _mm256_unpackhi_epi16(idx, min));
+        let k = _mm_min_epu32(_mm256_castsi256_si128(k), _mm256_extracti128_si256::<1>(k));
+        let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b01_00_11_10>(k));
+        let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b10_11_00_01>(k));
+        _mm_cvtsi128_si32(k) as u32
+    }
+
+    kernel!("avx2");
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx512 {
+    use std::arch::x86_64::*;
+
+    use super::Scratch16;
+    use crate::config::Subpixel;
+    use crate::engine::{MatchStats, Shared, finish_row, load_rows, subpixel_offset, unique};
+
+    type V = __m512i;
+    const L: usize = 32;
+
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw")]
+    unsafe fn ld(p: *const u16) -> V {
+        // SAFETY: the caller guarantees 32 readable u16 at p.
+        unsafe { _mm512_loadu_si512(p as *const V) }
+    }
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw")]
+    unsafe fn st(p: *mut u16, v: V) {
+        // SAFETY: the caller guarantees 32 writable u16 at p.
+        unsafe { _mm512_storeu_si512(p as *mut V, v) }
+    }
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw")]
+    fn splat(v: u16) -> V {
+        _mm512_set1_epi16(v as i16)
+    }
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw")]
+    fn add(a: V, b: V) -> V {
+        _mm512_add_epi16(a, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw")]
+    fn sub(a: V, b: V) -> V {
+        _mm512_sub_epi16(a, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw")]
+    fn or(a: V, b: V) -> V {
+        _mm512_or_si512(a, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw")]
+    fn absdiff(a: V, b: V) -> V {
+        _mm512_abs_epi16(_mm512_sub_epi16(a, b))
+    }
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw")]
+    fn outside(d: V, lo: V, hi: V) -> V {
+        let k = _mm512_cmplt_epi16_mask(d, lo) | _mm512_cmpgt_epi16_mask(d, hi);
+        _mm512_movm_epi16(k)
+    }
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw")]
+    fn min_update(min: &mut V, idx: &mut V, c: V, d: V) {
+        let better = _mm512_cmplt_epu16_mask(c, *min);
+        *idx = _mm512_mask_mov_epi16(*idx, better, d);
+        *min = _mm512_min_epu16(*min, c);
+    }
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw")]
+    fn reduce(min: V, idx: V) -> u32 {
+        let k = _mm512_min_epu32(_mm512_unpacklo_epi16(idx, min), _mm512_unpackhi_epi16(idx, min));
+        _mm512_reduce_min_epu32(k)
+    }
+
+    kernel!("avx512f,avx512bw");
+}
