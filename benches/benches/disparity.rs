@@ -4,11 +4,12 @@
 //! texture, uniqueness, left–right check, sub-pixel, speckle filter). Throughput is reported in
 //! elements = width x height x disparities, so criterion's "elem/s" reads as disparity
 //! evaluations per second. `BM_QUICK=1` keeps only SAD at 450x375 (for side-by-side runs with
-//! OpenCV's peer/stereo_bm.py).
+//! OpenCV's peer/stereo_bm.py). `BM_SIMD=scalar|avx2|avx512` caps the instruction set (to measure
+//! what the explicit SIMD paths buy).
 
 use std::time::Duration;
 
-use block_matching::{BlockMatcher, CostFunction, MatcherConfig};
+use block_matching::{BlockMatcher, CostFunction, MatcherConfig, SimdLevel};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use image::{GrayImage, Luma};
 use rand::{Rng, SeedableRng};
@@ -64,6 +65,11 @@ fn bench(c: &mut Criterion) {
                     let cfg =
                         MatcherConfig { cost, block_size: block, num_disparities: *nd, threads, ..Default::default() };
                     let mut m = BlockMatcher::new(cfg).expect("valid config");
+                    match std::env::var("BM_SIMD").as_deref() {
+                        Ok("scalar") => m.set_simd(SimdLevel::Scalar),
+                        Ok("avx2") => m.set_simd(SimdLevel::Avx2),
+                        _ => m.simd(),
+                    };
                     let mut out = m.compute(left, right).expect("same size");
                     let id = BenchmarkId::new(format!("{cost:?}/w{block}"), format!("t{threads}"));
                     group.bench_function(id, |b| b.iter(|| m.compute_into(left, right, &mut out).expect("same size")));

@@ -303,7 +303,6 @@ pub struct BlockMatcher {
     pre_left: Vec<u16>,
     pre_right: Vec<u16>,
     sobel: Vec<u16>,
-    texture_tmp: Vec<u32>,
     texture_ok: Vec<bool>,
     ncc: NccPlanes,
     scratch32: Vec<Scratch<u32>>,
@@ -337,7 +336,6 @@ impl BlockMatcher {
             pre_left: Vec::new(),
             pre_right: Vec::new(),
             sobel: Vec::new(),
-            texture_tmp: Vec::new(),
             texture_ok: Vec::new(),
             ncc: NccPlanes::default(),
             scratch32: Vec::new(),
@@ -422,7 +420,7 @@ impl BlockMatcher {
             let sob = if sobel_is_prefilter { &mut self.pre_left } else { &mut self.sobel };
             x_sobel_into(&self.left, w, h, cap, sob);
             let thr = cfg.texture_threshold * scale;
-            texture_mask_into(sob, w, h, r, cap, thr, &mut self.texture_tmp, &mut self.texture_ok);
+            texture_mask_into(sob, w, h, r, cap, thr, &mut self.texture_ok);
         }
         match cfg.prefilter {
             Prefilter::None => {}

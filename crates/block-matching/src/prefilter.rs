@@ -32,36 +32,87 @@ pub fn x_sobel_into(src: &[u16], width: usize, height: usize, cap: u32, out: &mu
             let r0 = &src[y.saturating_sub(1) * w..][..w];
             let r1 = &src[y * w..][..w];
             let r2 = &src[(y + 1).min(height - 1) * w..][..w];
-            let at = |xm: usize, xp: usize| {
-                let v = (r0[xp] as i32 - r0[xm] as i32)
-                    + 2 * (r1[xp] as i32 - r1[xm] as i32)
-                    + (r2[xp] as i32 - r2[xm] as i32);
-                (v.clamp(-cap, cap) + cap) as u16
-            };
-            if w < 3 {
-                for x in 0..w {
-                    o[x] = at(x.saturating_sub(1), (x + 1).min(w - 1));
-                }
-                continue;
-            }
-            o[0] = at(0, 1);
-            o[w - 1] = at(w - 2, w - 1);
-            // interior without clamping, so the compiler vectorises it
-            let n = w - 2;
-            let (a0, b0, c0) = (&r0[..n], &r1[..n], &r2[..n]);
-            let (a2, b2, c2) = (&r0[2..2 + n], &r1[2..2 + n], &r2[2..2 + n]);
-            for (i, v) in o[1..1 + n].iter_mut().enumerate() {
-                let s =
-                    (a2[i] as i32 - a0[i] as i32) + 2 * (b2[i] as i32 - b0[i] as i32) + (c2[i] as i32 - c0[i] as i32);
-                *v = (s.clamp(-cap, cap) + cap) as u16;
-            }
+            sobel_row(r0, r1, r2, o, cap);
         }
     });
 }
 
+/// Declares `$name`, which runs `$body` compiled for AVX2 when the CPU has it and for the
+/// baseline otherwise (the same code; the loops are written to vectorise, and the AVX2 copy runs
+/// them at twice the width).
+macro_rules! with_avx2 {
+    (fn $name:ident($($a:ident: $t:ty),*) $body:block) => {
+        fn $name($($a: $t),*) {
+            #[inline(always)]
+            fn imp($($a: $t),*) $body
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx2")]
+            fn avx2($($a: $t),*) {
+                imp($($a),*)
+            }
+            #[cfg(target_arch = "x86_64")]
+            if is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2.
+                return unsafe { avx2($($a),*) };
+            }
+            imp($($a),*)
+        }
+    };
+}
+
+with_avx2! {
+    fn sobel_row(r0: &[u16], r1: &[u16], r2: &[u16], o: &mut [u16], cap: i32) {
+        let w = o.len();
+        let at = |xm: usize, xp: usize| {
+            let v = (r0[xp] as i32 - r0[xm] as i32) + 2 * (r1[xp] as i32 - r1[xm] as i32) + (r2[xp] as i32 - r2[xm] as i32);
+            (v.clamp(-cap, cap) + cap) as u16
+        };
+        if w < 3 {
+            for x in 0..w {
+                o[x] = at(x.saturating_sub(1), (x + 1).min(w - 1));
+            }
+            return;
+        }
+        o[0] = at(0, 1);
+        o[w - 1] = at(w - 2, w - 1);
+        // interior without clamping, as zipped iterators so the compiler vectorises it
+        let n = w - 2;
+        let left = r0[..n].iter().zip(&r1[..n]).zip(&r2[..n]);
+        let right = r0[2..].iter().zip(&r1[2..]).zip(&r2[2..]);
+        for (v, (((&a0, &b0), &c0), ((&a2, &b2), &c2))) in o[1..1 + n].iter_mut().zip(left.zip(right)) {
+            let s = (a2 as i32 - a0 as i32) + 2 * (b2 as i32 - b0 as i32) + (c2 as i32 - c0 as i32);
+            *v = (s.clamp(-cap, cap) + cap) as u16;
+        }
+    }
+}
+
+with_avx2! {
+    fn abs_dev_update(col: &mut [u32], add: &[u16], sub: &[u16], cap: i32) {
+        for ((c, &a), &s) in col.iter_mut().zip(add).zip(sub) {
+            *c = *c + (a as i32 - cap).unsigned_abs() - (s as i32 - cap).unsigned_abs();
+        }
+    }
+}
+
+with_avx2! {
+    fn window_row_at_least(col: &[u32], pad: &mut [u32], acc: &mut [u32], r: usize, threshold: u32, out: &mut [bool]) {
+        let w = col.len();
+        pad[..r].fill(col[0]);
+        pad[r..r + w].copy_from_slice(col);
+        pad[r + w..].fill(col[w - 1]);
+        acc.copy_from_slice(&pad[..w]);
+        for k in 1..=2 * r {
+            acc.iter_mut().zip(&pad[k..k + w]).for_each(|(a, &p)| *a += p);
+        }
+        for (o, &a) in out.iter_mut().zip(acc.iter()) {
+            *o = a >= threshold;
+        }
+    }
+}
+
 /// OpenCV's texture measure: for every pixel, whether the `(2r+1) x (2r+1)` window sum of
 /// `|sobel − cap|` (clamp-to-edge) reaches `threshold`. `sobel` is the output of [`x_sobel`] with
-/// that `cap`; `tmp` is scratch. Exact in `u32` for every supported input (`cap ≤ 63·257`,
+/// that `cap`. Exact in `u32` for every supported input (`cap ≤ 63·257`,
 /// `r ≤ 15`).
 pub fn texture_mask_into(
     sobel: &[u16],
@@ -70,46 +121,31 @@ pub fn texture_mask_into(
     r: usize,
     cap: u32,
     threshold: u32,
-    tmp: &mut Vec<u32>,
     out: &mut Vec<bool>,
 ) {
     out.resize(width * height, false);
-    tmp.resize(width * height, 0);
     if width == 0 || height == 0 {
         return;
     }
-    let f = |v: u16| (v as i32 - cap as i32).unsigned_abs();
-    let clamp_x = |x: isize| x.clamp(0, width as isize - 1) as usize;
-    tmp.par_chunks_mut(width).zip(sobel.par_chunks(width)).for_each(|(h, row)| {
-        let mut s: u32 = (-(r as isize)..=r as isize).map(|dx| f(row[clamp_x(dx)])).sum();
-        h[0] = s;
-        for x in 1..width {
-            s += f(row[clamp_x(x as isize + r as isize)]);
-            s -= f(row[clamp_x(x as isize - r as isize - 1)]);
-            h[x] = s;
-        }
-    });
-    let horiz = &tmp[..];
     let clamp_y = |y: isize| y.clamp(0, height as isize - 1) as usize;
+    // per block of rows: vertical window sums of |sobel − cap| per column (running, vectorised
+    // across columns), then the horizontal window as 2r+1 shifted adds of the clamp-padded row
     out.par_chunks_mut(width * ROWS_PER_TASK).enumerate().for_each(|(t, block)| {
         let y0 = t * ROWS_PER_TASK;
         let mut col = vec![0u32; width];
+        let mut pad = vec![0u32; width + 2 * r];
+        let mut acc = vec![0u32; width];
+        let row = |y: isize| &sobel[clamp_y(y) * width..][..width];
+        let zero = vec![cap as u16; width];
         for dy in -(r as isize)..=r as isize {
-            let row = &horiz[clamp_y(y0 as isize + dy) * width..][..width];
-            col.iter_mut().zip(row).for_each(|(c, &v)| *c += v);
+            abs_dev_update(&mut col, row(y0 as isize + dy), &zero, cap as i32);
         }
         for (i, o) in block.chunks_exact_mut(width).enumerate() {
+            let y = (y0 + i) as isize;
             if i > 0 {
-                let y = (y0 + i) as isize;
-                let add = &horiz[clamp_y(y + r as isize) * width..][..width];
-                let sub = &horiz[clamp_y(y - r as isize - 1) * width..][..width];
-                for x in 0..width {
-                    col[x] = col[x] + add[x] - sub[x];
-                }
+                abs_dev_update(&mut col, row(y + r as isize), row(y - r as isize - 1), cap as i32);
             }
-            for (o, &c) in o.iter_mut().zip(&col) {
-                *o = c >= threshold;
-            }
+            window_row_at_least(&col, &mut pad, &mut acc, r, threshold, o);
         }
     });
 }

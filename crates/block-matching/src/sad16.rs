@@ -19,6 +19,7 @@
 //! compiler's auto-vectorisation of the generic loops reached about a third of this speed
 //! (`benches/benches/disparity.rs`, `SimdLevel::Scalar` against `Avx2`/`Avx512`).
 
+use crate::config::Subpixel;
 use crate::engine::{MatchStats, Shared};
 
 /// Buffers of one row band, reused across frames.
@@ -36,6 +37,10 @@ pub(crate) struct Scratch16 {
     rk: Vec<u16>,
     dvec: Vec<u16>,
     tail: Vec<u16>,
+    keys: Vec<u32>,
+    cm: Vec<u16>,
+    cp: Vec<u16>,
+    unique: Vec<bool>,
     best: Vec<i32>,
     sub: Vec<f32>,
 }
@@ -59,6 +64,10 @@ impl Scratch16 {
         self.dvec.extend((0..ndp).map(|d| d as u16));
         self.tail.clear();
         self.tail.extend((0..ndp).map(|d| if d < nd { 0 } else { u16::MAX }));
+        self.keys.resize(w, u32::MAX);
+        self.cm.resize(w, 0);
+        self.cp.resize(w, 0);
+        self.unique.resize(w, true);
         self.best.resize(w, -1);
         self.sub.resize(w, 0.0);
     }
@@ -183,121 +192,221 @@ macro_rules! kernel {
             let ndp = sc.ndp;
             sc.rc.fill(u16::MAX);
             sc.rk.fill(u16::MAX);
-            let cs = sc.colsum.as_mut_ptr();
-            let bx = sc.boxs.as_mut_ptr();
-            let rin = sc.r_in.as_ptr();
-            let rout = sc.r_out.as_ptr();
-            let rc = sc.rc.as_mut_ptr();
-            let rk = sc.rk.as_mut_ptr();
-            let dvp = sc.dvec.as_ptr();
-            let tail = sc.tail.as_ptr();
+            let p = Ptrs {
+                cs: sc.colsum.as_mut_ptr(),
+                bx: sc.boxs.as_mut_ptr(),
+                rin: sc.r_in.as_ptr(),
+                rout: sc.r_out.as_ptr(),
+                lin: sc.l_in.as_ptr(),
+                lout: sc.l_out.as_ptr(),
+                rc: sc.rc.as_mut_ptr(),
+                rk: sc.rk.as_mut_ptr(),
+                dv: sc.dvec.as_ptr(),
+                tail: sc.tail.as_ptr(),
+                ndp,
+                wp,
+                w,
+                r,
+            };
             // x = 0: vertical update of padded columns 0..=2r, box sums over them
             for c in (0..ndp).step_by(L) {
                 let mut acc = splat(0);
                 for xp in 0..=2 * r {
                     // SAFETY: as in `add_row`.
                     unsafe {
-                        let p = cs.add(xp * ndp + c);
-                        let mut v = ld(p);
+                        let q = p.cs.add(xp * ndp + c);
+                        let mut v = ld(q);
                         if VERT {
                             let base = wp - 1 - xp;
                             let t = sub(
-                                absdiff(splat(sc.l_in[xp]), ld(rin.add(base + c))),
-                                absdiff(splat(sc.l_out[xp]), ld(rout.add(base + c))),
+                                absdiff(splat(sc.l_in[xp]), ld(p.rin.add(base + c))),
+                                absdiff(splat(sc.l_out[xp]), ld(p.rout.add(base + c))),
                             );
                             v = add(v, t);
-                            st(p, v);
+                            st(q, v);
                         }
                         acc = add(acc, v);
                     }
                 }
                 // SAFETY: c + L ≤ ndp.
-                unsafe { st(bx.add(c), acc) };
+                unsafe { st(p.bx.add(c), acc) };
             }
-            for x in 0..w {
+            // columns whose full range [0, nd) is searchable need no per-lane range mask
+            let range = |x: usize| {
                 let xd = x as i64 - dmin;
-                let lo = (xd - (w as i64 - 1)).max(0);
-                let hi = xd.min(nd as i64 - 1);
-                let border = lo != 0 || hi != nd as i64 - 1;
-                let (lov, hiv) = (splat(lo.min(0x7fff) as u16), splat(hi.clamp(-1, 0x7fff) as u16));
-                let jb = w - 1 - x;
-                let xp = x + 2 * r;
-                let (li, lo_) = (splat(sc.l_in[xp]), splat(sc.l_out[xp]));
-                let base = wp - 1 - xp;
-                let mut minv = splat(u16::MAX);
-                let mut idxv = splat(u16::MAX);
-                for c in (0..ndp).step_by(L) {
-                    // SAFETY: column offsets as in `add_row` (xp < wp, x − 1 < wp); box, mask and
-                    // index buffers have ndp entries; jb + c + L ≤ w − 1 + ndp < rc.len().
+                ((xd - (w as i64 - 1)).max(0), xd.min(nd as i64 - 1))
+            };
+            let xa = (dmin + nd as i64 - 1).max(1);
+            let xb = (w as i64 - 1 + dmin).min(w as i64 - 1);
+            let (xa, xb) = if xa <= xb { (xa as usize, xb as usize + 1) } else { (w, w) };
+            let uniq = sh.uniq;
+            let bxp = p.bx as *const u16;
+            let (keys, cm, cp) = (sc.keys.as_mut_ptr(), sc.cm.as_mut_ptr(), sc.cp.as_mut_ptr());
+            // the winner's key and the costs beside it for the sub-pixel fit (clamped reads; used
+            // only when the winner is inside the range); the uniqueness rule needs every cost
+            macro_rules! record {
+                ($x:expr, $key:expr) => {{
+                    let (x, key) = ($x, $key);
+                    let kb = (key & 0xffff) as usize;
+                    // SAFETY: x < w = keys.len() = cm.len() = cp.len(); indices clamped to ndp.
                     unsafe {
-                        let dv = ld(dvp.add(c));
-                        let mut m = ld(tail.add(c));
-                        if border {
-                            m = or(m, outside(dv, lov, hiv));
-                        }
-                        let b = if x == 0 {
-                            ld(bx.add(c))
-                        } else {
-                            let p = cs.add(xp * ndp + c);
-                            let mut v = ld(p);
-                            if VERT {
-                                let t = sub(absdiff(li, ld(rin.add(base + c))), absdiff(lo_, ld(rout.add(base + c))));
-                                v = add(v, t);
-                                st(p, v);
-                            }
-                            let b = add(ld(bx.add(c)), sub(v, ld(cs.add((x - 1) * ndp + c))));
-                            st(bx.add(c), b);
-                            b
-                        };
-                        let bm = or(b, m);
-                        min_update(&mut minv, &mut idxv, bm, dv);
-                        let (mut rcv, mut rkv) = (ld(rc.add(jb + c)), ld(rk.add(jb + c)));
-                        min_update(&mut rcv, &mut rkv, bm, dv);
-                        st(rc.add(jb + c), rcv);
-                        st(rk.add(jb + c), rkv);
+                        *keys.add(x) = key;
+                        *cm.add(x) = *bxp.add(kb.wrapping_sub(1).min(ndp - 1));
+                        *cp.add(x) = *bxp.add((kb + 1).min(ndp - 1));
                     }
-                }
-                if lo > hi {
-                    sc.best[x] = -1;
-                    stats.no_candidate += 1;
-                    continue;
-                }
-                if sh.texture_ok.is_some_and(|t| !t[y * w + x]) {
-                    sc.best[x] = -1;
-                    stats.low_texture += 1;
-                    continue;
-                }
-                let key = reduce(minv, idxv);
-                let kb = (key & 0xffff) as usize;
-                let (lo, hi) = (lo as usize, hi as usize);
-                if sh.uniq > 0 && !unique(&sc.boxs, lo, hi, kb, sh.uniq) {
-                    sc.best[x] = -1;
-                    stats.not_unique += 1;
-                    continue;
-                }
-                sc.best[x] = kb as i32;
-                sc.sub[x] = if sh.subpixel == Subpixel::None {
-                    0.0
-                } else {
-                    subpixel_offset(&sc.boxs, lo, hi, kb, sh.subpixel)
-                };
+                    if uniq > 0 {
+                        let (lo, hi) = range(x);
+                        // SAFETY: the box sums are written only inside `step`, not while this
+                        // view is alive.
+                        let bxs = unsafe { std::slice::from_raw_parts(bxp, ndp) };
+                        sc.unique[x] =
+                            (key >> 16) == 0xffff || lo > hi || unique(bxs, lo as usize, hi as usize, kb, uniq);
+                    }
+                }};
             }
+            // SAFETY (all `step` calls): `p` holds this band's buffers, sized by
+            // `Scratch16::resize`; x < w.
+            let (lo, hi) = range(0);
+            record!(0, unsafe { step::<VERT, false, true>(&p, 0, lo, hi) });
+            for x in 1..xa.max(1).min(w) {
+                let (lo, hi) = range(x);
+                record!(x, unsafe { step::<VERT, true, true>(&p, x, lo, hi) });
+            }
+            for x in xa.max(1)..xb {
+                record!(x, unsafe { step::<VERT, true, false>(&p, x, 0, nd as i64 - 1) });
+            }
+            for x in xb.max(xa).max(1)..w {
+                let (lo, hi) = range(x);
+                record!(x, unsafe { step::<VERT, true, true>(&p, x, lo, hi) });
+            }
+            decide_row(sh, sc, y, stats);
             let rkb = &sc.rk;
             finish_row(sh, &sc.best, &mut sc.sub, out, stats, |x, k| {
                 let v = rkb[w - 1 - x + k];
                 if v == u16::MAX { u32::MAX } else { v as u32 }
             });
         }
+
+        /// Column `x`: (when `UPD`) the vertical update of the entering column and the box-sum
+        /// step, then both running minima over the disparity chunks. Returns the left winner's
+        /// `(cost << 16) | d`, `0xFFFF_FFFF`-like sentinel keys when no lane is searchable.
+        #[inline]
+        #[target_feature(enable = $feat)]
+        unsafe fn step<const VERT: bool, const UPD: bool, const BORDER: bool>(
+            p: &Ptrs,
+            x: usize,
+            lo: i64,
+            hi: i64,
+        ) -> u32 {
+            let ndp = p.ndp;
+            let (lov, hiv) = (splat(lo.min(0x7fff) as u16), splat(hi.clamp(-1, 0x7fff) as u16));
+            let jb = p.w - 1 - x;
+            let xp = x + 2 * p.r;
+            // SAFETY: xp < wp.
+            let (li, lo_) = unsafe { (splat(*p.lin.add(xp)), splat(*p.lout.add(xp))) };
+            let base = p.wp - 1 - xp;
+            let mut minv = splat(u16::MAX);
+            let mut idxv = splat(u16::MAX);
+            for c in (0..ndp).step_by(L) {
+                // SAFETY: column offsets as in `add_row` (xp < wp, x − 1 < wp); box, mask and
+                // index buffers have ndp entries; jb + c + L ≤ w − 1 + ndp < rc.len().
+                unsafe {
+                    let dv = ld(p.dv.add(c));
+                    let mut m = ld(p.tail.add(c));
+                    if BORDER {
+                        m = or(m, outside(dv, lov, hiv));
+                    }
+                    let b = if UPD {
+                        let q = p.cs.add(xp * ndp + c);
+                        let mut v = ld(q);
+                        if VERT {
+                            let t = sub(absdiff(li, ld(p.rin.add(base + c))), absdiff(lo_, ld(p.rout.add(base + c))));
+                            v = add(v, t);
+                            st(q, v);
+                        }
+                        let b = add(ld(p.bx.add(c)), sub(v, ld(p.cs.add((x - 1) * ndp + c))));
+                        st(p.bx.add(c), b);
+                        b
+                    } else {
+                        ld(p.bx.add(c))
+                    };
+                    let bm = or(b, m);
+                    min_update(&mut minv, &mut idxv, bm, dv);
+                    let (mut rcv, mut rkv) = (ld(p.rc.add(jb + c)), ld(p.rk.add(jb + c)));
+                    min_update(&mut rcv, &mut rkv, bm, dv);
+                    st(p.rc.add(jb + c), rcv);
+                    st(p.rk.add(jb + c), rkv);
+                }
+            }
+            reduce(minv, idxv)
+        }
     };
+}
+
+/// Raw views of one band's buffers for the kernel's inner step.
+struct Ptrs {
+    cs: *mut u16,
+    bx: *mut u16,
+    rin: *const u16,
+    rout: *const u16,
+    lin: *const u16,
+    lout: *const u16,
+    rc: *mut u16,
+    rk: *mut u16,
+    dv: *const u16,
+    tail: *const u16,
+    ndp: usize,
+    wp: usize,
+    w: usize,
+    r: usize,
+}
+
+/// The decisions of one row from the winners' keys: range, texture, uniqueness (only when it
+/// is on: it needs every cost, so it is checked from the box sums kept per pixel in `unique`),
+/// sub-pixel offset.
+fn decide_row(sh: &Shared, sc: &mut Scratch16, y: usize, stats: &mut MatchStats) {
+    let (w, nd, dmin) = (sh.w, sh.nd as i64, sh.dmin);
+    let tex = sh.texture_ok.map(|t| &t[y * w..][..w]);
+    for x in 0..w {
+        let key = sc.keys[x];
+        let xd = x as i64 - dmin;
+        let (lo, hi) = ((xd - (w as i64 - 1)).max(0), xd.min(nd - 1));
+        if (key >> 16) == 0xffff || lo > hi {
+            sc.best[x] = -1;
+            stats.no_candidate += 1;
+            continue;
+        }
+        if tex.is_some_and(|t| !t[x]) {
+            sc.best[x] = -1;
+            stats.low_texture += 1;
+            continue;
+        }
+        if sh.uniq > 0 && !sc.unique[x] {
+            sc.best[x] = -1;
+            stats.not_unique += 1;
+            continue;
+        }
+        let kb = (key & 0xffff) as i64;
+        sc.best[x] = kb as i32;
+        let mut off = 0.0f32;
+        if kb > lo && kb < hi && sh.subpixel != Subpixel::None {
+            // exact integers in f32 (< 2^24); one rounding of the quotient
+            let (m, c0, p) = (sc.cm[x] as f32, (key >> 16) as f32, sc.cp[x] as f32);
+            let den = if sh.subpixel == Subpixel::Equiangular { m.max(p) - c0 } else { m - 2.0 * c0 + p };
+            if den > 0.0 {
+                off = ((m - p) / (2.0 * den)).clamp(-0.5, 0.5);
+            }
+        }
+        sc.sub[x] = off;
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use std::arch::x86_64::*;
 
-    use super::Scratch16;
-    use crate::config::Subpixel;
-    use crate::engine::{MatchStats, Shared, finish_row, load_rows, subpixel_offset, unique};
+    use super::{Ptrs, Scratch16, decide_row};
+    use crate::engine::{MatchStats, Shared, finish_row, load_rows, unique};
 
     type V = __m256i;
     const L: usize = 16;
@@ -373,9 +482,8 @@ mod avx2 {
 mod avx512 {
     use std::arch::x86_64::*;
 
-    use super::Scratch16;
-    use crate::config::Subpixel;
-    use crate::engine::{MatchStats, Shared, finish_row, load_rows, subpixel_offset, unique};
+    use super::{Ptrs, Scratch16, decide_row};
+    use crate::engine::{MatchStats, Shared, finish_row, load_rows, unique};
 
     type V = __m512i;
     const L: usize = 32;
