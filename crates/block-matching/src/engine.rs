@@ -488,7 +488,8 @@ impl BlockMatcher {
         #[cfg(target_arch = "x86_64")]
         let isa16 = match simd {
             _ if cfg.cost != CostFunction::Sad || n * maxv > u16::MAX as u64 - 1 => None,
-            SimdLevel::Avx512 | SimdLevel::Avx2 => Some(crate::sad16::Isa::Avx2),
+            SimdLevel::Avx512 => Some(crate::sad16::Isa::Avx512Vl),
+            SimdLevel::Avx2 => Some(crate::sad16::Isa::Avx2),
             SimdLevel::Scalar => None,
         };
         let mut job = || -> Vec<MatchStats> {

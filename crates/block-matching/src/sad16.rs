@@ -85,12 +85,14 @@ impl Scratch16 {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Isa {
     Avx2,
+    /// The AVX2 kernel at 256 bits with AVX-512VL's mask registers for the arg-min updates.
+    Avx512Vl,
 }
 
 impl Isa {
     pub(crate) fn lanes(self) -> usize {
         match self {
-            Isa::Avx2 => 16,
+            Isa::Avx2 | Isa::Avx512Vl => 16,
         }
     }
 }
@@ -113,6 +115,7 @@ pub(crate) unsafe fn band(
     unsafe {
         match isa {
             Isa::Avx2 => avx2::band(sh, sc, out, y0, y1),
+            Isa::Avx512Vl => avx512vl::band(sh, sc, out, y0, y1),
         }
     }
 }
@@ -145,7 +148,7 @@ macro_rules! kernel {
                         unsafe { add_row(sh, sc) };
                     }
                     // SAFETY: as above.
-                    unsafe { row::<false>(sh, sc, y, orow, &mut st) };
+                    unsafe { row_n::<false>(sh, sc, y, orow, &mut st) };
                 } else {
                     let yi = clamp_y(y as i64 + r as i64);
                     let yo = clamp_y(y as i64 - r as i64 - 1);
@@ -153,14 +156,37 @@ macro_rules! kernel {
                         load_rows(sh, yi, &mut sc.l_in, &mut sc.r_in);
                         load_rows(sh, yo, &mut sc.l_out, &mut sc.r_out);
                         // SAFETY: as above.
-                        unsafe { row::<true>(sh, sc, y, orow, &mut st) };
+                        unsafe { row_n::<true>(sh, sc, y, orow, &mut st) };
                     } else {
                         // SAFETY: as above.
-                        unsafe { row::<false>(sh, sc, y, orow, &mut st) };
+                        unsafe { row_n::<false>(sh, sc, y, orow, &mut st) };
                     }
                 }
             }
             st
+        }
+
+        /// [`row`] with the chunk count as a constant for the common ranges (up to 64 and 128
+        /// disparities).
+        #[target_feature(enable = $feat)]
+        unsafe fn row_n<const VERT: bool>(
+            sh: &Shared,
+            sc: &mut Scratch16,
+            y: usize,
+            out: &mut [f32],
+            stats: &mut MatchStats,
+        ) {
+            // SAFETY: forwarded.
+            unsafe {
+                match sc.ndp / L {
+                    1 => row::<VERT, 1>(sh, sc, y, out, stats),
+                    2 => row::<VERT, 2>(sh, sc, y, out, stats),
+                    3 => row::<VERT, 3>(sh, sc, y, out, stats),
+                    4 => row::<VERT, 4>(sh, sc, y, out, stats),
+                    8 => row::<VERT, 8>(sh, sc, y, out, stats),
+                    _ => row::<VERT, 0>(sh, sc, y, out, stats),
+                }
+            }
         }
 
         /// Adds `|L − R|` of the row in `l_in` / `r_in` to every column sum.
@@ -185,7 +211,7 @@ macro_rules! kernel {
 
         /// One row: column-sum update (when `VERT`), box sums, both winners, decisions.
         #[target_feature(enable = $feat)]
-        unsafe fn row<const VERT: bool>(
+        unsafe fn row<const VERT: bool, const NCH: usize>(
             sh: &Shared,
             sc: &mut Scratch16,
             y: usize,
@@ -276,17 +302,17 @@ macro_rules! kernel {
             // SAFETY (all `step` calls): `p` holds this band's buffers, sized by
             // `Scratch16::resize`; x < w.
             let (lo, hi) = range(0);
-            record!(0, unsafe { step::<VERT, false, true>(&p, 0, lo, hi) });
+            record!(0, unsafe { step::<VERT, false, true, NCH>(&p, 0, lo, hi) });
             for x in 1..xa.max(1).min(w) {
                 let (lo, hi) = range(x);
-                record!(x, unsafe { step::<VERT, true, true>(&p, x, lo, hi) });
+                record!(x, unsafe { step::<VERT, true, true, NCH>(&p, x, lo, hi) });
             }
             for x in xa.max(1)..xb {
-                record!(x, unsafe { step::<VERT, true, false>(&p, x, 0, nd as i64 - 1) });
+                record!(x, unsafe { step::<VERT, true, false, NCH>(&p, x, 0, nd as i64 - 1) });
             }
             for x in xb.max(xa).max(1)..w {
                 let (lo, hi) = range(x);
-                record!(x, unsafe { step::<VERT, true, true>(&p, x, lo, hi) });
+                record!(x, unsafe { step::<VERT, true, true, NCH>(&p, x, lo, hi) });
             }
             decide_row(sh, sc, y, stats);
             // the lanes still held are final: lane k is the pixel u = w − 1 − dmin − k
@@ -308,13 +334,14 @@ macro_rules! kernel {
         /// `(cost << 16) | d`, `0xFFFF_FFFF`-like sentinel keys when no lane is searchable.
         #[inline]
         #[target_feature(enable = $feat)]
-        unsafe fn step<const VERT: bool, const UPD: bool, const BORDER: bool>(
+        unsafe fn step<const VERT: bool, const UPD: bool, const BORDER: bool, const NCH: usize>(
             p: &Ptrs,
             x: usize,
             lo: i64,
             hi: i64,
         ) -> u32 {
-            let ndp = p.ndp;
+            // a known chunk count lets the compiler unroll the chunk loop
+            let ndp = if NCH == 0 { p.ndp } else { NCH * L };
             let (lov, hiv) = (splat(lo.min(0x7fff) as u16), splat(hi.clamp(-1, 0x7fff) as u16));
             let mut prev_c = splat(u16::MAX);
             let mut prev_k = splat(u16::MAX);
@@ -324,7 +351,8 @@ macro_rules! kernel {
             let base = p.wp - 1 - xp;
             let mut minv = splat(u16::MAX);
             let mut idxv = splat(u16::MAX);
-            for c in (0..ndp).step_by(L) {
+            for ci in 0..ndp / L {
+                let c = ci * L;
                 // SAFETY: column offsets as in `add_row` (xp < wp, x − 1 < wp); box, mask and
                 // index and right-state buffers have ndp entries.
                 unsafe {
@@ -533,4 +561,93 @@ mod avx2 {
     }
 
     kernel!("avx2");
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx512vl {
+    use std::arch::x86_64::*;
+
+    use super::{Ptrs, Scratch16, decide_row};
+    use crate::engine::{MatchStats, Shared, finish_row, load_rows, unique};
+
+    type V = __m256i;
+    const L: usize = 16;
+
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    unsafe fn ld(p: *const u16) -> V {
+        // SAFETY: the caller guarantees 16 readable u16 at p.
+        unsafe { _mm256_loadu_si256(p as *const V) }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    unsafe fn st(p: *mut u16, v: V) {
+        // SAFETY: the caller guarantees 16 writable u16 at p.
+        unsafe { _mm256_storeu_si256(p as *mut V, v) }
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    fn splat(v: u16) -> V {
+        _mm256_set1_epi16(v as i16)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    fn add(a: V, b: V) -> V {
+        _mm256_add_epi16(a, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    fn sub(a: V, b: V) -> V {
+        _mm256_sub_epi16(a, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    fn or(a: V, b: V) -> V {
+        _mm256_or_si256(a, b)
+    }
+    /// `|a − b|` for values below 2^15.
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    fn absdiff(a: V, b: V) -> V {
+        _mm256_abs_epi16(_mm256_sub_epi16(a, b))
+    }
+    /// All-ones lanes where `d < lo` or `d > hi` (signed 16-bit compares; all values < 2^15).
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    fn outside(d: V, lo: V, hi: V) -> V {
+        _mm256_or_si256(_mm256_cmpgt_epi16(lo, d), _mm256_cmpgt_epi16(d, hi))
+    }
+    /// Per lane: if `c < min` (unsigned) then `min = c`, `idx = d` (one compare into a mask
+    /// register and a masked move instead of AVX2's compare + byte blend).
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    fn min_update(min: &mut V, idx: &mut V, c: V, d: V) {
+        let better = _mm256_cmplt_epu16_mask(c, *min);
+        *idx = _mm256_mask_mov_epi16(*idx, better, d);
+        *min = _mm256_min_epu16(*min, c);
+    }
+    /// `c` moved up one lane: lane 0 takes the top lane of `prev` (the chunk below).
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    fn up1(c: V, prev: V) -> V {
+        _mm256_alignr_epi8::<14>(c, _mm256_permute2x128_si256::<0x21>(prev, c))
+    }
+    /// The top lane.
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    fn top(v: V) -> u16 {
+        _mm256_extract_epi16::<15>(v) as u16
+    }
+    /// The smallest `(min << 16) | idx` over the lanes.
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    fn reduce(min: V, idx: V) -> u32 {
+        let k = _mm256_min_epu32(_mm256_unpacklo_epi16(idx, min), _mm256_unpackhi_epi16(idx, min));
+        let k = _mm_min_epu32(_mm256_castsi256_si128(k), _mm256_extracti128_si256::<1>(k));
+        let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b01_00_11_10>(k));
+        let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b10_11_00_01>(k));
+        _mm_cvtsi128_si32(k) as u32
+    }
+
+    kernel!("avx2,avx512f,avx512bw,avx512vl");
 }
