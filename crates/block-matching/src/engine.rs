@@ -638,16 +638,30 @@ unsafe fn band_avx512<A: Acc, const K: u8>(
 /// with padded left column `xp` at candidate `k`.
 #[inline(always)]
 pub(crate) fn load_rows(sh: &Shared, y: usize, l: &mut [u16], rrev: &mut [u16]) {
-    let (w, r) = (sh.w, sh.r as i64);
+    let (w, r) = (sh.w, sh.r);
     let lrow = &sh.left[y * w..][..w];
     let rrow = &sh.right[y * w..][..w];
-    for (xp, v) in l.iter_mut().enumerate() {
-        *v = lrow[(xp as i64 - r).clamp(0, w as i64 - 1) as usize];
+    // l[xp] = left[clamp(xp − r)]: edge fill, copy, edge fill (l has w + 2r entries)
+    l[..r].fill(lrow[0]);
+    l[r..r + w].copy_from_slice(lrow);
+    l[r + w..].fill(lrow[w - 1]);
+    // rrev[i] = right[clamp(umax − i)]: the right edge value while umax − i ≥ w, then the row
+    // reversed, then the left edge value (segment ends clamped: dmin may be far outside)
+    let umax = w as i64 - 1 + r as i64 - sh.dmin;
+    let n = rrev.len() as i64;
+    let a = (umax - (w as i64 - 1)).clamp(0, n);
+    let b = (umax + 1).clamp(a, n);
+    let (a, b) = (a as usize, b as usize);
+    rrev[..a].fill(rrow[w - 1]);
+    if b > a {
+        // i in a..b reads u = umax − i, from umax − a down to umax − b + 1
+        let hi = (umax - a as i64) as usize;
+        let lo = (umax - b as i64 + 1) as usize;
+        for (v, &s) in rrev[a..b].iter_mut().zip(rrow[lo..=hi].iter().rev()) {
+            *v = s;
+        }
     }
-    let umax = w as i64 - 1 + r - sh.dmin;
-    for (i, v) in rrev.iter_mut().enumerate() {
-        *v = rrow[(umax - i as i64).clamp(0, w as i64 - 1) as usize];
-    }
+    rrev[b..].fill(rrow[0]);
 }
 
 /// Adds the row held in `l_in/r_in` to the column sums (and subtracts `l_out/r_out` if `sub`).
