@@ -387,14 +387,19 @@ impl BlockMatcher {
 
     /// Disparity of the left image of a rectified 16-bit pair.
     pub fn compute_u16(&mut self, left: &Gray16Image, right: &Gray16Image) -> Result<DisparityMap> {
+        let mut out = DisparityMap::new_invalid(0, 0);
+        self.compute_u16_into(left, right, &mut out)?;
+        Ok(out)
+    }
+
+    /// As [`BlockMatcher::compute_u16`], writing into `out` (resized as needed).
+    pub fn compute_u16_into(&mut self, left: &Gray16Image, right: &Gray16Image, out: &mut DisparityMap) -> Result<()> {
         let (w, h) = check_pair(left.width(), left.height(), right.width(), right.height())?;
         self.left.clear();
         self.left.extend_from_slice(left.as_raw());
         self.right.clear();
         self.right.extend_from_slice(right.as_raw());
-        let mut out = DisparityMap::new_invalid(w, h);
-        self.run(w, h, 257, &mut out)?;
-        Ok(out)
+        self.run(w, h, 257, out)
     }
 
     fn run(&mut self, w: usize, h: usize, scale: u32, out: &mut DisparityMap) -> Result<()> {
@@ -511,7 +516,8 @@ impl BlockMatcher {
             stats.speckle = filter_speckles(out, cfg.speckle_window_size, cfg.speckle_range);
         }
         stats.pixels = w * h;
-        stats.valid = out.valid_count();
+        // as `DisparityMap::valid_count`, in parallel
+        stats.valid = out.data.par_chunks(1 << 14).map(|c| c.iter().filter(|d| d.is_finite()).count()).sum();
         stats.density = if w * h == 0 { 0.0 } else { stats.valid as f64 / (w * h) as f64 };
         self.stats = stats;
         Ok(())

@@ -460,13 +460,7 @@ fn decide_row(sh: &Shared, sc: &mut Scratch16, y: usize, stats: &mut MatchStats)
         let den = if equi { (if m > p { m } else { p }) - c } else { m - 2.0 * c + p };
         let fit = fit_on & (kb > lo) & (kb < hi) & (den > 0.0);
         let q = (m - p) / (2.0 * if fit { den } else { 1.0 });
-        let q = if q < -0.5 {
-            -0.5
-        } else if q > 0.5 {
-            0.5
-        } else {
-            q
-        };
+        let q = q.clamp(-0.5, 0.5);
         subv[x] = if fit { q } else { 0.0 };
     }
     stats.no_candidate += none as usize;
