@@ -125,53 +125,27 @@ pub(crate) trait Cost: Copy + PartialOrd + Send + Sync + 'static {
     fn to_f64(self) -> f64;
 }
 
-impl Cost for u16 {
-    const MAX: Self = u16::MAX;
-    #[inline(always)]
-    fn min2(self, o: Self) -> Self {
-        self.min(o)
-    }
-    #[inline(always)]
-    fn uniq_thresh(self, ratio: u32) -> Self {
-        (self as u64 + self as u64 * ratio as u64 / 100).min(u16::MAX as u64) as u16
-    }
-    #[inline(always)]
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
+/// The integer costs: OpenCV's uniqueness threshold with integer division, saturated.
+macro_rules! integer_cost {
+    ($($t:ty),*) => {$(
+        impl Cost for $t {
+            const MAX: Self = <$t>::MAX;
+            #[inline(always)]
+            fn min2(self, o: Self) -> Self {
+                self.min(o)
+            }
+            #[inline(always)]
+            fn uniq_thresh(self, ratio: u32) -> Self {
+                (self as u128 + self as u128 * ratio as u128 / 100).min(<$t>::MAX as u128) as $t
+            }
+            #[inline(always)]
+            fn to_f64(self) -> f64 {
+                self as f64
+            }
+        }
+    )*};
 }
-
-impl Cost for u32 {
-    const MAX: Self = u32::MAX;
-    #[inline(always)]
-    fn min2(self, o: Self) -> Self {
-        self.min(o)
-    }
-    #[inline(always)]
-    fn uniq_thresh(self, ratio: u32) -> Self {
-        (self as u64 + self as u64 * ratio as u64 / 100).min(u32::MAX as u64) as u32
-    }
-    #[inline(always)]
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
-}
-
-impl Cost for u64 {
-    const MAX: Self = u64::MAX;
-    #[inline(always)]
-    fn min2(self, o: Self) -> Self {
-        self.min(o)
-    }
-    #[inline(always)]
-    fn uniq_thresh(self, ratio: u32) -> Self {
-        self.saturating_add((self as u128 * ratio as u128 / 100).min(u64::MAX as u128) as u64)
-    }
-    #[inline(always)]
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
-}
+integer_cost!(u16, u32, u64);
 
 impl Cost for f64 {
     const MAX: Self = f64::INFINITY;

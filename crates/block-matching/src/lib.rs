@@ -5,9 +5,15 @@
 //! filter. Invalid pixels are NaN in the [`camera_model::DisparityMap`] (never a silent 0).
 //!
 //! Speed: window sums are running box sums over disparity-major column sums kept per row band in
-//! cache (the cost volume is never materialised), exact integer arithmetic (`u32`, or `u64` when
-//! the window sum could overflow), inner loops compiled three times (baseline, AVX2, AVX-512) and
-//! chosen at run time, row bands in parallel with rayon. The cost does not grow with the window.
+//! cache (the cost volume is never materialised), exact integer arithmetic, row bands in parallel
+//! with rayon, prefilter and texture passes parallel too. The cost does not grow with the window.
+//! SAD with sums that fit in 16 bits (the default x-Sobel prefilter, any window) runs a fused
+//! kernel in explicit 256-bit SIMD chosen at run time (AVX2, or AVX2 + AVX-512VL); every other
+//! case runs generic `u32`/`u64`/`f64` loops compiled for the baseline, AVX2 and AVX-512 and
+//! chosen at run time. All paths give identical results (tested against a naive reference).
+//! On Middlebury teddy (450x375, 64 disparities, 9x9, two threads) the default matcher takes
+//! about 1.4–1.5 ms on the project's 2-core machine, against OpenCV 5 `StereoBM`'s 1.8 ms side by
+//! side (`benches/benches/disparity.rs`, `../shared/reference/peer/stereo_bm.py`).
 //!
 //! ```
 //! use block_matching::{BlockMatcher, MatcherConfig, evaluate};

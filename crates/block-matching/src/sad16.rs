@@ -1,23 +1,33 @@
-//! The SAD fast path: 16-bit window sums in explicit AVX2 / AVX-512 vectors.
+//! The SAD fast path: 16-bit window sums in explicit 256-bit vectors (AVX2, or AVX2 with
+//! AVX-512VL mask registers).
 //!
 //! Used when the cost is SAD and every window sum fits in `u16` with one value to spare
 //! (`block² · max pixel ≤ 65534`; OpenCV's default x-Sobel prefilter gives pixels `0..=62`, so
 //! every window up to 31x31 qualifies). The generic engine keeps `u32`/`u64` sums and several
-//! passes per pixel; here one fused loop over disparity chunks does, for each pixel `x` of a row:
+//! passes per pixel; here one fused loop over 16-disparity chunks does, for each pixel `x` of a
+//! row:
 //!
 //! 1. the vertical update of the column sums of the entering column (`+|L−R|` of the row that
 //!    enters the window, `−|L−R|` of the row that leaves it),
 //! 2. the horizontal running box sum (`+` entering column, `−` leaving column),
 //! 3. the left winner-take-all as a per-lane running minimum and arg-minimum (one horizontal
 //!    reduction per pixel: `(cost << 16) | d` keys, so ties go to the smallest disparity),
-//! 4. the right image's running minimum for the left–right check (strict `<` in increasing `x`,
-//!    i.e. first wins, as the generic engine and the naive reference).
+//! 4. the right image's running minimum for the left–right check, kept per lane and moved up one
+//!    lane per column (lane `k` always holds the right pixel `x − dmin − k`; the lane leaving the
+//!    top is final), strict `<` in increasing `x`, i.e. first wins, as the generic engine and the
+//!    naive reference.
 //!
-//! Lanes whose disparity is outside the searchable range (left border, `num_disparities` not a
-//! multiple of the lane count) are forced to the sentinel `0xFFFF`, above every real cost, so
-//! they never win and never update the right minimum. Written with intrinsics because the
-//! compiler's auto-vectorisation of the generic loops reached about a third of this speed
-//! (`benches/benches/disparity.rs`, `SimdLevel::Scalar` against `Avx2`/`Avx512`).
+//! Texture, uniqueness and sub-pixel decisions then run once per row in a branch-free loop the
+//! compiler vectorises. Lanes whose disparity is outside the searchable range (left border,
+//! `num_disparities` not a multiple of 16) are forced to the sentinel `0xFFFF`, above every real
+//! cost, so they never win and never update the right minimum.
+//!
+//! Written with intrinsics because the generic loops left to the compiler ran about 9x slower
+//! (teddy 450x375x64, 9x9, one thread: 23.8 ms with `SimdLevel::Scalar` against 2.6 ms here;
+//! `BM_SIMD=scalar` in `benches/benches/disparity.rs`). A 512-bit copy was measured slower than
+//! this 256-bit kernel on the project's machine (3.91 ms against 3.69 ms on teddy, 33.4 ms against
+//! 24.1 ms on 1280x720x128, one thread: the per-pixel reduction and mask traffic dominate), so
+//! `SimdLevel::Avx512` runs the 256-bit kernel with AVX-512VL's masked moves for the arg-min.
 
 use crate::config::Subpixel;
 use crate::engine::{MatchStats, Shared};
@@ -468,6 +478,81 @@ fn decide_row(sh: &Shared, sc: &mut Scratch16, y: usize, stats: &mut MatchStats)
     stats.not_unique += not_unique as usize;
 }
 
+/// The 256-bit helpers both kernels share (AVX2 instructions), compiled with `$feat`.
+macro_rules! ymm_helpers {
+    ($feat:literal) => {
+        type V = __m256i;
+        const L: usize = 16;
+
+        #[inline]
+        #[target_feature(enable = $feat)]
+        unsafe fn ld(p: *const u16) -> V {
+            // SAFETY: the caller guarantees 16 readable u16 at p.
+            unsafe { _mm256_loadu_si256(p as *const V) }
+        }
+        #[inline]
+        #[target_feature(enable = $feat)]
+        unsafe fn st(p: *mut u16, v: V) {
+            // SAFETY: the caller guarantees 16 writable u16 at p.
+            unsafe { _mm256_storeu_si256(p as *mut V, v) }
+        }
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn splat(v: u16) -> V {
+            _mm256_set1_epi16(v as i16)
+        }
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn add(a: V, b: V) -> V {
+            _mm256_add_epi16(a, b)
+        }
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn sub(a: V, b: V) -> V {
+            _mm256_sub_epi16(a, b)
+        }
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn or(a: V, b: V) -> V {
+            _mm256_or_si256(a, b)
+        }
+        /// `|a − b|` for values below 2^15.
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn absdiff(a: V, b: V) -> V {
+            _mm256_abs_epi16(_mm256_sub_epi16(a, b))
+        }
+        /// All-ones lanes where `d < lo` or `d > hi` (signed 16-bit compares; all values < 2^15).
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn outside(d: V, lo: V, hi: V) -> V {
+            _mm256_or_si256(_mm256_cmpgt_epi16(lo, d), _mm256_cmpgt_epi16(d, hi))
+        }
+        /// `c` moved up one lane: lane 0 takes the top lane of `prev` (the chunk below).
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn up1(c: V, prev: V) -> V {
+            _mm256_alignr_epi8::<14>(c, _mm256_permute2x128_si256::<0x21>(prev, c))
+        }
+        /// The top lane.
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn top(v: V) -> u16 {
+            _mm256_extract_epi16::<15>(v) as u16
+        }
+        /// The smallest `(min << 16) | idx` over the lanes.
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn reduce(min: V, idx: V) -> u32 {
+            let k = _mm256_min_epu32(_mm256_unpacklo_epi16(idx, min), _mm256_unpackhi_epi16(idx, min));
+            let k = _mm_min_epu32(_mm256_castsi256_si128(k), _mm256_extracti128_si256::<1>(k));
+            let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b01_00_11_10>(k));
+            let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b10_11_00_01>(k));
+            _mm_cvtsi128_si32(k) as u32
+        }
+    };
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use std::arch::x86_64::*;
@@ -475,53 +560,8 @@ mod avx2 {
     use super::{Ptrs, Scratch16, decide_row};
     use crate::engine::{MatchStats, Shared, finish_row, load_rows, unique};
 
-    type V = __m256i;
-    const L: usize = 16;
+    ymm_helpers!("avx2");
 
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn ld(p: *const u16) -> V {
-        // SAFETY: the caller guarantees 16 readable u16 at p.
-        unsafe { _mm256_loadu_si256(p as *const V) }
-    }
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn st(p: *mut u16, v: V) {
-        // SAFETY: the caller guarantees 16 writable u16 at p.
-        unsafe { _mm256_storeu_si256(p as *mut V, v) }
-    }
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn splat(v: u16) -> V {
-        _mm256_set1_epi16(v as i16)
-    }
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn add(a: V, b: V) -> V {
-        _mm256_add_epi16(a, b)
-    }
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn sub(a: V, b: V) -> V {
-        _mm256_sub_epi16(a, b)
-    }
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn or(a: V, b: V) -> V {
-        _mm256_or_si256(a, b)
-    }
-    /// `|a − b|` for values below 2^15.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn absdiff(a: V, b: V) -> V {
-        _mm256_abs_epi16(_mm256_sub_epi16(a, b))
-    }
-    /// All-ones lanes where `d < lo` or `d > hi` (signed 16-bit compares; all values < 2^15).
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn outside(d: V, lo: V, hi: V) -> V {
-        _mm256_or_si256(_mm256_cmpgt_epi16(lo, d), _mm256_cmpgt_epi16(d, hi))
-    }
     /// Per lane: if `c < min` (unsigned) then `min = c`, `idx = d`.
     #[inline]
     #[target_feature(enable = "avx2")]
@@ -530,28 +570,6 @@ mod avx2 {
         let keep = _mm256_cmpeq_epi16(nm, *min);
         *idx = _mm256_blendv_epi8(d, *idx, keep);
         *min = nm;
-    }
-    /// `c` moved up one lane: lane 0 takes the top lane of `prev` (the chunk below).
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn up1(c: V, prev: V) -> V {
-        _mm256_alignr_epi8::<14>(c, _mm256_permute2x128_si256::<0x21>(prev, c))
-    }
-    /// The top lane.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn top(v: V) -> u16 {
-        _mm256_extract_epi16::<15>(v) as u16
-    }
-    /// The smallest `(min << 16) | idx` over the lanes.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn reduce(min: V, idx: V) -> u32 {
-        let k = _mm256_min_epu32(_mm256_unpacklo_epi16(idx, min), _mm256_unpackhi_epi16(idx, min));
-        let k = _mm_min_epu32(_mm256_castsi256_si128(k), _mm256_extracti128_si256::<1>(k));
-        let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b01_00_11_10>(k));
-        let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b10_11_00_01>(k));
-        _mm_cvtsi128_si32(k) as u32
     }
 
     kernel!("avx2");
@@ -564,53 +582,8 @@ mod avx512vl {
     use super::{Ptrs, Scratch16, decide_row};
     use crate::engine::{MatchStats, Shared, finish_row, load_rows, unique};
 
-    type V = __m256i;
-    const L: usize = 16;
+    ymm_helpers!("avx2,avx512f,avx512bw,avx512vl");
 
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-    unsafe fn ld(p: *const u16) -> V {
-        // SAFETY: the caller guarantees 16 readable u16 at p.
-        unsafe { _mm256_loadu_si256(p as *const V) }
-    }
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-    unsafe fn st(p: *mut u16, v: V) {
-        // SAFETY: the caller guarantees 16 writable u16 at p.
-        unsafe { _mm256_storeu_si256(p as *mut V, v) }
-    }
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-    fn splat(v: u16) -> V {
-        _mm256_set1_epi16(v as i16)
-    }
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-    fn add(a: V, b: V) -> V {
-        _mm256_add_epi16(a, b)
-    }
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-    fn sub(a: V, b: V) -> V {
-        _mm256_sub_epi16(a, b)
-    }
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-    fn or(a: V, b: V) -> V {
-        _mm256_or_si256(a, b)
-    }
-    /// `|a − b|` for values below 2^15.
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-    fn absdiff(a: V, b: V) -> V {
-        _mm256_abs_epi16(_mm256_sub_epi16(a, b))
-    }
-    /// All-ones lanes where `d < lo` or `d > hi` (signed 16-bit compares; all values < 2^15).
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-    fn outside(d: V, lo: V, hi: V) -> V {
-        _mm256_or_si256(_mm256_cmpgt_epi16(lo, d), _mm256_cmpgt_epi16(d, hi))
-    }
     /// Per lane: if `c < min` (unsigned) then `min = c`, `idx = d` (one compare into a mask
     /// register and a masked move instead of AVX2's compare + byte blend).
     #[inline]
@@ -619,28 +592,6 @@ mod avx512vl {
         let better = _mm256_cmplt_epu16_mask(c, *min);
         *idx = _mm256_mask_mov_epi16(*idx, better, d);
         *min = _mm256_min_epu16(*min, c);
-    }
-    /// `c` moved up one lane: lane 0 takes the top lane of `prev` (the chunk below).
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-    fn up1(c: V, prev: V) -> V {
-        _mm256_alignr_epi8::<14>(c, _mm256_permute2x128_si256::<0x21>(prev, c))
-    }
-    /// The top lane.
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-    fn top(v: V) -> u16 {
-        _mm256_extract_epi16::<15>(v) as u16
-    }
-    /// The smallest `(min << 16) | idx` over the lanes.
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-    fn reduce(min: V, idx: V) -> u32 {
-        let k = _mm256_min_epu32(_mm256_unpacklo_epi16(idx, min), _mm256_unpackhi_epi16(idx, min));
-        let k = _mm_min_epu32(_mm256_castsi256_si128(k), _mm256_extracti128_si256::<1>(k));
-        let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b01_00_11_10>(k));
-        let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b10_11_00_01>(k));
-        _mm_cvtsi128_si32(k) as u32
     }
 
     kernel!("avx2,avx512f,avx512bw,avx512vl");
