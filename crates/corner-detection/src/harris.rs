@@ -179,6 +179,44 @@ pub(crate) fn peaks(r: &ImageF32, quality: f32, min_distance: f64, max: usize, b
     peaks_above(r, quality, 0.0, min_distance, max, border)
 }
 
+/// Marks the strict local maxima of row `cur` among its 8 neighbours (ties go to the first pixel
+/// in raster order, so a pixel must beat its earlier neighbours and tie-or-beat the later ones)
+/// that are at least `thr` and positive: `keep[i]` is column `x0 + i`. Branch-free so it
+/// vectorises; run through an AVX2 copy when the CPU has it.
+fn row_maxima((prev, cur, next): (&[f32], &[f32], &[f32]), thr: f32, keep: &mut [bool], x0: usize) {
+    #[inline(always)]
+    fn imp((prev, cur, next): (&[f32], &[f32], &[f32]), thr: f32, keep: &mut [bool], x0: usize) {
+        let n = keep.len();
+        let (pl, pc, pr) = (&prev[x0 - 1..x0 - 1 + n], &prev[x0..x0 + n], &prev[x0 + 1..x0 + 1 + n]);
+        let (cl, cc, cr) = (&cur[x0 - 1..x0 - 1 + n], &cur[x0..x0 + n], &cur[x0 + 1..x0 + 1 + n]);
+        let (nl, nc, nr) = (&next[x0 - 1..x0 - 1 + n], &next[x0..x0 + n], &next[x0 + 1..x0 + 1 + n]);
+        for i in 0..n {
+            let v = cc[i];
+            keep[i] = (v >= thr)
+                & (v > 0.0)
+                & (v > pl[i])
+                & (v > pc[i])
+                & (v > pr[i])
+                & (v > cl[i])
+                & (v >= cr[i])
+                & (v >= nl[i])
+                & (v >= nc[i])
+                & (v >= nr[i]);
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn avx2(rows: (&[f32], &[f32], &[f32]), thr: f32, keep: &mut [bool], x0: usize) {
+        imp(rows, thr, keep, x0)
+    }
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2.
+        return unsafe { avx2((prev, cur, next), thr, keep, x0) };
+    }
+    imp((prev, cur, next), thr, keep, x0)
+}
+
 /// As [`peaks`], with an absolute floor `min_abs` on the response as well.
 pub(crate) fn peaks_above(
     r: &ImageF32,
@@ -190,7 +228,16 @@ pub(crate) fn peaks_above(
 ) -> Vec<Corner> {
     let (w, h) = (r.width() as usize, r.height() as usize);
     let d = r.as_raw();
-    let max_r = d.iter().copied().fold(0.0f32, f32::max);
+    // maximum over 8 interleaved lanes (vectorises; the sequential `f32::max` fold does not)
+    let mut lanes = [0.0f32; 8];
+    let chunks = d.chunks_exact(8);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for (m, &v) in lanes.iter_mut().zip(c) {
+            *m = if v > *m { v } else { *m };
+        }
+    }
+    let max_r = rest.iter().chain(&lanes).fold(0.0f32, |m, &v| if v > m { v } else { m });
     if max_r <= 0.0 || !max_r.is_finite() {
         return Vec::new();
     }
@@ -198,28 +245,17 @@ pub(crate) fn peaks_above(
     let b = border as usize;
     let mut cand: Vec<(f32, usize, usize)> = Vec::new();
     if w > 2 * b && h > 2 * b {
+        let mut keep = vec![false; w];
         for y in b..h - b {
+            let b = b.max(1);
+            if y == 0 || y + 1 >= h || w < 3 {
+                continue;
+            }
+            let rows = (&d[(y - 1) * w..y * w], &d[y * w..(y + 1) * w], &d[(y + 1) * w..(y + 2) * w]);
+            row_maxima(rows, thr, &mut keep[b..w - b], b);
             for x in b..w - b {
-                let v = d[y * w + x];
-                if v < thr || v <= 0.0 {
-                    continue;
-                }
-                let mut is_max = true;
-                'n: for dy in -1i64..=1 {
-                    for dx in -1i64..=1 {
-                        if dx == 0 && dy == 0 {
-                            continue;
-                        }
-                        let j = ((y as i64 + dy) as usize) * w + (x as i64 + dx) as usize;
-                        // Ties: keep the first pixel in raster order.
-                        if d[j] > v || (d[j] == v && (dy < 0 || (dy == 0 && dx < 0))) {
-                            is_max = false;
-                            break 'n;
-                        }
-                    }
-                }
-                if is_max {
-                    cand.push((v, x, y));
+                if keep[x] {
+                    cand.push((d[y * w + x], x, y));
                 }
             }
         }

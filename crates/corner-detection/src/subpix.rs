@@ -356,8 +356,10 @@ pub(crate) fn saddle_one(
         iterations += 1;
         // Weighted least squares in coordinates relative to the estimate, on the pixel
         // centres (no resampling): f = a x² + b xy + c y² + d x + e y + g.
-        let mut ata = faer::Mat::<f64>::zeros(6, 6);
-        let mut atb = faer::Mat::<f64>::zeros(6, 1);
+        // normal equations accumulated in fixed-size arrays (unrolled by the compiler; faer's
+        // checked indexing in this loop took most of the refinement time), solved by faer
+        let mut ata = [[0.0f64; 6]; 6];
+        let mut atb = [0.0f64; 6];
         let (x0, x1) = ((q.x - radius).ceil() as i64, (q.x + radius).floor() as i64);
         let (y0, y1) = ((q.y - radius).ceil() as i64, (q.y + radius).floor() as i64);
         for y in y0.max(0)..=y1.min(h - 1) {
@@ -373,12 +375,14 @@ pub(crate) fn saddle_one(
                 let r = [dx * dx, dx * dy, dy * dy, dx, dy, 1.0];
                 for i in 0..6 {
                     for j in 0..6 {
-                        ata[(i, j)] += wt * r[i] * r[j];
+                        ata[i][j] += wt * r[i] * r[j];
                     }
-                    atb[(i, 0)] += wt * r[i] * v;
+                    atb[i] += wt * r[i] * v;
                 }
             }
         }
+        let ata = faer::Mat::<f64>::from_fn(6, 6, |i, j| ata[i][j]);
+        let atb = faer::Mat::<f64>::from_fn(6, 1, |i, _| atb[i]);
         let Ok(llt) = ata.llt(faer::Side::Lower) else {
             ok = false;
             break;
