@@ -352,11 +352,7 @@ impl BlockMatcher {
     /// As [`BlockMatcher::compute`], writing into `out` (resized as needed) to avoid allocating.
     pub fn compute_into(&mut self, left: &GrayImage, right: &GrayImage, out: &mut DisparityMap) -> Result<()> {
         let (w, h) = check_pair(left.width(), left.height(), right.width(), right.height())?;
-        self.left.clear();
-        self.left.extend(left.as_raw().iter().map(|&v| v as u16));
-        self.right.clear();
-        self.right.extend(right.as_raw().iter().map(|&v| v as u16));
-        self.run(w, h, 1, out)
+        self.run(w, h, Input::U8(left.as_raw(), right.as_raw()), out)
     }
 
     /// Disparity of the left image of a rectified 16-bit pair.
@@ -369,46 +365,67 @@ impl BlockMatcher {
     /// As [`BlockMatcher::compute_u16`], writing into `out` (resized as needed).
     pub fn compute_u16_into(&mut self, left: &Gray16Image, right: &Gray16Image, out: &mut DisparityMap) -> Result<()> {
         let (w, h) = check_pair(left.width(), left.height(), right.width(), right.height())?;
-        self.left.clear();
-        self.left.extend_from_slice(left.as_raw());
-        self.right.clear();
-        self.right.extend_from_slice(right.as_raw());
-        self.run(w, h, 257, out)
+        self.run(w, h, Input::U16(left.as_raw(), right.as_raw()), out)
     }
 
-    fn run(&mut self, w: usize, h: usize, scale: u32, out: &mut DisparityMap) -> Result<()> {
-        // everything parallel (prefilters, texture, bands) runs on the matcher's own pool if any
+    fn run(&mut self, w: usize, h: usize, input: Input, out: &mut DisparityMap) -> Result<()> {
+        // everything parallel (conversion, prefilters, texture, bands) runs on the matcher's own
+        // pool if any
         let pool = self.pool.take();
         let res = match &pool {
-            Some(p) => p.install(|| self.run_in_pool(w, h, scale, out)),
-            None => self.run_in_pool(w, h, scale, out),
+            Some(p) => p.install(|| self.run_in_pool(w, h, input, out)),
+            None => self.run_in_pool(w, h, input, out),
         };
         self.pool = pool;
         res
     }
 
-    fn run_in_pool(&mut self, w: usize, h: usize, scale: u32, out: &mut DisparityMap) -> Result<()> {
+    fn run_in_pool(&mut self, w: usize, h: usize, input: Input, out: &mut DisparityMap) -> Result<()> {
+        let scale = match input {
+            Input::U8(l, r) => {
+                to_u16(l, &mut self.left);
+                to_u16(r, &mut self.right);
+                1
+            }
+            Input::U16(l, r) => {
+                self.left.clear();
+                self.left.extend_from_slice(l);
+                self.right.clear();
+                self.right.extend_from_slice(r);
+                257
+            }
+        };
         let cfg = self.config.clone();
         let r = cfg.block_size / 2;
         let use_texture = cfg.texture_threshold > 0;
         // texture from the clipped x-Sobel magnitude of the raw left image (OpenCV's measure);
-        // with the default prefilter this is also the prefiltered left image
+        // with the default prefilter this is also the prefiltered left image. The left chain
+        // and the right prefilter run side by side.
         let sobel_is_prefilter = cfg.prefilter == Prefilter::XSobel { cap: 31 };
-        if use_texture {
-            let cap = 31 * scale;
-            let sob = if sobel_is_prefilter { &mut self.pre_left } else { &mut self.sobel };
-            x_sobel_into(&self.left, w, h, cap, sob);
-            let thr = cfg.texture_threshold * scale;
-            texture_mask_into(sob, w, h, r, cap, thr, &mut self.texture_ok);
-        }
-        match cfg.prefilter {
-            Prefilter::None => {}
-            Prefilter::XSobel { cap } => {
-                if !(use_texture && sobel_is_prefilter) {
-                    x_sobel_into(&self.left, w, h, cap as u32 * scale, &mut self.pre_left);
-                }
-                x_sobel_into(&self.right, w, h, cap as u32 * scale, &mut self.pre_right);
+        let (raw_left, raw_right) = (&self.left, &self.right);
+        let (pre_left, pre_right, sobel, texture_ok) =
+            (&mut self.pre_left, &mut self.pre_right, &mut self.sobel, &mut self.texture_ok);
+        let left_chain = || {
+            if use_texture {
+                let cap = 31 * scale;
+                let sob = if sobel_is_prefilter { &mut *pre_left } else { &mut *sobel };
+                x_sobel_into(raw_left, w, h, cap, sob);
+                texture_mask_into(sob, w, h, r, cap, cfg.texture_threshold * scale, texture_ok);
             }
+            if let Prefilter::XSobel { cap } = cfg.prefilter
+                && !(use_texture && sobel_is_prefilter)
+            {
+                x_sobel_into(raw_left, w, h, cap as u32 * scale, pre_left);
+            }
+        };
+        let right_prefilter = || {
+            if let Prefilter::XSobel { cap } = cfg.prefilter {
+                x_sobel_into(raw_right, w, h, cap as u32 * scale, pre_right);
+            }
+        };
+        rayon::join(left_chain, right_prefilter);
+        match cfg.prefilter {
+            Prefilter::None | Prefilter::XSobel { .. } => {}
             Prefilter::NormalizedResponse { size, cap } => {
                 self.pre_left = normalized_response(&self.left, w, h, size, cap as u32 * scale);
                 self.pre_right = normalized_response(&self.right, w, h, size, cap as u32 * scale);
@@ -496,6 +513,23 @@ impl BlockMatcher {
         self.stats = stats;
         Ok(())
     }
+}
+
+/// The input pair of one frame, before conversion to the matcher's `u16` planes.
+#[derive(Clone, Copy)]
+enum Input<'a> {
+    U8(&'a [u8], &'a [u8]),
+    U16(&'a [u16], &'a [u16]),
+}
+
+/// Widens an 8-bit plane into `dst` (resized), rows in parallel.
+fn to_u16(src: &[u8], dst: &mut Vec<u16>) {
+    dst.resize(src.len(), 0);
+    dst.par_chunks_mut(1 << 15).zip(src.par_chunks(1 << 15)).for_each(|(d, s)| {
+        for (d, &s) in d.iter_mut().zip(s) {
+            *d = s as u16;
+        }
+    });
 }
 
 fn check_pair(lw: u32, lh: u32, rw: u32, rh: u32) -> Result<(usize, usize)> {
