@@ -343,7 +343,10 @@ fn fast_equals_naive_with_several_disparity_chunks() {
     // the vectorised SAD path works on 16 or 32 disparities per chunk: ranges that span several
     // chunks, end inside one, and start off zero, with and without the decision options
     let mut case = 0;
-    for (nd, dmin, block) in [(16, 0, 9), (33, -3, 5), (64, 5, 9), (47, 0, 15), (70, -20, 3)] {
+    // (the last two search ranges lie mostly or wholly outside the 112-pixel rows)
+    for (nd, dmin, block) in
+        [(16, 0, 9), (33, -3, 5), (64, 5, 9), (47, 0, 15), (70, -20, 3), (40, -130, 5), (20, 105, 3)]
+    {
         for (uniq, lr, subpixel) in
             [(0, Some(1), Subpixel::Auto), (10, None, Subpixel::Parabola), (0, Some(0), Subpixel::None)]
         {
