@@ -195,3 +195,29 @@ fn rectifier_rectifies_pairs_with_its_maps() {
         Err(RectifyError::SizeMismatch(_))
     ));
 }
+
+#[test]
+fn vectorised_8_bit_rectification_equals_the_16_bit_scalar_path() {
+    // 8-bit grey images take an AVX2 gather path (when the CPU has it); 16-bit images holding the
+    // same values take the scalar fixed-point path: same integer arithmetic, so equal outputs
+    let rig = common::horizontal_rig();
+    let rectifier = Rectifier::new(&rig, &RectifyConfig { alpha: Some(1.0), ..Default::default() }).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let left: Image<Luma<u8>> = ImageBuffer::from_fn(640, 480, |_, _| Luma([rng.random()]));
+    let right: Image<Luma<u8>> = ImageBuffer::from_fn(640, 480, |u, v| Luma([((u * 7 + v * 3) % 256) as u8]));
+    let wide = |img: &Image<Luma<u8>>| -> Image<Luma<u16>> {
+        ImageBuffer::from_fn(img.width(), img.height(), |u, v| Luma([img.get_pixel(u, v)[0] as u16]))
+    };
+    for border in [Border::Constant(Luma([17u8])), Border::Replicate] {
+        let (l8, r8) = rectifier.rectify_pair(&left, &right, border).unwrap();
+        let border16 = match border {
+            Border::Constant(p) => Border::Constant(Luma([p[0] as u16])),
+            Border::Replicate => Border::Replicate,
+        };
+        let (l16, r16) = rectifier.rectify_pair(&wide(&left), &wide(&right), border16).unwrap();
+        for (a, b) in [(&l8, &l16), (&r8, &r16)] {
+            let differing = a.as_raw().iter().zip(b.as_raw()).filter(|&(&x, &y)| x as u16 != y).count();
+            assert_eq!(differing, 0, "{differing} pixels differ ({border:?})");
+        }
+    }
+}
