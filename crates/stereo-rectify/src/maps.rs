@@ -99,31 +99,22 @@ pub fn init_undistort_rectify_map(
     let mut map_x = vec![0f32; n];
     let mut map_y = vec![0f32; n];
     let step = ir.x_axis; // d(ray)/du
-    // Written as one straight-line loop per row (no calls, a select for invalid pixels) so the
-    // compiler vectorises it; the formula is camera-model's `Distortion::distort`.
-    map_x.par_chunks_mut(width as usize).zip(map_y.par_chunks_mut(width as usize)).enumerate().for_each(
-        |(v, (mx, my))| {
-            let base = ir * DVec3::new(0.0, v as f64, 1.0);
-            for (u, (ox, oy)) in mx.iter_mut().zip(my.iter_mut()).enumerate() {
-                let h = base + step * u as f64;
-                let iw = 1.0 / h.z;
-                let (x, y) = (h.x * iw, h.y * iw);
-                let (x2, y2, xy) = (x * x, y * y, x * y);
-                let r2 = x2 + y2;
-                let mut radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
-                if rational {
-                    radial /= 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
-                }
-                let xd = x * radial + 2.0 * p1 * xy + p2 * (r2 + 2.0 * x2);
-                let yd = y * radial + p1 * (r2 + 2.0 * y2) + 2.0 * p2 * xy;
-                let su = k.fx * xd + k.skew * yd + k.cx;
-                let sv = k.fy * yd + k.cy;
-                let valid = h.z > 0.0;
-                *ox = if valid { su as f32 } else { f32::NAN };
-                *oy = if valid { sv as f32 } else { f32::NAN };
-            }
-        },
-    );
+    let params = MapRow {
+        ir,
+        step,
+        fx: k.fx,
+        fy: k.fy,
+        skew: k.skew,
+        cx: k.cx,
+        cy: k.cy,
+        dist: [k1, k2, p1, p2, k3, k4, k5, k6],
+        rational,
+    };
+    map_x
+        .par_chunks_mut(width as usize)
+        .zip(map_y.par_chunks_mut(width as usize))
+        .enumerate()
+        .for_each(|(v, (mx, my))| params.row(v, mx, my));
     Ok(RemapTable { width, height, map_x, map_y })
 }
 
@@ -149,4 +140,60 @@ pub fn init_homography_map(h: DMat3, width: u32, height: u32) -> Result<RemapTab
         let q = ih * DVec3::new(u as f64, v as f64, 1.0);
         (q.z != 0.0).then(|| DVec2::new(q.x / q.z, q.y / q.z))
     })
+}
+
+/// The per-row computation of [`init_undistort_rectify_map`].
+struct MapRow {
+    ir: DMat3,
+    step: DVec3,
+    fx: f64,
+    fy: f64,
+    skew: f64,
+    cx: f64,
+    cy: f64,
+    dist: [f64; 8],
+    rational: bool,
+}
+
+impl MapRow {
+    /// Row `v`. Written as one straight-line loop (no calls, a select for invalid pixels) so the
+    /// compiler vectorises it, and run through an AVX2 copy when the CPU has it (4 lanes of f64
+    /// instead of the baseline's 2; same operations, so the same bits); the formula is
+    /// camera-model's `Distortion::distort`.
+    fn row(&self, v: usize, mx: &mut [f32], my: &mut [f32]) {
+        #[inline(always)]
+        fn imp(p: &MapRow, v: usize, mx: &mut [f32], my: &mut [f32]) {
+            let [k1, k2, p1, p2, k3, k4, k5, k6] = p.dist;
+            let base = p.ir * DVec3::new(0.0, v as f64, 1.0);
+            for (u, (ox, oy)) in mx.iter_mut().zip(my.iter_mut()).enumerate() {
+                let h = base + p.step * u as f64;
+                let iw = 1.0 / h.z;
+                let (x, y) = (h.x * iw, h.y * iw);
+                let (x2, y2, xy) = (x * x, y * y, x * y);
+                let r2 = x2 + y2;
+                let mut radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+                if p.rational {
+                    radial /= 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
+                }
+                let xd = x * radial + 2.0 * p1 * xy + p2 * (r2 + 2.0 * x2);
+                let yd = y * radial + p1 * (r2 + 2.0 * y2) + 2.0 * p2 * xy;
+                let su = p.fx * xd + p.skew * yd + p.cx;
+                let sv = p.fy * yd + p.cy;
+                let valid = h.z > 0.0;
+                *ox = if valid { su as f32 } else { f32::NAN };
+                *oy = if valid { sv as f32 } else { f32::NAN };
+            }
+        }
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2")]
+        fn avx2(p: &MapRow, v: usize, mx: &mut [f32], my: &mut [f32]) {
+            imp(p, v, mx, my)
+        }
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2.
+            return unsafe { avx2(self, v, mx, my) };
+        }
+        imp(self, v, mx, my)
+    }
 }

@@ -338,18 +338,44 @@ impl FastBilinear {
         let mut index = vec![u32::MAX; table.map_x.len()];
         let mut frac = vec![0u16; table.map_x.len()];
         let usable = (source_width as u64) * (source_height as u64) < u32::MAX as u64;
-        index.par_iter_mut().zip(frac.par_iter_mut()).enumerate().for_each(|(i, (k, f))| {
-            let (x, y) = (table.map_x[i], table.map_y[i]);
-            if usable && x >= 0.0 && y >= 0.0 && x < last_x && y < last_y {
-                let (xi, yi) = (x as u32, y as u32); // truncation = floor for x ≥ 0
-                let fx = (((x - xi as f32) * 256.0 + 0.5) as u32).min(255);
-                let fy = (((y - yi as f32) * 256.0 + 0.5) as u32).min(255);
-                *k = yi * source_width + xi;
-                *f = (fx | (fy << 8)) as u16;
-            }
-        });
+        if usable && table.width > 0 {
+            let w = table.width as usize;
+            index.par_chunks_mut(w).zip(frac.par_chunks_mut(w)).enumerate().for_each(|(v, (k, f))| {
+                let (mx, my) = (&table.map_x[v * w..(v + 1) * w], &table.map_y[v * w..(v + 1) * w]);
+                fast_table_row(mx, my, k, f, source_width, last_x, last_y);
+            });
+        }
         Self { source_size: (source_width, source_height), index, frac }
     }
+}
+
+/// One row of [`FastBilinear`]: branch-free (selects) so it vectorises, through an AVX2 copy
+/// when the CPU has it.
+fn fast_table_row(mx: &[f32], my: &[f32], index: &mut [u32], frac: &mut [u16], sw: u32, last_x: f32, last_y: f32) {
+    #[inline(always)]
+    fn imp(mx: &[f32], my: &[f32], index: &mut [u32], frac: &mut [u16], sw: u32, last_x: f32, last_y: f32) {
+        for (((&x, &y), k), f) in mx.iter().zip(my).zip(index.iter_mut()).zip(frac.iter_mut()) {
+            // false for NaN
+            let inside = x >= 0.0 && y >= 0.0 && x < last_x && y < last_y;
+            // truncation = floor for x ≥ 0 (NaN → 0); i32 conversions vectorise, u32 ones do not
+            let (xi, yi) = (x as i32, y as i32);
+            let fx = (((x - xi as f32) * 256.0 + 0.5) as i32).min(255) as u32;
+            let fy = (((y - yi as f32) * 256.0 + 0.5) as i32).min(255) as u32;
+            *k = if inside { (yi as u32).wrapping_mul(sw).wrapping_add(xi as u32) } else { u32::MAX };
+            *f = if inside { (fx | (fy << 8)) as u16 } else { 0 };
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn avx2(mx: &[f32], my: &[f32], index: &mut [u32], frac: &mut [u16], sw: u32, last_x: f32, last_y: f32) {
+        imp(mx, my, index, frac, sw, last_x, last_y)
+    }
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2.
+        return unsafe { avx2(mx, my, index, frac, sw, last_x, last_y) };
+    }
+    imp(mx, my, index, frac, sw, last_x, last_y)
 }
 
 /// Round half to even (OpenCV's `cvRound`) of `v ≥ −0.5` without a libm call.
