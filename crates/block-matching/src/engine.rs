@@ -548,6 +548,29 @@ fn check_pair(lw: u32, lh: u32, rw: u32, rh: u32) -> Result<(usize, usize)> {
     Ok((lw as usize, lh as usize))
 }
 
+/// Runs `band(scratch, rows, y0, y1)` on every row band in parallel, each with its own scratch
+/// (grown to `nbands` entries and kept for the next frame); returns the per-band statistics.
+fn for_each_band<S: Default + Send>(
+    sh: &Shared,
+    scratch: &mut Vec<S>,
+    nbands: usize,
+    band_rows: usize,
+    data: &mut [f32],
+    band: impl Fn(&mut S, &mut [f32], usize, usize) -> MatchStats + Sync,
+) -> Vec<MatchStats> {
+    if scratch.len() < nbands {
+        scratch.resize_with(nbands, S::default);
+    }
+    data.par_chunks_mut(band_rows * sh.w)
+        .zip(scratch.par_iter_mut())
+        .enumerate()
+        .map(|(b, (rows, sc))| {
+            let y0 = b * band_rows;
+            band(sc, rows, y0, (y0 + band_rows).min(sh.h))
+        })
+        .collect()
+}
+
 #[cfg(target_arch = "x86_64")]
 fn run_bands16(
     sh: &Shared,
@@ -557,21 +580,12 @@ fn run_bands16(
     data: &mut [f32],
     isa: crate::sad16::Isa,
 ) -> Vec<MatchStats> {
-    if scratch.len() < nbands {
-        scratch.resize_with(nbands, Default::default);
-    }
-    data.par_chunks_mut(band_rows * sh.w)
-        .zip(scratch.par_iter_mut())
-        .enumerate()
-        .map(|(b, (rows, sc))| {
-            sc.resize(sh.w, sh.r, sh.nd, isa.lanes());
-            let y0 = b * band_rows;
-            let y1 = (y0 + band_rows).min(sh.h);
-            // SAFETY: `isa` comes from `SimdLevel::detect()`, `sc` was just resized for it, and
-            // the caller checked that every window sum fits below 0xFFFF.
-            unsafe { crate::sad16::band(isa, sh, sc, rows, y0, y1) }
-        })
-        .collect()
+    for_each_band(sh, scratch, nbands, band_rows, data, |sc, rows, y0, y1| {
+        sc.resize(sh.w, sh.r, sh.nd, isa.lanes());
+        // SAFETY: `isa` comes from `SimdLevel::detect()`, `sc` was just resized for it, and the
+        // caller checked that every window sum fits below 0xFFFF.
+        unsafe { crate::sad16::band(isa, sh, sc, rows, y0, y1) }
+    })
 }
 
 fn run_bands<A: Acc>(
@@ -583,23 +597,14 @@ fn run_bands<A: Acc>(
     cost: CostFunction,
     simd: SimdLevel,
 ) -> Vec<MatchStats> {
-    if scratch.len() < nbands {
-        scratch.resize_with(nbands, Scratch::default);
-    }
-    data.par_chunks_mut(band_rows * sh.w)
-        .zip(scratch.par_iter_mut())
-        .enumerate()
-        .map(|(b, (rows, sc))| {
-            sc.resize(sh.w, sh.r, sh.nd);
-            let y0 = b * band_rows;
-            let y1 = (y0 + band_rows).min(sh.h);
-            match cost {
-                CostFunction::Sad => dispatch::<A, K_SAD>(sh, sc, rows, y0, y1, simd),
-                CostFunction::Ssd => dispatch::<A, K_SSD>(sh, sc, rows, y0, y1, simd),
-                CostFunction::Ncc => dispatch::<A, K_NCC>(sh, sc, rows, y0, y1, simd),
-            }
-        })
-        .collect()
+    for_each_band(sh, scratch, nbands, band_rows, data, |sc, rows, y0, y1| {
+        sc.resize(sh.w, sh.r, sh.nd);
+        match cost {
+            CostFunction::Sad => dispatch::<A, K_SAD>(sh, sc, rows, y0, y1, simd),
+            CostFunction::Ssd => dispatch::<A, K_SSD>(sh, sc, rows, y0, y1, simd),
+            CostFunction::Ncc => dispatch::<A, K_NCC>(sh, sc, rows, y0, y1, simd),
+        }
+    })
 }
 
 fn dispatch<A: Acc, const K: u8>(
