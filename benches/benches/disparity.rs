@@ -57,7 +57,7 @@ fn bench(c: &mut Criterion) {
         if quick { &[CostFunction::Sad] } else { &[CostFunction::Sad, CostFunction::Ssd, CostFunction::Ncc] };
     for (name, left, right, nd) in &inputs {
         let mut group = c.benchmark_group(format!("disparity/{name}x{nd}"));
-        group.sample_size(10).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(2));
+        group.sample_size(20).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(3));
         group.throughput(Throughput::Elements(left.width() as u64 * left.height() as u64 * *nd as u64));
         for &cost in costs {
             for block in [5usize, 9, 15] {
