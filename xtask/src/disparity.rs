@@ -32,7 +32,8 @@ pub struct Args {
     /// Smallest disparity searched.
     #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     min_disparity: i32,
-    /// Prefilter: xsobel (default, cap 31), norm (9x9, cap 31) or none.
+    /// Prefilter: xsobel (default, cap 31), norm (9x9, cap 31), rank (9x9 rank transform; rank:N
+    /// for N x N) or none.
     #[arg(long, default_value = "xsobel")]
     prefilter: String,
     /// Uniqueness ratio in percent (default: the crate's default).
@@ -109,11 +110,19 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         "ncc" => CostFunction::Ncc,
         other => anyhow::bail!("--cost must be sad, ssd or ncc (got {other:?})"),
     };
-    let prefilter = match args.prefilter.to_ascii_lowercase().as_str() {
+    let lower = args.prefilter.to_ascii_lowercase();
+    let prefilter = match lower.as_str() {
+        p if p.starts_with("rank:") => {
+            let size = p["rank:".len()..]
+                .parse()
+                .map_err(|_| anyhow::anyhow!("--prefilter rank:N needs an odd N in 3..=15 (got {p:?})"))?;
+            Prefilter::Rank { size }
+        }
         "xsobel" => Prefilter::XSobel { cap: 31 },
         "norm" => Prefilter::NormalizedResponse { size: 9, cap: 31 },
+        "rank" => Prefilter::Rank { size: 9 },
         "none" => Prefilter::None,
-        other => anyhow::bail!("--prefilter must be xsobel, norm or none (got {other:?})"),
+        other => anyhow::bail!("--prefilter must be xsobel, norm, rank, rank:N or none (got {other:?})"),
     };
     anyhow::ensure!(args.runs >= 1, "--runs must be at least 1");
     let d = MatcherConfig::default();

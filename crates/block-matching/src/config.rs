@@ -34,6 +34,16 @@ pub enum Prefilter {
         /// Clipping value in 8-bit grey levels (scaled by 257 for 16-bit input).
         cap: u16,
     },
+    /// Rank transform (Zabih & Woodfill 1994): each pixel becomes the number of pixels of its
+    /// `size x size` neighbourhood (clamp-to-edge) darker than it, `0..size² − 1`. Invariant to
+    /// any monotonic change of brightness (a gain and an offset between the cameras), and the
+    /// small values keep SAD on the 16-bit vectorised path for every window. Middlebury, SAD
+    /// 9x9, bad-2 with missing = bad (tsukuba / venus / teddy): 9x9 ranks 7.42 / 3.59 / 7.55,
+    /// 5x5 ranks 10.15 / 4.69 / 8.48, against 5.90 / 5.06 / 11.08 with the default x-Sobel.
+    Rank {
+        /// Neighbourhood of the transform (odd, 3..=15).
+        size: usize,
+    },
 }
 
 impl Default for Prefilter {
@@ -164,6 +174,11 @@ impl MatcherConfig {
                 }
                 if size.is_multiple_of(2) || !(3..=31).contains(&size) {
                     return Err(invalid("prefilter.size", size, "must be odd, 3..=31"));
+                }
+            }
+            Prefilter::Rank { size } => {
+                if size.is_multiple_of(2) || !(3..=15).contains(&size) {
+                    return Err(invalid("prefilter.size", size, "must be odd, 3..=15"));
                 }
             }
         }

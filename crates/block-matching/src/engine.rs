@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{CostFunction, MatcherConfig, Prefilter, Subpixel};
 use crate::error::{BlockMatchingError, Result};
-use crate::prefilter::{box_sum, normalized_response, texture_mask_into, x_sobel_into};
+use crate::prefilter::{box_sum, normalized_response, rank_transform, texture_mask_into, x_sobel_into};
 use crate::speckle::filter_speckles;
 
 /// A 16-bit grayscale image (`image` crate buffer).
@@ -426,6 +426,11 @@ impl BlockMatcher {
         rayon::join(left_chain, right_prefilter);
         match cfg.prefilter {
             Prefilter::None | Prefilter::XSobel { .. } => {}
+            Prefilter::Rank { size } => {
+                let (l, r) =
+                    rayon::join(|| rank_transform(&self.left, w, h, size), || rank_transform(&self.right, w, h, size));
+                (self.pre_left, self.pre_right) = (l, r);
+            }
             Prefilter::NormalizedResponse { size, cap } => {
                 self.pre_left = normalized_response(&self.left, w, h, size, cap as u32 * scale);
                 self.pre_right = normalized_response(&self.right, w, h, size, cap as u32 * scale);
@@ -449,6 +454,7 @@ impl BlockMatcher {
         let maxv = match cfg.prefilter {
             // the prefilters' output range
             Prefilter::XSobel { cap } | Prefilter::NormalizedResponse { cap, .. } => 2 * cap as u64 * scale as u64,
+            Prefilter::Rank { size } => (size * size - 1) as u64,
             Prefilter::None => left.iter().chain(right).copied().max().unwrap_or(0) as u64,
         };
         let max_term = if cfg.cost == CostFunction::Sad { maxv } else { maxv * maxv };

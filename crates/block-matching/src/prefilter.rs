@@ -150,6 +150,44 @@ pub fn texture_mask_into(
     });
 }
 
+/// Rank transform: for every pixel, the number of pixels of its `size x size` neighbourhood
+/// (clamp-to-edge) strictly darker than it, in `0..size² − 1`. Rows in parallel; each row is
+/// `size²` vectorised compare-and-count passes over shifted padded rows.
+pub fn rank_transform(src: &[u16], width: usize, height: usize, size: usize) -> Vec<u16> {
+    let mut out = vec![0u16; width * height];
+    if width == 0 || height == 0 {
+        return out;
+    }
+    let r = size / 2;
+    let clamp_y = |y: isize| y.clamp(0, height as isize - 1) as usize;
+    out.par_chunks_mut(width * ROWS_PER_TASK).enumerate().for_each(|(t, block)| {
+        let mut pad = vec![0u16; width + 2 * r];
+        for (i, o) in block.chunks_exact_mut(width).enumerate() {
+            let y = t * ROWS_PER_TASK + i;
+            let centre = &src[y * width..][..width];
+            o.fill(0);
+            for dy in -(r as isize)..=r as isize {
+                let row = &src[clamp_y(y as isize + dy) * width..][..width];
+                pad[..r].fill(row[0]);
+                pad[r..r + width].copy_from_slice(row);
+                pad[r + width..].fill(row[width - 1]);
+                for k in 0..size {
+                    count_darker(o, centre, &pad[k..k + width]);
+                }
+            }
+        }
+    });
+    out
+}
+
+with_avx2! {
+    fn count_darker(count: &mut [u16], centre: &[u16], other: &[u16]) {
+        for ((c, &v), &o) in count.iter_mut().zip(centre).zip(other) {
+            *c += (o < v) as u16;
+        }
+    }
+}
+
 /// Rows per rayon task of the prefilters and box sums (small images stay on one task).
 const ROWS_PER_TASK: usize = 32;
 

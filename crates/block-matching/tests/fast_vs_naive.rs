@@ -47,6 +47,24 @@ fn norm_naive(src: &[u16], w: usize, h: usize, size: usize, cap: i64) -> Vec<u16
     out
 }
 
+fn rank_naive(src: &[u16], w: usize, h: usize, size: usize) -> Vec<u16> {
+    let r = (size / 2) as i64;
+    let mut out = vec![0; w * h];
+    for y in 0..h as i64 {
+        for x in 0..w as i64 {
+            let c = src[y as usize * w + x as usize];
+            let mut n = 0;
+            for dy in -r..=r {
+                for dx in -r..=r {
+                    n += (src[clampi(y + dy, h) * w + clampi(x + dx, w)] < c) as u16;
+                }
+            }
+            out[y as usize * w + x as usize] = n;
+        }
+    }
+    out
+}
+
 /// Naive matcher: returns the disparity map (NaN invalid), without speckle filtering.
 fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, scale: i64) -> Vec<f32> {
     let r = (cfg.block_size / 2) as i64;
@@ -77,6 +95,7 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
         Prefilter::NormalizedResponse { size, cap } => {
             (norm_naive(left, w, h, size, cap as i64 * scale), norm_naive(right, w, h, size, cap as i64 * scale))
         }
+        Prefilter::Rank { size } => (rank_naive(left, w, h, size), rank_naive(right, w, h, size)),
     };
     let pl = |x: i64, y: i64| l[clampi(y, h) * w + clampi(x, w)] as i64;
     let pr = |x: i64, y: i64| rt[clampi(y, h) * w + clampi(x, w)] as i64;
@@ -273,7 +292,8 @@ fn config_strategy() -> impl Strategy<Value = MatcherConfig> {
         prop_oneof![
             Just(Prefilter::None),
             (1u16..40).prop_map(|cap| Prefilter::XSobel { cap }),
-            (1usize..=3, 1u16..40).prop_map(|(s, cap)| Prefilter::NormalizedResponse { size: 2 * s + 1, cap })
+            (1usize..=3, 1u16..40).prop_map(|(s, cap)| Prefilter::NormalizedResponse { size: 2 * s + 1, cap }),
+            (1usize..=3).prop_map(|s| Prefilter::Rank { size: 2 * s + 1 })
         ],
         prop_oneof![Just(0u32), Just(10), Just(200)],
         prop_oneof![Just(0u32), Just(5), Just(30)],
@@ -331,10 +351,19 @@ proptest! {
 
 #[test]
 fn fast_equals_naive_on_a_larger_image_with_many_bands() {
-    // enough rows for several bands with 2 threads, the full default option set minus speckle
+    // enough rows for several bands with 2 threads, the full default option set minus speckle,
+    // and the rank prefilter
     for cost in [CostFunction::Sad, CostFunction::Ssd, CostFunction::Ncc] {
-        let cfg = MatcherConfig { cost, num_disparities: 24, speckle_window_size: 0, ..MatcherConfig::default() };
-        run_case(7, 64, 160, 255, false, cfg, 2);
+        for prefilter in [Prefilter::default(), Prefilter::Rank { size: 5 }] {
+            let cfg = MatcherConfig {
+                cost,
+                prefilter,
+                num_disparities: 24,
+                speckle_window_size: 0,
+                ..MatcherConfig::default()
+            };
+            run_case(7, 64, 160, 255, false, cfg, 2);
+        }
     }
 }
 

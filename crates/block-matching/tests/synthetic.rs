@@ -85,3 +85,22 @@ fn ncc_is_invariant_to_right_gain_and_offset_while_sad_is_not() {
     assert!((n1 - n0).abs() < 1.0, "NCC bad-1 changed by {:.2} points", n1 - n0);
     assert!(s1 - s0 > 5.0, "SAD on raw intensities should suffer from the gain: {s0:.2} → {s1:.2}");
 }
+
+#[test]
+fn rank_prefilter_makes_sad_invariant_to_right_gain_and_offset() {
+    // the rank transform depends only on the order of intensities, which a gain and an offset
+    // keep (up to rounding and the 255 clip): SAD on ranks behaves like NCC here, at SAD's speed
+    let plain = scene(1.0, 0.0);
+    let lit = scene(1.3, 20.0);
+    let mask: Vec<bool> = plain.occluded.iter().map(|&o| !o).collect();
+    let bad1 = |s: &synthetic::StereoScene, cfg: &MatcherConfig| {
+        let d = run(s, cfg.clone());
+        evaluate(&d, &s.disparity, Some(&mask), &[1.0]).unwrap().bad_at(1.0).unwrap()
+    };
+    let rank =
+        MatcherConfig { num_disparities: 32, prefilter: Prefilter::Rank { size: 5 }, ..MatcherConfig::default() };
+    let (r0, r1) = (bad1(&plain, &rank), bad1(&lit, &rank));
+    println!("bad-1 plain → gain 1.3 offset +20: SAD on 5x5 ranks {r0:.2} → {r1:.2}");
+    assert!((r1 - r0).abs() < 1.0, "rank SAD bad-1 changed by {:.2} points", r1 - r0);
+    assert!(r0 < 15.0, "rank SAD bad-1 {r0:.2} % on the plain scene");
+}
