@@ -735,7 +735,18 @@ enum Decision {
 #[inline(always)]
 fn decide<C: Cost>(c: &[C], lo: usize, hi: usize, uniq: u32, subpixel: Subpixel) -> Decision {
     let s = &c[lo..=hi];
-    let m = s.iter().fold(C::MAX, |a, &v| a.min2(v));
+    // minimum over 8 interleaved accumulators: the order does not change a minimum of non-NaN
+    // costs, and it breaks the sequential dependency (which bound NCC's f64 costs to one
+    // compare per 4 cycles) so the loop vectorises
+    let mut acc = [C::MAX; 8];
+    let chunks = s.chunks_exact(8);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for (a, &v) in acc.iter_mut().zip(c) {
+            *a = a.min2(v);
+        }
+    }
+    let m = rest.iter().chain(&acc).fold(C::MAX, |a, &v| a.min2(v));
     let kb = lo + s.iter().zip(0u32..).map(|(&v, i)| if v == m { i } else { u32::MAX }).min().unwrap_or(0) as usize;
     if uniq > 0 && !unique(c, lo, hi, kb, uniq) {
         return Decision::NotUnique;
@@ -862,8 +873,10 @@ fn row_decisions<A: Acc, const K: u8>(
             let n = sh.n;
             let srs = &sc.sr_rev[j0..][..len];
             let irs = &sc.ir_rev[j0..][..len];
-            for (t, cf) in sc.costf[lo..=hi].iter_mut().enumerate() {
-                *cf = ncc_cost(n, sc.boxs[lo + t].to_f64(), sl, srs[t], il, irs[t]);
+            // zipped slices (no index checks) so the conversion and arithmetic vectorise
+            let costs = sc.costf[lo..=hi].iter_mut().zip(&sc.boxs[lo..=hi]).zip(srs.iter().zip(irs));
+            for ((cf, &b), (&sr, &ir)) in costs {
+                *cf = ncc_cost(n, b.to_f64(), sl, sr, il, ir);
             }
             right_update(&sc.costf[lo..=hi], &mut sc.rcf[j0..][..len], &mut sc.rk[j0..][..len], lo);
             decide(&sc.costf, lo, hi, sh.uniq, sh.subpixel)
