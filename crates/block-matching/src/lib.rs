@@ -1,5 +1,6 @@
 //! Dense disparity for rectified stereo pairs by block matching: SAD, SSD and zero-mean NCC over
-//! square windows (3..=31), on 8- or 16-bit images, with OpenCV-style prefilters, winner-take-all
+//! square windows (3..=31), on 8- or 16-bit images, with OpenCV-style prefilters or a rank
+//! transform (gain- and offset-invariant matching at SAD's speed), winner-take-all
 //! over `[min_disparity, min_disparity + num_disparities)`, sub-pixel refinement (equiangular for
 //! SAD, parabola otherwise), texture threshold, uniqueness ratio, left–right check and speckle
 //! filter. Invalid pixels are NaN in the [`camera_model::DisparityMap`] (never a silent 0).
