@@ -53,6 +53,12 @@ impl Rectifier {
     /// Chooses the interpolation of [`Self::rectify_pair`].
     pub fn with_interpolation(mut self, interpolation: Interpolation) -> Self {
         self.interpolation = interpolation;
+        if interpolation == Interpolation::Nearest && self.left_fast.nearest.is_none() {
+            // nearest-neighbour offsets, built once (bilinear users do not pay for them)
+            let (left, right) = (&self.left_map, &self.right_map);
+            let (l, r) = (self.left_fast, self.right_fast);
+            (self.left_fast, self.right_fast) = rayon::join(|| l.with_nearest(left), || r.with_nearest(right));
+        }
         self
     }
 

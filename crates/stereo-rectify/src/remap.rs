@@ -161,6 +161,17 @@ where
                 }
             }
             (Interpolation::Bilinear, _) => ctx.bilinear_row(mx, my, row),
+            (Interpolation::Nearest, Some(FastBilinear { nearest: Some(near), source_size, .. }))
+                if *source_size == (sw, sh) =>
+            {
+                let near = &near[v * w..(v + 1) * w];
+                match c {
+                    1 => ctx.nearest_fast_row::<1>(near, mx, my, row),
+                    2 => ctx.nearest_fast_row::<2>(near, mx, my, row),
+                    3 => ctx.nearest_fast_row::<3>(near, mx, my, row),
+                    _ => ctx.nearest_fast_row::<4>(near, mx, my, row),
+                }
+            }
             (Interpolation::Nearest, _) => match c {
                 1 => ctx.nearest_row::<1>(mx, my, row),
                 2 => ctx.nearest_row::<2>(mx, my, row),
@@ -299,23 +310,41 @@ impl<S: Sample> Ctx<'_, S> {
 
     #[inline(always)]
     fn nearest_row<const C: usize>(&self, mx: &[f32], my: &[f32], row: &mut [S]) {
-        let (last_x, last_y) = ((self.sw - 1) as f32, (self.sh - 1) as f32);
-        let lim_x = (self.sw + 2) as f32;
-        let lim_y = (self.sh + 2) as f32;
         for (dst, (&x, &y)) in row.chunks_exact_mut(C).zip(mx.iter().zip(my)) {
-            // inside (false for NaN)
-            if x >= -0.5 && y >= -0.5 && x < last_x + 0.5 && y < last_y + 0.5 {
-                let (xr, yr) = (round_half_even(x), round_half_even(y));
-                let s = (yr * self.sw as usize + xr) * C;
-                dst.copy_from_slice(&self.raw[s..s + C]);
-            } else if !(x.is_finite() && y.is_finite()) {
-                dst.copy_from_slice(self.fill);
+            self.nearest_px::<C>(x, y, dst);
+        }
+    }
+
+    /// [`Self::nearest_row`] with the precomputed source offsets of [`FastBilinear::nearest`]
+    /// (`u32::MAX`: border handling per pixel).
+    #[inline(always)]
+    fn nearest_fast_row<const C: usize>(&self, near: &[u32], mx: &[f32], my: &[f32], row: &mut [S]) {
+        for (i, (dst, &k)) in row.chunks_exact_mut(C).zip(near).enumerate() {
+            if k == u32::MAX {
+                self.nearest_px::<C>(mx[i], my[i], dst);
             } else {
-                let xi = x.clamp(-3.0, lim_x).round_ties_even() as isize;
-                let yi = y.clamp(-3.0, lim_y).round_ties_even() as isize;
-                for ch in 0..C {
-                    dst[ch] = S::from_f32(self.at(xi, yi, ch));
-                }
+                let o = k as usize * C;
+                dst.copy_from_slice(&self.raw[o..o + C]);
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn nearest_px<const C: usize>(&self, x: f32, y: f32, dst: &mut [S]) {
+        let (last_x, last_y) = ((self.sw - 1) as f32, (self.sh - 1) as f32);
+        // inside (false for NaN)
+        if x >= -0.5 && y >= -0.5 && x < last_x + 0.5 && y < last_y + 0.5 {
+            let (xr, yr) = (round_half_even(x), round_half_even(y));
+            let s = (yr * self.sw as usize + xr) * C;
+            dst.copy_from_slice(&self.raw[s..s + C]);
+        } else if !(x.is_finite() && y.is_finite()) {
+            dst.copy_from_slice(self.fill);
+        } else {
+            let (lim_x, lim_y) = ((self.sw + 2) as f32, (self.sh + 2) as f32);
+            let xi = x.clamp(-3.0, lim_x).round_ties_even() as isize;
+            let yi = y.clamp(-3.0, lim_y).round_ties_even() as isize;
+            for ch in 0..C {
+                dst[ch] = S::from_f32(self.at(xi, yi, ch));
             }
         }
     }
@@ -330,6 +359,9 @@ pub(crate) struct FastBilinear {
     pub source_size: (u32, u32),
     pub index: Vec<u32>,
     pub frac: Vec<u16>,
+    /// Nearest-neighbour source pixel of every output pixel whose rounded position is inside
+    /// (`u32::MAX`: border handling), built on demand by [`FastBilinear::with_nearest`].
+    pub nearest: Option<Vec<u32>>,
 }
 
 impl FastBilinear {
@@ -345,7 +377,27 @@ impl FastBilinear {
                 fast_table_row(mx, my, k, f, source_width, last_x, last_y);
             });
         }
-        Self { source_size: (source_width, source_height), index, frac }
+        Self { source_size: (source_width, source_height), index, frac, nearest: None }
+    }
+}
+
+impl FastBilinear {
+    /// Adds the nearest-neighbour offsets of `table` (the positions `remap`'s nearest path
+    /// rounds inside the source, half to even).
+    pub(crate) fn with_nearest(mut self, table: &RemapTable) -> Self {
+        let (sw, sh) = self.source_size;
+        let (last_x, last_y) = (sw as f32 - 1.0, sh as f32 - 1.0);
+        let usable = (sw as u64) * (sh as u64) < u32::MAX as u64;
+        let mut near = vec![u32::MAX; table.map_x.len()];
+        if usable {
+            near.par_iter_mut().zip(table.map_x.par_iter().zip(&table.map_y)).for_each(|(k, (&x, &y))| {
+                if x >= -0.5 && y >= -0.5 && x < last_x + 0.5 && y < last_y + 0.5 {
+                    *k = (round_half_even(y) * sw as usize + round_half_even(x)) as u32;
+                }
+            });
+        }
+        self.nearest = Some(near);
+        self
     }
 }
 

@@ -219,5 +219,10 @@ fn vectorised_8_bit_rectification_equals_the_16_bit_scalar_path() {
             let differing = a.as_raw().iter().zip(b.as_raw()).filter(|&(&x, &y)| x as u16 != y).count();
             assert_eq!(differing, 0, "{differing} pixels differ ({border:?})");
         }
+        // the nearest-neighbour offsets precomputed by the rectifier give `remap`'s nearest
+        let nearest = rectifier.clone().with_interpolation(Interpolation::Nearest);
+        let (ln, rn) = nearest.rectify_pair(&left, &right, border).unwrap();
+        assert_eq!(ln, remap(&left, rectifier.left_map(), Interpolation::Nearest, border).unwrap());
+        assert_eq!(rn, remap(&right, rectifier.right_map(), Interpolation::Nearest, border).unwrap());
     }
 }
