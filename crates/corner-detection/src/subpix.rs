@@ -373,15 +373,17 @@ pub(crate) fn saddle_one(
                 }
                 let v = data[(y * w + x) as usize] as f64;
                 let r = [dx * dx, dx * dy, dy * dy, dx, dy, 1.0];
+                // upper triangle only (mirrored below after the loop)
                 for i in 0..6 {
-                    for j in 0..6 {
-                        ata[i][j] += wt * r[i] * r[j];
+                    let wr = wt * r[i];
+                    for j in i..6 {
+                        ata[i][j] += wr * r[j];
                     }
-                    atb[i] += wt * r[i] * v;
+                    atb[i] += wr * v;
                 }
             }
         }
-        let ata = faer::Mat::<f64>::from_fn(6, 6, |i, j| ata[i][j]);
+        let ata = faer::Mat::<f64>::from_fn(6, 6, |i, j| if i <= j { ata[i][j] } else { ata[j][i] });
         let atb = faer::Mat::<f64>::from_fn(6, 1, |i, _| atb[i]);
         let Ok(llt) = ata.llt(faer::Side::Lower) else {
             ok = false;
