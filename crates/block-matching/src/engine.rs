@@ -282,7 +282,9 @@ pub struct BlockMatcher {
     scratch32: Vec<Scratch<u32>>,
     scratch64: Vec<Scratch<u64>>,
     #[cfg(target_arch = "x86_64")]
-    scratch16: Vec<crate::sad16::Scratch16>,
+    simd16: Vec<crate::simd::Scratch<u16>>,
+    #[cfg(target_arch = "x86_64")]
+    simd32: Vec<crate::simd::Scratch<u32>>,
     stats: MatchStats,
 }
 
@@ -315,7 +317,9 @@ impl BlockMatcher {
             scratch32: Vec::new(),
             scratch64: Vec::new(),
             #[cfg(target_arch = "x86_64")]
-            scratch16: Vec::new(),
+            simd16: Vec::new(),
+            #[cfg(target_arch = "x86_64")]
+            simd32: Vec::new(),
             stats: MatchStats::default(),
         })
     }
@@ -486,18 +490,38 @@ impl BlockMatcher {
         let simd = self.simd;
         let data = &mut out.data;
         let mut stats = MatchStats::default();
-        // the 16-bit SAD path: every window sum ≤ 65534 (0xFFFF is its "no candidate" sentinel)
+        // the vectorised kernels: 16-bit lanes when every SAD window sum is ≤ 65534, 32-bit lanes
+        // when every SAD / SSD window sum is ≤ 2^32 − 2 (the lane maximum is the "no candidate"
+        // sentinel)
         #[cfg(target_arch = "x86_64")]
-        let isa16 = match simd {
-            _ if cfg.cost != CostFunction::Sad || n * maxv > u16::MAX as u64 - 1 => None,
-            SimdLevel::Avx512 => Some(crate::sad16::Isa::Avx512Vl),
-            SimdLevel::Avx2 => Some(crate::sad16::Isa::Avx2),
-            SimdLevel::Scalar => None,
+        let kernel = {
+            let isa = match simd {
+                SimdLevel::Avx512 => Some(crate::simd::Isa::Avx512Vl),
+                SimdLevel::Avx2 => Some(crate::simd::Isa::Avx2),
+                SimdLevel::Scalar => None,
+            };
+            let fits = |limit: u64| n.checked_mul(max_term).is_some_and(|s| s < limit);
+            match (isa, cfg.cost) {
+                (Some(isa), CostFunction::Sad) if fits(u16::MAX as u64) => Some((isa, SimdKernel::Lanes16)),
+                (Some(isa), CostFunction::Sad) if fits(u32::MAX as u64) => {
+                    Some((isa, SimdKernel::Lanes32 { squared: false }))
+                }
+                (Some(isa), CostFunction::Ssd) if fits(u32::MAX as u64) => {
+                    Some((isa, SimdKernel::Lanes32 { squared: true }))
+                }
+                _ => None,
+            }
         };
         let mut job = || -> Vec<MatchStats> {
             #[cfg(target_arch = "x86_64")]
-            if let Some(isa) = isa16 {
-                return run_bands16(&shared, &mut self.scratch16, nbands, band_rows, data, isa);
+            match kernel {
+                Some((isa, SimdKernel::Lanes16)) => {
+                    return run_simd16(&shared, &mut self.simd16, nbands, band_rows, data, isa);
+                }
+                Some((isa, SimdKernel::Lanes32 { squared })) => {
+                    return run_simd32(&shared, &mut self.simd32, nbands, band_rows, data, isa, squared);
+                }
+                None => {}
             }
             if wide {
                 run_bands::<u64>(&shared, &mut self.scratch64, nbands, band_rows, data, cfg.cost, simd)
@@ -577,20 +601,45 @@ fn for_each_band<S: Default + Send>(
         .collect()
 }
 
+/// Which vectorised kernel runs a frame.
 #[cfg(target_arch = "x86_64")]
-fn run_bands16(
+#[derive(Debug, Clone, Copy)]
+enum SimdKernel {
+    Lanes16,
+    Lanes32 { squared: bool },
+}
+
+#[cfg(target_arch = "x86_64")]
+fn run_simd16(
     sh: &Shared,
-    scratch: &mut Vec<crate::sad16::Scratch16>,
+    scratch: &mut Vec<crate::simd::Scratch<u16>>,
     nbands: usize,
     band_rows: usize,
     data: &mut [f32],
-    isa: crate::sad16::Isa,
+    isa: crate::simd::Isa,
 ) -> Vec<MatchStats> {
     for_each_band(sh, scratch, nbands, band_rows, data, |sc, rows, y0, y1| {
-        sc.resize(sh.w, sh.r, sh.nd, isa.lanes());
+        sc.resize(sh.w, sh.r, sh.nd, crate::simd::LANES16);
         // SAFETY: `isa` comes from `SimdLevel::detect()`, `sc` was just resized for it, and the
-        // caller checked that every window sum fits below 0xFFFF.
-        unsafe { crate::sad16::band(isa, sh, sc, rows, y0, y1) }
+        // caller checked that every window sum is at most 65534.
+        unsafe { crate::simd::band16(isa, sh, sc, rows, y0, y1) }
+    })
+}
+
+#[cfg(target_arch = "x86_64")]
+fn run_simd32(
+    sh: &Shared,
+    scratch: &mut Vec<crate::simd::Scratch<u32>>,
+    nbands: usize,
+    band_rows: usize,
+    data: &mut [f32],
+    isa: crate::simd::Isa,
+    squared: bool,
+) -> Vec<MatchStats> {
+    for_each_band(sh, scratch, nbands, band_rows, data, |sc, rows, y0, y1| {
+        sc.resize(sh.w, sh.r, sh.nd, crate::simd::LANES32);
+        // SAFETY: as `run_simd16`, with every window sum at most 2^32 − 2.
+        unsafe { crate::simd::band32(isa, squared, sh, sc, rows, y0, y1) }
     })
 }
 

@@ -8,10 +8,11 @@
 //! Speed: window sums are running box sums over disparity-major column sums kept per row band in
 //! cache (the cost volume is never materialised), exact integer arithmetic, row bands in parallel
 //! with rayon, prefilter and texture passes parallel too. The cost does not grow with the window.
-//! SAD with sums that fit in 16 bits (the default x-Sobel prefilter, any window) runs a fused
-//! kernel in explicit 256-bit SIMD chosen at run time (AVX2, or AVX2 + AVX-512VL); every other
-//! case runs generic `u32`/`u64`/`f64` loops compiled for the baseline, AVX2 and AVX-512 and
-//! chosen at run time. All paths give identical results (tested against a naive reference).
+//! SAD and SSD run a fused kernel in explicit 256-bit SIMD chosen at run time (AVX2, or AVX2 +
+//! AVX-512VL), in 16-bit lanes when the window sums fit (SAD with the default x-Sobel or the rank
+//! prefilter, any window) and in 32-bit lanes otherwise; NCC (and sums beyond 32 bits) runs
+//! generic `u32`/`u64`/`f64` loops compiled for the baseline, AVX2 and AVX-512 and chosen at run
+//! time. All paths give identical results (tested against a naive reference).
 //! On Middlebury teddy (450x375, 64 disparities, 9x9, two threads) the default matcher takes
 //! about 1.4–1.5 ms on the project's 2-core machine, against OpenCV 5 `StereoBM`'s 1.8 ms side by
 //! side (`benches/benches/disparity.rs`, `../shared/reference/peer/stereo_bm.py`).
@@ -41,7 +42,7 @@ mod eval;
 mod io;
 pub mod prefilter;
 #[cfg(target_arch = "x86_64")]
-mod sad16;
+mod simd;
 mod speckle;
 
 pub use config::{CostFunction, MatcherConfig, Prefilter, Subpixel};
