@@ -34,13 +34,59 @@ use crate::engine::{MatchStats, Shared};
 pub(crate) trait Lane: Copy + Default + PartialEq + Send + Sync + 'static {
     const MAX: Self;
     const ZERO: Self;
+    /// The float type in which the sub-pixel fit is exact for these costs (`f32` below 2^24).
+    type F: Real;
     fn from_usize(v: usize) -> Self;
     fn to_u64(self) -> u64;
+}
+
+/// The float arithmetic of the sub-pixel fit.
+pub(crate) trait Real:
+    Copy
+    + PartialOrd
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<Output = Self>
+    + std::ops::Div<Output = Self>
+{
+    const ZERO: Self;
+    const ONE: Self;
+    const TWO: Self;
+    const HALF: Self;
+    fn from_u64(v: u64) -> Self;
+    fn to_f32(self) -> f32;
+}
+
+impl Real for f32 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+    const TWO: Self = 2.0;
+    const HALF: Self = 0.5;
+    fn from_u64(v: u64) -> Self {
+        v as f32
+    }
+    fn to_f32(self) -> f32 {
+        self
+    }
+}
+
+impl Real for f64 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+    const TWO: Self = 2.0;
+    const HALF: Self = 0.5;
+    fn from_u64(v: u64) -> Self {
+        v as f64
+    }
+    fn to_f32(self) -> f32 {
+        self as f32
+    }
 }
 
 impl Lane for u16 {
     const MAX: Self = u16::MAX;
     const ZERO: Self = 0;
+    type F = f32;
     fn from_usize(v: usize) -> Self {
         v as u16
     }
@@ -52,6 +98,7 @@ impl Lane for u16 {
 impl Lane for u32 {
     const MAX: Self = u32::MAX;
     const ZERO: Self = 0;
+    type F = f64;
     fn from_usize(v: usize) -> Self {
         v as u32
     }
@@ -483,7 +530,7 @@ struct Ptrs<E> {
 
 /// The decisions of one row from the winners' keys: range, texture, uniqueness (only when it
 /// is on: it needs every cost, so it was checked per pixel into `unique`), sub-pixel offset
-/// (in f64, exact for every cost). Branch-free, so the compiler vectorises it (it is inlined
+/// (in `f32` for 16-bit costs, `f64` for 32-bit ones: exact inputs either way). Branch-free, so the compiler vectorises it (it is inlined
 /// into the kernels).
 #[inline(always)]
 fn decide_row<E: Lane>(sh: &Shared, sc: &mut Scratch<E>, y: usize, stats: &mut MatchStats) {
@@ -513,12 +560,19 @@ fn decide_row<E: Lane>(sh: &Shared, sc: &mut Scratch<E>, y: usize, stats: &mut M
         low += is_low as u32;
         not_unique += is_nu as u32;
         bestv[x] = if is_none | is_low | is_nu { -1 } else { kb };
-        let (m, c, p) = (cm[x].to_u64() as f64, c0 as f64, cp[x].to_u64() as f64);
-        let den = if equi { (if m > p { m } else { p }) - c } else { m - 2.0 * c + p };
-        let fit = fit_on & (kb > lo) & (kb < hi) & (den > 0.0);
-        let q = (m - p) / (2.0 * if fit { den } else { 1.0 });
-        let q = q.clamp(-0.5, 0.5);
-        subv[x] = if fit { q as f32 } else { 0.0 };
+        // exact integers in E::F; one rounding of the quotient
+        let (m, c, p) = (E::F::from_u64(cm[x].to_u64()), E::F::from_u64(c0), E::F::from_u64(cp[x].to_u64()));
+        let den = if equi { (if m > p { m } else { p }) - c } else { m - E::F::TWO * c + p };
+        let fit = fit_on & (kb > lo) & (kb < hi) & (den > E::F::ZERO);
+        let q = (m - p) / (E::F::TWO * if fit { den } else { E::F::ONE });
+        let q = if q < E::F::ZERO - E::F::HALF {
+            E::F::ZERO - E::F::HALF
+        } else if q > E::F::HALF {
+            E::F::HALF
+        } else {
+            q
+        };
+        subv[x] = if fit { q.to_f32() } else { 0.0 };
     }
     stats.no_candidate += none as usize;
     stats.low_texture += low as usize;
