@@ -36,6 +36,11 @@ pub(crate) trait Lane: Copy + Default + PartialEq + Send + Sync + 'static {
     const ZERO: Self;
     /// The float type in which the sub-pixel fit is exact for these costs (`f32` below 2^24).
     type F: Real;
+    /// A winner `(cost, d)` packed so that the smaller key is the smaller cost, then the smaller
+    /// d: `u32` for 16-bit lanes, `u64` for 32-bit ones.
+    type Key: Copy + Default + Send + Sync + 'static;
+    fn key_cost(key: Self::Key) -> u64;
+    fn key_d(key: Self::Key) -> u32;
     fn from_usize(v: usize) -> Self;
     fn to_u64(self) -> u64;
 }
@@ -87,6 +92,13 @@ impl Lane for u16 {
     const MAX: Self = u16::MAX;
     const ZERO: Self = 0;
     type F = f32;
+    type Key = u32;
+    fn key_cost(key: u32) -> u64 {
+        (key >> 16) as u64
+    }
+    fn key_d(key: u32) -> u32 {
+        key & 0xffff
+    }
     fn from_usize(v: usize) -> Self {
         v as u16
     }
@@ -99,6 +111,13 @@ impl Lane for u32 {
     const MAX: Self = u32::MAX;
     const ZERO: Self = 0;
     type F = f64;
+    type Key = u64;
+    fn key_cost(key: u64) -> u64 {
+        key >> 32
+    }
+    fn key_d(key: u64) -> u32 {
+        key as u32
+    }
     fn from_usize(v: usize) -> Self {
         v as u32
     }
@@ -109,7 +128,7 @@ impl Lane for u32 {
 
 /// Buffers of one row band, reused across frames.
 #[derive(Default)]
-pub(crate) struct Scratch<E> {
+pub(crate) struct Scratch<E: Lane> {
     /// Disparities per column, rounded up to the lane count.
     ndp: usize,
     colsum: Vec<E>,
@@ -126,8 +145,8 @@ pub(crate) struct Scratch<E> {
     rkf: Vec<E>,
     dvec: Vec<E>,
     tail: Vec<E>,
-    /// The left winner of every pixel of the row: `(cost << 32) | d`.
-    keys: Vec<u64>,
+    /// The left winner of every pixel of the row.
+    keys: Vec<E::Key>,
     cm: Vec<E>,
     cp: Vec<E>,
     unique: Vec<bool>,
@@ -154,7 +173,7 @@ impl<E: Lane> Scratch<E> {
         self.dvec.extend((0..ndp).map(E::from_usize));
         self.tail.clear();
         self.tail.extend((0..ndp).map(|d| if d < nd { E::ZERO } else { E::MAX }));
-        self.keys.resize(w, u64::MAX);
+        self.keys.resize(w, E::Key::default());
         self.cm.resize(w, E::ZERO);
         self.cp.resize(w, E::ZERO);
         self.unique.resize(w, true);
@@ -381,7 +400,7 @@ macro_rules! kernel {
             macro_rules! record {
                 ($x:expr, $key:expr) => {{
                     let (x, key) = ($x, $key);
-                    let kb = (key & 0xffff_ffff) as usize;
+                    let kb = E::key_d(key) as usize;
                     // SAFETY: x < w = keys.len() = cm.len() = cp.len(); indices clamped to ndp.
                     unsafe {
                         *keys.add(x) = key;
@@ -393,7 +412,7 @@ macro_rules! kernel {
                         // SAFETY: the box sums are written only inside `step`, not while this
                         // view is alive.
                         let bxs = unsafe { std::slice::from_raw_parts(bxp, ndp) };
-                        sc.unique[x] = (key >> 32) == E::MAX.to_u64()
+                        sc.unique[x] = E::key_cost(key) == E::MAX.to_u64()
                             || lo > hi
                             || unique(bxs, lo as usize, hi as usize, kb, uniq);
                     }
@@ -431,7 +450,7 @@ macro_rules! kernel {
 
         /// Column `x`: (when `UPD`) the vertical update of the entering column and the box-sum
         /// step, then both running minima over the disparity chunks. Returns the left winner's
-        /// `(cost << 32) | d` (the sentinel cost `E::MAX` when no lane is searchable).
+        /// key (cost `E::MAX`, the sentinel, when no lane is searchable).
         #[inline]
         #[target_feature(enable = $feat)]
         unsafe fn step<const VERT: bool, const SQ: bool, const UPD: bool, const BORDER: bool, const NCH: usize>(
@@ -439,7 +458,7 @@ macro_rules! kernel {
             x: usize,
             lo: i64,
             hi: i64,
-        ) -> u64 {
+        ) -> <E as Lane>::Key {
             // a known chunk count lets the compiler unroll the chunk loop
             let ndp = if NCH == 0 { p.ndp } else { NCH * L };
             let (lov, hiv) = (splat_i(lo), splat_i(hi));
@@ -551,8 +570,8 @@ fn decide_row<E: Lane>(sh: &Shared, sc: &mut Scratch<E>, y: usize, stats: &mut M
         let xd = x as i32 - dmin;
         let (lo, hi) = ((xd - wm1).max(0), xd.min(nd - 1));
         let key = keys[x];
-        let c0 = key >> 32;
-        let kb = (key & 0xffff_ffff) as i32;
+        let c0 = E::key_cost(key);
+        let kb = E::key_d(key) as i32;
         let is_none = c0 == sentinel || lo > hi;
         let is_low = !is_none & check_tex & !tex[x];
         let is_nu = !is_none & !is_low & check_uniq & !uq[x];
@@ -660,16 +679,15 @@ macro_rules! lanes16 {
         fn top(v: V) -> E {
             _mm256_extract_epi16::<15>(v) as E
         }
-        /// The smallest `(min << 32) | idx` over the lanes.
+        /// The smallest `(min << 16) | idx` over the lanes.
         #[inline]
         #[target_feature(enable = $feat)]
-        fn reduce(min: V, idx: V) -> u64 {
+        fn reduce(min: V, idx: V) -> u32 {
             let k = _mm256_min_epu32(_mm256_unpacklo_epi16(idx, min), _mm256_unpackhi_epi16(idx, min));
             let k = _mm_min_epu32(_mm256_castsi256_si128(k), _mm256_extracti128_si256::<1>(k));
             let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b01_00_11_10>(k));
             let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b10_11_00_01>(k));
-            let k = _mm_cvtsi128_si32(k) as u32;
-            ((k >> 16) as u64) << 32 | (k & 0xffff) as u64
+            _mm_cvtsi128_si32(k) as u32
         }
     };
 }
