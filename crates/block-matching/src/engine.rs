@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{CostFunction, MatcherConfig, Prefilter, Subpixel};
 use crate::error::{BlockMatchingError, Result};
-use crate::prefilter::{box_sum, normalized_response, rank_transform, texture_mask_into, x_sobel_into};
+use crate::prefilter::{box_sum, normalized_response, rank_transform_into, texture_mask_into, x_sobel_into};
 use crate::speckle::filter_speckles;
 
 /// A 16-bit grayscale image (`image` crate buffer).
@@ -385,19 +385,14 @@ impl BlockMatcher {
     }
 
     fn run_in_pool(&mut self, w: usize, h: usize, input: Input, out: &mut DisparityMap) -> Result<()> {
-        let scale = match input {
+        // the raw planes: 8-bit input widened into the matcher's buffers, 16-bit input as given
+        let (raw_left, raw_right, scale): (&[u16], &[u16], u32) = match input {
             Input::U8(l, r) => {
                 to_u16(l, &mut self.left);
                 to_u16(r, &mut self.right);
-                1
+                (&self.left, &self.right, 1)
             }
-            Input::U16(l, r) => {
-                self.left.clear();
-                self.left.extend_from_slice(l);
-                self.right.clear();
-                self.right.extend_from_slice(r);
-                257
-            }
+            Input::U16(l, r) => (l, r, 257),
         };
         let cfg = self.config.clone();
         let r = cfg.block_size / 2;
@@ -406,7 +401,6 @@ impl BlockMatcher {
         // with the default prefilter this is also the prefiltered left image. The left chain
         // and the right prefilter run side by side.
         let sobel_is_prefilter = cfg.prefilter == Prefilter::XSobel { cap: 31 };
-        let (raw_left, raw_right) = (&self.left, &self.right);
         let (pre_left, pre_right, sobel, texture_ok) =
             (&mut self.pre_left, &mut self.pre_right, &mut self.sobel, &mut self.texture_ok);
         let left_chain = || {
@@ -431,17 +425,19 @@ impl BlockMatcher {
         match cfg.prefilter {
             Prefilter::None | Prefilter::XSobel { .. } => {}
             Prefilter::Rank { size } => {
-                let (l, r) =
-                    rayon::join(|| rank_transform(&self.left, w, h, size), || rank_transform(&self.right, w, h, size));
-                (self.pre_left, self.pre_right) = (l, r);
+                let (pre_left, pre_right) = (&mut self.pre_left, &mut self.pre_right);
+                rayon::join(
+                    || rank_transform_into(raw_left, w, h, size, pre_left),
+                    || rank_transform_into(raw_right, w, h, size, pre_right),
+                );
             }
             Prefilter::NormalizedResponse { size, cap } => {
-                self.pre_left = normalized_response(&self.left, w, h, size, cap as u32 * scale);
-                self.pre_right = normalized_response(&self.right, w, h, size, cap as u32 * scale);
+                self.pre_left = normalized_response(raw_left, w, h, size, cap as u32 * scale);
+                self.pre_right = normalized_response(raw_right, w, h, size, cap as u32 * scale);
             }
         }
         let (left, right) = match cfg.prefilter {
-            Prefilter::None => (&self.left[..], &self.right[..]),
+            Prefilter::None => (raw_left, raw_right),
             _ => (&self.pre_left[..], &self.pre_right[..]),
         };
         let n = (cfg.block_size * cfg.block_size) as u64;
@@ -514,12 +510,28 @@ impl BlockMatcher {
         };
         let mut job = || -> Vec<MatchStats> {
             #[cfg(target_arch = "x86_64")]
+            // SAFETY (both kernels): `isa` comes from `SimdLevel::detect()`, and `kernel` was chosen
+            // above only when every window sum fits below the lane maximum.
             match kernel {
                 Some((isa, SimdKernel::Lanes16)) => {
-                    return run_simd16(&shared, &mut self.simd16, nbands, band_rows, data, isa);
+                    return for_each_band(
+                        &shared,
+                        &mut self.simd16,
+                        nbands,
+                        band_rows,
+                        data,
+                        |sc, rows, y0, y1| unsafe { crate::simd::band16(isa, &shared, sc, rows, y0, y1) },
+                    );
                 }
                 Some((isa, SimdKernel::Lanes32 { squared })) => {
-                    return run_simd32(&shared, &mut self.simd32, nbands, band_rows, data, isa, squared);
+                    return for_each_band(
+                        &shared,
+                        &mut self.simd32,
+                        nbands,
+                        band_rows,
+                        data,
+                        |sc, rows, y0, y1| unsafe { crate::simd::band32(isa, squared, &shared, sc, rows, y0, y1) },
+                    );
                 }
                 None => {}
             }
@@ -607,40 +619,6 @@ fn for_each_band<S: Default + Send>(
 enum SimdKernel {
     Lanes16,
     Lanes32 { squared: bool },
-}
-
-#[cfg(target_arch = "x86_64")]
-fn run_simd16(
-    sh: &Shared,
-    scratch: &mut Vec<crate::simd::Scratch<u16>>,
-    nbands: usize,
-    band_rows: usize,
-    data: &mut [f32],
-    isa: crate::simd::Isa,
-) -> Vec<MatchStats> {
-    for_each_band(sh, scratch, nbands, band_rows, data, |sc, rows, y0, y1| {
-        sc.resize(sh.w, sh.r, sh.nd, crate::simd::LANES16);
-        // SAFETY: `isa` comes from `SimdLevel::detect()`, `sc` was just resized for it, and the
-        // caller checked that every window sum is at most 65534.
-        unsafe { crate::simd::band16(isa, sh, sc, rows, y0, y1) }
-    })
-}
-
-#[cfg(target_arch = "x86_64")]
-fn run_simd32(
-    sh: &Shared,
-    scratch: &mut Vec<crate::simd::Scratch<u32>>,
-    nbands: usize,
-    band_rows: usize,
-    data: &mut [f32],
-    isa: crate::simd::Isa,
-    squared: bool,
-) -> Vec<MatchStats> {
-    for_each_band(sh, scratch, nbands, band_rows, data, |sc, rows, y0, y1| {
-        sc.resize(sh.w, sh.r, sh.nd, crate::simd::LANES32);
-        // SAFETY: as `run_simd16`, with every window sum at most 2^32 − 2.
-        unsafe { crate::simd::band32(isa, squared, sh, sc, rows, y0, y1) }
-    })
 }
 
 fn run_bands<A: Acc>(

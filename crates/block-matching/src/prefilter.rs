@@ -154,9 +154,17 @@ pub fn texture_mask_into(
 /// (clamp-to-edge) strictly darker than it, in `0..size² − 1`. Rows in parallel; each row is
 /// `size²` vectorised compare-and-count passes over shifted padded rows.
 pub fn rank_transform(src: &[u16], width: usize, height: usize, size: usize) -> Vec<u16> {
-    let mut out = vec![0u16; width * height];
+    let mut out = Vec::new();
+    rank_transform_into(src, width, height, size, &mut out);
+    out
+}
+
+/// As [`rank_transform`], writing into `out` (resized to `width x height`; no allocation when it
+/// already has that size).
+pub fn rank_transform_into(src: &[u16], width: usize, height: usize, size: usize, out: &mut Vec<u16>) {
+    out.resize(width * height, 0);
     if width == 0 || height == 0 {
-        return out;
+        return;
     }
     let r = size / 2;
     let clamp_y = |y: isize| y.clamp(0, height as isize - 1) as usize;
@@ -177,7 +185,6 @@ pub fn rank_transform(src: &[u16], width: usize, height: usize, size: usize) -> 
             }
         }
     });
-    out
 }
 
 with_avx2! {

@@ -190,15 +190,10 @@ pub(crate) enum Isa {
     Avx512Vl,
 }
 
-/// Lanes of the 16-bit and 32-bit kernels.
-pub(crate) const LANES16: usize = 16;
-pub(crate) const LANES32: usize = 8;
-
 /// Runs rows `y0..y1` of one band with 16-bit lanes (SAD).
 ///
 /// # Safety
-/// The CPU must support `isa` (checked by `SimdLevel::detect`), `sc` must have been resized for
-/// this frame with [`LANES16`], and `block² · max pixel ≤ 65534`.
+/// The CPU must support `isa` (checked by `SimdLevel::detect`) and `block² · max pixel ≤ 65534`.
 pub(crate) unsafe fn band16(
     isa: Isa,
     sh: &Shared,
@@ -207,7 +202,8 @@ pub(crate) unsafe fn band16(
     y0: usize,
     y1: usize,
 ) -> MatchStats {
-    // SAFETY: forwarded from the caller.
+    sc.resize(sh.w, sh.r, sh.nd, 16);
+    // SAFETY: forwarded from the caller; `sc` has just been sized for 16 lanes.
     unsafe {
         match isa {
             Isa::Avx2 => avx2_16::band::<false>(sh, sc, out, y0, y1),
@@ -219,8 +215,8 @@ pub(crate) unsafe fn band16(
 /// Runs rows `y0..y1` of one band with 32-bit lanes: SSD when `squared`, else SAD.
 ///
 /// # Safety
-/// The CPU must support `isa`, `sc` must have been resized for this frame with [`LANES32`], and
-/// `block² · max term ≤ 2³² − 2` (max term: the largest pixel, squared for SSD).
+/// The CPU must support `isa` and `block² · max term ≤ 2³² − 2` (max term: the largest pixel,
+/// squared for SSD).
 pub(crate) unsafe fn band32(
     isa: Isa,
     squared: bool,
@@ -230,7 +226,8 @@ pub(crate) unsafe fn band32(
     y0: usize,
     y1: usize,
 ) -> MatchStats {
-    // SAFETY: forwarded from the caller.
+    sc.resize(sh.w, sh.r, sh.nd, 8);
+    // SAFETY: forwarded from the caller; `sc` has just been sized for 8 lanes.
     unsafe {
         match (isa, squared) {
             (Isa::Avx2, false) => avx2_32::band::<false>(sh, sc, out, y0, y1),
@@ -796,89 +793,45 @@ macro_rules! lanes32 {
     };
 }
 
-#[cfg(target_arch = "x86_64")]
-mod avx2_16 {
-    use std::arch::x86_64::*;
+/// One kernel module: the lane helpers `$lanes!`, the per-ISA `min_update` (per lane: if
+/// `c < min` unsigned, then `min = c` and `idx = d`) and the kernel, all compiled with `$feat`.
+macro_rules! kernel_module {
+    ($name:ident, $lanes:ident, $feat:literal, fn min_update($min:ident, $idx:ident, $c:ident, $d:ident) $body:block) => {
+        #[cfg(target_arch = "x86_64")]
+        mod $name {
+            use std::arch::x86_64::*;
 
-    use super::{Lane, Ptrs, Scratch, decide_row};
-    use crate::engine::{MatchStats, Shared, finish_row, load_rows, unique};
+            use super::{Lane, Ptrs, Scratch, decide_row};
+            use crate::engine::{MatchStats, Shared, finish_row, load_rows, unique};
 
-    lanes16!("avx2");
+            $lanes!($feat);
 
-    /// Per lane: if `c < min` (unsigned) then `min = c`, `idx = d`.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn min_update(min: &mut V, idx: &mut V, c: V, d: V) {
-        let nm = _mm256_min_epu16(*min, c);
-        let keep = _mm256_cmpeq_epi16(nm, *min);
-        *idx = _mm256_blendv_epi8(d, *idx, keep);
-        *min = nm;
-    }
+            #[inline]
+            #[target_feature(enable = $feat)]
+            fn min_update($min: &mut V, $idx: &mut V, $c: V, $d: V) $body
 
-    kernel!("avx2");
+            kernel!($feat);
+        }
+    };
 }
 
-#[cfg(target_arch = "x86_64")]
-mod vl_16 {
-    use std::arch::x86_64::*;
-
-    use super::{Lane, Ptrs, Scratch, decide_row};
-    use crate::engine::{MatchStats, Shared, finish_row, load_rows, unique};
-
-    lanes16!("avx2,avx512f,avx512bw,avx512vl");
-
-    /// Per lane: if `c < min` (unsigned) then `min = c`, `idx = d` (one compare into a mask
-    /// register and a masked move instead of AVX2's compare + byte blend).
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-    fn min_update(min: &mut V, idx: &mut V, c: V, d: V) {
-        let better = _mm256_cmplt_epu16_mask(c, *min);
-        *idx = _mm256_mask_mov_epi16(*idx, better, d);
-        *min = _mm256_min_epu16(*min, c);
-    }
-
-    kernel!("avx2,avx512f,avx512bw,avx512vl");
-}
-
-#[cfg(target_arch = "x86_64")]
-mod avx2_32 {
-    use std::arch::x86_64::*;
-
-    use super::{Lane, Ptrs, Scratch, decide_row};
-    use crate::engine::{MatchStats, Shared, finish_row, load_rows, unique};
-
-    lanes32!("avx2");
-
-    /// Per lane: if `c < min` (unsigned) then `min = c`, `idx = d`.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn min_update(min: &mut V, idx: &mut V, c: V, d: V) {
-        let nm = _mm256_min_epu32(*min, c);
-        let keep = _mm256_cmpeq_epi32(nm, *min);
-        *idx = _mm256_blendv_epi8(d, *idx, keep);
-        *min = nm;
-    }
-
-    kernel!("avx2");
-}
-
-#[cfg(target_arch = "x86_64")]
-mod vl_32 {
-    use std::arch::x86_64::*;
-
-    use super::{Lane, Ptrs, Scratch, decide_row};
-    use crate::engine::{MatchStats, Shared, finish_row, load_rows, unique};
-
-    lanes32!("avx2,avx512f,avx512bw,avx512vl");
-
-    /// Per lane: if `c < min` (unsigned) then `min = c`, `idx = d` (mask register + masked move).
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-    fn min_update(min: &mut V, idx: &mut V, c: V, d: V) {
-        let better = _mm256_cmplt_epu32_mask(c, *min);
-        *idx = _mm256_mask_mov_epi32(*idx, better, d);
-        *min = _mm256_min_epu32(*min, c);
-    }
-
-    kernel!("avx2,avx512f,avx512bw,avx512vl");
-}
+// AVX2: unsigned minimum, equality against the old minimum, byte blend of the indices
+kernel_module!(avx2_16, lanes16, "avx2", fn min_update(min, idx, c, d) {
+    let nm = _mm256_min_epu16(*min, c);
+    *idx = _mm256_blendv_epi8(d, *idx, _mm256_cmpeq_epi16(nm, *min));
+    *min = nm;
+});
+kernel_module!(avx2_32, lanes32, "avx2", fn min_update(min, idx, c, d) {
+    let nm = _mm256_min_epu32(*min, c);
+    *idx = _mm256_blendv_epi8(d, *idx, _mm256_cmpeq_epi32(nm, *min));
+    *min = nm;
+});
+// AVX-512VL: one compare into a mask register and a masked move
+kernel_module!(vl_16, lanes16, "avx2,avx512f,avx512bw,avx512vl", fn min_update(min, idx, c, d) {
+    *idx = _mm256_mask_mov_epi16(*idx, _mm256_cmplt_epu16_mask(c, *min), d);
+    *min = _mm256_min_epu16(*min, c);
+});
+kernel_module!(vl_32, lanes32, "avx2,avx512f,avx512bw,avx512vl", fn min_update(min, idx, c, d) {
+    *idx = _mm256_mask_mov_epi32(*idx, _mm256_cmplt_epu32_mask(c, *min), d);
+    *min = _mm256_min_epu32(*min, c);
+});

@@ -61,24 +61,31 @@ fn subpixel_rms_on_fronto_parallel_planes_is_below_a_tenth_of_a_pixel() {
     }
 }
 
-#[test]
-fn ncc_is_invariant_to_right_gain_and_offset_while_sad_is_not() {
-    let plain = scene(1.0, 0.0);
-    let lit = scene(1.3, 20.0);
+/// Bad-1 (non-occluded pixels) of `cfg` on the plain scene and on the scene whose right image
+/// has a gain of 1.3 and an offset of +20.
+/// The two scenes are rendered once for all the tests.
+fn bad1_plain_and_lit(cfg: &MatcherConfig) -> (f64, f64) {
+    static SCENES: std::sync::OnceLock<(synthetic::StereoScene, synthetic::StereoScene)> = std::sync::OnceLock::new();
+    let (plain, lit) = SCENES.get_or_init(|| (scene(1.0, 0.0), scene(1.3, 20.0)));
     let mask: Vec<bool> = plain.occluded.iter().map(|&o| !o).collect();
-    let bad1 = |s: &synthetic::StereoScene, cfg: &MatcherConfig| {
+    let bad1 = |s: &synthetic::StereoScene| {
         let d = run(s, cfg.clone());
         evaluate(&d, &s.disparity, Some(&mask), &[1.0]).unwrap().bad_at(1.0).unwrap()
     };
+    (bad1(plain), bad1(lit))
+}
+
+#[test]
+fn ncc_is_invariant_to_right_gain_and_offset_while_sad_is_not() {
     // raw intensities: the cost alone must absorb the photometric change
     let base = MatcherConfig { num_disparities: 32, prefilter: Prefilter::None, ..MatcherConfig::default() };
     let ncc = MatcherConfig { cost: CostFunction::Ncc, ..base.clone() };
     let sad = MatcherConfig { cost: CostFunction::Sad, ..base.clone() };
-    let (n0, n1) = (bad1(&plain, &ncc), bad1(&lit, &ncc));
-    let (s0, s1) = (bad1(&plain, &sad), bad1(&lit, &sad));
+    let (n0, n1) = bad1_plain_and_lit(&ncc);
+    let (s0, s1) = bad1_plain_and_lit(&sad);
     // and with the default prefilter (clipped x-Sobel removes the offset but clips the gain)
     let nccd = MatcherConfig { cost: CostFunction::Ncc, num_disparities: 32, ..MatcherConfig::default() };
-    let (d0, d1) = (bad1(&plain, &nccd), bad1(&lit, &nccd));
+    let (d0, d1) = bad1_plain_and_lit(&nccd);
     println!(
         "bad-1 plain → gain 1.3 offset +20: NCC raw {n0:.2} → {n1:.2}, SAD raw {s0:.2} → {s1:.2}, NCC x-Sobel {d0:.2} → {d1:.2}"
     );
@@ -90,16 +97,9 @@ fn ncc_is_invariant_to_right_gain_and_offset_while_sad_is_not() {
 fn rank_prefilter_makes_sad_invariant_to_right_gain_and_offset() {
     // the rank transform depends only on the order of intensities, which a gain and an offset
     // keep (up to rounding and the 255 clip): SAD on ranks behaves like NCC here, at SAD's speed
-    let plain = scene(1.0, 0.0);
-    let lit = scene(1.3, 20.0);
-    let mask: Vec<bool> = plain.occluded.iter().map(|&o| !o).collect();
-    let bad1 = |s: &synthetic::StereoScene, cfg: &MatcherConfig| {
-        let d = run(s, cfg.clone());
-        evaluate(&d, &s.disparity, Some(&mask), &[1.0]).unwrap().bad_at(1.0).unwrap()
-    };
     let rank =
         MatcherConfig { num_disparities: 32, prefilter: Prefilter::Rank { size: 5 }, ..MatcherConfig::default() };
-    let (r0, r1) = (bad1(&plain, &rank), bad1(&lit, &rank));
+    let (r0, r1) = bad1_plain_and_lit(&rank);
     println!("bad-1 plain → gain 1.3 offset +20: SAD on 5x5 ranks {r0:.2} → {r1:.2}");
     assert!((r1 - r0).abs() < 1.0, "rank SAD bad-1 changed by {:.2} points", r1 - r0);
     assert!(r0 < 15.0, "rank SAD bad-1 {r0:.2} % on the plain scene");
