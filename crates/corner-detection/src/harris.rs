@@ -242,15 +242,12 @@ pub(crate) fn peaks_above(
         return Vec::new();
     }
     let thr = (quality * max_r).max(min_abs);
-    let b = border as usize;
+    // at least one pixel of border: every candidate has its 8 neighbours
+    let b = (border as usize).max(1);
     let mut cand: Vec<(f32, usize, usize)> = Vec::new();
     if w > 2 * b && h > 2 * b {
         let mut keep = vec![false; w];
         for y in b..h - b {
-            let b = b.max(1);
-            if y == 0 || y + 1 >= h || w < 3 {
-                continue;
-            }
             let rows = (&d[(y - 1) * w..y * w], &d[y * w..(y + 1) * w], &d[(y + 1) * w..(y + 2) * w]);
             row_maxima(rows, thr, &mut keep[b..w - b], b);
             for x in b..w - b {
