@@ -229,16 +229,10 @@ impl<S: Sample> Ctx<'_, S> {
             }
             let o = k as usize * C;
             let px = &self.raw[o..o + (sw + 1) * C + C];
-            let fx = (frac[i] & 0xff) as u32;
-            let fy = (frac[i] >> 8) as u32;
             for ch in 0..C {
-                let p00 = px[ch].to_u32();
-                let p01 = px[C + ch].to_u32();
-                let p10 = px[sw * C + ch].to_u32();
-                let p11 = px[sw * C + C + ch].to_u32();
-                let top = p00 * (256 - fx) + p01 * fx;
-                let bottom = p10 * (256 - fx) + p11 * fx;
-                dst[ch] = S::from_u32((top * (256 - fy) + bottom * fy + (1 << 15)) >> 16);
+                let (p00, p01) = (px[ch].to_u32(), px[C + ch].to_u32());
+                let (p10, p11) = (px[sw * C + ch].to_u32(), px[sw * C + C + ch].to_u32());
+                dst[ch] = S::from_u32(bilinear_fixed([p00, p01, p10, p11], frac[i]));
             }
         }
     }
@@ -331,11 +325,8 @@ impl<S: Sample> Ctx<'_, S> {
 
     #[inline(always)]
     fn nearest_px<const C: usize>(&self, x: f32, y: f32, dst: &mut [S]) {
-        let (last_x, last_y) = ((self.sw - 1) as f32, (self.sh - 1) as f32);
-        // inside (false for NaN)
-        if x >= -0.5 && y >= -0.5 && x < last_x + 0.5 && y < last_y + 0.5 {
-            let (xr, yr) = (round_half_even(x), round_half_even(y));
-            let s = (yr * self.sw as usize + xr) * C;
+        if let Some(k) = nearest_inside(x, y, self.sw as usize, self.sh as usize) {
+            let s = k * C;
             dst.copy_from_slice(&self.raw[s..s + C]);
         } else if !(x.is_finite() && y.is_finite()) {
             dst.copy_from_slice(self.fill);
@@ -385,14 +376,13 @@ impl FastBilinear {
     /// Adds the nearest-neighbour offsets of `table` (the positions `remap`'s nearest path
     /// rounds inside the source, half to even).
     pub(crate) fn with_nearest(mut self, table: &RemapTable) -> Self {
-        let (sw, sh) = self.source_size;
-        let (last_x, last_y) = (sw as f32 - 1.0, sh as f32 - 1.0);
+        let (sw, sh) = (self.source_size.0 as usize, self.source_size.1 as usize);
         let usable = (sw as u64) * (sh as u64) < u32::MAX as u64;
         let mut near = vec![u32::MAX; table.map_x.len()];
         if usable {
             near.par_iter_mut().zip(table.map_x.par_iter().zip(&table.map_y)).for_each(|(k, (&x, &y))| {
-                if x >= -0.5 && y >= -0.5 && x < last_x + 0.5 && y < last_y + 0.5 {
-                    *k = (round_half_even(y) * sw as usize + round_half_even(x)) as u32;
+                if let Some(o) = nearest_inside(x, y, sw, sh) {
+                    *k = o as u32;
                 }
             });
         }
@@ -430,6 +420,28 @@ fn fast_table_row(mx: &[f32], my: &[f32], index: &mut [u32], frac: &mut [u16], s
     imp(mx, my, index, frac, sw, last_x, last_y)
 }
 
+/// The fixed-point bilinear blend of the four neighbours `[p00, p01, p10, p11]` with the
+/// fractions of [`FastBilinear::frac`] (1/256 px), rounded to nearest.
+#[inline(always)]
+fn bilinear_fixed([p00, p01, p10, p11]: [u32; 4], frac: u16) -> u32 {
+    let (fx, fy) = ((frac & 0xff) as u32, (frac >> 8) as u32);
+    let top = p00 * (256 - fx) + p01 * fx;
+    let bottom = p10 * (256 - fx) + p11 * fx;
+    (top * (256 - fy) + bottom * fy + (1 << 15)) >> 16
+}
+
+/// The source pixel index `y·sw + x` nearest to `(x, y)` (half to even) when it lies inside a
+/// `sw x sh` image; `None` outside and for NaN.
+#[inline(always)]
+fn nearest_inside(x: f32, y: f32, sw: usize, sh: usize) -> Option<usize> {
+    let (last_x, last_y) = ((sw - 1) as f32, (sh - 1) as f32);
+    if x >= -0.5 && y >= -0.5 && x < last_x + 0.5 && y < last_y + 0.5 {
+        Some(round_half_even(y) * sw + round_half_even(x))
+    } else {
+        None
+    }
+}
+
 /// Round half to even (OpenCV's `cvRound`) of `v ≥ −0.5` without a libm call.
 #[inline(always)]
 fn round_half_even(v: f32) -> usize {
@@ -464,10 +476,8 @@ fn gray8_fast_row_avx2(
             return slow(i);
         }
         let o = k as usize;
-        let (fx, fy) = ((frac[i] & 0xff) as u32, (frac[i] >> 8) as u32);
-        let top = raw[o] as u32 * (256 - fx) + raw[o + 1] as u32 * fx;
-        let bottom = raw[o + sw] as u32 * (256 - fx) + raw[o + sw + 1] as u32 * fx;
-        ((top * (256 - fy) + bottom * fy + (1 << 15)) >> 16) as u8
+        let p = [raw[o], raw[o + 1], raw[o + sw], raw[o + sw + 1]].map(u32::from);
+        bilinear_fixed(p, frac[i]) as u8
     };
     let mut i = 0;
     if limit >= 0 {
