@@ -1,11 +1,11 @@
 //! Calibration speed: 14 views of a 9x6 board (756 corners), as OpenCV's `calibrateCamera`
 //! (~18 ms on this machine for the real 14-view set), plus the 14-pair stereo calibration.
 
-use camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3, StereoRig};
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{DVec2, DVec3};
-use planar_calibration::{CalibrationConfig, StereoConfig, calibrate_camera, calibrate_stereo};
-use synthetic::{ViewSetConfig, add_pixel_noise, project_corners, rng, stereo_calibration_poses};
+use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3, StereoRig};
+use parallax_planar_calibration::{CalibrationConfig, StereoConfig, calibrate_camera, calibrate_stereo};
+use parallax_synthetic::{ViewSetConfig, add_pixel_noise, project_corners, rng, stereo_calibration_poses};
 
 /// Object points and the left and right corners of every view.
 type Views = (Vec<Vec<DVec3>>, Vec<Vec<DVec2>>, Vec<Vec<DVec2>>);

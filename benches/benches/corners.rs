@@ -4,9 +4,9 @@
 //! Uses the first real image of `../shared/data/opencv-stereo-chessboard` when present, and a
 //! rendered synthetic view (blur 0.8, noise 2) always.
 
-use camera_model::{Camera, Chessboard, Distortion, Intrinsics};
-use corner_detection::{ChessboardConfig, CornerRefinement, find_chessboard};
 use criterion::{Criterion, criterion_group, criterion_main};
+use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics};
+use parallax_corner_detection::{ChessboardConfig, CornerRefinement, find_chessboard};
 use std::hint::black_box;
 
 fn synthetic_view() -> image::GrayImage {
@@ -17,14 +17,14 @@ fn synthetic_view() -> image::GrayImage {
         height: 480,
     };
     let board = Chessboard { cols: 9, rows: 6, square_size: 25.0 };
-    let poses = synthetic::calibration_poses(
+    let poses = parallax_synthetic::calibration_poses(
         &camera,
         &board,
-        &synthetic::ViewSetConfig { views: 1, seed: 3, ..Default::default() },
+        &parallax_synthetic::ViewSetConfig { views: 1, seed: 3, ..Default::default() },
     )
     .expect("poses");
-    let opts = synthetic::RenderOptions { blur_sigma: 0.8, noise_sigma: 2.0, seed: 1, ..Default::default() };
-    synthetic::render_chessboard(&camera, &board, &poses[0], &opts).expect("render").image
+    let opts = parallax_synthetic::RenderOptions { blur_sigma: 0.8, noise_sigma: 2.0, seed: 1, ..Default::default() };
+    parallax_synthetic::render_chessboard(&camera, &board, &poses[0], &opts).expect("render").image
 }
 
 fn bench(c: &mut Criterion) {

@@ -9,9 +9,9 @@
 
 use std::time::Duration;
 
-use block_matching::{BlockMatcher, CostFunction, MatcherConfig, SimdLevel};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use image::{GrayImage, Luma};
+use parallax_block_matching::{BlockMatcher, CostFunction, MatcherConfig, SimdLevel};
 use rand::{Rng, SeedableRng};
 
 const TEDDY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/middlebury/teddy");

@@ -6,13 +6,15 @@
 //! The rig is OpenCV's joint calibration of `opencv-stereo-chessboard`; the images are its
 //! first pair when present, else seeded noise.
 
-use camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::DVec3;
 use image::{GrayImage, Luma};
+use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
+use parallax_stereo_rectify::{
+    Border, Interpolation, Rectifier, RectifyConfig, init_undistort_rectify_map, stereo_rectify,
+};
 use rand::{Rng, SeedableRng};
 use std::hint::black_box;
-use stereo_rectify::{Border, Interpolation, Rectifier, RectifyConfig, init_undistort_rectify_map, stereo_rectify};
 
 fn rig() -> StereoRig {
     let left = Camera::new(

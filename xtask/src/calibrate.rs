@@ -5,9 +5,9 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
-use camera_model::{Chessboard, CornerGrid};
-use corner_detection::{ChessboardConfig, find_chessboard};
-use planar_calibration::{
+use parallax_camera_model::{Chessboard, CornerGrid};
+use parallax_corner_detection::{ChessboardConfig, find_chessboard};
+use parallax_planar_calibration::{
     CalibrationConfig, CalibrationResult, IntrinsicStdDevs, StereoCalibrationResult, StereoConfig,
     calibrate_chessboard, calibrate_stereo_chessboard,
 };
@@ -108,7 +108,7 @@ fn pm(v: f64, s: Option<f64>) -> String {
     }
 }
 
-fn print_camera(name: &str, c: &camera_model::Camera, s: &IntrinsicStdDevs) {
+fn print_camera(name: &str, c: &parallax_camera_model::Camera, s: &IntrinsicStdDevs) {
     let k = c.intrinsics;
     let d = c.distortion;
     println!("{name}: {}x{}", c.width, c.height);
@@ -121,7 +121,7 @@ fn print_camera(name: &str, c: &camera_model::Camera, s: &IntrinsicStdDevs) {
     }
 }
 
-fn key_lines(prefix: &str, rms: f64, c: &camera_model::Camera) {
+fn key_lines(prefix: &str, rms: f64, c: &parallax_camera_model::Camera) {
     let k = c.intrinsics;
     let d = c.distortion;
     println!("{prefix}rms_px: {rms:.6}");
@@ -280,16 +280,16 @@ fn run_stereo(
     println!("rotation_deg: {:.6}", e.angle().to_degrees());
     // Rectification of the detected corners (point-level, no resampling) and triangulated
     // distances between adjacent corners, both from the calibration just made.
-    let rect = stereo_rectify::stereo_rectify(&r.rig, &stereo_rectify::RectifyConfig::default())?;
+    let rect = parallax_stereo_rectify::stereo_rectify(&r.rig, &parallax_stereo_rectify::RectifyConfig::default())?;
     let dv = util::rectified_abs_dv(&r.rig, &rect, &lg, &rg)?;
     let mut distances = Vec::new();
-    let tri = triangulation::TriangulationConfig { pixel_sigma: r.sigma_px, ..Default::default() };
+    let tri = parallax_triangulation::TriangulationConfig { pixel_sigma: r.sigma_px, ..Default::default() };
     for (l, rr) in lg.iter().zip(&rg) {
-        distances.extend(triangulation::adjacent_corner_distances(&r.rig, l, rr, &tri)?);
+        distances.extend(parallax_triangulation::adjacent_corner_distances(&r.rig, l, rr, &tri)?);
     }
     let mean_dv = dv.iter().sum::<f64>() / dv.len().max(1) as f64;
     let max_dv = dv.iter().fold(0.0f64, |a, b| a.max(*b));
-    let dist_rms = triangulation::distance_rms(&distances, board.square_size).unwrap_or(f64::NAN);
+    let dist_rms = parallax_triangulation::distance_rms(&distances, board.square_size).unwrap_or(f64::NAN);
     println!(
         "rectified: focal {:.3} px, {} corners, mean |Δv| {mean_dv:.4} px, max {max_dv:.4} px",
         rect.focal(),

@@ -5,8 +5,8 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
-use camera_model::CornerGrid;
-use corner_detection::{
+use parallax_camera_model::CornerGrid;
+use parallax_corner_detection::{
     ChessboardConfig, CornerRefinement, chessboard_candidates, detect_chessboard, draw_chessboard, draw_points,
 };
 use serde::Serialize;

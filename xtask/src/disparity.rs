@@ -6,8 +6,8 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
-use block_matching::{BlockMatcher, CostFunction, Gray16Image, MatcherConfig, Prefilter};
-use camera_model::DisparityMap;
+use parallax_block_matching::{BlockMatcher, CostFunction, Gray16Image, MatcherConfig, Prefilter};
+use parallax_camera_model::DisparityMap;
 
 use crate::util;
 
@@ -91,7 +91,7 @@ fn load_pair(left: &Path, right: &Path) -> anyhow::Result<Pair> {
 fn load_truth(path: &Path, scale: f32) -> anyhow::Result<DisparityMap> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("pfm")) {
         let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-        return Ok(block_matching::from_pfm(&bytes, &path.display().to_string())?);
+        return Ok(parallax_block_matching::from_pfm(&bytes, &path.display().to_string())?);
     }
     let img = image::open(path).with_context(|| format!("reading ground truth {}", path.display()))?;
     let (w, h) = (img.width() as usize, img.height() as usize);
@@ -100,7 +100,8 @@ fn load_truth(path: &Path, scale: f32) -> anyhow::Result<DisparityMap> {
     } else {
         img.into_luma8().into_raw().into_iter().map(u16::from).collect()
     };
-    block_matching::from_scaled(&values, w, h, scale).with_context(|| format!("ground truth {}", path.display()))
+    parallax_block_matching::from_scaled(&values, w, h, scale)
+        .with_context(|| format!("ground truth {}", path.display()))
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
@@ -171,11 +172,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let stats = matcher.last_stats();
     let mdes = (map.width * map.height * cfg.num_disparities) as f64 / seconds / 1e6;
 
-    util::write_atomic(&args.out.join("disparity.pfm"), &block_matching::to_pfm(&map))?;
-    util::save_png(&args.out.join("disparity16.png"), &block_matching::to_png16(&map, 256.0))?;
+    util::write_atomic(&args.out.join("disparity.pfm"), &parallax_block_matching::to_pfm(&map))?;
+    util::save_png(&args.out.join("disparity16.png"), &parallax_block_matching::to_png16(&map, 256.0))?;
     let lo = cfg.min_disparity as f32;
     let range = (lo, lo + cfg.num_disparities as f32 - 1.0);
-    util::save_png(&args.out.join("disparity_colour.png"), &block_matching::false_colour(&map, Some(range)))?;
+    util::save_png(&args.out.join("disparity_colour.png"), &parallax_block_matching::false_colour(&map, Some(range)))?;
 
     println!(
         "{}x{} cost {:?} block {} disparities [{}, {}) simd {:?}, median of {} runs",
@@ -199,7 +200,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     );
     println!("wrote {}/disparity.pfm, disparity16.png, disparity_colour.png", args.out.display());
     if let Some(truth) = &truth {
-        let e = block_matching::evaluate(&map, truth, mask.as_deref(), &[1.0, 2.0])
+        let e = parallax_block_matching::evaluate(&map, truth, mask.as_deref(), &[1.0, 2.0])
             .context("evaluating against the ground truth")?;
         println!("evaluated {} px, rms {:.3} px", e.evaluated, e.rms);
         println!("bad1: {:.2}", e.bad_at(1.0).unwrap_or(f64::NAN));

@@ -6,7 +6,7 @@
 //! top-left pixel):
 //!
 //! ```text
-//! fixtures/scenes/{easy,hard,eye-to-hand}.ron     scene descriptions (synthetic::SceneDescription)
+//! fixtures/scenes/{easy,hard,eye-to-hand}.ron     scene descriptions (parallax_synthetic::SceneDescription)
 //! fixtures/mono/view_NN.png + truth.ron           mono session (easy scene, first 6 views)
 //! fixtures/stereo/{left,right}_NN.png + truth.ron stereo session (easy scene, first 5 views)
 //! fixtures/stereo-scene-{easy,hard}/              rectified pair, disparity.pfm, masks, truth.ron
@@ -17,13 +17,13 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
-use camera_model::{Camera, Chessboard, Isometry3, StereoRig};
 use glam::DVec2;
-use serde::Serialize;
-use synthetic::{
+use parallax_camera_model::{Camera, Chessboard, Isometry3, StereoRig};
+use parallax_synthetic::{
     RenderOptions, SceneDescription, StereoScene, StereoSceneConfig, Trajectory, TrajectoryConfig, hand_eye_trajectory,
     render_stereo_scene,
 };
+use serde::Serialize;
 
 use crate::util::{save_png, write_atomic, write_ron};
 

@@ -13,9 +13,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, ensure};
-use camera_model::Isometry3;
-use hand_eye::io::{RotationFormat, parse_pose_lines, parse_pose_ron, parse_visp_pose};
-use hand_eye::{HandEyeConfig, HandEyeSolution, Method, PairSelection, Setup, calibrate};
+use parallax_camera_model::Isometry3;
+use parallax_hand_eye::io::{RotationFormat, parse_pose_lines, parse_pose_ron, parse_visp_pose};
+use parallax_hand_eye::{HandEyeConfig, HandEyeSolution, Method, PairSelection, Setup, calibrate};
 
 use crate::util;
 
@@ -184,13 +184,14 @@ fn camera_poses_from_images(args: &Args, robot: Vec<Isometry3>) -> anyhow::Resul
         .and_then(|(c, r)| Some((c.trim().parse::<usize>().ok()?, r.trim().parse::<usize>().ok()?)))
         .with_context(|| format!("--board {:?}: expected COLSxROWS, e.g. 9x6", args.board))?;
     let square = args.square.context("--square is required with --images")?;
-    let board = camera_model::Chessboard::new(cols, rows, square)?;
+    let board = parallax_camera_model::Chessboard::new(cols, rows, square)?;
     let intr = args.intrinsics.as_deref().context("--intrinsics is required with --images")?;
-    let ron_camera: Option<camera_model::Camera> = if intr.extension().is_some_and(|e| e.eq_ignore_ascii_case("ron")) {
-        Some(util::read_ron(intr)?)
-    } else {
-        None
-    };
+    let ron_camera: Option<parallax_camera_model::Camera> =
+        if intr.extension().is_some_and(|e| e.eq_ignore_ascii_case("ron")) {
+            Some(util::read_ron(intr)?)
+        } else {
+            None
+        };
     let xml_intrinsics = match ron_camera {
         Some(_) => None,
         None => {
@@ -198,24 +199,26 @@ fn camera_poses_from_images(args: &Args, robot: Vec<Isometry3>) -> anyhow::Resul
             Some(parse_visp_intrinsics(&text, &intr.display().to_string())?)
         }
     };
-    let cfg = corner_detection::ChessboardConfig::default();
+    let cfg = parallax_corner_detection::ChessboardConfig::default();
     let (mut kept_robot, mut camera) = (Vec::new(), Vec::new());
     for (path, g) in images.iter().zip(robot) {
         let img = util::load_gray(path)?;
         let cam = match (&ron_camera, xml_intrinsics) {
             (Some(c), _) => *c,
-            (None, Some([fx, fy, cx, cy])) => camera_model::Camera::new(
-                camera_model::Intrinsics::new(fx, fy, cx, cy),
-                camera_model::Distortion::default(),
+            (None, Some([fx, fy, cx, cy])) => parallax_camera_model::Camera::new(
+                parallax_camera_model::Intrinsics::new(fx, fy, cx, cy),
+                parallax_camera_model::Distortion::default(),
                 img.width(),
                 img.height(),
             )?,
             (None, None) => unreachable!("one intrinsics source is always read"),
         };
         let name = path.display();
-        match corner_detection::find_chessboard(&img, cols, rows, &cfg).with_context(|| format!("corners of {name}"))? {
+        match parallax_corner_detection::find_chessboard(&img, cols, rows, &cfg)
+            .with_context(|| format!("corners of {name}"))?
+        {
             Some(grid) => {
-                let (pose, rms) = planar_calibration::solve_pnp_planar(&cam, &board, &grid.corners)
+                let (pose, rms) = parallax_planar_calibration::solve_pnp_planar(&cam, &board, &grid.corners)
                     .with_context(|| format!("board pose in {name}"))?;
                 println!("  {name}: board found, pose RMS reprojection {rms:.3} px");
                 kept_robot.push(g);

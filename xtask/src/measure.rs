@@ -5,9 +5,9 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, bail, ensure};
-use camera_model::StereoRig;
 use glam::DVec2;
-use triangulation::{Method, TriangulationConfig, measure_stereo};
+use parallax_camera_model::StereoRig;
+use parallax_triangulation::{Method, TriangulationConfig, measure_stereo};
 
 /// Triangulation method (see the `triangulation` crate).
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
@@ -36,7 +36,7 @@ impl From<MethodArg> for Method {
 /// Arguments of `cargo xtask measure`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Stereo calibration: a RON file holding a `camera_model::StereoRig`, alone or as a field
+    /// Stereo calibration: a RON file holding a `parallax_camera_model::StereoRig`, alone or as a field
     /// of a larger result (the first value shaped like a rig is used).
     #[arg(long)]
     calib: PathBuf,
@@ -134,7 +134,7 @@ fn blob_pairs(
     bright: bool,
     max_epipolar_px: f64,
 ) -> anyhow::Result<Vec<(DVec2, DVec2)>> {
-    use corner_detection::{BlobConfig, BlobPolarity, detect_blobs};
+    use parallax_corner_detection::{BlobConfig, BlobPolarity, detect_blobs};
     let cfg = BlobConfig {
         polarity: if bright { BlobPolarity::Bright } else { BlobPolarity::Dark },
         ..BlobConfig::default()
@@ -151,7 +151,7 @@ fn blob_pairs(
     let ul: Vec<DVec2> = bl.iter().map(|b| rig.left.undistort_pixel(b.centroid)).collect::<Result<_, _>>()?;
     let ur: Vec<DVec2> = br.iter().map(|b| rig.right.undistort_pixel(b.centroid)).collect::<Result<_, _>>()?;
     let f = rig.fundamental();
-    let views = triangulation::stereo_views(rig);
+    let views = parallax_triangulation::stereo_views(rig);
     let cfg = TriangulationConfig { method: Method::Midpoint, covariance: false, ..Default::default() };
     // candidates[i] = right blobs compatible with left blob i.
     let candidates: Vec<Vec<usize>> = ul
@@ -164,7 +164,7 @@ fn blob_pairs(
                 .filter(|&j| {
                     let d = line.dot(ur[j].extend(1.0)).abs() / norm;
                     d <= max_epipolar_px
-                        && triangulation::triangulate(&views, &[lb.centroid, br[j].centroid], &cfg)
+                        && parallax_triangulation::triangulate(&views, &[lb.centroid, br[j].centroid], &cfg)
                             .is_ok_and(|p| !p.behind_camera)
                 })
                 .collect()
@@ -316,8 +316,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use camera_model::{Camera, Distortion, Intrinsics, Isometry3};
     use glam::DVec3;
+    use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3};
 
     fn rig() -> StereoRig {
         let cam = Camera::new(Intrinsics::new(800.0, 800.0, 640.0, 480.0), Distortion::default(), 1280, 960).unwrap();
@@ -347,7 +347,7 @@ mod tests {
             DVec3::new(60.0, 70.0, 800.0),
             DVec3::new(-50.0, 110.0, 750.0),
         ];
-        let draw = |cam: &camera_model::Camera, from_left: &Isometry3| {
+        let draw = |cam: &parallax_camera_model::Camera, from_left: &Isometry3| {
             let centres: Vec<DVec2> =
                 targets.iter().map(|t| cam.project(from_left.transform_point(*t)).unwrap()).collect();
             // Anti-aliased dark discs of radius 6 px (4x4 supersampling) on white.
@@ -393,34 +393,34 @@ mod tests {
             println!("skipped: ../shared not found");
             return;
         }
-        let board = camera_model::Chessboard::new(9, 6, 30.0).unwrap();
-        let cfg = corner_detection::ChessboardConfig::default();
+        let board = parallax_camera_model::Chessboard::new(9, 6, 30.0).unwrap();
+        let cfg = parallax_corner_detection::ChessboardConfig::default();
         let (mut left, mut right) = (Vec::new(), Vec::new());
         for k in 1..=14 {
             let l = crate::util::load_gray(&dir.join(format!("left{k:02}.jpg"))).unwrap();
             let r = crate::util::load_gray(&dir.join(format!("right{k:02}.jpg"))).unwrap();
-            let gl = corner_detection::find_chessboard(&l, 9, 6, &cfg).unwrap();
-            let gr = corner_detection::find_chessboard(&r, 9, 6, &cfg).unwrap();
+            let gl = parallax_corner_detection::find_chessboard(&l, 9, 6, &cfg).unwrap();
+            let gr = parallax_corner_detection::find_chessboard(&r, 9, 6, &cfg).unwrap();
             if let (Some(gl), Some(gr)) = (gl, gr) {
                 left.push(gl);
                 right.push(gr);
             }
         }
-        let calib = planar_calibration::calibrate_stereo_chessboard(
+        let calib = parallax_planar_calibration::calibrate_stereo_chessboard(
             &board,
             &left,
             &right,
             (640, 480),
             (640, 480),
-            &planar_calibration::StereoConfig::default(),
+            &parallax_planar_calibration::StereoConfig::default(),
         )
         .unwrap();
         let tri = TriangulationConfig::default();
         let mut all = Vec::new();
         for (l, r) in left.iter().zip(&right) {
-            all.extend(triangulation::adjacent_corner_distances(&calib.rig, l, r, &tri).unwrap());
+            all.extend(parallax_triangulation::adjacent_corner_distances(&calib.rig, l, r, &tri).unwrap());
         }
-        let rms = triangulation::distance_rms(&all, 30.0).unwrap();
+        let rms = parallax_triangulation::distance_rms(&all, 30.0).unwrap();
         let mean = all.iter().map(|d| d.distance - 30.0).sum::<f64>() / all.len() as f64;
         println!(
             "real: {} pairs, stereo RMS {:.4} px, baseline {:.3} mm, {} edges: adjacent-corner RMS {rms:.4} mm, mean {mean:+.4} mm",
@@ -434,9 +434,12 @@ mod tests {
             let cfg = TriangulationConfig::with_method(method);
             let mut d = Vec::new();
             for (l, r) in left.iter().zip(&right) {
-                d.extend(triangulation::adjacent_corner_distances(&calib.rig, l, r, &cfg).unwrap());
+                d.extend(parallax_triangulation::adjacent_corner_distances(&calib.rig, l, r, &cfg).unwrap());
             }
-            println!("real, {method:?}: adjacent-corner RMS {:.4} mm", triangulation::distance_rms(&d, 30.0).unwrap());
+            println!(
+                "real, {method:?}: adjacent-corner RMS {:.4} mm",
+                parallax_triangulation::distance_rms(&d, 30.0).unwrap()
+            );
         }
     }
 

@@ -10,16 +10,16 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
-use camera_model::StereoRig;
 use image::{DynamicImage, GenericImageView, Luma, Rgb, RgbImage};
-use stereo_rectify::{Border, ExtentMethod, Image, Rectifier, RectifyConfig};
+use parallax_camera_model::StereoRig;
+use parallax_stereo_rectify::{Border, ExtentMethod, Image, Rectifier, RectifyConfig};
 
 use crate::util::{save_png, write_ron};
 
 /// Arguments of `cargo xtask rectify`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Stereo calibration (RON): a `camera_model::StereoRig`, or any result holding one in a
+    /// Stereo calibration (RON): a `parallax_camera_model::StereoRig`, or any result holding one in a
     /// `rig` field (planar-calibration's `StereoCalibrationResult`).
     #[arg(long)]
     calib: PathBuf,
@@ -60,7 +60,7 @@ pub fn load_rig(path: &Path) -> anyhow::Result<StereoRig> {
     let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     let rig = match ron::from_str::<StereoRig>(&text) {
         Ok(rig) => rig,
-        Err(e_rig) => match ron::from_str::<planar_calibration::StereoCalibrationResult>(&text) {
+        Err(e_rig) => match ron::from_str::<parallax_planar_calibration::StereoCalibrationResult>(&text) {
             Ok(result) => result.rig,
             Err(e_result) => rig_field(&text).map_err(|e| {
                 anyhow::anyhow!(

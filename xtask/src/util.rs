@@ -60,15 +60,15 @@ pub fn expand_glob(pattern: &str) -> anyhow::Result<Vec<std::path::PathBuf>> {
 /// `|v_left − v_right|` of every corner of matched left/right grids after rectification
 /// (point-level: undistort, rotate, project; no image resampling), in pixels.
 pub fn rectified_abs_dv(
-    rig: &camera_model::StereoRig,
-    rect: &stereo_rectify::Rectification,
-    left: &[camera_model::CornerGrid],
-    right: &[camera_model::CornerGrid],
+    rig: &parallax_camera_model::StereoRig,
+    rect: &parallax_stereo_rectify::Rectification,
+    left: &[parallax_camera_model::CornerGrid],
+    right: &[parallax_camera_model::CornerGrid],
 ) -> anyhow::Result<Vec<f64>> {
     let mut dv = Vec::new();
     for (l, r) in left.iter().zip(right) {
-        let lp = stereo_rectify::rectify_points(&rig.left, rect.r1, &rect.p1, &l.corners)?;
-        let rp = stereo_rectify::rectify_points(&rig.right, rect.r2, &rect.p2, &r.corners)?;
+        let lp = parallax_stereo_rectify::rectify_points(&rig.left, rect.r1, &rect.p1, &l.corners)?;
+        let rp = parallax_stereo_rectify::rectify_points(&rig.right, rect.r2, &rect.p2, &r.corners)?;
         dv.extend(lp.iter().zip(&rp).map(|(a, b)| (a.y - b.y).abs()));
     }
     Ok(dv)

@@ -2,7 +2,7 @@
 //! bad-1 / bad-2 / density for each setting: how the defaults were chosen.
 //! `cargo run --release -p block-matching --example middlebury_sweep [sad|ssd|ncc]`
 
-use block_matching::{BlockMatcher, CostFunction, MatcherConfig, Prefilter, evaluate, from_scaled};
+use parallax_block_matching::{BlockMatcher, CostFunction, MatcherConfig, Prefilter, evaluate, from_scaled};
 
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/middlebury");
 

@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use block_matching::{BlockMatcher, CostFunction, MatcherConfig, SimdLevel};
+use parallax_block_matching::{BlockMatcher, CostFunction, MatcherConfig, SimdLevel};
 
 const TEDDY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/middlebury/teddy");
 

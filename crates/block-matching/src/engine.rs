@@ -1,8 +1,8 @@
 //! The fast matcher: running box sums over disparity-major column sums, kept per row band in
 //! cache, with winner-take-all, uniqueness, sub-pixel and left–right decisions fused per row.
 
-use camera_model::DisparityMap;
 use image::{GrayImage, ImageBuffer, Luma};
+use parallax_camera_model::DisparityMap;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 

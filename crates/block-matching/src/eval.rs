@@ -1,6 +1,6 @@
 //! Middlebury-style evaluation: bad-N over a mask with missing pixels counted as bad, and density.
 
-use camera_model::DisparityMap;
+use parallax_camera_model::DisparityMap;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{BlockMatchingError, Result};

@@ -1,7 +1,7 @@
 //! Disparity map files: PFM (Middlebury's float format), 16-bit PNG and a false-colour image.
 
-use camera_model::DisparityMap;
 use image::{ImageBuffer, Luma, Rgb, RgbImage};
+use parallax_camera_model::DisparityMap;
 
 use crate::engine::Gray16Image;
 use crate::error::{BlockMatchingError, Result};

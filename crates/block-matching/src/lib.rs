@@ -3,7 +3,7 @@
 //! transform (gain- and offset-invariant matching at SAD's speed), winner-take-all
 //! over `[min_disparity, min_disparity + num_disparities)`, sub-pixel refinement (equiangular for
 //! SAD, parabola otherwise), texture threshold, uniqueness ratio, left–right check and speckle
-//! filter. Invalid pixels are NaN in the [`camera_model::DisparityMap`] (never a silent 0).
+//! filter. Invalid pixels are NaN in the [`parallax_camera_model::DisparityMap`] (never a silent 0).
 //!
 //! Speed: window sums are running box sums over disparity-major column sums kept per row band in
 //! cache (the cost volume is never materialised), exact integer arithmetic, row bands in parallel
@@ -18,8 +18,8 @@
 //! side (`benches/benches/disparity.rs`, `../shared/reference/peer/stereo_bm.py`).
 //!
 //! ```
-//! use block_matching::{BlockMatcher, MatcherConfig, evaluate};
-//! use camera_model::DisparityMap;
+//! use parallax_block_matching::{BlockMatcher, MatcherConfig, evaluate};
+//! use parallax_camera_model::DisparityMap;
 //! use image::GrayImage;
 //!
 //! // a textured pair shifted by 7 px
@@ -32,7 +32,7 @@
 //! let truth = DisparityMap::from_data(96, 48, vec![7.0; 96 * 48]).unwrap();
 //! let e = evaluate(&disparity, &truth, None, &[0.5])?;
 //! assert!(e.bad_at(0.5).unwrap() < 15.0 && e.density > 85.0);
-//! # Ok::<(), block_matching::BlockMatchingError>(())
+//! # Ok::<(), parallax_block_matching::BlockMatchingError>(())
 //! ```
 
 mod config;

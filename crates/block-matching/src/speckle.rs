@@ -2,7 +2,7 @@
 //! `filterSpeckles`). Own code because imageproc's connected components join equal values only,
 //! not values within a tolerance.
 
-use camera_model::DisparityMap;
+use parallax_camera_model::DisparityMap;
 
 /// Invalidates every 4-connected region of valid pixels (neighbours differing by at most
 /// `max_diff` px) that has at most `max_size` pixels. Returns the number of pixels invalidated.

@@ -2,8 +2,8 @@
 //! with clamp-to-edge borders, the full cost volume, first-minimum winner-take-all, OpenCV's
 //! uniqueness rule, sub-pixel fits and the left–right check. Property test with a fixed seed.
 
-use block_matching::{BlockMatcher, CostFunction, Gray16Image, MatcherConfig, Prefilter, SimdLevel, Subpixel};
 use image::{GrayImage, Luma};
+use parallax_block_matching::{BlockMatcher, CostFunction, Gray16Image, MatcherConfig, Prefilter, SimdLevel, Subpixel};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 

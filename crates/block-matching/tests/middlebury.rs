@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use block_matching::{BlockMatcher, CostFunction, MatcherConfig, evaluate, from_scaled};
+use parallax_block_matching::{BlockMatcher, CostFunction, MatcherConfig, evaluate, from_scaled};
 
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/middlebury");
 

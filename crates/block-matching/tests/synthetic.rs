@@ -1,12 +1,12 @@
-//! Synthetic stereo scenes with known disparity (`synthetic::render_stereo_scene`):
+//! Synthetic stereo scenes with known disparity (`parallax_synthetic::render_stereo_scene`):
 //! sub-pixel accuracy on fronto-parallel textured planes, and NCC's invariance to a gain and
 //! offset of the right image.
 
-use block_matching::{BlockMatcher, CostFunction, MatcherConfig, Prefilter, evaluate};
-use camera_model::DisparityMap;
-use synthetic::{StereoSceneConfig, render_stereo_scene};
+use parallax_block_matching::{BlockMatcher, CostFunction, MatcherConfig, Prefilter, evaluate};
+use parallax_camera_model::DisparityMap;
+use parallax_synthetic::{StereoSceneConfig, render_stereo_scene};
 
-fn scene(gain: f64, offset: f64) -> synthetic::StereoScene {
+fn scene(gain: f64, offset: f64) -> parallax_synthetic::StereoScene {
     let cfg = StereoSceneConfig {
         width: 320,
         height: 240,
@@ -22,7 +22,7 @@ fn scene(gain: f64, offset: f64) -> synthetic::StereoScene {
 
 /// Pixels whose whole `(2m+1)²` neighbourhood is fronto-parallel, textured, visible and at one
 /// true disparity (so a window there sees a single plane).
-fn interior_mask(s: &synthetic::StereoScene, m: usize) -> Vec<bool> {
+fn interior_mask(s: &parallax_synthetic::StereoScene, m: usize) -> Vec<bool> {
     let (w, h) = (s.disparity.width, s.disparity.height);
     let ok = |i: usize| s.fronto_parallel[i] && !s.occluded[i] && !s.low_texture[i];
     (0..w * h)
@@ -37,7 +37,7 @@ fn interior_mask(s: &synthetic::StereoScene, m: usize) -> Vec<bool> {
         .collect()
 }
 
-fn run(s: &synthetic::StereoScene, cfg: MatcherConfig) -> DisparityMap {
+fn run(s: &parallax_synthetic::StereoScene, cfg: MatcherConfig) -> DisparityMap {
     BlockMatcher::new(cfg).unwrap().compute(&s.left, &s.right).unwrap()
 }
 
@@ -65,10 +65,11 @@ fn subpixel_rms_on_fronto_parallel_planes_is_below_a_tenth_of_a_pixel() {
 /// has a gain of 1.3 and an offset of +20.
 /// The two scenes are rendered once for all the tests.
 fn bad1_plain_and_lit(cfg: &MatcherConfig) -> (f64, f64) {
-    static SCENES: std::sync::OnceLock<(synthetic::StereoScene, synthetic::StereoScene)> = std::sync::OnceLock::new();
+    static SCENES: std::sync::OnceLock<(parallax_synthetic::StereoScene, parallax_synthetic::StereoScene)> =
+        std::sync::OnceLock::new();
     let (plain, lit) = SCENES.get_or_init(|| (scene(1.0, 0.0), scene(1.3, 20.0)));
     let mask: Vec<bool> = plain.occluded.iter().map(|&o| !o).collect();
-    let bad1 = |s: &synthetic::StereoScene| {
+    let bad1 = |s: &parallax_synthetic::StereoScene| {
         let d = run(s, cfg.clone());
         evaluate(&d, &s.disparity, Some(&mask), &[1.0]).unwrap().bad_at(1.0).unwrap()
     };

@@ -11,7 +11,7 @@
 //! loops and no I/O; every type is `f64` and derives `serde`.
 //!
 //! ```
-//! use camera_model::{Camera, Distortion, Intrinsics, Isometry3};
+//! use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3};
 //! use glam::DVec3;
 //!
 //! let camera = Camera::new(
@@ -28,7 +28,7 @@
 //! let corner_in_camera = camera_from_board.transform_point(DVec3::new(0.03, 0.0, 0.0));
 //! let back = camera.unproject(camera.project(corner_in_camera)?)?;
 //! assert!((back - corner_in_camera / corner_in_camera.z).length() < 1e-12);
-//! # Ok::<(), camera_model::CameraModelError>(())
+//! # Ok::<(), parallax_camera_model::CameraModelError>(())
 //! ```
 
 mod camera;

@@ -11,7 +11,7 @@ use crate::{CameraModelError, Result};
 /// Composition reads like the names: `a_from_c = a_from_b * b_from_c`.
 ///
 /// ```
-/// use camera_model::Isometry3;
+/// use parallax_camera_model::Isometry3;
 /// use glam::DVec3;
 /// let base_from_gripper = Isometry3::from_rvec_tvec(DVec3::new(0.0, 0.0, 0.5), DVec3::new(0.3, 0.0, 0.4));
 /// let gripper_from_camera = Isometry3::from_rvec_tvec(DVec3::new(0.1, 0.0, 0.0), DVec3::new(0.0, 0.05, 0.1));
@@ -44,7 +44,7 @@ impl Isometry3 {
     }
 
     /// From a rotation matrix and a translation; errors unless `r` is a proper rotation to
-    /// within 1e-6 (project a noisy matrix first with `least_squares::nearest_rotation`).
+    /// within 1e-6 (project a noisy matrix first with `parallax_least_squares::nearest_rotation`).
     pub fn from_rotation_translation(r: DMat3, translation: DVec3) -> Result<Self> {
         check_rotation(r, "rotation matrix")?;
         if !translation.is_finite() {

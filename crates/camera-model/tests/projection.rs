@@ -1,7 +1,7 @@
 //! Worked examples, bad input and analytic Jacobians against central finite differences.
 
-use camera_model::{Camera, CameraModelError, Distortion, Intrinsics, Isometry3, StereoRig};
 use glam::{DVec2, DVec3};
+use parallax_camera_model::{Camera, CameraModelError, Distortion, Intrinsics, Isometry3, StereoRig};
 
 fn pinhole(fx: f64, fy: f64, cx: f64, cy: f64) -> Camera {
     Camera::new(Intrinsics::new(fx, fy, cx, cy), Distortion::default(), 1280, 960).unwrap()

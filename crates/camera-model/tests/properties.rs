@@ -1,7 +1,7 @@
 //! Property tests (fixed seed): round trips of distortion, poses and rotation vectors.
 
-use camera_model::{Camera, Distortion, Intrinsics, Isometry3};
 use glam::{DMat3, DVec2, DVec3};
+use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 
@@ -81,7 +81,7 @@ fn rvec_matrix_round_trip_near_zero_and_pi() {
             let theta = rvec.length();
             if theta > 1e-6 {
                 let k = rvec / theta;
-                let kx = camera_model::skew_symmetric(k);
+                let kx = parallax_camera_model::skew_symmetric(k);
                 let rodrigues = DMat3::IDENTITY + kx * theta.sin() + kx * kx * (1.0 - theta.cos());
                 prop_assert!((rodrigues - m).abs().to_cols_array().iter().all(|v| *v < 1e-12));
             }

@@ -2,7 +2,7 @@
 //! `path x0 y0 x1 y1 ...` (or `path none`), for comparison with other tools.
 //! Usage: `cargo run --release -p corner-detection --example dump_corners -- [subpix|saddle] COLSxROWS IMAGES...`
 
-use corner_detection::{ChessboardConfig, CornerRefinement, find_chessboard};
+use parallax_corner_detection::{ChessboardConfig, CornerRefinement, find_chessboard};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();

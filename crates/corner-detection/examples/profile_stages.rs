@@ -1,7 +1,7 @@
 //! Times the stages of the chessboard detector on one image (release build):
 //! `cargo run --release -p corner-detection --example profile_stages -- IMAGE`.
 
-use corner_detection::{
+use parallax_corner_detection::{
     ChessboardConfig, chessboard_candidates, find_chessboard, gaussian_blur, saddle_response, to_f32,
 };
 use std::time::Instant;

@@ -107,7 +107,7 @@ pub struct BlobDetection {
 /// polarity, area / aspect / fill filters, sub-pixel weighted centroids.
 ///
 /// ```
-/// use corner_detection::{detect_blobs, BlobConfig};
+/// use parallax_corner_detection::{detect_blobs, BlobConfig};
 /// let img = image::GrayImage::from_fn(60, 40, |x, y| {
 ///     let d = ((x as f64 - 20.0).powi(2) + (y as f64 - 18.0).powi(2)).sqrt();
 ///     image::Luma([if d < 6.0 { 20 } else { 230 }])
@@ -115,7 +115,7 @@ pub struct BlobDetection {
 /// let found = detect_blobs(&img, &BlobConfig::default())?;
 /// assert_eq!(found.blobs.len(), 1);
 /// assert!((found.blobs[0].centroid - glam::DVec2::new(20.0, 18.0)).length() < 0.01);
-/// # Ok::<(), corner_detection::CornerError>(())
+/// # Ok::<(), parallax_corner_detection::CornerError>(())
 /// ```
 pub fn detect_blobs(img: &GrayImage, cfg: &BlobConfig) -> Result<BlobDetection> {
     crate::imageops::check_size(img, 1, "detect_blobs")?;

@@ -8,9 +8,9 @@
 //! size (in either orientation), whose square colours do not alternate, or whose cells fold is
 //! "not found".
 
-use camera_model::CornerGrid;
 use glam::DVec2;
 use image::{GrayImage, Rgb, RgbImage};
+use parallax_camera_model::CornerGrid;
 use serde::{Deserialize, Serialize};
 
 use crate::harris::peaks_above;
@@ -142,7 +142,7 @@ struct Candidate {
 /// Never returns a partial, oversized or wrongly ordered grid: see the module docs.
 ///
 /// ```
-/// use corner_detection::{find_chessboard, ChessboardConfig};
+/// use parallax_corner_detection::{find_chessboard, ChessboardConfig};
 /// // A 5x4-square chessboard (4x3 inner corners) of 20 px squares, drawn with a white margin.
 /// let img = image::GrayImage::from_fn(160, 140, |x, y| {
 ///     let (u, v) = (x as i32 - 30, y as i32 - 30);
@@ -155,7 +155,7 @@ struct Candidate {
 /// assert!((grid.corners[0] - glam::DVec2::new(49.5, 49.5)).length() < 0.05);
 /// // The wrong size is "not found", never a partial grid.
 /// assert!(find_chessboard(&img, 5, 3, &ChessboardConfig::default())?.is_none());
-/// # Ok::<(), corner_detection::CornerError>(())
+/// # Ok::<(), parallax_corner_detection::CornerError>(())
 /// ```
 pub fn find_chessboard(
     img: &GrayImage,

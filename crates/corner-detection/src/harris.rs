@@ -147,14 +147,14 @@ impl Default for CornerConfig {
 /// first. A flat image returns no corner.
 ///
 /// ```
-/// use corner_detection::{detect_corners, CornerConfig};
+/// use parallax_corner_detection::{detect_corners, CornerConfig};
 /// // A bright square on a dark background has four corners.
 /// let img = image::GrayImage::from_fn(64, 64, |x, y| {
 ///     image::Luma([if (16..48).contains(&x) && (16..48).contains(&y) { 200 } else { 20 }])
 /// });
 /// let corners = detect_corners(&img, &CornerConfig::default())?;
 /// assert_eq!(corners.len(), 4);
-/// # Ok::<(), corner_detection::CornerError>(())
+/// # Ok::<(), parallax_corner_detection::CornerError>(())
 /// ```
 pub fn detect_corners(img: &GrayImage, cfg: &CornerConfig) -> Result<Vec<Corner>> {
     if !(cfg.quality_level.is_finite() && cfg.quality_level > 0.0 && cfg.quality_level < 1.0) {

@@ -15,7 +15,7 @@
 //! top-left pixel.
 //!
 //! ```
-//! use corner_detection::{find_chessboard, ChessboardConfig};
+//! use parallax_corner_detection::{find_chessboard, ChessboardConfig};
 //! // A 7x5-square board (6x4 inner corners), 16 px squares, white margin around it.
 //! let img = image::GrayImage::from_fn(170, 140, |x, y| {
 //!     let (u, v) = (x as i32 - 25, y as i32 - 30);
@@ -26,7 +26,7 @@
 //! assert_eq!((grid.cols, grid.rows, grid.corners.len()), (6, 4, 24));
 //! // Row-major, cols along a row: corner (col 1, row 0) is 16 px right of corner 0.
 //! assert!((grid.at(1, 0) - grid.at(0, 0) - glam::DVec2::new(16.0, 0.0)).length() < 0.05);
-//! # Ok::<(), corner_detection::CornerError>(())
+//! # Ok::<(), parallax_corner_detection::CornerError>(())
 //! ```
 
 mod blobs;

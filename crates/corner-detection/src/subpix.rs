@@ -162,7 +162,7 @@ fn check_corners(img: &GrayImage, corners: &[DVec2]) -> Result<()> {
 /// spacing unless [`WindowSize::Fixed`] is given.
 ///
 /// ```
-/// use corner_detection::{refine_corners_subpix, SubPixConfig, WindowSize};
+/// use parallax_corner_detection::{refine_corners_subpix, SubPixConfig, WindowSize};
 /// use glam::DVec2;
 /// // A blurred X-junction at (20.3, 19.6), edges rotated by 0.3 rad: tanh profiles across
 /// // both lines, so opposite sectors share a colour.
@@ -176,7 +176,7 @@ fn check_corners(img: &GrayImage, corners: &[DVec2]) -> Result<()> {
 /// let cfg = SubPixConfig { window: WindowSize::Fixed(6), ..Default::default() };
 /// refine_corners_subpix(&img, &mut corners, &cfg)?;
 /// assert!((corners[0] - DVec2::new(cx, cy)).length() < 0.02);
-/// # Ok::<(), corner_detection::CornerError>(())
+/// # Ok::<(), parallax_corner_detection::CornerError>(())
 /// ```
 pub fn refine_corners_subpix(img: &GrayImage, corners: &mut [DVec2], cfg: &SubPixConfig) -> Result<Vec<Refinement>> {
     cfg.window.validate()?;

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use corner_detection::{ChessboardConfig, find_chessboard};
+use parallax_corner_detection::{ChessboardConfig, find_chessboard};
 
 fn data_dir() -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data"))

@@ -3,11 +3,11 @@
 //! corner error ≤ 0.03 px against the true projections, no wrong ordering. Plus the negative
 //! cases and the error curve over noise σ = 0..8 (printed; run with `--nocapture`).
 
-use camera_model::{Camera, Chessboard, Distortion, Intrinsics};
-use corner_detection::{ChessboardConfig, CornerRefinement, find_chessboard};
+use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics};
+use parallax_corner_detection::{ChessboardConfig, CornerRefinement, find_chessboard};
 
 use glam::DVec2;
-use synthetic::{RenderOptions, ViewSetConfig, calibration_poses, render_chessboard};
+use parallax_synthetic::{RenderOptions, ViewSetConfig, calibration_poses, render_chessboard};
 
 fn camera() -> Camera {
     Camera {
@@ -174,7 +174,7 @@ fn negative_cases_on_rendered_views() {
         assert!(find_chessboard(&cut, 9, 6, &cfg).unwrap().is_none(), "half board reported as found");
     }
     // Clutter without a board (the board rendered far outside the image).
-    let far = camera_model::Isometry3::from_rvec_tvec(glam::DVec3::ZERO, glam::DVec3::new(5000.0, 0.0, 400.0));
+    let far = parallax_camera_model::Isometry3::from_rvec_tvec(glam::DVec3::ZERO, glam::DVec3::new(5000.0, 0.0, 400.0));
     let empty = render_chessboard(&cam, &b, &far, &opts).unwrap();
     assert!(find_chessboard(&empty.image, 9, 6, &cfg).unwrap().is_none());
     let blank = image::GrayImage::from_pixel(640, 480, image::Luma([200]));
@@ -185,7 +185,7 @@ fn negative_cases_on_rendered_views() {
 fn hard_scene_strong_distortion_tilt_lighting_clutter() {
     // synthetic's "hard" scene: k1 = −0.3 barrel distortion, tilts up to 60°, blur 1 px,
     // noise 3, impulse noise, illumination gradient, vignetting and background clutter.
-    let scene = synthetic::SceneDescription::builtin_hard();
+    let scene = parallax_synthetic::SceneDescription::builtin_hard();
     let poses =
         calibration_poses(&scene.camera, &scene.board, &ViewSetConfig { views: 12, seed: 31, ..scene.views.clone() })
             .unwrap();

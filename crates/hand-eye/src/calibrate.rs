@@ -3,8 +3,8 @@
 use std::fmt;
 use std::str::FromStr;
 
-use camera_model::Isometry3;
 use glam::DVec3;
+use parallax_camera_model::Isometry3;
 use serde::{Deserialize, Serialize};
 
 use crate::motion::{
@@ -146,9 +146,9 @@ pub fn solve_motions(method: Method, motions: &[Motion]) -> Result<Isometry3> {
 /// naming the stations, never a silently wrong answer.
 ///
 /// ```
-/// use camera_model::Isometry3;
+/// use parallax_camera_model::Isometry3;
 /// use glam::DVec3;
-/// use hand_eye::{calibrate, HandEyeConfig, Method};
+/// use parallax_hand_eye::{calibrate, HandEyeConfig, Method};
 ///
 /// let x = Isometry3::from_rvec_tvec(DVec3::new(0.1, -0.2, 1.5), DVec3::new(0.05, -0.03, 0.1));
 /// let base_from_board = Isometry3::from_rvec_tvec(DVec3::new(0.0, 0.0, 0.3), DVec3::new(0.6, 0.0, 0.0));
@@ -164,7 +164,7 @@ pub fn solve_motions(method: Method, motions: &[Motion]) -> Result<Isometry3> {
 /// let (angle, dist) = sol.transform.distance(&x);
 /// assert!(angle < 1e-9 && dist < 1e-9);
 /// assert!(sol.quality.mean_rotation_deg < 1e-6);
-/// # Ok::<(), hand_eye::HandEyeError>(())
+/// # Ok::<(), parallax_hand_eye::HandEyeError>(())
 /// ```
 pub fn calibrate(
     base_from_gripper: &[Isometry3],

@@ -3,8 +3,8 @@
 //! Parsed by hand: the formats are a few numbers each, and a YAML or XML crate would be the
 //! largest dependency of the crate.
 
-use camera_model::Isometry3;
 use glam::{DQuat, DVec3};
+use parallax_camera_model::Isometry3;
 use serde::{Deserialize, Serialize};
 
 use crate::{HandEyeError, Result};

@@ -22,9 +22,9 @@
 //! `i < j`, `A = G_j⁻¹ G_i`, `B = C_j C_i⁻¹`. Lengths are in the unit of the input poses.
 //!
 //! ```
-//! use camera_model::Isometry3;
+//! use parallax_camera_model::Isometry3;
 //! use glam::DVec3;
-//! use hand_eye::{calibrate, points_to_base, HandEyeConfig, Method};
+//! use parallax_hand_eye::{calibrate, points_to_base, HandEyeConfig, Method};
 //!
 //! let x = Isometry3::from_rvec_tvec(DVec3::new(0.0, 0.0, 1.57), DVec3::new(0.058, -0.034, -0.042));
 //! let w = Isometry3::from_rvec_tvec(DVec3::new(3.1, 0.0, 0.0), DVec3::new(0.5, 0.0, 0.0));
@@ -38,7 +38,7 @@
 //! // A point 0.5 m in front of the camera at station 0, in the robot base frame:
 //! let p = points_to_base(&g[0], &sol.transform, &[DVec3::new(0.0, 0.0, 0.5)])[0];
 //! assert!((p - (g[0] * x).transform_point(DVec3::new(0.0, 0.0, 0.5))).length() < 1e-9);
-//! # Ok::<(), hand_eye::HandEyeError>(())
+//! # Ok::<(), parallax_hand_eye::HandEyeError>(())
 //! ```
 
 mod calibrate;

@@ -1,9 +1,9 @@
 //! Closed-form solvers of `A X = X B`.
 
-use camera_model::Isometry3;
 use faer::{Col, Mat, Side};
 use glam::{DMat3, DQuat, DVec3};
-use least_squares::{nearest_rotation, null_vector, solve_linear_least_squares};
+use parallax_camera_model::Isometry3;
+use parallax_least_squares::{nearest_rotation, null_vector, solve_linear_least_squares};
 
 use crate::motion::Motion;
 use crate::{HandEyeError, Result};

@@ -1,7 +1,7 @@
 //! Stations, relative motions `A_i X = X B_i`, and the degeneracy check.
 
-use camera_model::Isometry3;
 use glam::DVec3;
+use parallax_camera_model::Isometry3;
 use serde::{Deserialize, Serialize};
 
 use crate::{HandEyeError, Result};

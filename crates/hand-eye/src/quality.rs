@@ -1,7 +1,7 @@
 //! Quality measures of a hand-eye solution.
 
-use camera_model::Isometry3;
 use glam::DMat4;
+use parallax_camera_model::Isometry3;
 use serde::{Deserialize, Serialize};
 
 use crate::Result;

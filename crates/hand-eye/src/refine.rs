@@ -1,9 +1,9 @@
 //! Nonlinear refinement: maximum likelihood over the absolute station poses.
 
-use camera_model::Isometry3;
 use faer::MatMut;
 use glam::{DMat3, DVec3};
-use least_squares::{EvaluationError, LmConfig, Problem, levenberg_marquardt, nearest_rotation};
+use parallax_camera_model::Isometry3;
+use parallax_least_squares::{EvaluationError, LmConfig, Problem, levenberg_marquardt, nearest_rotation};
 use serde::{Deserialize, Serialize};
 
 use crate::linear::skew;

@@ -5,10 +5,10 @@
 //! Eye-to-hand uses `G_i⁻¹` instead (see [`crate::Setup`]), so `X = base_from_camera` and
 //! `Z = gripper_from_board`.
 
-use camera_model::Isometry3;
 use faer::{Col, Mat};
 use glam::{DMat3, DVec3};
-use least_squares::{nearest_rotation, null_vector, solve_linear_least_squares};
+use parallax_camera_model::Isometry3;
+use parallax_least_squares::{nearest_rotation, null_vector, solve_linear_least_squares};
 
 use crate::{HandEyeError, Result};
 

@@ -2,10 +2,10 @@
 
 mod common;
 
-use camera_model::Isometry3;
 use common::{noisy_scene, rng, scene};
 use glam::{DQuat, DVec3};
-use hand_eye::{
+use parallax_camera_model::Isometry3;
+use parallax_hand_eye::{
     DegeneracyConfig, HandEyeConfig, HandEyeError, Method, Motion, RefineConfig, calibrate, check_motions, evaluate,
     motion_residual, points_to_base, points_to_gripper,
 };

@@ -2,7 +2,7 @@
 //! The hand-eye figures on this set need corner detection and are measured with
 //! `cargo xtask handeye` (see the crate docs).
 
-use hand_eye::io::parse_visp_pose;
+use parallax_hand_eye::io::parse_visp_pose;
 
 #[test]
 fn visp_franka_robot_poses_are_read() {

@@ -2,10 +2,12 @@
 
 mod common;
 
-use camera_model::Isometry3;
 use common::{noisy_scene, rng, scene};
 use glam::{DQuat, DVec3};
-use hand_eye::{HandEyeConfig, HandEyeError, Method, PairSelection, Setup, calibrate, relative_motions, solve_motions};
+use parallax_camera_model::Isometry3;
+use parallax_hand_eye::{
+    HandEyeConfig, HandEyeError, Method, PairSelection, Setup, calibrate, relative_motions, solve_motions,
+};
 
 fn err(a: &Isometry3, b: &Isometry3) -> (f64, f64) {
     let (r, t) = a.distance(b);

@@ -1,14 +1,14 @@
 //! Hand-eye on trajectories of the `synthetic` crate (eye-in-hand and eye-to-hand).
 
-use camera_model::Isometry3;
-use hand_eye::{HandEyeConfig, Method, Setup, calibrate};
-use synthetic::{TrajectoryConfig, hand_eye_trajectory};
+use parallax_camera_model::Isometry3;
+use parallax_hand_eye::{HandEyeConfig, Method, Setup, calibrate};
+use parallax_synthetic::{TrajectoryConfig, hand_eye_trajectory};
 
 fn config(eye_in_hand: bool) -> HandEyeConfig {
     HandEyeConfig { setup: if eye_in_hand { Setup::EyeInHand } else { Setup::EyeToHand }, ..Default::default() }
 }
 
-fn truth(t: &synthetic::Trajectory) -> (Isometry3, Isometry3) {
+fn truth(t: &parallax_synthetic::Trajectory) -> (Isometry3, Isometry3) {
     if t.eye_in_hand {
         (t.truth.gripper_from_camera, t.truth.base_from_board)
     } else {

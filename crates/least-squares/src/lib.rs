@@ -15,7 +15,7 @@
 //! the solver is written here; it is about 200 lines.
 //!
 //! ```
-//! use least_squares::{levenberg_marquardt, LmConfig, Problem, EvaluationError};
+//! use parallax_least_squares::{levenberg_marquardt, LmConfig, Problem, EvaluationError};
 //! use faer::MatMut;
 //!
 //! /// Fit y = a·exp(b·x) to exact samples.
@@ -38,7 +38,7 @@
 //! let y = x.iter().map(|x| 2.0 * (0.5 * x).exp()).collect();
 //! let fit = levenberg_marquardt(&ExpFit { x, y }, &[1.0, 0.0], &LmConfig::default())?;
 //! assert!((fit.params[0] - 2.0).abs() < 1e-9 && (fit.params[1] - 0.5).abs() < 1e-9);
-//! # Ok::<(), least_squares::LeastSquaresError>(())
+//! # Ok::<(), parallax_least_squares::LeastSquaresError>(())
 //! ```
 
 mod linear;

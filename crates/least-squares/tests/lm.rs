@@ -1,7 +1,7 @@
 //! Levenberg–Marquardt on textbook problems, and its covariance against closed forms.
 
 use faer::{Mat, MatMut};
-use least_squares::{EvaluationError, LeastSquaresError, LmConfig, Problem, StopReason, levenberg_marquardt};
+use parallax_least_squares::{EvaluationError, LeastSquaresError, LmConfig, Problem, StopReason, levenberg_marquardt};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 

@@ -3,10 +3,10 @@
 //! one 6-vector pose per view. `normal_equations` accumulates `JᵀJ` block by block (camera
 //! block, rig block, per-view 6x6 blocks and their couplings) without forming `J`.
 
-use camera_model::{Camera, Distortion, Intrinsics, Isometry3};
 use faer::{Col, Mat, MatMut};
 use glam::{DVec2, DVec3};
-use least_squares::{EvaluationError, Problem};
+use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3};
+use parallax_least_squares::{EvaluationError, Problem};
 
 /// Length of the full intrinsic vector `(fx, fy, cx, cy, skew, k1, k2, p1, p2, k3, k4, k5, k6)`.
 pub(crate) const N_INTR: usize = 13;
@@ -131,7 +131,7 @@ impl<'a> Bundle<'a> {
         // Adjoint of the rig for the left perturbation (ω, v): [[R, 0], [[t]× R, R]].
         let adj = rig.map(|e| {
             let r = e.rotation_matrix();
-            let tx = camera_model::skew_symmetric(e.translation) * r;
+            let tx = parallax_camera_model::skew_symmetric(e.translation) * r;
             let mut a = [[0.0; 6]; 6];
             for i in 0..3 {
                 for j in 0..3 {
@@ -300,7 +300,7 @@ impl Problem for Bundle<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use least_squares::Problem;
+    use parallax_least_squares::Problem;
 
     fn slots(cam: &Camera, free: &[usize]) -> CameraModelSlots {
         let theta = theta_of(cam);

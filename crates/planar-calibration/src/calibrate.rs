@@ -1,9 +1,9 @@
 //! Mono calibration: closed-form initialisation, full maximum-likelihood refinement with
 //! OpenCV-like options, uncertainty and diagnostics.
 
-use camera_model::{Camera, Chessboard, CornerGrid, Distortion, Intrinsics, Isometry3};
 use glam::{DMat3, DVec2, DVec3};
-use least_squares::{LmConfig, LmReport, levenberg_marquardt};
+use parallax_camera_model::{Camera, Chessboard, CornerGrid, Distortion, Intrinsics, Isometry3};
+use parallax_least_squares::{LmConfig, LmReport, levenberg_marquardt};
 use serde::{Deserialize, Serialize};
 
 use crate::bundle::{Bundle, CameraModelSlots, N_INTR, Slot, ViewObs, store_pose, theta_of};
@@ -573,7 +573,7 @@ pub fn calibrate_camera(
         .map(|(o, i)| ViewObs { object: o, image: [Some(i.as_slice()), None] })
         .collect();
     let bundle = Bundle::new(vec![slots.clone()], false, views);
-    let n = least_squares::Problem::num_params(&bundle);
+    let n = parallax_least_squares::Problem::num_params(&bundle);
     if bundle.num_residuals <= n {
         return Err(CalibrationError::TooFewPoints {
             what: "calibration (all views)".into(),

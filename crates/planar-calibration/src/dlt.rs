@@ -1,10 +1,10 @@
 //! DLT calibration from a non-planar target: the 3x4 projection matrix from ≥ 6 3D ↔ 2D
 //! points (normalised DLT), decomposed by RQ into `K`, `R`, `t`.
 
-use camera_model::{Intrinsics, Isometry3, ProjectionMatrix};
 use faer::Mat;
 use glam::{DMat3, DVec2, DVec3, DVec4};
-use least_squares::null_vector;
+use parallax_camera_model::{Intrinsics, Isometry3, ProjectionMatrix};
+use parallax_least_squares::null_vector;
 use serde::{Deserialize, Serialize};
 
 use crate::homography::{COLLINEAR_RATIO, normalization};

@@ -2,7 +2,7 @@
 
 use faer::{Mat, MatMut};
 use glam::{DMat3, DVec2, DVec3};
-use least_squares::{EvaluationError, LmConfig, Problem, levenberg_marquardt, null_vector};
+use parallax_least_squares::{EvaluationError, LmConfig, Problem, levenberg_marquardt, null_vector};
 use serde::{Deserialize, Serialize};
 
 use crate::{CalibrationError, Result};
@@ -212,9 +212,9 @@ fn transfer_rms(h: &DMat3, plane: &[DVec2], image: &[DVec2]) -> f64 {
 /// let h = DMat3::from_cols(DVec3::new(1.0, 0.1, 1e-4), DVec3::new(-0.2, 0.9, 2e-4), DVec3::new(100.0, 50.0, 1.0));
 /// let plane: Vec<DVec2> = (0..12).map(|i| DVec2::new((i % 4) as f64 * 30.0, (i / 4) as f64 * 30.0)).collect();
 /// let image: Vec<DVec2> = plane.iter().map(|p| { let q = h * p.extend(1.0); DVec2::new(q.x / q.z, q.y / q.z) }).collect();
-/// let fit = planar_calibration::estimate_homography(&plane, &image)?;
+/// let fit = parallax_planar_calibration::estimate_homography(&plane, &image)?;
 /// assert!(fit.rms < 1e-9);
-/// # Ok::<(), planar_calibration::CalibrationError>(())
+/// # Ok::<(), parallax_planar_calibration::CalibrationError>(())
 /// ```
 pub fn estimate_homography(plane: &[DVec2], image: &[DVec2]) -> Result<Homography> {
     estimate_homography_named(plane, image, "homography")

@@ -16,9 +16,9 @@
 //! RMS = `sqrt(Σ‖e‖²/N)` over corners, poses `camera_from_board` in board units.
 //!
 //! ```
-//! use camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3};
+//! use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3};
 //! use glam::DVec3;
-//! use planar_calibration::{calibrate_camera, CalibrationConfig};
+//! use parallax_planar_calibration::{calibrate_camera, CalibrationConfig};
 //!
 //! let truth = Camera::new(Intrinsics::new(600.0, 605.0, 318.0, 242.0),
 //!                         Distortion::new(-0.2, 0.05, 0.0, 0.0, 0.0), 640, 480)?;

@@ -1,9 +1,9 @@
 //! Pose of a known camera from a planar target: homography on undistorted points, then
 //! Levenberg–Marquardt on the reprojection error (the pose-only bundle).
 
-use camera_model::{Camera, Chessboard, Intrinsics, Isometry3};
 use glam::{DVec2, DVec3};
-use least_squares::{LmConfig, levenberg_marquardt};
+use parallax_camera_model::{Camera, Chessboard, Intrinsics, Isometry3};
+use parallax_least_squares::{LmConfig, levenberg_marquardt};
 
 use crate::bundle::{Bundle, CameraModelSlots, N_INTR, Slot, ViewObs, pose_at, store_pose, theta_of};
 use crate::calibrate::rms_of;
@@ -53,13 +53,13 @@ pub fn solve_pnp_planar_points(camera: &Camera, object: &[DVec3], image: &[DVec2
 /// per row), as many as the board has inner corners.
 ///
 /// ```
-/// use camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3};
+/// use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3};
 /// use glam::DVec3;
 /// let camera = Camera::new(Intrinsics::new(600.0, 600.0, 320.0, 240.0), Distortion::new(-0.1, 0.0, 0.0, 0.0, 0.0), 640, 480)?;
 /// let board = Chessboard::new(9, 6, 30.0)?;
 /// let truth = Isometry3::from_rvec_tvec(DVec3::new(0.2, -0.1, 0.05), DVec3::new(-120.0, -80.0, 600.0));
 /// let corners: Vec<_> = board.object_points().iter().map(|p| camera.project_from(&truth, *p).unwrap()).collect();
-/// let (pose, rms) = planar_calibration::solve_pnp_planar(&camera, &board, &corners)?;
+/// let (pose, rms) = parallax_planar_calibration::solve_pnp_planar(&camera, &board, &corners)?;
 /// assert!(rms < 1e-8 && pose.distance(&truth).1 < 1e-6);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```

@@ -1,9 +1,9 @@
 //! Stereo calibration: per-camera calibration, a robust `right_from_left` start (median over
 //! views), then joint refinement of both cameras, the rig and the board poses.
 
-use camera_model::{Camera, Chessboard, CornerGrid, Isometry3, StereoRig};
 use glam::{DMat3, DVec2, DVec3};
-use least_squares::{LmConfig, levenberg_marquardt};
+use parallax_camera_model::{Camera, Chessboard, CornerGrid, Isometry3, StereoRig};
+use parallax_least_squares::{LmConfig, levenberg_marquardt};
 use serde::{Deserialize, Serialize};
 
 use crate::bundle::{Bundle, CameraModelSlots, N_INTR, Slot, ViewObs, pose_at, store_pose, theta_of};
@@ -161,7 +161,7 @@ pub fn calibrate_stereo(
         .map(|(o, (l, r))| ViewObs { object: o, image: [Some(l.as_slice()), Some(r.as_slice())] })
         .collect();
     let bundle = Bundle::new(vec![ls.clone(), rs.clone()], true, views);
-    let n = least_squares::Problem::num_params(&bundle);
+    let n = parallax_least_squares::Problem::num_params(&bundle);
     let mut x0 = vec![0.0; n];
     x0[..ls.num_free].copy_from_slice(&ls.free_values(&lcam));
     let ro = bundle.cam_offsets[1];

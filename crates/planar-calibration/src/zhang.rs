@@ -3,9 +3,9 @@
 
 use faer::{Col, Mat};
 use glam::{DMat3, DVec2, DVec3};
-use least_squares::{nearest_rotation, null_vector, solve_linear_least_squares};
+use parallax_least_squares::{nearest_rotation, null_vector, solve_linear_least_squares};
 
-use camera_model::{Intrinsics, Isometry3};
+use parallax_camera_model::{Intrinsics, Isometry3};
 
 use crate::{CalibrationError, Result};
 
@@ -156,7 +156,7 @@ pub fn focal_lengths_with_principal_point(homographies: &[DMat3], cx: f64, cy: f
 
 /// `camera_from_board` from `K⁻¹H = λ[r1 r2 t]`: `λ` from the mean norm of the first two
 /// columns, sign so the board is in front of the camera, and the rotation projected onto SO(3)
-/// (`least_squares::nearest_rotation`).
+/// (`parallax_least_squares::nearest_rotation`).
 pub fn pose_from_homography(k: &Intrinsics, h: &DMat3) -> Result<Isometry3> {
     let m = k.matrix().inverse() * *h;
     let (a, b, c) = (m.col(0), m.col(1), m.col(2));
@@ -212,7 +212,7 @@ pub fn radial_distortion_linear(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use camera_model::{Camera, Distortion};
+    use parallax_camera_model::{Camera, Distortion};
 
     pub(crate) fn views() -> Vec<Isometry3> {
         let rv = [

@@ -2,11 +2,11 @@
 
 mod common;
 
-use camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
 use common::{board, noisy_views, pose_looking_at, tilted_poses, truth_camera};
 use glam::{DVec2, DVec3};
-use planar_calibration::*;
-use synthetic::{add_pixel_noise, rng};
+use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
+use parallax_planar_calibration::*;
+use parallax_synthetic::{add_pixel_noise, rng};
 
 /// Zhang (1998/2000): α = 832.5, β = 832.53, γ = 0.2045, u0 = 303.959, v0 = 206.585,
 /// k1 = −0.228601, k2 = 0.190353 on 640x480 images.
@@ -149,7 +149,7 @@ fn non_monotonic_distortion_is_flagged() {
     assert!((fold.radius_px - 500.0 * 0.5738).abs() < 1.0, "{fold:?}");
     assert!(distortion_fold(&truth_camera()).is_none());
     // A calibration from boards near the centre recovers that lens and warns.
-    let b = camera_model::Chessboard::new(7, 5, 12.0).unwrap();
+    let b = parallax_camera_model::Chessboard::new(7, 5, 12.0).unwrap();
     let poses = tilted_poses(
         &Camera { width: 400, height: 300, intrinsics: Intrinsics::new(500.0, 500.0, 199.5, 149.5), ..cam },
         &b,
@@ -248,17 +248,17 @@ fn truth_rig() -> StereoRig {
 fn stereo_calibration_recovers_the_rig() {
     let rig = truth_rig();
     let b = board();
-    let cfg = synthetic::ViewSetConfig {
+    let cfg = parallax_synthetic::ViewSetConfig {
         views: 15,
         seed: 21,
         min_distance: 350.0,
         max_distance: 600.0,
         ..Default::default()
     };
-    let poses = synthetic::stereo_calibration_poses(&rig, &b, &cfg).unwrap();
+    let poses = parallax_synthetic::stereo_calibration_poses(&rig, &b, &cfg).unwrap();
     let mut r = rng(22);
     let mut proj = |cam: &Camera, pose: &Isometry3| {
-        let mut c = synthetic::project_corners(cam, &b, pose).unwrap();
+        let mut c = parallax_synthetic::project_corners(cam, &b, pose).unwrap();
         add_pixel_noise(&mut c, 0.1, &mut r);
         c
     };

@@ -3,7 +3,7 @@
 mod common;
 
 use common::{board, noisy_views, truth_camera};
-use planar_calibration::{CalibrationConfig, calibrate_camera};
+use parallax_planar_calibration::{CalibrationConfig, calibrate_camera};
 
 #[test]
 fn one_calibration_is_accurate() {

@@ -1,7 +1,7 @@
 //! Bouguet's calibrated rectification, as OpenCV's `stereoRectify`.
 
-use camera_model::{Camera, Isometry3, ProjectionMatrix, StereoRig};
 use glam::{DMat3, DVec2, DVec3, DVec4};
+use parallax_camera_model::{Camera, Isometry3, ProjectionMatrix, StereoRig};
 use serde::{Deserialize, Serialize};
 
 use crate::opencv_compat;
@@ -20,7 +20,7 @@ pub enum ExtentMethod {
     /// pixel of invalid border inside the `alpha = 0` rectangle.
     #[default]
     OpenCv,
-    /// Converged undistortion (Newton, `camera_model::UNDISTORT_TOLERANCE`) of the corners and
+    /// Converged undistortion (Newton, `parallax_camera_model::UNDISTORT_TOLERANCE`) of the corners and
     /// of every pixel of the image border (pixel centres `0..=w-1`, `0..=h-1`, corners
     /// included). Slower (~2·(w+h) undistortions, well under a millisecond) and not
     /// bit-compatible with OpenCV, but `alpha = 0` then leaves no invalid pixel inside the

@@ -12,7 +12,7 @@ pub enum RectifyError {
         what: &'static str,
         /// The camera-model error.
         #[source]
-        source: camera_model::CameraModelError,
+        source: parallax_camera_model::CameraModelError,
     },
     /// A configuration value is out of range.
     #[error("invalid configuration: {0}")]

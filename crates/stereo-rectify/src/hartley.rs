@@ -1,7 +1,7 @@
 //! Uncalibrated rectification (Hartley), as OpenCV's `stereoRectifyUncalibrated`.
 
 use glam::{DMat3, DVec2, DVec3};
-use least_squares::{dmat3_from_mat, mat_from_dmat3, solve_linear_least_squares};
+use parallax_least_squares::{dmat3_from_mat, mat_from_dmat3, solve_linear_least_squares};
 use serde::{Deserialize, Serialize};
 
 use crate::bouguet::apply_homography;

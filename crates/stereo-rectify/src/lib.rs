@@ -18,9 +18,9 @@
 //! `r1` maps the left camera frame to the rectified left frame.
 //!
 //! ```
-//! use camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
+//! use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
 //! use glam::{DVec2, DVec3};
-//! use stereo_rectify::{rectify_points, stereo_rectify, RectifyConfig};
+//! use parallax_stereo_rectify::{rectify_points, stereo_rectify, RectifyConfig};
 //!
 //! let camera = |fx: f64, cx: f64| {
 //!     Camera::new(Intrinsics::new(fx, fx, cx, 240.0), Distortion::new(-0.2, 0.05, 0.0, 0.0, 0.0), 640, 480)

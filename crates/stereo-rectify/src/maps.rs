@@ -1,8 +1,8 @@
 //! Per-pixel lookup tables: undistort + rectify maps (as OpenCV's `initUndistortRectifyMap`),
 //! undistort-only maps and homography maps.
 
-use camera_model::Camera;
 use glam::{DMat3, DVec2, DVec3};
+use parallax_camera_model::Camera;
 use rayon::prelude::*;
 
 use crate::{RectifyError, Result};

@@ -1,8 +1,8 @@
 //! OpenCV's approximate point undistortion and its `f32` rounding, reproduced so that
 //! [`crate::ExtentMethod::OpenCv`] gives OpenCV's `P1`, `P2`, `Q` and rectangles number for number.
 
-use camera_model::Camera;
 use glam::{DMat3, DVec2, DVec3};
+use parallax_camera_model::Camera;
 
 /// Iterations of OpenCV's `undistortPoints` default criterion (`TermCriteria(COUNT, 5, 0.01)`).
 pub(crate) const OPENCV_UNDISTORT_ITERATIONS: usize = 5;

@@ -1,12 +1,12 @@
 //! Rectifying individual pixels (detected corners, matches) without resampling images.
 
-use camera_model::{Camera, ProjectionMatrix};
 use glam::{DMat3, DVec2};
+use parallax_camera_model::{Camera, ProjectionMatrix};
 
 use crate::{RectifyError, Result};
 
 /// Rectifies pixels of one camera: converged undistortion (`Camera::unproject`, Newton to
-/// `camera_model::UNDISTORT_TOLERANCE`), rotation by `r` (`R1` or `R2`), projection with the
+/// `parallax_camera_model::UNDISTORT_TOLERANCE`), rotation by `r` (`R1` or `R2`), projection with the
 /// left 3x3 block of `p` (`P1` or `P2`). Same convention as OpenCV's `undistortPoints(pts, K,
 /// D, R, P)`: the last column of `P` (the baseline term) is not applied, so left and right
 /// pixels of one scene point share their row and differ by the disparity (OpenCV iterates only

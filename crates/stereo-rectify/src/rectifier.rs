@@ -1,6 +1,6 @@
 //! The build-once [`Rectifier`]: a rig's rectification and both maps.
 
-use camera_model::StereoRig;
+use parallax_camera_model::StereoRig;
 
 use crate::remap::{FastBilinear, Image, Sample, remap_impl};
 use crate::{

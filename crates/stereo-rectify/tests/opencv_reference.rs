@@ -12,9 +12,9 @@
 //! `opencv-stereo-chessboard` (see ../shared/reference/opencv-baseline.md); rigs: the joint
 //! stereo result, a vertical rig, and a rig with the right camera to the right (t_x > 0).
 
-use camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
 use glam::DVec3;
-use stereo_rectify::{ExtentMethod, RectifyConfig, stereo_rectify};
+use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
+use parallax_stereo_rectify::{ExtentMethod, RectifyConfig, stereo_rectify};
 
 struct Case {
     name: &'static str,
@@ -104,7 +104,7 @@ fn matches_opencv_stereo_rectify() {
                 );
             }
         }
-        let roi = |r: stereo_rectify::Roi| [r.x, r.y, r.width, r.height];
+        let roi = |r: parallax_stereo_rectify::Roi| [r.x, r.y, r.width, r.height];
         assert_eq!(roi(rect.roi1), c.roi1, "{}: roi1", c.name);
         assert_eq!(roi(rect.roi2), c.roi2, "{}: roi2", c.name);
         assert_eq!(rect.vertical, c.name.starts_with("vertical"), "{}", c.name);

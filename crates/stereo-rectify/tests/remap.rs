@@ -5,11 +5,11 @@ mod common;
 
 use glam::DVec2;
 use image::{ImageBuffer, Luma, Pixel, Rgb};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
-use stereo_rectify::{
+use parallax_stereo_rectify::{
     Border, Image, Interpolation, Rectifier, RectifyConfig, RectifyError, RemapTable, Sample, init_undistort_map, remap,
 };
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 
 /// A random table: mostly inside, some positions across and far beyond the border, some NaN,
 /// some exactly on integer and half-integer positions.

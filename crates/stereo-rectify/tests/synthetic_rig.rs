@@ -2,9 +2,9 @@
 
 mod common;
 
-use camera_model::StereoRig;
 use glam::{DVec2, DVec3};
-use stereo_rectify::{
+use parallax_camera_model::StereoRig;
+use parallax_stereo_rectify::{
     ExtentMethod, Rectification, Rectifier, RectifyConfig, RectifyError, init_undistort_rectify_map, rectify_points,
     stereo_rectify,
 };

@@ -2,11 +2,11 @@
 
 mod common;
 
-use camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
 use glam::{DMat3, DVec2, DVec3};
+use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
+use parallax_stereo_rectify::{RectifyError, stereo_rectify_uncalibrated};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use stereo_rectify::{RectifyError, stereo_rectify_uncalibrated};
 
 fn pinhole_rig(t: DVec3) -> StereoRig {
     let cam = |f: f64, cx: f64| Camera::new(Intrinsics::new(f, f, cx, 245.0), Distortion::default(), 640, 480).unwrap();

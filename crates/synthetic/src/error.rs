@@ -9,7 +9,7 @@ pub enum SyntheticError {
         /// Which input.
         what: &'static str,
         /// The underlying camera-model error.
-        source: camera_model::CameraModelError,
+        source: parallax_camera_model::CameraModelError,
     },
     /// A configuration value is out of range (zero count, negative sigma, NaN, min > max…).
     #[error("invalid configuration `{field}`: {reason}")]
@@ -40,7 +40,7 @@ impl SyntheticError {
         Self::InvalidConfig { field, reason: reason.into() }
     }
 
-    pub(crate) fn model(what: &'static str) -> impl FnOnce(camera_model::CameraModelError) -> Self {
+    pub(crate) fn model(what: &'static str) -> impl FnOnce(parallax_camera_model::CameraModelError) -> Self {
         move |source| Self::Model { what, source }
     }
 }

@@ -13,8 +13,8 @@
 //! Everything is deterministic for a given seed (ChaCha8).
 //!
 //! ```
-//! use camera_model::{Camera, Chessboard, Distortion, Intrinsics};
-//! use synthetic::{ViewSetConfig, calibration_poses, project_corners};
+//! use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics};
+//! use parallax_synthetic::{ViewSetConfig, calibration_poses, project_corners};
 //!
 //! let camera = Camera::new(Intrinsics::new(800.0, 800.0, 319.5, 239.5), Distortion::new(-0.1, 0.05, 0.0, 0.0, 0.0), 640, 480)?;
 //! let board = Chessboard::new(9, 6, 25.0)?; // millimetres

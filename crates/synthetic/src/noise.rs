@@ -1,7 +1,7 @@
 //! Seeded noise helpers.
 
-use camera_model::Isometry3;
 use glam::{DVec2, DVec3};
+use parallax_camera_model::Isometry3;
 use rand::{Rng, SeedableRng};
 use rand_distr::StandardNormal;
 

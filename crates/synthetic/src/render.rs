@@ -1,8 +1,8 @@
 //! Rendered chessboard views with exact, area-integrated anti-aliasing.
 
-use camera_model::{Camera, Chessboard, Isometry3};
 use glam::{DMat3, DVec2, DVec3};
 use image::{GrayImage, ImageBuffer, Luma};
+use parallax_camera_model::{Camera, Chessboard, Isometry3};
 use rand::Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};

@@ -1,8 +1,8 @@
 //! Scene descriptions in RON: cameras, board, view generators, rendering, stereo scene,
 //! robot trajectory and the pipeline's pass/fail tolerances.
 
-use camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3, StereoRig};
 use glam::DVec3;
+use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3, StereoRig};
 use serde::{Deserialize, Serialize};
 
 use crate::{

@@ -1,8 +1,8 @@
 //! Rectified stereo pairs of a piecewise-planar scene with exact disparity.
 
-use camera_model::{Camera, DisparityMap, Distortion, Intrinsics, Isometry3, StereoRig};
 use glam::DVec3;
 use image::GrayImage;
+use parallax_camera_model::{Camera, DisparityMap, Distortion, Intrinsics, Isometry3, StereoRig};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 

@@ -1,7 +1,7 @@
 //! Robot trajectories with a known hand-eye transform.
 
-use camera_model::Isometry3;
 use glam::{DQuat, DVec3};
+use parallax_camera_model::Isometry3;
 use serde::{Deserialize, Serialize};
 
 use crate::SyntheticError;

@@ -1,7 +1,7 @@
 //! Calibration view sets: seeded `camera_from_board` poses with the board visible.
 
-use camera_model::{Camera, Chessboard, Isometry3, StereoRig};
 use glam::{DQuat, DVec2, DVec3};
+use parallax_camera_model::{Camera, Chessboard, Isometry3, StereoRig};
 use serde::{Deserialize, Serialize};
 
 use crate::SyntheticError;

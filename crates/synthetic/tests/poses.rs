@@ -1,8 +1,8 @@
 //! View sets, noise helpers and hand-eye trajectories against independent computations.
 
-use camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3, StereoRig};
 use glam::{DVec2, DVec3};
-use synthetic::*;
+use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3, StereoRig};
+use parallax_synthetic::*;
 
 fn camera() -> Camera {
     Camera::new(

@@ -2,9 +2,9 @@
 
 use std::time::Instant;
 
-use camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3};
 use glam::{DVec2, DVec3};
-use synthetic::*;
+use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3};
+use parallax_synthetic::*;
 
 fn opts_bw() -> RenderOptions {
     RenderOptions { black: 0, white: 255, background: 128, ..Default::default() }

@@ -1,6 +1,6 @@
 //! Scene descriptions: RON round trips, built-in scenes and bad input.
 
-use synthetic::*;
+use parallax_synthetic::*;
 
 #[test]
 fn builtin_scenes_round_trip_through_ron_and_generate() {

@@ -2,7 +2,7 @@
 
 use std::time::Instant;
 
-use synthetic::*;
+use parallax_synthetic::*;
 
 /// Catmull–Rom interpolation of row `v` of `img` at column `x`.
 fn sample_row(img: &image::GrayImage, x: f64, v: u32) -> f64 {

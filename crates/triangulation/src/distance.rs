@@ -1,7 +1,7 @@
 //! Distances between triangulated points with their uncertainty, and the chessboard check.
 
-use camera_model::{CornerGrid, StereoRig};
 use glam::{DMat3, DVec2, DVec3};
+use parallax_camera_model::{CornerGrid, StereoRig};
 use serde::{Deserialize, Serialize};
 
 use crate::point::{TriangulatedPoint, TriangulationConfig, stereo_views, triangulate};

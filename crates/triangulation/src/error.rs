@@ -1,5 +1,5 @@
-use camera_model::CameraModelError;
-use least_squares::LeastSquaresError;
+use parallax_camera_model::CameraModelError;
+use parallax_least_squares::LeastSquaresError;
 use thiserror::Error;
 
 /// Everything that can go wrong in `triangulation`. Each variant names the offending input.

@@ -19,9 +19,9 @@
 //! of a rig is its left camera frame.
 //!
 //! ```
-//! use camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
+//! use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
 //! use glam::DVec3;
-//! use triangulation::{Method, TriangulationConfig, triangulate_stereo};
+//! use parallax_triangulation::{Method, TriangulationConfig, triangulate_stereo};
 //!
 //! let cam = Camera::new(Intrinsics::new(800.0, 800.0, 640.0, 480.0), Distortion::default(), 1280, 960)?;
 //! // Right camera 100 mm to the right of the left one.

@@ -1,8 +1,8 @@
 //! Triangulation of one point from two or more calibrated views.
 
-use camera_model::{Camera, Isometry3, ProjectionMatrix, StereoRig};
 use faer::{Col, Mat};
 use glam::{DMat3, DVec2, DVec3, DVec4};
+use parallax_camera_model::{Camera, Isometry3, ProjectionMatrix, StereoRig};
 use serde::{Deserialize, Serialize};
 
 use crate::{Result, TriangulationError};
@@ -447,8 +447,8 @@ pub fn linear_from_projections(projections: &[ProjectionMatrix], pixels: &[DVec2
             b[i] = m[row][3] - coord * m[2][3];
         }
     }
-    let x = least_squares::solve_linear_least_squares(a.as_ref(), b.as_ref()).map_err(|e| match e {
-        least_squares::LeastSquaresError::Numerical(_) => {
+    let x = parallax_least_squares::solve_linear_least_squares(a.as_ref(), b.as_ref()).map_err(|e| match e {
+        parallax_least_squares::LeastSquaresError::Numerical(_) => {
             TriangulationError::Degenerate("A X = B is rank deficient (rays parallel or through both centres)".into())
         }
         other => other.into(),
@@ -462,7 +462,7 @@ pub fn linear_from_projections(projections: &[ProjectionMatrix], pixels: &[DVec2
 
 /// Homogeneous DLT: rows `u p3 − p1`, `v p3 − p2` of every view stacked into `A`, each row
 /// scaled to unit norm, `X` the right singular vector of the smallest singular value
-/// ([`least_squares::null_vector`]). Pixels must be undistorted. Errors when the solution is
+/// ([`parallax_least_squares::null_vector`]). Pixels must be undistorted. Errors when the solution is
 /// at infinity (`W ≈ 0`).
 ///
 /// The unit-norm constraint of the homogeneous method is not invariant to the world's units
@@ -505,7 +505,7 @@ pub fn dlt_from_projections(projections: &[ProjectionMatrix], pixels: &[DVec2]) 
             }
         }
     }
-    let nv = least_squares::null_vector(a.as_ref())?;
+    let nv = parallax_least_squares::null_vector(a.as_ref())?;
     let h = DVec4::new(nv.vector[0], nv.vector[1], nv.vector[2], nv.vector[3]);
     let xyz = h.truncate();
     if !h.is_finite() || h.w.abs() <= 1e-12 * xyz.length() {
@@ -547,9 +547,9 @@ pub fn midpoint_from_rays(centers: &[DVec3], directions: &[DVec3]) -> Result<DVe
     if angle < PARALLEL_RAYS_RAD {
         return Err(TriangulationError::ParallelRays { angle_rad: angle });
     }
-    let fa = least_squares::mat_from_dmat3(a);
+    let fa = parallax_least_squares::mat_from_dmat3(a);
     let fb = Col::from_fn(3, |i| b[i]);
-    let x = least_squares::solve_linear_least_squares(fa.as_ref(), fb.as_ref())
+    let x = parallax_least_squares::solve_linear_least_squares(fa.as_ref(), fb.as_ref())
         .map_err(|_| TriangulationError::ParallelRays { angle_rad: angle })?;
     let x = DVec3::new(x[0], x[1], x[2]);
     if !x.is_finite() {

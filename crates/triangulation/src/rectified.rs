@@ -1,7 +1,7 @@
 //! Rectified rigs: the parallax formula, OpenCV's `Q` matrix and disparity maps to point clouds.
 
-use camera_model::{DisparityMap, ProjectionMatrix};
 use glam::{DMat4, DVec2, DVec3, DVec4};
+use parallax_camera_model::{DisparityMap, ProjectionMatrix};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 

@@ -3,10 +3,10 @@
 
 mod common;
 
-use camera_model::{Camera, DisparityMap, Distortion, Intrinsics, Isometry3, ProjectionMatrix};
 use common::*;
 use glam::{DVec2, DVec3};
-use triangulation::*;
+use parallax_camera_model::{Camera, DisparityMap, Distortion, Intrinsics, Isometry3, ProjectionMatrix};
+use parallax_triangulation::*;
 
 const METHODS: [Method; 4] = [Method::Linear, Method::Dlt, Method::Midpoint, Method::Optimal];
 

@@ -4,10 +4,10 @@
 
 mod common;
 
-use camera_model::{Chessboard, CornerGrid, Isometry3};
 use common::*;
 use glam::{DVec2, DVec3};
-use triangulation::*;
+use parallax_camera_model::{Chessboard, CornerGrid, Isometry3};
+use parallax_triangulation::*;
 
 const SIGMA: f64 = 0.1;
 const TRIALS: usize = 200;
@@ -144,8 +144,8 @@ fn chessboard_corner_distances_are_unbiased_with_honest_std_devs() {
         DVec3::new(-70.0, -60.0, 500.0),
     );
     let right_from_board = rig.right_from_left * left_from_board;
-    let left_true = synthetic::project_corners(&rig.left, &board, &left_from_board).unwrap();
-    let right_true = synthetic::project_corners(&rig.right, &board, &right_from_board).unwrap();
+    let left_true = parallax_synthetic::project_corners(&rig.left, &board, &left_from_board).unwrap();
+    let right_true = parallax_synthetic::project_corners(&rig.right, &board, &right_from_board).unwrap();
     let cfg = TriangulationConfig { pixel_sigma: SIGMA, ..Default::default() };
     // Noise-free: every distance is the square size.
     let exact = adjacent_corner_distances(
@@ -159,7 +159,7 @@ fn chessboard_corner_distances_are_unbiased_with_honest_std_devs() {
     assert!(exact.iter().all(|d| (d.distance - 30.0).abs() < 1e-9));
     assert!(distance_rms(&exact, 30.0).unwrap() < 1e-9);
 
-    let mut rng = synthetic::rng(2024);
+    let mut rng = parallax_synthetic::rng(2024);
     let n_edges = exact.len();
     let mut per_edge: Vec<Stats> = (0..n_edges).map(|_| Stats::default()).collect();
     let mut reported: Vec<Stats> = (0..n_edges).map(|_| Stats::default()).collect();
@@ -168,8 +168,8 @@ fn chessboard_corner_distances_are_unbiased_with_honest_std_devs() {
     for _ in 0..TRIALS {
         let mut l: Vec<DVec2> = left_true.clone();
         let mut r: Vec<DVec2> = right_true.clone();
-        synthetic::add_pixel_noise(&mut l, SIGMA, &mut rng);
-        synthetic::add_pixel_noise(&mut r, SIGMA, &mut rng);
+        parallax_synthetic::add_pixel_noise(&mut l, SIGMA, &mut rng);
+        parallax_synthetic::add_pixel_noise(&mut r, SIGMA, &mut rng);
         let d = adjacent_corner_distances(
             &rig,
             &CornerGrid::new(9, 6, l).unwrap(),
@@ -224,7 +224,7 @@ fn distance_std_dev_follows_first_order_propagation() {
 fn optimal_is_strictly_better_with_unequal_views() {
     // Three unequal cameras (f = 800, 1600 and 500 px, strong vergence): the linear methods
     // weight the views wrongly and lose to the maximum-likelihood estimate.
-    use camera_model::{Camera, Distortion, Intrinsics};
+    use parallax_camera_model::{Camera, Distortion, Intrinsics};
     let cam = |f: f64| Camera::new(Intrinsics::new(f, f, 640.0, 480.0), Distortion::default(), 1280, 960).unwrap();
     let views = [
         View::new(cam(800.0), Isometry3::IDENTITY),

@@ -28,7 +28,7 @@ pub enum Corruption {
 /// Arguments of `cargo xtask pipeline`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Scene description (RON, `synthetic::SceneDescription`); the built-in scene when absent.
+    /// Scene description (RON, `parallax_synthetic::SceneDescription`); the built-in scene when absent.
     #[arg(long)]
     scene: Option<PathBuf>,
     /// Directory for the artifacts (RON results, overlays, rectified pair, disparity PNG/PFM,
@@ -74,8 +74,8 @@ fn run_real(args: &Args) -> anyhow::Result<ExitCode> {
         .split_once(['x', 'X'])
         .and_then(|(c, r)| Some((c.trim().parse().ok()?, r.trim().parse().ok()?)))
         .with_context(|| format!("--board {spec:?}: expected COLSxROWS, e.g. 9x6"))?;
-    let board =
-        camera_model::Chessboard::new(cols, rows, args.square.unwrap_or(f64::NAN)).context("--board/--square")?;
+    let board = parallax_camera_model::Chessboard::new(cols, rows, args.square.unwrap_or(f64::NAN))
+        .context("--board/--square")?;
     let inputs = real::RealInputs {
         left: args.left.clone().unwrap_or_default(),
         right: args.right.clone().unwrap_or_default(),
@@ -105,12 +105,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let (name, scene) = match &args.scene {
         Some(path) => {
             let text = std::fs::read_to_string(path).with_context(|| format!("reading scene {}", path.display()))?;
-            let scene = synthetic::SceneDescription::from_ron(&text)
+            let scene = parallax_synthetic::SceneDescription::from_ron(&text)
                 .with_context(|| format!("parsing scene {}", path.display()))?;
             let name = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
             (name, scene)
         }
-        None => ("builtin".to_string(), synthetic::SceneDescription::builtin()),
+        None => ("builtin".to_string(), parallax_synthetic::SceneDescription::builtin()),
     };
     let out = args.out.clone().unwrap_or_else(|| workspace_root().join("target").join("pipeline").join(&name));
     let started = std::time::Instant::now();
@@ -134,7 +134,7 @@ mod tests {
 
     fn run_scene(corrupt: Option<Corruption>) -> report::Report {
         let dir = std::env::temp_dir().join(format!("parallax-pipeline-{}-{:?}", std::process::id(), corrupt));
-        let report = stages::run_all("test", &synthetic::SceneDescription::builtin(), &dir, corrupt).unwrap();
+        let report = stages::run_all("test", &parallax_synthetic::SceneDescription::builtin(), &dir, corrupt).unwrap();
         let _ = std::fs::remove_dir_all(&dir);
         report
     }
@@ -160,11 +160,11 @@ mod tests {
     #[test]
     fn real_mode_runs_on_the_stereo_fixtures() {
         let root = workspace_root().join("fixtures/stereo");
-        let truth = synthetic::SceneDescription::builtin().rig;
+        let truth = parallax_synthetic::SceneDescription::builtin().rig;
         let inputs = real::RealInputs {
             left: root.join("left_*.png").to_string_lossy().into_owned(),
             right: root.join("right_*.png").to_string_lossy().into_owned(),
-            board: camera_model::Chessboard::new(9, 6, 25.0).unwrap(),
+            board: parallax_camera_model::Chessboard::new(9, 6, 25.0).unwrap(),
             pair: None,
             disparities: 64,
             robot: None,
@@ -173,7 +173,7 @@ mod tests {
         let report = real::run_real(&inputs, &dir).unwrap();
         report.write(&dir).unwrap();
         assert!(report.notes.iter().any(|(s, t)| s == "corners" && t.contains("5/5")), "{:?}", report.notes);
-        let cal: planar_calibration::StereoCalibrationResult =
+        let cal: parallax_planar_calibration::StereoCalibrationResult =
             crate::util::read_ron(&dir.join("calibration.ron")).unwrap();
         // Five views only: fx within 0.5 %, baseline within 1 % of the rendered rig.
         assert!((cal.rig.left.intrinsics.fx / truth.left.intrinsics.fx - 1.0).abs() < 5e-3);

@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, ensure};
-use camera_model::{Chessboard, CornerGrid};
+use parallax_camera_model::{Chessboard, CornerGrid};
 use rayon::prelude::*;
 
 use super::report::Report;
@@ -31,7 +31,7 @@ pub struct RealInputs {
 
 fn detect(path: &Path, board: &Chessboard) -> anyhow::Result<(image::GrayImage, Option<CornerGrid>)> {
     let img = util::load_gray(path)?;
-    let grid = corner_detection::find_chessboard(&img, board.cols, board.rows, &Default::default())
+    let grid = parallax_corner_detection::find_chessboard(&img, board.cols, board.rows, &Default::default())
         .with_context(|| format!("corner detection in {}", path.display()))?;
     Ok((img, grid))
 }
@@ -64,13 +64,13 @@ pub fn run_real(inputs: &RealInputs, out: &Path) -> anyhow::Result<Report> {
     let rg: Vec<CornerGrid> = kept.iter().map(|k| k.2.clone()).collect();
 
     eprintln!("[2/6] calibrating the rig…");
-    let stereo = planar_calibration::calibrate_stereo_chessboard(
+    let stereo = parallax_planar_calibration::calibrate_stereo_chessboard(
         board,
         &lg,
         &rg,
         size,
         detected[0].1.0.dimensions(),
-        &planar_calibration::StereoConfig::default(),
+        &parallax_planar_calibration::StereoConfig::default(),
     )
     .context("stereo calibration")?;
     util::write_ron(&out.join("calibration.ron"), &stereo)?;
@@ -93,7 +93,7 @@ pub fn run_real(inputs: &RealInputs, out: &Path) -> anyhow::Result<Report> {
     }
 
     eprintln!("[3/6] rectifying…");
-    let rect = stereo_rectify::stereo_rectify(&rig, &stereo_rectify::RectifyConfig::default())?;
+    let rect = parallax_stereo_rectify::stereo_rectify(&rig, &parallax_stereo_rectify::RectifyConfig::default())?;
     let dv = util::rectified_abs_dv(&rig, &rect, &lg, &rg)?;
     report.note(
         "rectification",
@@ -103,38 +103,42 @@ pub fn run_real(inputs: &RealInputs, out: &Path) -> anyhow::Result<Report> {
         Some((l, r)) => (util::load_gray(l)?, util::load_gray(r)?),
         None => (detected[kept[0].0].0.0.clone(), detected[kept[0].0].1.0.clone()),
     };
-    let rectifier = stereo_rectify::Rectifier::from_rectification(&rig, rect)?;
-    let (rl, rr) = rectifier.rectify_pair(&pl, &pr, stereo_rectify::Border::Constant(image::Luma([0u8])))?;
+    let rectifier = parallax_stereo_rectify::Rectifier::from_rectification(&rig, rect)?;
+    let (rl, rr) = rectifier.rectify_pair(&pl, &pr, parallax_stereo_rectify::Border::Constant(image::Luma([0u8])))?;
     util::save_png(&out.join("rectified-left.png"), &rl)?;
     util::save_png(&out.join("rectified-right.png"), &rr)?;
     report.images.push(("rectified-left.png".into(), "rectified left image of the matched pair".into()));
 
     eprintln!("[4/6] block matching the rectified pair…");
-    let cfg = block_matching::MatcherConfig { num_disparities: inputs.disparities, ..Default::default() };
-    let mut matcher = block_matching::BlockMatcher::new(cfg)?;
+    let cfg = parallax_block_matching::MatcherConfig { num_disparities: inputs.disparities, ..Default::default() };
+    let mut matcher = parallax_block_matching::BlockMatcher::new(cfg)?;
     let t = std::time::Instant::now();
     let disparity = matcher.compute(&rl, &rr)?;
     let secs = t.elapsed().as_secs_f64();
-    util::write_atomic(&out.join("disparity.pfm"), &block_matching::to_pfm(&disparity))?;
-    util::save_png(&out.join("disparity.png"), &block_matching::false_colour(&disparity, None))?;
+    util::write_atomic(&out.join("disparity.pfm"), &parallax_block_matching::to_pfm(&disparity))?;
+    util::save_png(&out.join("disparity.png"), &parallax_block_matching::false_colour(&disparity, None))?;
     report.images.push(("disparity.png".into(), "disparity (false colour, black = invalid)".into()));
     report.note("disparity", format!("density {:.1} %, {:.1} ms", 100.0 * disparity.density(), 1e3 * secs));
 
     eprintln!("[5/6] triangulating…");
-    let q = triangulation::ReprojectionMatrix::new(rect.q)?;
-    let cloud = triangulation::disparity_to_point_cloud(
+    let q = parallax_triangulation::ReprojectionMatrix::new(rect.q)?;
+    let cloud = parallax_triangulation::disparity_to_point_cloud(
         &disparity,
         &q,
-        &triangulation::CloudConfig::default(),
-        Some(triangulation::PixelColors::Grey(rl.as_raw())),
+        &parallax_triangulation::CloudConfig::default(),
+        Some(parallax_triangulation::PixelColors::Grey(rl.as_raw())),
     )?;
-    triangulation::write_ply(&out.join("cloud.ply"), &cloud, triangulation::PlyFormat::BinaryLittleEndian)?;
-    let tri = triangulation::TriangulationConfig { pixel_sigma: stereo.sigma_px, ..Default::default() };
+    parallax_triangulation::write_ply(
+        &out.join("cloud.ply"),
+        &cloud,
+        parallax_triangulation::PlyFormat::BinaryLittleEndian,
+    )?;
+    let tri = parallax_triangulation::TriangulationConfig { pixel_sigma: stereo.sigma_px, ..Default::default() };
     let mut distances = Vec::new();
     for (l, r) in lg.iter().zip(&rg) {
-        distances.extend(triangulation::adjacent_corner_distances(&rig, l, r, &tri)?);
+        distances.extend(parallax_triangulation::adjacent_corner_distances(&rig, l, r, &tri)?);
     }
-    let rms = triangulation::distance_rms(&distances, board.square_size).unwrap_or(f64::NAN);
+    let rms = parallax_triangulation::distance_rms(&distances, board.square_size).unwrap_or(f64::NAN);
     report.note("triangulation", format!("{} points in cloud.ply", cloud.len()));
     report.note(
         "triangulation",
@@ -150,11 +154,11 @@ pub fn run_real(inputs: &RealInputs, out: &Path) -> anyhow::Result<Report> {
         let robot = crate::handeye::read_poses(spec, crate::handeye::PoseFormat::Auto)?;
         ensure!(robot.len() == lp.len(), "hand-eye: {} robot poses for {} image pairs", robot.len(), lp.len());
         let bfg: Vec<_> = kept.iter().map(|k| robot[k.0]).collect();
-        let solution = hand_eye::calibrate(
+        let solution = parallax_hand_eye::calibrate(
             &bfg,
             &stereo.camera_from_board,
-            hand_eye::Method::Refined,
-            &hand_eye::HandEyeConfig::default(),
+            parallax_hand_eye::Method::Refined,
+            &parallax_hand_eye::HandEyeConfig::default(),
         )
         .context("hand-eye")?;
         util::write_ron(&out.join("handeye.ron"), &solution)?;

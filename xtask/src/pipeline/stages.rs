@@ -3,10 +3,10 @@
 use std::path::Path;
 
 use anyhow::Context;
-use camera_model::{Chessboard, CornerGrid, DisparityMap, Isometry3, StereoRig};
 use glam::{DVec2, DVec3};
+use parallax_camera_model::{Chessboard, CornerGrid, DisparityMap, Isometry3, StereoRig};
+use parallax_synthetic::{RenderOptions, SceneDescription};
 use rayon::prelude::*;
-use synthetic::{RenderOptions, SceneDescription};
 
 use super::Corruption;
 use super::report::Report;
@@ -33,8 +33,13 @@ fn render_opts(base: &RenderOptions, seed: u64) -> RenderOptions {
 }
 
 fn detect(img: &image::GrayImage, board: &Chessboard) -> anyhow::Result<Option<CornerGrid>> {
-    corner_detection::find_chessboard(img, board.cols, board.rows, &corner_detection::ChessboardConfig::default())
-        .context("corner detection")
+    parallax_corner_detection::find_chessboard(
+        img,
+        board.cols,
+        board.rows,
+        &parallax_corner_detection::ChessboardConfig::default(),
+    )
+    .context("corner detection")
 }
 
 /// Renders a stereo view of the board at `left_from_board` and detects it in both images.
@@ -44,9 +49,9 @@ fn stereo_view(
     left_from_board: &Isometry3,
     opts: &RenderOptions,
     seed: u64,
-) -> anyhow::Result<([synthetic::RenderedView; 2], [Option<CornerGrid>; 2])> {
-    let l = synthetic::render_chessboard(&rig.left, board, left_from_board, &render_opts(opts, seed))?;
-    let r = synthetic::render_chessboard(
+) -> anyhow::Result<([parallax_synthetic::RenderedView; 2], [Option<CornerGrid>; 2])> {
+    let l = parallax_synthetic::render_chessboard(&rig.left, board, left_from_board, &render_opts(opts, seed))?;
+    let r = parallax_synthetic::render_chessboard(
         &rig.right,
         board,
         &(rig.right_from_left * *left_from_board),
@@ -123,7 +128,7 @@ pub fn run_all(
         .collect();
     report.at_most("corners", "corner RMS error", rms(corner_errors.iter().copied()), tol.corner_rms_px, "px");
     if let (Some([l, _]), Some(g)) = (&session.first, &session.found[0][0]) {
-        util::save_png(&out.join("corners-left-0.png"), &corner_detection::draw_chessboard(l, g))?;
+        util::save_png(&out.join("corners-left-0.png"), &parallax_corner_detection::draw_chessboard(l, g))?;
         report.images.push(("corners-left-0.png".into(), "detected corners, left view 0".into()));
     }
 
@@ -140,13 +145,13 @@ pub fn run_all(
         session.found.iter().filter_map(|[l, r]| Some((l.clone()?, r.clone()?))).collect();
     let (lgrids, rgrids): (Vec<_>, Vec<_>) = pairs.into_iter().unzip();
     let size = (rig_true.left.width, rig_true.left.height);
-    let stereo = match planar_calibration::calibrate_stereo_chessboard(
+    let stereo = match parallax_planar_calibration::calibrate_stereo_chessboard(
         &board_cal,
         &lgrids,
         &rgrids,
         size,
         (rig_true.right.width, rig_true.right.height),
-        &planar_calibration::StereoConfig::default(),
+        &parallax_planar_calibration::StereoConfig::default(),
     ) {
         Ok(s) => s,
         Err(e) => {
@@ -193,36 +198,36 @@ pub fn run_all(
 
     // 4. Rectification.
     progress(4, "rectifying");
-    let rect_cfg = stereo_rectify::RectifyConfig::default();
-    let rect = stereo_rectify::stereo_rectify(&rig, &rect_cfg)?;
-    let rect_true = stereo_rectify::stereo_rectify(&rig_true, &rect_cfg)?;
+    let rect_cfg = parallax_stereo_rectify::RectifyConfig::default();
+    let rect = parallax_stereo_rectify::stereo_rectify(&rig, &rect_cfg)?;
+    let rect_true = parallax_stereo_rectify::stereo_rectify(&rig_true, &rect_cfg)?;
     util::write_ron(&out.join("rectification.ron"), &rect)?;
     let dv = util::rectified_abs_dv(&rig, &rect, &lgrids, &rgrids)?;
     let mean_dv = if dv.is_empty() { f64::NAN } else { dv.iter().sum::<f64>() / dv.len() as f64 };
     report.at_most("rectification", "mean |Δv| of detected corners", mean_dv, tol.rectification_dv_px, "px");
     if let Some([l, r]) = &session.first {
-        let rectifier = stereo_rectify::Rectifier::from_rectification(&rig, rect)?;
-        let (rl, rr) = rectifier.rectify_pair(l, r, stereo_rectify::Border::Constant(image::Luma([0u8])))?;
+        let rectifier = parallax_stereo_rectify::Rectifier::from_rectification(&rig, rect)?;
+        let (rl, rr) = rectifier.rectify_pair(l, r, parallax_stereo_rectify::Border::Constant(image::Luma([0u8])))?;
         util::save_png(&out.join("rectified-pair.png"), &side_by_side(&rl, &rr))?;
         report.images.push(("rectified-pair.png".into(), "rectified calibration view 0 (lines every 40 px)".into()));
     }
 
     // 5. Block matching on the rendered stereo scene (seen by the rectified rig).
     progress(5, "block matching the rendered stereo scene");
-    let stereo_scene = synthetic::render_stereo_scene(&scene.stereo_scene)?;
-    let matcher_cfg = block_matching::MatcherConfig {
+    let stereo_scene = parallax_synthetic::render_stereo_scene(&scene.stereo_scene)?;
+    let matcher_cfg = parallax_block_matching::MatcherConfig {
         num_disparities: (scene.stereo_scene.max_disparity.ceil() as usize + 16) & !15,
-        ..block_matching::MatcherConfig::default()
+        ..parallax_block_matching::MatcherConfig::default()
     };
-    let mut matcher = block_matching::BlockMatcher::new(matcher_cfg)?;
+    let mut matcher = parallax_block_matching::BlockMatcher::new(matcher_cfg)?;
     let disparity = matcher.compute(&stereo_scene.left, &stereo_scene.right)?;
     let visible: Vec<bool> = stereo_scene.occluded.iter().map(|o| !o).collect();
-    let eval = block_matching::evaluate(&disparity, &stereo_scene.disparity, Some(&visible), &[1.0, 2.0])?;
+    let eval = parallax_block_matching::evaluate(&disparity, &stereo_scene.disparity, Some(&visible), &[1.0, 2.0])?;
     let bad2 = eval.bad_at(2.0).unwrap_or(f64::NAN);
     report.at_most("disparity", "bad-2 (non-occluded, missing = bad)", bad2, tol.disparity_bad2_pct, "%");
     report.at_least("disparity", "density (non-occluded)", eval.density, tol.disparity_density_pct, "%");
-    util::write_atomic(&out.join("disparity.pfm"), &block_matching::to_pfm(&disparity))?;
-    util::save_png(&out.join("disparity.png"), &block_matching::false_colour(&disparity, None))?;
+    util::write_atomic(&out.join("disparity.pfm"), &parallax_block_matching::to_pfm(&disparity))?;
+    util::save_png(&out.join("disparity.png"), &parallax_block_matching::false_colour(&disparity, None))?;
     util::save_png(&out.join("left-scene.png"), &stereo_scene.left)?;
     report.images.push(("left-scene.png".into(), "rendered stereo scene, left".into()));
     report.images.push(("disparity.png".into(), "disparity (false colour, black = invalid)".into()));
@@ -230,15 +235,19 @@ pub fn run_all(
     // 6. Triangulation of the disparity map with the estimated rectification, against the
     // same map of true disparities through the true rectification.
     progress(6, "triangulating the disparity map");
-    let q_est = triangulation::ReprojectionMatrix::new(rect.q)?;
-    let q_true = triangulation::ReprojectionMatrix::new(rect_true.q)?;
-    let cloud = triangulation::disparity_to_point_cloud(
+    let q_est = parallax_triangulation::ReprojectionMatrix::new(rect.q)?;
+    let q_true = parallax_triangulation::ReprojectionMatrix::new(rect_true.q)?;
+    let cloud = parallax_triangulation::disparity_to_point_cloud(
         &disparity,
         &q_est,
-        &triangulation::CloudConfig::default(),
-        Some(triangulation::PixelColors::Grey(stereo_scene.left.as_raw())),
+        &parallax_triangulation::CloudConfig::default(),
+        Some(parallax_triangulation::PixelColors::Grey(stereo_scene.left.as_raw())),
     )?;
-    triangulation::write_ply(&out.join("cloud.ply"), &cloud, triangulation::PlyFormat::BinaryLittleEndian)?;
+    parallax_triangulation::write_ply(
+        &out.join("cloud.ply"),
+        &cloud,
+        parallax_triangulation::PlyFormat::BinaryLittleEndian,
+    )?;
     let rel_depth = relative_depth_errors(&disparity, &stereo_scene.disparity, &visible, &q_est, &q_true);
     report.at_most(
         "triangulation",
@@ -254,13 +263,20 @@ pub fn run_all(
 
     // 7. Four target points measured by the rig (Table 3), then hand-eye.
     progress(7, "measuring four targets and calibrating hand-eye");
-    let traj_cfg = synthetic::TrajectoryConfig { rot_noise_rad: 0.0, trans_noise: 0.0, ..scene.trajectory };
-    let traj = synthetic::hand_eye_trajectory(&traj_cfg)?;
-    let mut noise = synthetic::rng(scene.trajectory.seed ^ 0xa11ce);
+    let traj_cfg = parallax_synthetic::TrajectoryConfig { rot_noise_rad: 0.0, trans_noise: 0.0, ..scene.trajectory };
+    let traj = parallax_synthetic::hand_eye_trajectory(&traj_cfg)?;
+    let mut noise = parallax_synthetic::rng(scene.trajectory.seed ^ 0xa11ce);
     let robot: Vec<Isometry3> = traj
         .base_from_gripper
         .iter()
-        .map(|p| synthetic::perturb_pose(p, scene.trajectory.rot_noise_rad, scene.trajectory.trans_noise, &mut noise))
+        .map(|p| {
+            parallax_synthetic::perturb_pose(
+                p,
+                scene.trajectory.rot_noise_rad,
+                scene.trajectory.trans_noise,
+                &mut noise,
+            )
+        })
         .collect();
     // Camera poses from the project's own corners and calibration (left camera).
     let station_views: Vec<_> = traj
@@ -274,7 +290,7 @@ pub fn run_all(
     let (mut pose_rot_err, mut pose_trans_err) = (0.0f64, 0.0f64);
     for (i, (_, found)) in station_views.iter().enumerate() {
         if let Some(g) = &found[0] {
-            let (pose, _) = planar_calibration::solve_pnp_planar(&rig.left, &board_cal, &g.corners)?;
+            let (pose, _) = parallax_planar_calibration::solve_pnp_planar(&rig.left, &board_cal, &g.corners)?;
             let (r, t) = pose.distance(&traj.camera_from_board[i]);
             pose_rot_err = pose_rot_err.max(r.to_degrees());
             pose_trans_err = pose_trans_err.max(t);
@@ -296,20 +312,21 @@ pub fn run_all(
             cfb.len()
         ),
     );
-    let setup = if traj.eye_in_hand { hand_eye::Setup::EyeInHand } else { hand_eye::Setup::EyeToHand };
+    let setup =
+        if traj.eye_in_hand { parallax_hand_eye::Setup::EyeInHand } else { parallax_hand_eye::Setup::EyeToHand };
     // Noise model of the refinement in the scene's units: the robot's from the scene, the camera
     // poses (from PnP on detected corners) taken as no better than the robot's.
     let sigma_deg = scene.trajectory.rot_noise_rad.to_degrees().max(1e-3);
     let sigma_t = scene.trajectory.trans_noise.max(1e-3 * board.square_size);
-    let refine = hand_eye::RefineConfig {
+    let refine = parallax_hand_eye::RefineConfig {
         robot_rotation_sigma_deg: sigma_deg,
         robot_translation_sigma: sigma_t,
         camera_rotation_sigma_deg: sigma_deg,
         camera_translation_sigma: sigma_t,
-        ..hand_eye::RefineConfig::default()
+        ..parallax_hand_eye::RefineConfig::default()
     };
-    let he_cfg = hand_eye::HandEyeConfig { setup, refine, ..hand_eye::HandEyeConfig::default() };
-    let solution = hand_eye::calibrate(&bfg, &cfb, hand_eye::Method::Refined, &he_cfg)?;
+    let he_cfg = parallax_hand_eye::HandEyeConfig { setup, refine, ..parallax_hand_eye::HandEyeConfig::default() };
+    let solution = parallax_hand_eye::calibrate(&bfg, &cfb, parallax_hand_eye::Method::Refined, &he_cfg)?;
     util::write_ron(&out.join("handeye.ron"), &solution)?;
     let truth_x = if traj.eye_in_hand { traj.truth.gripper_from_camera } else { traj.truth.base_from_camera };
     let (he_rot, he_trans) = solution.transform.distance(&truth_x);
@@ -325,8 +342,8 @@ pub fn run_all(
     };
     let [Some(gl), Some(gr)] = &station_views[k].1 else { unreachable!("checked above") };
     let pairs: Vec<(DVec2, DVec2)> = targets.iter().map(|&(c, r)| (gl.at(c, r), gr.at(c, r))).collect();
-    let tri_cfg = triangulation::TriangulationConfig { pixel_sigma: stereo.sigma_px, ..Default::default() };
-    let measurement = triangulation::measure_stereo(&rig, &pairs, &tri_cfg)?;
+    let tri_cfg = parallax_triangulation::TriangulationConfig { pixel_sigma: stereo.sigma_px, ..Default::default() };
+    let measurement = parallax_triangulation::measure_stereo(&rig, &pairs, &tri_cfg)?;
     util::write_ron(&out.join("measurement.ron"), &measurement)?;
     let true_cam: Vec<DVec3> =
         targets.iter().map(|&(c, r)| traj.camera_from_board[k].transform_point(board.point(c, r))).collect();
@@ -354,8 +371,8 @@ pub fn run_all(
     let measured_cam: Vec<DVec3> = measurement.points.iter().map(|m| m.point).collect();
     let (est_base, true_base): (Vec<DVec3>, Vec<DVec3>) = if traj.eye_in_hand {
         (
-            hand_eye::points_to_base(&robot[k], &solution.transform, &measured_cam),
-            hand_eye::points_to_base(&traj.base_from_gripper[k], &traj.truth.gripper_from_camera, &true_cam),
+            parallax_hand_eye::points_to_base(&robot[k], &solution.transform, &measured_cam),
+            parallax_hand_eye::points_to_base(&traj.base_from_gripper[k], &traj.truth.gripper_from_camera, &true_cam),
         )
     } else {
         (
@@ -376,8 +393,8 @@ fn relative_depth_errors(
     est: &DisparityMap,
     truth: &DisparityMap,
     visible: &[bool],
-    q_est: &triangulation::ReprojectionMatrix,
-    q_true: &triangulation::ReprojectionMatrix,
+    q_est: &parallax_triangulation::ReprojectionMatrix,
+    q_true: &parallax_triangulation::ReprojectionMatrix,
 ) -> Vec<f64> {
     let mut out = Vec::new();
     for v in 0..est.height {

@@ -3,8 +3,8 @@
 //! pose noise), generated here so the tests need neither the synthetic crate nor ../shared.
 #![allow(dead_code)]
 
-use camera_model::Isometry3;
 use glam::{DQuat, DVec3};
+use parallax_camera_model::Isometry3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};

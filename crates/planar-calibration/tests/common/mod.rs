@@ -1,9 +1,9 @@
 //! Shared fixtures of the integration tests (all generated; nothing read from disk).
 #![allow(dead_code)]
 
-use camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3};
 use glam::{DVec2, DVec3};
-use synthetic::{ViewSetConfig, add_pixel_noise, calibration_poses, project_corners, rng};
+use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3};
+use parallax_synthetic::{ViewSetConfig, add_pixel_noise, calibration_poses, project_corners, rng};
 
 /// The synthetic camera: 640x480, k1 = −0.3, k2 = 0.1.
 pub fn truth_camera() -> Camera {

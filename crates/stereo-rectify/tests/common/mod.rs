@@ -1,8 +1,8 @@
 //! Fixtures shared by the integration tests: a distorted rig and board views with true corners.
 #![allow(dead_code)]
 
-use camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3, StereoRig};
 use glam::{DVec2, DVec3};
+use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3, StereoRig};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -1,8 +1,8 @@
 //! Test fixtures: synthetic rigs in millimetres, projection of true points, seeded noise.
 #![allow(dead_code)]
 
-use camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
 use glam::{DVec2, DVec3};
+use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
