@@ -13,8 +13,6 @@ use parallax_planar_calibration::{
 };
 use serde::Serialize;
 
-use crate::util;
-
 /// Arguments of `cargo xtask calibrate`.
 #[derive(clap::Args)]
 pub struct Args {
@@ -25,7 +23,7 @@ pub struct Args {
     #[arg(long)]
     right: Option<String>,
     /// Inner corners of the board as COLSxROWS (OpenCV's patternSize), e.g. 9x6.
-    #[arg(long, value_parser = parse_board)]
+    #[arg(long, value_parser = crate::util::parse_board_size)]
     board: (usize, usize),
     /// Square size; every length in the result is in this unit (e.g. mm).
     #[arg(long)]
@@ -53,16 +51,6 @@ pub struct Args {
     fix_intrinsics: bool,
 }
 
-fn parse_board(s: &str) -> Result<(usize, usize), String> {
-    let (c, r) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected COLSxROWS, got {s:?}"))?;
-    let c: usize = c.trim().parse().map_err(|_| format!("bad column count in {s:?}"))?;
-    let r: usize = r.trim().parse().map_err(|_| format!("bad row count in {s:?}"))?;
-    if c < 2 || r < 2 {
-        return Err(format!("board needs at least 2x2 inner corners, got {s:?}"));
-    }
-    Ok((c, r))
-}
-
 /// One image: path, size, and the corner grid if a board was found.
 type Detected = (PathBuf, (u32, u32), Option<CornerGrid>);
 
@@ -71,7 +59,7 @@ fn detect(paths: &[PathBuf], board: &Chessboard) -> anyhow::Result<Vec<Detected>
     let cfg = ChessboardConfig::default();
     let mut out = Vec::with_capacity(paths.len());
     for p in paths {
-        let img = util::load_gray(p)?;
+        let img = parallax_composition::io::load_gray(p)?;
         let grid = find_chessboard(&img, board.cols, board.rows, &cfg)
             .with_context(|| format!("corner detection on {}", p.display()))?;
         if grid.is_none() {
@@ -157,13 +145,13 @@ fn names(v: &[&Detected]) -> Vec<String> {
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     anyhow::ensure!(args.square.is_finite() && args.square > 0.0, "--square must be positive, got {}", args.square);
     let board = Chessboard::new(args.board.0, args.board.1, args.square)?;
-    let left_paths = util::expand_glob(&args.images)?;
+    let left_paths = parallax_composition::io::expand_glob(&args.images)?;
     let t0 = Instant::now();
     let left = detect(&left_paths, &board)?;
     match &args.right {
         None => run_mono(&args, &board, &left, t0),
         Some(pattern) => {
-            let right_paths = util::expand_glob(pattern)?;
+            let right_paths = parallax_composition::io::expand_glob(pattern)?;
             anyhow::ensure!(
                 right_paths.len() == left_paths.len(),
                 "{} left images but {} right images",
@@ -198,7 +186,7 @@ fn run_mono(args: &Args, board: &Chessboard, views: &[Detected], t0: Instant) ->
         println!("warning: {w}");
     }
     if let Some(out) = &args.out {
-        util::write_ron(out, &MonoOutput { images: names(&found), board: *board, result: &r })?;
+        parallax_composition::io::write_ron(out, &MonoOutput { images: names(&found), board: *board, result: &r })?;
         println!("wrote {}", out.display());
     }
     key_lines("", r.rms_px, &r.camera);
@@ -267,7 +255,7 @@ fn run_stereo(
         println!("warning: {w}");
     }
     if let Some(out) = &args.out {
-        util::write_ron(
+        parallax_composition::io::write_ron(
             out,
             &StereoOutput { left_images: names(&lf), right_images: names(&rf), board: *board, result: &r },
         )?;
@@ -281,7 +269,7 @@ fn run_stereo(
     // Rectification of the detected corners (point-level, no resampling) and triangulated
     // distances between adjacent corners, both from the calibration just made.
     let rect = parallax_stereo_rectify::stereo_rectify(&r.rig, &parallax_stereo_rectify::RectifyConfig::default())?;
-    let dv = util::rectified_abs_dv(&r.rig, &rect, &lg, &rg)?;
+    let dv = parallax_composition::rectified_abs_dv(&r.rig, &rect, &lg, &rg)?;
     let mut distances = Vec::new();
     let tri = parallax_triangulation::TriangulationConfig { pixel_sigma: r.sigma_px, ..Default::default() };
     for (l, rr) in lg.iter().zip(&rg) {

@@ -11,8 +11,6 @@ use parallax_corner_detection::{
 };
 use serde::Serialize;
 
-use crate::util;
-
 /// Arguments of `cargo xtask corners`.
 #[derive(clap::Args)]
 pub struct Args {
@@ -20,7 +18,7 @@ pub struct Args {
     #[arg(long)]
     images: String,
     /// Inner corners of the board as COLSxROWS (OpenCV's patternSize), e.g. 9x6.
-    #[arg(long, value_parser = parse_board)]
+    #[arg(long, value_parser = crate::util::parse_board_size)]
     board: (usize, usize),
     /// Write the corners of every image (RON) to this file.
     #[arg(long)]
@@ -32,16 +30,6 @@ pub struct Args {
     /// Sub-pixel method: saddle (saddle-point fit, default), subpix (gradient orthogonality), none.
     #[arg(long, default_value = "saddle", value_parser = parse_refinement)]
     refine: CornerRefinement,
-}
-
-fn parse_board(s: &str) -> Result<(usize, usize), String> {
-    let (c, r) = s.split_once(['x', 'X']).ok_or_else(|| format!("board {s:?} is not COLSxROWS (e.g. 9x6)"))?;
-    let c: usize = c.trim().parse().map_err(|_| format!("board {s:?}: bad column count"))?;
-    let r: usize = r.trim().parse().map_err(|_| format!("board {s:?}: bad row count"))?;
-    if c < 2 || r < 2 {
-        return Err(format!("board {s:?}: needs at least 2x2 inner corners"));
-    }
-    Ok((c, r))
 }
 
 fn parse_refinement(s: &str) -> Result<CornerRefinement, String> {
@@ -83,13 +71,13 @@ struct CornersFile {
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let (cols, rows) = args.board;
-    let paths = util::expand_glob(&args.images)?;
+    let paths = parallax_composition::io::expand_glob(&args.images)?;
     let cfg = ChessboardConfig { refinement: args.refine, ..ChessboardConfig::default() };
     let mut entries = Vec::new();
     let mut found = 0;
     let mut times = Vec::new();
     for path in &paths {
-        let img = util::load_gray(path)?;
+        let img = parallax_composition::io::load_gray(path)?;
         let t0 = Instant::now();
         let det =
             detect_chessboard(&img, cols, rows, &cfg).with_context(|| format!("detecting in {}", path.display()))?;
@@ -113,7 +101,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 Some(d) => draw_chessboard(&img, &d.grid),
                 None => draw_points(&img, &chessboard_candidates(&img, &cfg)?, [255, 0, 0]),
             };
-            util::save_png(&dir.join(format!("{stem}-corners.png")), &overlay)?;
+            parallax_composition::io::save_png(&dir.join(format!("{stem}-corners.png")), &overlay)?;
         }
         entries.push(ImageCorners {
             image: path.display().to_string(),
@@ -124,7 +112,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         });
     }
     if let Some(out) = &args.out {
-        util::write_ron(out, &CornersFile { cols, rows, refinement: args.refine, images: entries })?;
+        parallax_composition::io::write_ron(
+            out,
+            &CornersFile { cols, rows, refinement: args.refine, images: entries },
+        )?;
         println!("corners written to {}", out.display());
     }
     if let Some(dir) = &args.draw {

@@ -9,8 +9,6 @@ use anyhow::Context;
 use parallax_block_matching::{BlockMatcher, CostFunction, Gray16Image, MatcherConfig, Prefilter};
 use parallax_camera_model::DisparityMap;
 
-use crate::util;
-
 /// Arguments of `cargo xtask disparity`.
 #[derive(clap::Args)]
 pub struct Args {
@@ -84,7 +82,7 @@ fn load_pair(left: &Path, right: &Path) -> anyhow::Result<Pair> {
         let r = image::open(right).with_context(|| format!("reading image {}", right.display()))?.into_luma16();
         Ok(Pair::U16(l, r))
     } else {
-        Ok(Pair::U8(util::load_gray(left)?, util::load_gray(right)?))
+        Ok(Pair::U8(parallax_composition::io::load_gray(left)?, parallax_composition::io::load_gray(right)?))
     }
 }
 
@@ -148,7 +146,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let pair = load_pair(&args.left, &args.right)?;
     let truth = args.gt.as_deref().map(|p| load_truth(p, args.gt_scale)).transpose()?;
     let mask = match &args.mask {
-        Some(p) => Some(util::load_gray(p)?.into_raw().into_iter().map(|v| v > 128).collect::<Vec<bool>>()),
+        Some(p) => {
+            Some(parallax_composition::io::load_gray(p)?.into_raw().into_iter().map(|v| v > 128).collect::<Vec<bool>>())
+        }
         None => None,
     };
     // the output map is reused across runs, as a video loop would
@@ -170,18 +170,24 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     times.sort_by(f64::total_cmp);
     let seconds = times[times.len() / 2];
     let stats = matcher.last_stats();
-    let mdes = (map.width * map.height * cfg.num_disparities) as f64 / seconds / 1e6;
+    let mdes = (map.width() * map.height() * cfg.num_disparities) as f64 / seconds / 1e6;
 
-    util::write_atomic(&args.out.join("disparity.pfm"), &parallax_block_matching::to_pfm(&map))?;
-    util::save_png(&args.out.join("disparity16.png"), &parallax_block_matching::to_png16(&map, 256.0))?;
+    parallax_composition::io::write_atomic(&args.out.join("disparity.pfm"), &parallax_block_matching::to_pfm(&map))?;
+    parallax_composition::io::save_png(
+        &args.out.join("disparity16.png"),
+        &parallax_block_matching::to_png16(&map, 256.0),
+    )?;
     let lo = cfg.min_disparity as f32;
     let range = (lo, lo + cfg.num_disparities as f32 - 1.0);
-    util::save_png(&args.out.join("disparity_colour.png"), &parallax_block_matching::false_colour(&map, Some(range)))?;
+    parallax_composition::io::save_png(
+        &args.out.join("disparity_colour.png"),
+        &parallax_block_matching::false_colour(&map, Some(range)),
+    )?;
 
     println!(
         "{}x{} cost {:?} block {} disparities [{}, {}) simd {:?}, median of {} runs",
-        map.width,
-        map.height,
+        map.width(),
+        map.height(),
         cfg.cost,
         cfg.block_size,
         cfg.min_disparity,

@@ -25,7 +25,7 @@ use parallax_synthetic::{
 };
 use serde::Serialize;
 
-use crate::util::{save_png, write_atomic, write_ron};
+use parallax_composition::io::{save_png, write_atomic, write_ron};
 
 /// Arguments of `cargo xtask fixtures`.
 #[derive(clap::Args)]
@@ -228,7 +228,7 @@ fn generate(dir: &Path, plan: &Plan) -> anyhow::Result<Vec<PathBuf>> {
         save_png(&put(&format!("{folder}/occluded.png")), &mask(&s, &s.occluded))?;
         save_png(&put(&format!("{folder}/low_texture.png")), &mask(&s, &s.low_texture))?;
         save_png(&put(&format!("{folder}/fronto_parallel.png")), &mask(&s, &s.fronto_parallel))?;
-        let (lo, hi) = s.disparity.data.iter().fold((f32::MAX, f32::MIN), |(a, b), &d| (a.min(d), b.max(d)));
+        let (lo, hi) = s.disparity.data().iter().fold((f32::MAX, f32::MIN), |(a, b), &d| (a.min(d), b.max(d)));
         let truth = StereoSceneTruth {
             config,
             rig: s.rig,
@@ -257,10 +257,10 @@ fn generate(dir: &Path, plan: &Plan) -> anyhow::Result<Vec<PathBuf>> {
 
 /// Middlebury PFM: header, then little-endian `f32` rows from the bottom row up.
 fn pfm(s: &StereoScene) -> Vec<u8> {
-    let (w, h) = (s.disparity.width, s.disparity.height);
+    let (w, h) = (s.disparity.width(), s.disparity.height());
     let mut out = format!("Pf\n{w} {h}\n-1.0\n").into_bytes();
     for v in (0..h).rev() {
-        for d in &s.disparity.data[v * w..(v + 1) * w] {
+        for d in &s.disparity.data()[v * w..(v + 1) * w] {
             out.extend_from_slice(&d.to_le_bytes());
         }
     }
@@ -269,7 +269,7 @@ fn pfm(s: &StereoScene) -> Vec<u8> {
 
 fn mask(s: &StereoScene, m: &[bool]) -> image::GrayImage {
     let bytes = m.iter().map(|&b| if b { 255 } else { 0 }).collect();
-    image::GrayImage::from_raw(s.disparity.width as u32, s.disparity.height as u32, bytes)
+    image::GrayImage::from_raw(s.disparity.width() as u32, s.disparity.height() as u32, bytes)
         .expect("mask of width x height")
 }
 

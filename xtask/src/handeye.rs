@@ -17,8 +17,6 @@ use parallax_camera_model::Isometry3;
 use parallax_hand_eye::io::{RotationFormat, parse_pose_lines, parse_pose_ron, parse_visp_pose};
 use parallax_hand_eye::{HandEyeConfig, HandEyeSolution, Method, PairSelection, Setup, calibrate};
 
-use crate::util;
-
 /// Format of a pose file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum PoseFormat {
@@ -82,36 +80,6 @@ pub struct Args {
     output: Option<PathBuf>,
 }
 
-/// Sorts paths by their name with embedded numbers compared as numbers (`pose_2` < `pose_10`).
-fn natural_sort(paths: &mut [PathBuf]) {
-    fn key(p: &Path) -> Vec<(String, u64)> {
-        let s = p.to_string_lossy();
-        let mut out = Vec::new();
-        let mut text = String::new();
-        let mut num = String::new();
-        for ch in s.chars() {
-            if ch.is_ascii_digit() {
-                num.push(ch);
-            } else {
-                if !num.is_empty() {
-                    out.push((std::mem::take(&mut text), num.parse().unwrap_or(u64::MAX)));
-                    num.clear();
-                }
-                text.push(ch);
-            }
-        }
-        out.push((text, num.parse().unwrap_or(0)));
-        out
-    }
-    paths.sort_by_key(|p| key(p));
-}
-
-fn expand(pattern: &str) -> anyhow::Result<Vec<PathBuf>> {
-    let mut paths = util::expand_glob(pattern)?;
-    natural_sort(&mut paths);
-    Ok(paths)
-}
-
 fn resolve_format(path: &Path, format: PoseFormat) -> PoseFormat {
     if format != PoseFormat::Auto {
         return format;
@@ -136,7 +104,11 @@ fn read_pose_file(path: &Path, format: PoseFormat) -> anyhow::Result<Vec<Isometr
 
 /// Reads poses from one file or a glob of files (concatenated in natural order).
 pub fn read_poses(spec: &str, format: PoseFormat) -> anyhow::Result<Vec<Isometry3>> {
-    let paths = if Path::new(spec).is_file() { vec![PathBuf::from(spec)] } else { expand(spec)? };
+    let paths = if Path::new(spec).is_file() {
+        vec![PathBuf::from(spec)]
+    } else {
+        parallax_composition::io::expand_glob(spec)?
+    };
     let mut poses = Vec::new();
     for p in &paths {
         poses.extend(read_pose_file(p, format)?);
@@ -171,7 +143,7 @@ fn parse_methods(spec: &str) -> anyhow::Result<Vec<Method>> {
 /// with their robot pose (reported). Returns the kept robot and camera poses.
 fn camera_poses_from_images(args: &Args, robot: Vec<Isometry3>) -> anyhow::Result<(Vec<Isometry3>, Vec<Isometry3>)> {
     let pattern = args.images.as_deref().context("--images or --camera-poses is required")?;
-    let images = expand(pattern)?;
+    let images = parallax_composition::io::expand_glob(pattern)?;
     ensure!(
         images.len() == robot.len(),
         "{} images match {pattern:?} but there are {} robot poses",
@@ -188,7 +160,7 @@ fn camera_poses_from_images(args: &Args, robot: Vec<Isometry3>) -> anyhow::Resul
     let intr = args.intrinsics.as_deref().context("--intrinsics is required with --images")?;
     let ron_camera: Option<parallax_camera_model::Camera> =
         if intr.extension().is_some_and(|e| e.eq_ignore_ascii_case("ron")) {
-            Some(util::read_ron(intr)?)
+            Some(parallax_composition::io::read_ron(intr)?)
         } else {
             None
         };
@@ -202,7 +174,7 @@ fn camera_poses_from_images(args: &Args, robot: Vec<Isometry3>) -> anyhow::Resul
     let cfg = parallax_corner_detection::ChessboardConfig::default();
     let (mut kept_robot, mut camera) = (Vec::new(), Vec::new());
     for (path, g) in images.iter().zip(robot) {
-        let img = util::load_gray(path)?;
+        let img = parallax_composition::io::load_gray(path)?;
         let cam = match (&ron_camera, xml_intrinsics) {
             (Some(c), _) => *c,
             (None, Some([fx, fy, cx, cy])) => parallax_camera_model::Camera::new(
@@ -273,7 +245,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         camera.len()
     );
     if let Some(path) = &args.save_camera_poses {
-        util::write_ron(path, &camera)?;
+        parallax_composition::io::write_ron(path, &camera)?;
         println!("wrote camera poses to {}", path.display());
     }
     let methods = parse_methods(&args.method)?;
@@ -303,7 +275,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     }
     if let Some(out) = &args.output {
-        util::write_ron(out, &ok)?;
+        parallax_composition::io::write_ron(out, &ok)?;
         println!("wrote {}", out.display());
     }
     println!("{} of {} methods succeeded", ok.len(), ok.len() + failed);
@@ -313,15 +285,6 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn natural_sort_orders_numbers_numerically() {
-        let mut p: Vec<PathBuf> =
-            ["a/pose_10.yaml", "a/pose_2.yaml", "a/pose_1.yaml"].iter().map(PathBuf::from).collect();
-        natural_sort(&mut p);
-        let names: Vec<_> = p.iter().map(|p| p.to_string_lossy().into_owned()).collect();
-        assert_eq!(names, ["a/pose_1.yaml", "a/pose_2.yaml", "a/pose_10.yaml"]);
-    }
 
     #[test]
     fn visp_intrinsics_are_read() {

@@ -188,41 +188,12 @@ fn blob_pairs(
     Ok(pairs)
 }
 
-/// The first value in a RON document that deserialises as a `StereoRig` (depth-first).
-fn find_rig(value: &ron::Value) -> Option<StereoRig> {
-    if let Ok(rig) = value.clone().into_rust::<StereoRig>() {
-        return Some(rig);
-    }
-    match value {
-        ron::Value::Map(m) => m.values().find_map(find_rig),
-        ron::Value::Seq(s) => s.iter().find_map(find_rig),
-        ron::Value::Option(Some(v)) => find_rig(v),
-        _ => None,
-    }
-}
-
-fn load_rig(path: &std::path::Path) -> anyhow::Result<StereoRig> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let rig = match ron::from_str::<StereoRig>(&text) {
-        Ok(rig) => rig,
-        Err(direct) => {
-            let value: ron::Value = ron::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
-            find_rig(&value).with_context(|| {
-                format!("{}: no StereoRig (left, right, right_from_left) found ({direct})", path.display())
-            })?
-        }
-    };
-    let rig = StereoRig::new(rig.left, rig.right, rig.right_from_left)
-        .with_context(|| format!("{}: invalid stereo rig", path.display()))?;
-    Ok(rig)
-}
-
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let rig = load_rig(&args.calib)?;
+    let rig = parallax_composition::io::load_rig(&args.calib)?;
     let mut images = Vec::new();
     for (side, path, cam) in [("left", &args.left, &rig.left), ("right", &args.right, &rig.right)] {
         let Some(path) = path else { continue };
-        let img = crate::util::load_gray(path)?;
+        let img = parallax_composition::io::load_gray(path)?;
         ensure!(
             img.width() == cam.width && img.height() == cam.height,
             "{side} image {} is {}x{} but the calibration's {side} camera is {}x{}",
@@ -397,8 +368,8 @@ mod tests {
         let cfg = parallax_corner_detection::ChessboardConfig::default();
         let (mut left, mut right) = (Vec::new(), Vec::new());
         for k in 1..=14 {
-            let l = crate::util::load_gray(&dir.join(format!("left{k:02}.jpg"))).unwrap();
-            let r = crate::util::load_gray(&dir.join(format!("right{k:02}.jpg"))).unwrap();
+            let l = parallax_composition::io::load_gray(&dir.join(format!("left{k:02}.jpg"))).unwrap();
+            let r = parallax_composition::io::load_gray(&dir.join(format!("right{k:02}.jpg"))).unwrap();
             let gl = parallax_corner_detection::find_chessboard(&l, 9, 6, &cfg).unwrap();
             let gr = parallax_corner_detection::find_chessboard(&r, 9, 6, &cfg).unwrap();
             if let (Some(gl), Some(gr)) = (gl, gr) {
@@ -441,26 +412,5 @@ mod tests {
                 parallax_triangulation::distance_rms(&d, 30.0).unwrap()
             );
         }
-    }
-
-    #[test]
-    fn finds_a_rig_alone_or_inside_a_larger_result() {
-        let dir = std::env::temp_dir().join(format!("xtask-measure-{}", std::process::id()));
-        let alone = dir.join("rig.ron");
-        crate::util::write_ron(&alone, &rig()).unwrap();
-        assert_eq!(load_rig(&alone).unwrap(), rig());
-        #[derive(serde::Serialize)]
-        struct Calibration {
-            rms: f64,
-            rig: StereoRig,
-        }
-        let nested = dir.join("calib.ron");
-        crate::util::write_ron(&nested, &Calibration { rms: 0.2, rig: rig() }).unwrap();
-        let back = load_rig(&nested).unwrap();
-        assert!((back.baseline() - 100.0).abs() < 1e-12);
-        let junk = dir.join("junk.ron");
-        crate::util::write_atomic(&junk, b"(a: 1)").unwrap();
-        assert!(format!("{:#}", load_rig(&junk).unwrap_err()).contains("junk.ron"));
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

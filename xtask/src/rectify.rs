@@ -11,10 +11,10 @@ use std::time::Instant;
 
 use anyhow::Context;
 use image::{DynamicImage, GenericImageView, Luma, Rgb, RgbImage};
-use parallax_camera_model::StereoRig;
+
 use parallax_stereo_rectify::{Border, ExtentMethod, Image, Rectifier, RectifyConfig};
 
-use crate::util::{save_png, write_ron};
+use parallax_composition::io::{save_png, write_ron};
 
 /// Arguments of `cargo xtask rectify`.
 #[derive(clap::Args)]
@@ -47,37 +47,8 @@ pub struct Args {
     line_spacing: u32,
 }
 
-/// The `rig` field of any RON struct (whatever its name and other fields).
-fn rig_field(text: &str) -> anyhow::Result<StereoRig> {
-    let value: ron::Value = ron::from_str(text)?;
-    let ron::Value::Map(map) = value else { anyhow::bail!("not a struct") };
-    let rig = map.get(&ron::Value::String("rig".into())).ok_or_else(|| anyhow::anyhow!("no `rig` field"))?;
-    Ok(rig.clone().into_rust()?)
-}
-
-/// Reads a rig from a RON file holding either a `StereoRig` or a struct with a `rig` field.
-pub fn load_rig(path: &Path) -> anyhow::Result<StereoRig> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let rig = match ron::from_str::<StereoRig>(&text) {
-        Ok(rig) => rig,
-        Err(e_rig) => match ron::from_str::<parallax_planar_calibration::StereoCalibrationResult>(&text) {
-            Ok(result) => result.rig,
-            Err(e_result) => rig_field(&text).map_err(|e| {
-                anyhow::anyhow!(
-                    "{} holds neither a StereoRig ({e_rig}) nor a StereoCalibrationResult ({e_result}) nor a \
-                     struct with a `rig` field ({e})",
-                    path.display()
-                )
-            })?,
-        },
-    };
-    rig.left.validate().with_context(|| format!("left camera in {}", path.display()))?;
-    rig.right.validate().with_context(|| format!("right camera in {}", path.display()))?;
-    Ok(rig)
-}
-
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let rig = load_rig(&args.calib)?;
+    let rig = parallax_composition::io::load_rig(&args.calib)?;
     let left = image::open(&args.left).with_context(|| format!("reading image {}", args.left.display()))?;
     let right = image::open(&args.right).with_context(|| format!("reading image {}", args.right.display()))?;
     for (what, img, path) in [("left", &left, &args.left), ("right", &right, &args.right)] {
@@ -155,7 +126,7 @@ where
     [P::Subpixel]: image::EncodableLayout,
 {
     save_png(&dir.join("left_rectified.png"), l)?;
-    save_png(&dir.join("right_rectified.png"), r)
+    Ok(save_png(&dir.join("right_rectified.png"), r)?)
 }
 
 fn to_rgb16(img: &Image<Luma<u16>>) -> RgbImage {

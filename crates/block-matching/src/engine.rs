@@ -460,7 +460,7 @@ impl BlockMatcher {
         let max_term = if cfg.cost == CostFunction::Sad { maxv } else { maxv * maxv };
         let wide = n * max_term > u32::MAX as u64;
 
-        if out.width != w || out.height != h || out.data.len() != w * h {
+        if out.width() != w || out.height() != h || out.data().len() != w * h {
             *out = DisparityMap::new_invalid(w, h);
         }
         let threads = rayon::current_num_threads();
@@ -484,7 +484,7 @@ impl BlockMatcher {
             subpixel: cfg.effective_subpixel(),
         };
         let simd = self.simd;
-        let data = &mut out.data;
+        let data = out.data_mut();
         let mut stats = MatchStats::default();
         // the vectorised kernels: 16-bit lanes when every SAD window sum is ≤ 65534, 32-bit lanes
         // when every SAD / SSD window sum is ≤ 2^32 − 2 (the lane maximum is the "no candidate"
@@ -550,7 +550,7 @@ impl BlockMatcher {
         }
         stats.pixels = w * h;
         // as `DisparityMap::valid_count`, in parallel
-        stats.valid = out.data.par_chunks(1 << 14).map(|c| c.iter().filter(|d| d.is_finite()).count()).sum();
+        stats.valid = out.data().par_chunks(1 << 14).map(|c| c.iter().filter(|d| d.is_finite()).count()).sum();
         stats.density = if w * h == 0 { 0.0 } else { stats.valid as f64 / (w * h) as f64 };
         self.stats = stats;
         Ok(())

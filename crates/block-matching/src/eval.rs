@@ -35,14 +35,14 @@ pub fn evaluate(
     mask: Option<&[bool]>,
     thresholds: &[f32],
 ) -> Result<Evaluation> {
-    let (w, h) = (disparity.width, disparity.height);
-    if (truth.width, truth.height) != (w, h) || truth.data.len() != w * h || disparity.data.len() != w * h {
+    let (w, h) = (disparity.width(), disparity.height());
+    if (truth.width(), truth.height()) != (w, h) || truth.data().len() != w * h || disparity.data().len() != w * h {
         return Err(BlockMatchingError::SizeMismatch {
             what: "ground truth",
             width: w,
             height: h,
-            got_width: truth.width,
-            got_height: truth.height,
+            got_width: truth.width(),
+            got_height: truth.height(),
         });
     }
     if let Some(m) = mask.filter(|m| m.len() != w * h) {
@@ -59,12 +59,12 @@ pub fn evaluate(
     let mut bad = vec![0usize; thresholds.len()];
     let mut sq = 0.0f64;
     for i in 0..w * h {
-        let t = truth.data[i];
+        let t = truth.data()[i];
         if !t.is_finite() || mask.is_some_and(|m| !m[i]) {
             continue;
         }
         evaluated += 1;
-        let d = disparity.data[i];
+        let d = disparity.data()[i];
         if d.is_finite() {
             valid += 1;
             let e = (d - t).abs();

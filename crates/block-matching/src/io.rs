@@ -9,10 +9,10 @@ use crate::error::{BlockMatchingError, Result};
 /// Encodes `map` as a little-endian greyscale PFM (`Pf`, scale −1, rows bottom to top, as
 /// Middlebury). Invalid pixels are written as `+inf` (Middlebury's convention).
 pub fn to_pfm(map: &DisparityMap) -> Vec<u8> {
-    let mut bytes = format!("Pf\n{} {}\n-1\n", map.width, map.height).into_bytes();
-    bytes.reserve(map.data.len() * 4);
-    for y in (0..map.height).rev() {
-        for &d in &map.data[y * map.width..][..map.width] {
+    let mut bytes = format!("Pf\n{} {}\n-1\n", map.width(), map.height()).into_bytes();
+    bytes.reserve(map.data().len() * 4);
+    for y in (0..map.height()).rev() {
+        for &d in &map.data()[y * map.width()..][..map.width()] {
             let v = if d.is_finite() { d } else { f32::INFINITY };
             bytes.extend_from_slice(&v.to_le_bytes());
         }
@@ -61,15 +61,28 @@ pub fn from_pfm(bytes: &[u8], what: &str) -> Result<DisparityMap> {
             data[y * width + x] = if v.is_finite() { v } else { DisparityMap::INVALID };
         }
     }
-    Ok(DisparityMap { width, height, data })
+    map_from(width, height, data)
+}
+
+/// A map of `width · height` values (the length was checked by the caller; a mismatch is
+/// reported as a size error, never a panic).
+fn map_from(width: usize, height: usize, data: Vec<f32>) -> Result<DisparityMap> {
+    let n = data.len();
+    DisparityMap::from_data(width, height, data).map_err(|_| BlockMatchingError::SizeMismatch {
+        what: "disparity data",
+        width,
+        height,
+        got_width: n,
+        got_height: 1,
+    })
 }
 
 /// 16-bit PNG image of `round(d · scale)` (e.g. scale 256 as KITTI, 16 as OpenCV's fixed
 /// point). Invalid pixels are 0; valid values are clamped to `1..=65535`, so a valid disparity
 /// below `1/scale` reads back as `1/scale`.
 pub fn to_png16(map: &DisparityMap, scale: f32) -> Gray16Image {
-    ImageBuffer::from_fn(map.width as u32, map.height as u32, |x, y| {
-        let d = map.data[y as usize * map.width + x as usize];
+    ImageBuffer::from_fn(map.width() as u32, map.height() as u32, |x, y| {
+        let d = map.data()[y as usize * map.width() + x as usize];
         Luma([if d.is_finite() { (d * scale).round().clamp(1.0, 65535.0) as u16 } else { 0 }])
     })
 }
@@ -94,21 +107,21 @@ pub fn from_scaled(values: &[u16], width: usize, height: usize, scale: f32) -> R
         });
     }
     let data = values.iter().map(|&v| if v == 0 { DisparityMap::INVALID } else { v as f32 / scale }).collect();
-    Ok(DisparityMap { width, height, data })
+    map_from(width, height, data)
 }
 
 /// False-colour rendering for people: a jet-like ramp from blue (`min`) to red (`max`), invalid
 /// pixels black. With `None` the range is the map's valid minimum and maximum.
 pub fn false_colour(map: &DisparityMap, range: Option<(f32, f32)>) -> RgbImage {
     let (lo, hi) = range.unwrap_or_else(|| {
-        map.data
+        map.data()
             .iter()
             .filter(|d| d.is_finite())
             .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &d| (a.min(d), b.max(d)))
     });
     let span = if hi > lo { hi - lo } else { 1.0 };
-    ImageBuffer::from_fn(map.width as u32, map.height as u32, |x, y| {
-        let d = map.data[y as usize * map.width + x as usize];
+    ImageBuffer::from_fn(map.width() as u32, map.height() as u32, |x, y| {
+        let d = map.data()[y as usize * map.width() + x as usize];
         if !d.is_finite() {
             return Rgb([0, 0, 0]);
         }

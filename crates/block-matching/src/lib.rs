@@ -45,6 +45,13 @@ pub mod prefilter;
 mod simd;
 mod speckle;
 
+// The crates whose types this crate's public API uses, re-exported so that a caller needs no
+// version match with them (`parallax_x::glam::DVec3` is the `DVec3` this crate takes).
+pub use glam;
+pub use image;
+pub use parallax_camera_model;
+pub use parallax_least_squares;
+
 pub use config::{CostFunction, MatcherConfig, Prefilter, Subpixel};
 pub use engine::{BlockMatcher, Gray16Image, MatchStats, SimdLevel};
 pub use error::{BlockMatchingError, Result};

@@ -7,7 +7,7 @@ use parallax_camera_model::DisparityMap;
 /// Invalidates every 4-connected region of valid pixels (neighbours differing by at most
 /// `max_diff` px) that has at most `max_size` pixels. Returns the number of pixels invalidated.
 pub fn filter_speckles(map: &mut DisparityMap, max_size: usize, max_diff: f32) -> usize {
-    let (w, h) = (map.width, map.height);
+    let (w, h) = (map.width(), map.height());
     if max_size == 0 || w * h == 0 {
         return 0;
     }
@@ -17,7 +17,7 @@ pub fn filter_speckles(map: &mut DisparityMap, max_size: usize, max_diff: f32) -
     let mut removed = 0;
     let mut next = 0u32;
     for start in 0..w * h {
-        if label[start] != 0 || !map.data[start].is_finite() {
+        if label[start] != 0 || !map.data()[start].is_finite() {
             continue;
         }
         next += 1;
@@ -26,10 +26,10 @@ pub fn filter_speckles(map: &mut DisparityMap, max_size: usize, max_diff: f32) -
         region.clear();
         while let Some(p) = stack.pop() {
             region.push(p);
-            let d = map.data[p];
+            let d = map.data()[p];
             let (x, y) = (p % w, p / w);
             let mut visit = |q: usize| {
-                let dq = map.data[q];
+                let dq = map.data()[q];
                 if label[q] == 0 && dq.is_finite() && (dq - d).abs() <= max_diff {
                     label[q] = next;
                     stack.push(q);
@@ -50,7 +50,7 @@ pub fn filter_speckles(map: &mut DisparityMap, max_size: usize, max_diff: f32) -
         }
         if region.len() <= max_size {
             for &p in &region {
-                map.data[p] = DisparityMap::INVALID;
+                map.data_mut()[p] = DisparityMap::INVALID;
             }
             removed += region.len();
         }

@@ -279,7 +279,7 @@ fn run_case(seed: u64, w: usize, h: usize, maxv: u32, sixteen: bool, cfg: Matche
             m.compute(&li, &ri).unwrap();
             m.compute(&li, &ri).unwrap()
         };
-        compare(&got.data, &expect, w, tol, &format!("{level:?} seed {seed} {w}x{h} maxv {maxv} {cfg:?}"));
+        compare(&got.data(), &expect, w, tol, &format!("{level:?} seed {seed} {w}x{h} maxv {maxv} {cfg:?}"));
     }
 }
 

@@ -23,7 +23,7 @@ fn scene(gain: f64, offset: f64) -> parallax_synthetic::StereoScene {
 /// Pixels whose whole `(2m+1)²` neighbourhood is fronto-parallel, textured, visible and at one
 /// true disparity (so a window there sees a single plane).
 fn interior_mask(s: &parallax_synthetic::StereoScene, m: usize) -> Vec<bool> {
-    let (w, h) = (s.disparity.width, s.disparity.height);
+    let (w, h) = (s.disparity.width(), s.disparity.height());
     let ok = |i: usize| s.fronto_parallel[i] && !s.occluded[i] && !s.low_texture[i];
     (0..w * h)
         .map(|i| {
@@ -31,8 +31,8 @@ fn interior_mask(s: &parallax_synthetic::StereoScene, m: usize) -> Vec<bool> {
             if x < m || y < m || x + m >= w || y + m >= h {
                 return false;
             }
-            let d0 = s.disparity.data[i];
-            (y - m..=y + m).all(|yy| (x - m..=x + m).all(|xx| ok(yy * w + xx) && s.disparity.data[yy * w + xx] == d0))
+            let d0 = s.disparity.data()[i];
+            (y - m..=y + m).all(|yy| (x - m..=x + m).all(|xx| ok(yy * w + xx) && s.disparity.data()[yy * w + xx] == d0))
         })
         .collect()
 }

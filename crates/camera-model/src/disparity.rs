@@ -7,14 +7,30 @@ use crate::{CameraModelError, Result};
 /// A dense left-view disparity map, `d = u_left − u_right` in pixels, row-major `f32`.
 /// Invalid pixels hold [`DisparityMap::INVALID`] (NaN), never a silent 0: read them through
 /// [`DisparityMap::get`], which returns `None` for them.
+///
+/// The length of the data always equals `width · height`: the fields are private, every
+/// constructor checks it, and a deserialised map is checked the same way (`serde(try_from)`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "DisparityMapFields")]
 pub struct DisparityMap {
-    /// Width in pixels.
-    pub width: usize,
-    /// Height in pixels.
-    pub height: usize,
-    /// `width · height` disparities, row-major; NaN where invalid.
-    pub data: Vec<f32>,
+    width: usize,
+    height: usize,
+    data: Vec<f32>,
+}
+
+/// The serialised form of [`DisparityMap`], checked on the way in.
+#[derive(Deserialize)]
+struct DisparityMapFields {
+    width: usize,
+    height: usize,
+    data: Vec<f32>,
+}
+
+impl TryFrom<DisparityMapFields> for DisparityMap {
+    type Error = CameraModelError;
+    fn try_from(f: DisparityMapFields) -> Result<Self> {
+        Self::from_data(f.width, f.height, f.data)
+    }
 }
 
 impl DisparityMap {
@@ -22,13 +38,17 @@ impl DisparityMap {
     pub const INVALID: f32 = f32::NAN;
 
     /// A map with every pixel invalid.
+    ///
+    /// # Panics
+    /// When `width · height` overflows `usize` (no such map fits in memory).
     pub fn new_invalid(width: usize, height: usize) -> Self {
-        Self { width, height, data: vec![Self::INVALID; width * height] }
+        let n = width.checked_mul(height).expect("disparity map size overflows usize");
+        Self { width, height, data: vec![Self::INVALID; n] }
     }
 
     /// A map from row-major data; errors when the length is not `width · height`.
     pub fn from_data(width: usize, height: usize, data: Vec<f32>) -> Result<Self> {
-        if data.len() != width * height {
+        if width.checked_mul(height) != Some(data.len()) {
             return Err(CameraModelError::SizeMismatch(format!(
                 "disparity map {width}x{height} needs {} values, got {}",
                 width * height,
@@ -36,6 +56,35 @@ impl DisparityMap {
             )));
         }
         Ok(Self { width, height, data })
+    }
+
+    /// Width in pixels.
+    #[inline]
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels.
+    #[inline]
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// The `width · height` disparities, row-major; NaN where invalid.
+    #[inline]
+    pub fn data(&self) -> &[f32] {
+        &self.data
+    }
+
+    /// The disparities, mutable (the length cannot change).
+    #[inline]
+    pub fn data_mut(&mut self) -> &mut [f32] {
+        &mut self.data
+    }
+
+    /// The disparities, by value.
+    pub fn into_data(self) -> Vec<f32> {
+        self.data
     }
 
     /// The disparity at `(u, v)`, `None` when invalid or out of bounds.

@@ -54,6 +54,15 @@ pub enum CameraModelError {
         /// Determinant.
         det: f64,
     },
+    /// A quaternion given as a rotation is not of unit norm (beyond rounding).
+    #[error(
+        "rotation quaternion has norm {norm}, not 1: not a rotation (check the component order x y z w and that no \
+         value was scaled; a quaternion rounded to a few digits is accepted and re-normalised)"
+    )]
+    NotAUnitQuaternion {
+        /// Its norm.
+        norm: f64,
+    },
     /// A chessboard description is unusable.
     #[error("invalid chessboard: {0}")]
     InvalidBoard(String),

@@ -20,12 +20,32 @@ use crate::{CameraModelError, Result};
 /// let direct = base_from_gripper.transform_point(gripper_from_camera.transform_point(p));
 /// assert!((base_from_camera.transform_point(p) - direct).length() < 1e-15);
 /// ```
+///
+/// The rotation is always a unit quaternion: the field is private, every constructor
+/// normalises or checks it, and a deserialised transform is checked (`serde(try_from)`): a
+/// quaternion whose norm is off 1 by more than [`Isometry3::QUATERNION_NORM_TOLERANCE`] (a
+/// mistake, not rounding) or a non-finite value is refused; within it, it is re-normalised.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "IsometryFields")]
 pub struct Isometry3 {
     /// Rotation as a unit quaternion (serialised `(x, y, z, w)`).
-    pub rotation: DQuat,
+    rotation: DQuat,
     /// Translation, in the length unit of the scene.
     pub translation: DVec3,
+}
+
+/// The serialised form of [`Isometry3`], checked on the way in.
+#[derive(Deserialize)]
+struct IsometryFields {
+    rotation: DQuat,
+    translation: DVec3,
+}
+
+impl TryFrom<IsometryFields> for Isometry3 {
+    type Error = CameraModelError;
+    fn try_from(f: IsometryFields) -> Result<Self> {
+        Self::new(f.rotation, f.translation)
+    }
 }
 
 impl Default for Isometry3 {
@@ -38,9 +58,37 @@ impl Isometry3 {
     /// The identity transform.
     pub const IDENTITY: Self = Self { rotation: DQuat::IDENTITY, translation: DVec3::ZERO };
 
-    /// From a unit quaternion and a translation (the quaternion is re-normalised).
+    /// Largest deviation of a quaternion's norm from 1 that [`Isometry3::new`] and
+    /// deserialisation accept as rounding (the quaternion is then re-normalised).
+    pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-3;
+
+    /// From a unit quaternion and a translation, checked: errors when a value is not finite or
+    /// the quaternion's norm is off 1 by more than [`Self::QUATERNION_NORM_TOLERANCE`] (e.g. a
+    /// quaternion of norm 2 is a mistake, not a rotation); re-normalises within it.
+    pub fn new(rotation: DQuat, translation: DVec3) -> Result<Self> {
+        if !rotation.is_finite() {
+            return Err(CameraModelError::NonFinite { what: "rotation quaternion" });
+        }
+        if !translation.is_finite() {
+            return Err(CameraModelError::NonFinite { what: "translation" });
+        }
+        let norm = rotation.length();
+        if (norm - 1.0).abs() > Self::QUATERNION_NORM_TOLERANCE {
+            return Err(CameraModelError::NotAUnitQuaternion { norm });
+        }
+        Ok(Self { rotation: rotation / norm, translation })
+    }
+
+    /// From any non-zero quaternion and a translation: the quaternion is re-normalised,
+    /// whatever its norm (use [`Self::new`] to refuse a quaternion that is not close to unit).
     pub fn from_quat_translation(rotation: DQuat, translation: DVec3) -> Self {
         Self { rotation: rotation.normalize(), translation }
+    }
+
+    /// The rotation, a unit quaternion.
+    #[inline]
+    pub fn rotation(&self) -> DQuat {
+        self.rotation
     }
 
     /// From a rotation matrix and a translation; errors unless `r` is a proper rotation to

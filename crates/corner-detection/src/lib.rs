@@ -36,6 +36,13 @@ mod harris;
 mod imageops;
 mod subpix;
 
+// The crates whose types this crate's public API uses, re-exported so that a caller needs no
+// version match with them (`parallax_x::glam::DVec3` is the `DVec3` this crate takes).
+pub use glam;
+pub use image;
+pub use parallax_camera_model;
+pub use parallax_least_squares;
+
 pub use blobs::{BT601, Blob, BlobConfig, BlobDetection, BlobPolarity, detect_blobs, weighted_gray};
 pub use chessboard::{
     ChessboardConfig, ChessboardDetection, CornerRefinement, chessboard_candidates, detect_chessboard, draw_chessboard,

@@ -110,7 +110,7 @@ pub fn parse_pose_ron(text: &str, what: &str) -> Result<Vec<Isometry3>> {
         return Err(parse_err(what, "empty pose list".into()));
     }
     for (k, p) in poses.iter().enumerate() {
-        if !p.is_finite() || (p.rotation.length() - 1.0).abs() > 1e-6 {
+        if !p.is_finite() || (p.rotation().length() - 1.0).abs() > 1e-6 {
             return Err(parse_err(what, format!("pose {k}: rotation is not a finite unit quaternion")));
         }
     }

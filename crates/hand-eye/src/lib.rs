@@ -50,6 +50,12 @@ mod quality;
 mod refine;
 pub mod robot_world;
 
+// The crates whose types this crate's public API uses, re-exported so that a caller needs no
+// version match with them (`parallax_x::glam::DVec3` is the `DVec3` this crate takes).
+pub use glam;
+pub use parallax_camera_model;
+pub use parallax_least_squares;
+
 pub use calibrate::{
     HandEyeConfig, HandEyeSolution, Method, calibrate, calibrate_all, evaluate, points_to_base, points_to_gripper,
     solve_motions,

@@ -83,8 +83,8 @@ fn tsai_modified_rodrigues(motions: &[Motion], q0: DQuat) -> Result<DVec3> {
     let mut a = Mat::<f64>::zeros(3 * n, 3);
     let mut b = Col::<f64>::zeros(3 * n);
     for (k, m) in motions.iter().enumerate() {
-        let pa = 2.0 * positive_quat(m.a.rotation).xyz();
-        let pb = 2.0 * positive_quat((q0 * m.b.rotation * q0.conjugate()).normalize()).xyz();
+        let pa = 2.0 * positive_quat(m.a.rotation()).xyz();
+        let pb = 2.0 * positive_quat((q0 * m.b.rotation() * q0.conjugate()).normalize()).xyz();
         let s = skew(pa + pb);
         let rhs = pb - pa;
         for r in 0..3 {
@@ -128,8 +128,8 @@ fn quat_lr(q: DQuat) -> ([[f64; 4]; 4], [[f64; 4]; 4]) {
 pub fn horaud(motions: &[Motion]) -> Result<Isometry3> {
     let mut s = Mat::<f64>::zeros(4, 4);
     for m in motions {
-        let (l, _) = quat_lr(positive_quat(m.a.rotation));
-        let (_, r) = quat_lr(positive_quat(m.b.rotation));
+        let (l, _) = quat_lr(positive_quat(m.a.rotation()));
+        let (_, r) = quat_lr(positive_quat(m.b.rotation()));
         let d: [[f64; 4]; 4] = std::array::from_fn(|i| std::array::from_fn(|j| l[i][j] - r[i][j]));
         for i in 0..4 {
             for j in 0..4 {
@@ -193,7 +193,7 @@ pub fn andreff(motions: &[Motion]) -> Result<Isometry3> {
 /// Real and dual parts of the unit dual quaternion of a transform (`q_r` with `w ≥ 0`,
 /// `q_d = ½ (0, t) q_r`).
 pub(crate) fn dual_quat(t: &Isometry3) -> (DQuat, DQuat) {
-    let qr = positive_quat(t.rotation);
+    let qr = positive_quat(t.rotation());
     let tq = DQuat::from_xyzw(t.translation.x, t.translation.y, t.translation.z, 0.0);
     (qr, (tq * qr) * 0.5)
 }
@@ -270,7 +270,7 @@ pub fn rodrigues(motions: &[Motion]) -> Result<Isometry3> {
     let n = motions.len();
     let pairs: Vec<(DVec3, DVec3)> = motions
         .iter()
-        .map(|m| (2.0 * positive_quat(m.a.rotation).xyz(), 2.0 * positive_quat(m.b.rotation).xyz()))
+        .map(|m| (2.0 * positive_quat(m.a.rotation()).xyz(), 2.0 * positive_quat(m.b.rotation()).xyz()))
         .collect();
     let scale = pairs.iter().map(|(a, b)| a.length().max(b.length())).fold(0.0, f64::max);
     let max_diff = pairs.iter().map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);

@@ -130,7 +130,7 @@ fn refined_beats_opencv_on_the_peer_protocol_and_its_std_devs_are_honest() {
                 variance += rf.variance_factor;
                 let sd = rf.std_devs.expect("covariance");
                 // Error in the covariance's coordinates: R_true = Exp(ω) R, t_true = t + δt.
-                let w = (s.x.rotation * sol.transform.rotation.inverse()).normalize();
+                let w = (s.x.rotation() * sol.transform.rotation().inverse()).normalize();
                 let w = Isometry3::from_quat_translation(w, DVec3::ZERO).rvec();
                 let dt = s.x.translation - sol.transform.translation;
                 let e6 = [w.x, w.y, w.z, dt.x, dt.y, dt.z];

@@ -56,8 +56,9 @@ fn noisy_trajectories_refined_error_and_std_devs() {
             park_r += pr.to_degrees();
             park_t += pt * 1e3;
             let sd = sol.refinement.unwrap().std_devs.unwrap();
-            let w = Isometry3::from_quat_translation(x.rotation * sol.transform.rotation.inverse(), glam::DVec3::ZERO)
-                .rvec();
+            let w =
+                Isometry3::from_quat_translation(x.rotation() * sol.transform.rotation().inverse(), glam::DVec3::ZERO)
+                    .rvec();
             let d = x.translation - sol.transform.translation;
             let e = [w.x, w.y, w.z, d.x, d.y, d.z];
             if (0..6).all(|i| e[i].abs() <= 3.0 * sd[i]) {

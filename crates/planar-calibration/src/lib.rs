@@ -50,6 +50,12 @@ mod pnp;
 mod stereo;
 mod zhang;
 
+// The crates whose types this crate's public API uses, re-exported so that a caller needs no
+// version match with them (`parallax_x::glam::DVec3` is the `DVec3` this crate takes).
+pub use glam;
+pub use parallax_camera_model;
+pub use parallax_least_squares;
+
 pub use calibrate::{
     CalibrationConfig, CalibrationResult, CalibrationWarning, DistortionFold, IntrinsicStdDevs, PoseStdDevs,
     calibrate_camera, calibrate_chessboard, distortion_fold,

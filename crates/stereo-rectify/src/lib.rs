@@ -54,6 +54,13 @@ mod points;
 mod rectifier;
 mod remap;
 
+// The crates whose types this crate's public API uses, re-exported so that a caller needs no
+// version match with them (`parallax_x::glam::DVec3` is the `DVec3` this crate takes).
+pub use glam;
+pub use image;
+pub use parallax_camera_model;
+pub use parallax_least_squares;
+
 pub use bouguet::{ExtentMethod, Rectification, RectifyConfig, Roi, stereo_rectify};
 pub use error::{RectifyError, Result};
 pub use hartley::{UncalibratedRectification, stereo_rectify_uncalibrated};

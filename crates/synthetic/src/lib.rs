@@ -33,6 +33,13 @@ mod stereo;
 mod trajectory;
 mod views;
 
+// The crates whose types this crate's public API uses, re-exported so that a caller needs no
+// version match with them (`parallax_x::glam::DVec3` is the `DVec3` this crate takes).
+pub use glam;
+pub use image;
+pub use parallax_camera_model;
+pub use parallax_least_squares;
+
 pub use error::SyntheticError;
 pub use noise::{add_pixel_noise, perturb_pose, rng};
 pub use render::{RenderOptions, RenderedView, render_chessboard};

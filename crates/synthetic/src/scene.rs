@@ -268,6 +268,42 @@ impl SceneDescription {
         s
     }
 
+    /// The same scene with every length multiplied by `factor` and the unit renamed (e.g.
+    /// `in_unit(0.001, "m")` turns a scene in millimetres into one in metres): board squares,
+    /// baselines, view and trajectory distances, explicit poses, pose noise and the length
+    /// tolerances. Pixel quantities and angles are unchanged, so the rendered images are the
+    /// same and every length the pipeline measures scales by `factor`.
+    pub fn in_unit(&self, factor: f64, unit: &str) -> Self {
+        let mut s = self.clone();
+        s.unit = unit.to_string();
+        let scale_pose = |p: &Isometry3| Isometry3::from_quat_translation(p.rotation(), p.translation * factor);
+        s.rig.right_from_left = scale_pose(&s.rig.right_from_left);
+        s.board.square_size *= factor;
+        for v in [&mut s.views, &mut s.stereo_views] {
+            v.min_distance *= factor;
+            v.max_distance *= factor;
+        }
+        for poses in [&mut s.mono_poses, &mut s.stereo_poses].into_iter().flatten() {
+            poses.iter_mut().for_each(|p| *p = scale_pose(p));
+        }
+        s.stereo_scene.baseline *= factor;
+        let t = &mut s.trajectory;
+        t.min_distance *= factor;
+        t.max_distance *= factor;
+        t.trans_noise *= factor;
+        t.lateral_range *= factor;
+        t.hand_eye_offset *= factor;
+        t.base_distance *= factor;
+        t.board_centre *= factor;
+        let tol = &mut s.tolerances;
+        tol.baseline_error *= factor;
+        tol.point_error *= factor;
+        tol.distance_error *= factor;
+        tol.handeye_trans *= factor;
+        tol.base_point_error *= factor;
+        s
+    }
+
     /// Parses and validates a RON description.
     pub fn from_ron(text: &str) -> Result<Self, SyntheticError> {
         let scene: Self = ron::from_str(text).map_err(|e| SyntheticError::Scene(format!("parse error: {e}")))?;

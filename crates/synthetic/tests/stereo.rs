@@ -16,7 +16,7 @@ fn sample_row(img: &image::GrayImage, x: f64, v: u32) -> f64 {
 
 /// Mean |left − warped right| over non-occluded pixels away from depth edges (2 px).
 fn warp_error(s: &StereoScene, gain: f64, offset: f64) -> (f64, usize) {
-    let (w, h) = (s.disparity.width, s.disparity.height);
+    let (w, h) = (s.disparity.width(), s.disparity.height());
     let mut sum = 0.0;
     let mut count = 0;
     for v in 2..h - 2 {
@@ -48,7 +48,7 @@ fn warping_right_by_true_disparity_reproduces_left() {
     // Below the noise level of a typical camera (σ = 1 grey level).
     assert!(mad < 1.0, "mean abs diff {mad}");
     // Texture must be rich: mean abs horizontal gradient of the textured surfaces.
-    let w = s.disparity.width;
+    let w = s.disparity.width();
     let (mut g, mut m) = (0.0, 0);
     for (i, px) in s.left.as_raw().iter().enumerate() {
         if i % w + 1 < w && !s.low_texture[i] {
@@ -60,7 +60,7 @@ fn warping_right_by_true_disparity_reproduces_left() {
 
     // A wrong disparity (off by one pixel) is far worse, so the test can fail.
     let mut shifted = s.clone();
-    for d in shifted.disparity.data.iter_mut() {
+    for d in shifted.disparity.data_mut().iter_mut() {
         *d += 1.0;
     }
     let (bad, _) = warp_error(&shifted, 1.0, 0.0);
@@ -78,10 +78,10 @@ fn warping_right_by_true_disparity_reproduces_left() {
 fn masks_match_the_scene_geometry() {
     let cfg = StereoSceneConfig::default();
     let s = render_stereo_scene(&cfg).unwrap();
-    let (w, h) = (s.disparity.width, s.disparity.height);
+    let (w, h) = (s.disparity.width(), s.disparity.height());
     assert_eq!(s.disparity.valid_count(), w * h);
     let m = cfg.max_disparity as f32;
-    assert!(s.disparity.data.iter().all(|&d| d >= 0.15 * m - 1e-4 && d <= 0.9 * m + 1e-4));
+    assert!(s.disparity.data().iter().all(|&d| d >= 0.15 * m - 1e-4 && d <= 0.9 * m + 1e-4));
     // Left of the near box (d = 0.9 M over a wall at 0.15 M) an occlusion band of 0.75 M = 48 px.
     let v = (0.5 * h as f64) as usize;
     let box_left = (0.58 * w as f64).ceil() as usize;
@@ -124,8 +124,8 @@ fn stereo_scene_is_deterministic() {
     assert_eq!(a.left.as_raw(), b.left.as_raw());
     assert_eq!(a.right.as_raw(), b.right.as_raw());
     assert_eq!(
-        a.disparity.data.iter().map(|d| d.to_bits()).collect::<Vec<_>>(),
-        b.disparity.data.iter().map(|d| d.to_bits()).collect::<Vec<_>>()
+        a.disparity.data().iter().map(|d| d.to_bits()).collect::<Vec<_>>(),
+        b.disparity.data().iter().map(|d| d.to_bits()).collect::<Vec<_>>()
     );
     let c = render_stereo_scene(&StereoSceneConfig { seed: 5, ..cfg }).unwrap();
     assert_ne!(a.left.as_raw(), c.left.as_raw());

@@ -45,6 +45,12 @@ mod output;
 mod point;
 mod rectified;
 
+// The crates whose types this crate's public API uses, re-exported so that a caller needs no
+// version match with them (`parallax_x::glam::DVec3` is the `DVec3` this crate takes).
+pub use glam;
+pub use parallax_camera_model;
+pub use parallax_least_squares;
+
 pub use distance::{
     CornerDistance, Distance, MeasuredDistance, MeasuredPoint, Measurement, adjacent_corner_distances, distance,
     distance_rms, distance_with_joint_covariance, measure_stereo, point_distance,

@@ -35,7 +35,7 @@ impl View {
     /// The unit direction, in the world frame, of the ray through a (distorted) pixel.
     pub fn ray_direction(&self, pixel: DVec2) -> Result<DVec3> {
         let ray = self.camera.unproject(pixel)?;
-        Ok(self.camera_from_world.rotation.inverse() * ray.normalize())
+        Ok(self.camera_from_world.rotation().inverse() * ray.normalize())
     }
 
     /// The pixel a pinhole camera with the same `K` would see (lens distortion removed).

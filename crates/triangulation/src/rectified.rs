@@ -211,9 +211,12 @@ pub fn disparity_to_point_cloud(
     config: &CloudConfig,
     colors: Option<PixelColors<'_>>,
 ) -> Result<PointCloud> {
-    let (w, h) = (map.width, map.height);
-    if map.data.len() != w * h {
-        return Err(TriangulationError::SizeMismatch(format!("disparity map {w}x{h} holds {} values", map.data.len())));
+    let (w, h) = (map.width(), map.height());
+    if map.data().len() != w * h {
+        return Err(TriangulationError::SizeMismatch(format!(
+            "disparity map {w}x{h} holds {} values",
+            map.data().len()
+        )));
     }
     match colors {
         Some(PixelColors::Grey(g)) if g.len() != w * h => {
@@ -255,7 +258,7 @@ pub fn disparity_to_point_cloud(
             };
             for u in 0..w {
                 let i = v * w + u;
-                let d = map.data[i];
+                let d = map.data()[i];
                 if !d.is_finite() {
                     row.invalid += 1;
                     continue;

@@ -187,7 +187,7 @@ fn disparity_map_to_point_cloud_skips_and_counts_invalid_pixels() {
     let cloud = disparity_to_point_cloud(&map, &q, &cfg, Some(PixelColors::Grey(&grey))).unwrap();
     assert_eq!(cloud.len(), expect_valid);
     assert_eq!(cloud.len() + cloud.skipped_invalid + cloud.skipped_non_positive + cloud.skipped_far, w * h);
-    assert_eq!(cloud.skipped_invalid, map.data.len() - map.valid_count());
+    assert_eq!(cloud.skipped_invalid, map.data().len() - map.valid_count());
     assert!(cloud.points.iter().all(|p| p.is_finite() && p.z > 0.0));
     let PointColors::Grey(g) = &cloud.colors else { panic!("grey expected") };
     for ((p, px), c) in cloud.points.iter().zip(&cloud.pixels).zip(g) {

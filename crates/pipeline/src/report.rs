@@ -1,9 +1,15 @@
-//! The pipeline's result table and its Markdown report.
+//! The pipeline's result table, its verdict and the Markdown / HTML / RON report.
+//!
+//! A [`Row`] is one figure of one stage against its tolerance; a [`Report`] collects rows, notes
+//! and images in stage order. The verdict is `pipeline: PASS` only when at least one row ran and
+//! every row passed (a NaN value — a stage that failed or could not run — fails).
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 use serde::Serialize;
+
+use crate::Result;
 
 /// How a figure is compared with its tolerance.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -46,6 +52,8 @@ impl Row {
 pub struct Report {
     /// Scene name.
     pub scene: String,
+    /// Length unit of the scene (every length row and note is in it).
+    pub unit: String,
     /// Table rows in stage order.
     pub rows: Vec<Row>,
     /// Free-form lines per stage (results without a truth column).
@@ -77,6 +85,11 @@ impl Report {
             unit: unit.into(),
             bound: Bound::AtLeast,
         });
+    }
+
+    /// A report for `scene` whose lengths are in `unit`.
+    pub fn new(scene: &str, unit: &str) -> Self {
+        Self { scene: scene.into(), unit: unit.into(), ..Self::default() }
     }
 
     /// Adds a note line for a stage.
@@ -122,10 +135,22 @@ impl Report {
         s
     }
 
-    /// The closing line of the output contract: `pipeline: PASS` or `pipeline: FAIL (<stages>)`.
+    /// The closing line of the output contract: `pipeline: PASS` or `pipeline: FAIL (<stages>)`;
+    /// a report without a single row is `pipeline: FAIL (no checks ran)`, never a pass.
     pub fn verdict(&self) -> String {
         let failed = self.failed_stages();
-        if failed.is_empty() { "pipeline: PASS".into() } else { format!("pipeline: FAIL ({})", failed.join(", ")) }
+        if self.rows.is_empty() {
+            "pipeline: FAIL (no checks ran)".into()
+        } else if failed.is_empty() {
+            "pipeline: PASS".into()
+        } else {
+            format!("pipeline: FAIL ({})", failed.join(", "))
+        }
+    }
+
+    /// True when the verdict is a pass.
+    pub fn passed(&self) -> bool {
+        !self.rows.is_empty() && self.failed_stages().is_empty()
     }
 
     /// A Markdown report with the table, the notes and the images inline.
@@ -163,10 +188,10 @@ impl Report {
     }
 
     /// Writes `report.md` and `report.html` (the same content, images inline) into `dir`.
-    pub fn write(&self, dir: &Path) -> anyhow::Result<()> {
-        crate::util::write_atomic(&dir.join("report.md"), self.markdown().as_bytes())?;
-        crate::util::write_atomic(&dir.join("report.html"), self.html().as_bytes())?;
-        crate::util::write_ron(&dir.join("report.ron"), self)
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        crate::io::write_atomic(&dir.join("report.md"), self.markdown().as_bytes())?;
+        crate::io::write_atomic(&dir.join("report.html"), self.html().as_bytes())?;
+        crate::io::write_ron(&dir.join("report.ron"), self)
     }
 
     /// A self-contained HTML page (images referenced relative to the report).
@@ -223,7 +248,7 @@ mod tests {
 
     #[test]
     fn verdict_names_failing_stages_once_and_nan_fails() {
-        let mut r = Report { scene: "t".into(), ..Report::default() };
+        let mut r = Report::new("t", "mm");
         r.at_most("calibration", "focal error", 0.05, 0.1, "%");
         r.at_most("disparity", "bad-2", 12.0, 10.0, "%");
         r.at_least("disparity", "density", 80.0, 85.0, "%");
@@ -233,5 +258,13 @@ mod tests {
         let ok = Report { scene: "t".into(), rows: vec![r.rows[0].clone()], ..Report::default() };
         assert_eq!(ok.verdict(), "pipeline: PASS");
         assert!(r.table().contains("FAIL") && r.markdown().contains("**FAIL**") && r.html().contains("class=\"FAIL\""));
+        assert!(ok.passed() && !r.passed());
+    }
+
+    #[test]
+    fn a_report_without_rows_never_passes() {
+        let empty = Report::new("real", "mm");
+        assert_eq!(empty.verdict(), "pipeline: FAIL (no checks ran)");
+        assert!(!empty.passed());
     }
 }

@@ -1,0 +1,71 @@
+//! The files a chain run leaves for the user: results in RON, overlays, the rectified pair,
+//! the disparity map, the point cloud. The report lists the images with captions.
+
+use std::path::Path;
+
+use crate::chain::{ChainInput, ChainOutput};
+use crate::{Result, io};
+
+/// Two images side by side with horizontal lines every 40 px, so alignment can be judged by eye.
+pub fn side_by_side(l: &image::GrayImage, r: &image::GrayImage) -> image::RgbImage {
+    let (w, h) = (l.width() + r.width(), l.height().max(r.height()));
+    let mut img = image::RgbImage::new(w, h);
+    for (x, y, p) in l.enumerate_pixels() {
+        img.put_pixel(x, y, image::Rgb([p[0]; 3]));
+    }
+    for (x, y, p) in r.enumerate_pixels() {
+        img.put_pixel(x + l.width(), y, image::Rgb([p[0]; 3]));
+    }
+    for y in (20..h).step_by(40) {
+        for x in 0..w {
+            img.put_pixel(x, y, image::Rgb([0, 200, 0]));
+        }
+    }
+    img
+}
+
+/// Writes every result the chain produced into `dir`; returns the images written, as
+/// `(file name, caption)` for the report.
+pub fn write_artifacts(dir: &Path, input: &ChainInput, out: &ChainOutput) -> Result<Vec<(String, String)>> {
+    let mut images = Vec::new();
+    if let Some(&i) = out.views.index.first() {
+        let grid = out.detections[i][0].as_ref().expect("kept views have both grids");
+        let name = format!("corners-left-{i}.png");
+        io::save_png(&dir.join(&name), &parallax_corner_detection::draw_chessboard(&input.calibration[i][0], grid))?;
+        images.push((name, format!("detected corners, left view {i}")));
+    }
+    if let Ok(c) = &out.calibration {
+        io::write_ron(&dir.join("calibration.ron"), c)?;
+    }
+    if let Ok(r) = &out.rectified {
+        io::write_ron(&dir.join("rectification.ron"), &r.rectification)?;
+    }
+    if let Ok((l, r)) = &out.rectified_view {
+        io::save_png(&dir.join("rectified-pair.png"), &side_by_side(l, r))?;
+        let i = out.views.index.first().copied().unwrap_or(0);
+        images.push(("rectified-pair.png".into(), format!("rectified calibration view {i} (lines every 40 px)")));
+    }
+    if let Ok(m) = &out.matched {
+        if m.rectified_here {
+            io::save_png(&dir.join("rectified-left.png"), &m.left)?;
+            io::save_png(&dir.join("rectified-right.png"), &m.right)?;
+        } else {
+            io::save_png(&dir.join("left-scene.png"), &m.left)?;
+            images.push(("left-scene.png".into(), "matched pair, left (as given, already rectified)".into()));
+        }
+        io::write_atomic(&dir.join("disparity.pfm"), &parallax_block_matching::to_pfm(&m.disparity))?;
+        io::save_png(&dir.join("disparity.png"), &parallax_block_matching::false_colour(&m.disparity, None))?;
+        images.push(("disparity.png".into(), "disparity (false colour, black = invalid)".into()));
+    }
+    if let Ok(cloud) = &out.cloud {
+        let bytes = parallax_triangulation::ply_bytes(cloud, parallax_triangulation::PlyFormat::BinaryLittleEndian)?;
+        io::write_atomic(&dir.join("cloud.ply"), &bytes)?;
+    }
+    if let Ok(he) = &out.hand_eye {
+        io::write_ron(&dir.join("handeye.ron"), &he.solution)?;
+    }
+    if let Ok(m) = &out.measurement {
+        io::write_ron(&dir.join("measurement.ron"), &m.measurement)?;
+    }
+    Ok(images)
+}

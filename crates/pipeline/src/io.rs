@@ -1,0 +1,232 @@
+//! Files: atomic output, RON, images and globs — the one copy every command uses.
+
+use std::path::{Path, PathBuf};
+
+use crate::{PipelineError, Result};
+
+fn io_err<'a>(what: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -> PipelineError + 'a {
+    move |source| PipelineError::Io { what, path: path.to_path_buf(), source }
+}
+
+/// Writes `bytes` to `path` atomically: a temporary file in the same directory, then a rename,
+/// so a failed run never leaves a half-written result. Creates the parent directory. Refuses a
+/// `path` that is an existing directory, and removes the temporary file on every failure.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    if path.is_dir() {
+        return Err(PipelineError::Input(format!(
+            "{} is a directory: give a file name (e.g. {})",
+            path.display(),
+            path.join("result.ron").display()
+        )));
+    }
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(io_err("creating directory", dir))?;
+    let name = path.file_name().ok_or_else(|| PipelineError::Input(format!("{} has no file name", path.display())))?;
+    let tmp = dir.join(format!(".{}.tmp{}", name.to_string_lossy(), std::process::id()));
+    let result = std::fs::write(&tmp, bytes)
+        .map_err(io_err("writing", &tmp))
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(io_err("renaming a temporary file to", path)));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Serialises `value` as pretty RON.
+pub fn to_ron<T: serde::Serialize>(value: &T) -> Result<String> {
+    ron::ser::to_string_pretty(value, ron::ser::PrettyConfig::default())
+        .map_err(|e| PipelineError::Format { path: PathBuf::from("<value>"), message: e.to_string() })
+}
+
+/// Serialises `value` as pretty RON and writes it atomically.
+pub fn write_ron<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
+    write_atomic(path, to_ron(value)?.as_bytes())
+}
+
+/// Reads and deserialises a RON file, naming the file in every error.
+pub fn read_ron<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
+    let text = std::fs::read_to_string(path).map_err(io_err("reading", path))?;
+    ron::from_str(&text).map_err(|e| PipelineError::Format { path: path.to_path_buf(), message: e.to_string() })
+}
+
+/// The first value in a RON document that deserialises as a `StereoRig` (depth-first).
+fn find_rig(value: &ron::Value) -> Option<parallax_camera_model::StereoRig> {
+    if let Ok(rig) = value.clone().into_rust::<parallax_camera_model::StereoRig>() {
+        return Some(rig);
+    }
+    match value {
+        ron::Value::Map(m) => m.values().find_map(find_rig),
+        ron::Value::Seq(s) => s.iter().find_map(find_rig),
+        ron::Value::Option(Some(v)) => find_rig(v),
+        _ => None,
+    }
+}
+
+/// Reads a stereo rig from a RON file holding a `StereoRig`, or any result that contains one
+/// (a stereo calibration result, the `calibrate` command's output with its `result.rig`, ...);
+/// the rig is validated (both cameras, a proper rotation, a non-zero baseline).
+pub fn load_rig(path: &Path) -> Result<parallax_camera_model::StereoRig> {
+    let text = std::fs::read_to_string(path).map_err(io_err("reading", path))?;
+    let rig = match ron::from_str::<parallax_camera_model::StereoRig>(&text) {
+        Ok(rig) => rig,
+        Err(direct) => {
+            let value: ron::Value = ron::from_str(&text)
+                .map_err(|e| PipelineError::Format { path: path.to_path_buf(), message: e.to_string() })?;
+            find_rig(&value).ok_or_else(|| PipelineError::Format {
+                path: path.to_path_buf(),
+                message: format!(
+                    "no stereo rig (left, right, right_from_left) found: not a StereoRig ({direct}) and no value \
+                     inside holds one"
+                ),
+            })?
+        }
+    };
+    parallax_camera_model::StereoRig::new(rig.left, rig.right, rig.right_from_left)
+        .map_err(|e| PipelineError::Format { path: path.to_path_buf(), message: format!("invalid stereo rig: {e}") })
+}
+
+/// Loads an image as 8-bit grayscale (colour is converted with the image crate's luma weights).
+pub fn load_gray(path: &Path) -> Result<image::GrayImage> {
+    let img = image::open(path).map_err(|source| PipelineError::Image { path: path.to_path_buf(), source })?;
+    Ok(img.into_luma8())
+}
+
+/// Encodes an image as PNG (in memory).
+pub fn png_bytes<P, C>(img: &image::ImageBuffer<P, C>) -> Result<Vec<u8>>
+where
+    P: image::PixelWithColorType,
+    [P::Subpixel]: image::EncodableLayout,
+    C: std::ops::Deref<Target = [P::Subpixel]>,
+{
+    let mut bytes = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+        .map_err(|source| PipelineError::Image { path: PathBuf::from("<png>"), source })?;
+    Ok(bytes)
+}
+
+/// Encodes an image as PNG and writes it atomically.
+pub fn save_png<P, C>(path: &Path, img: &image::ImageBuffer<P, C>) -> Result<()>
+where
+    P: image::PixelWithColorType,
+    [P::Subpixel]: image::EncodableLayout,
+    C: std::ops::Deref<Target = [P::Subpixel]>,
+{
+    write_atomic(path, &png_bytes(img)?)
+}
+
+/// Orders paths by the numbers in their names (`img2` before `img10`), then by text.
+pub fn natural_sort(paths: &mut [PathBuf]) {
+    fn key(p: &Path) -> Vec<(String, u64)> {
+        let s = p.to_string_lossy();
+        let mut out = Vec::new();
+        let (mut text, mut num) = (String::new(), None::<u64>);
+        for c in s.chars() {
+            match (c.to_digit(10), num) {
+                (Some(d), Some(n)) => num = Some(n.saturating_mul(10).saturating_add(u64::from(d))),
+                (Some(d), None) => num = Some(u64::from(d)),
+                (None, Some(n)) => {
+                    out.push((std::mem::take(&mut text), n));
+                    num = None;
+                    text.push(c);
+                }
+                (None, None) => text.push(c),
+            }
+        }
+        out.push((text, num.unwrap_or(0)));
+        out
+    }
+    paths.sort_by_cached_key(|p| key(p));
+}
+
+/// Expands a glob pattern into paths in natural order (numbers in names compare as numbers);
+/// errors when the pattern is malformed or nothing matches.
+pub fn expand_glob(pattern: &str) -> Result<Vec<PathBuf>> {
+    let paths = glob::glob(pattern).map_err(|e| PipelineError::Input(format!("bad glob pattern {pattern:?}: {e}")))?;
+    let mut paths: Vec<PathBuf> = paths.filter_map(std::result::Result::ok).collect();
+    natural_sort(&mut paths);
+    if paths.is_empty() {
+        return Err(PipelineError::Input(format!("no file matches {pattern:?}")));
+    }
+    Ok(paths)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn temp(name: &str) -> PathBuf {
+        std::env::temp_dir().join(format!("parallax-io-{name}-{}", std::process::id()))
+    }
+
+    #[test]
+    fn atomic_write_replaces_and_leaves_no_temp_file() {
+        let dir = temp("atomic");
+        let path = dir.join("a.ron");
+        write_ron(&path, &vec![1, 2, 3]).unwrap();
+        write_ron(&path, &vec![4]).unwrap();
+        let back: Vec<i32> = read_ron(&path).unwrap();
+        assert_eq!(back, vec![4]);
+        let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(names.len(), 1, "temporary files left behind: {names:?}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_directory_as_output_file_is_refused_and_leaves_nothing() {
+        let dir = temp("isdir");
+        std::fs::create_dir_all(dir.join("out.ron")).unwrap();
+        let err = write_atomic(&dir.join("out.ron"), b"x").unwrap_err().to_string();
+        assert!(err.contains("is a directory"), "{err}");
+        let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(names.len(), 1, "{names:?}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn unreadable_inputs_name_the_file() {
+        let err = read_ron::<Vec<i32>>(Path::new("/nonexistent/x.ron")).unwrap_err();
+        assert!(err.to_string().contains("/nonexistent/x.ron"), "{err}");
+        let err = load_gray(Path::new("/nonexistent/x.png")).unwrap_err();
+        assert!(err.to_string().contains("/nonexistent/x.png"), "{err}");
+        assert!(expand_glob("/nonexistent/*.png").is_err());
+    }
+
+    #[test]
+    fn finds_a_rig_alone_or_nested_in_a_result() {
+        use glam::DVec3;
+        use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
+        let cam = Camera::new(Intrinsics::new(800.0, 800.0, 320.0, 240.0), Distortion::default(), 640, 480).unwrap();
+        let rig =
+            StereoRig::new(cam, cam, Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(-100.0, 0.0, 0.0))).unwrap();
+        let dir = temp("rig");
+        let alone = dir.join("rig.ron");
+        write_ron(&alone, &rig).unwrap();
+        assert_eq!(load_rig(&alone).unwrap(), rig);
+        #[derive(serde::Serialize)]
+        struct Inner {
+            rms: f64,
+            rig: StereoRig,
+        }
+        #[derive(serde::Serialize)]
+        struct Outer {
+            images: Vec<String>,
+            result: Inner,
+        }
+        let nested = dir.join("calib.ron");
+        write_ron(&nested, &Outer { images: vec!["a.png".into()], result: Inner { rms: 0.2, rig } }).unwrap();
+        assert!((load_rig(&nested).unwrap().baseline() - 100.0).abs() < 1e-12);
+        let junk = dir.join("junk.ron");
+        write_atomic(&junk, b"(a: 1)").unwrap();
+        assert!(load_rig(&junk).unwrap_err().to_string().contains("junk.ron"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn natural_sort_orders_numbers_numerically() {
+        let mut p: Vec<PathBuf> =
+            ["img10.png", "img2.png", "img1.png", "a/img03.png"].iter().map(PathBuf::from).collect();
+        natural_sort(&mut p);
+        let names: Vec<_> = p.iter().map(|p| p.to_string_lossy().into_owned()).collect();
+        assert_eq!(names, ["a/img03.png", "img1.png", "img2.png", "img10.png"]);
+    }
+}

@@ -1,0 +1,47 @@
+//! The composition layer of parallax: where the stage crates meet.
+//!
+//! * [`stages`]: one function per stage — [`detect_boards`], [`calibrate_mono`],
+//!   [`calibrate_stereo`], [`rectify`], [`match_pair`], [`point_cloud`], [`measure`],
+//!   [`board_poses`], [`hand_eye`], [`to_robot_frame`] — taking plain inputs and returning typed
+//!   results.
+//! * [`chain`]: the whole chain once ([`run_chain`]); a failing stage is recorded and every
+//!   stage that does not depend on it still runs.
+//! * [`scene`]: the synthetic run — render a scene with truth, run the chain, score each stage
+//!   against the truth and the scene's tolerances ([`run_scene`]).
+//! * [`real`]: the real run — the same chain on the user's images, scored by the checks that need
+//!   no truth ([`run_real`], [`RealChecks`]).
+//! * [`report`]: rows, verdict and the Markdown / HTML / RON report; [`io`]: atomic output,
+//!   RON, images, globs; [`stats`]: mean, RMS, median.
+//!
+//! ```no_run
+//! use parallax_composition::{ChainInput, run_chain};
+//! use parallax_camera_model::Chessboard;
+//!
+//! let load = |p: &str| parallax_composition::io::load_gray(std::path::Path::new(p));
+//! let pairs = vec![[load("left01.jpg")?, load("right01.jpg")?], [load("left02.jpg")?, load("right02.jpg")?]];
+//! let out = run_chain(&ChainInput::new(Chessboard::new(9, 6, 30.0)?, pairs))?;
+//! if let Ok(c) = &out.calibration {
+//!     println!("stereo RMS {:.3} px, baseline {:.2} mm", c.rms_px, c.rig.baseline());
+//! }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod artifacts;
+pub mod chain;
+mod error;
+pub mod io;
+pub mod real;
+pub mod report;
+pub mod scene;
+pub mod stages;
+pub mod stats;
+
+pub use chain::{ChainInput, ChainOutput, MatchPair, StageFailure, StageResult, Station, run_chain};
+pub use error::{PipelineError, Result};
+pub use real::{RealChecks, RealInputs, run_real};
+pub use report::{Bound, Report, Row};
+pub use scene::{Corruption, run_scene};
+pub use stages::{
+    RectifiedRig, StereoViews, adjacent_distances, board_poses, calibrate_mono, calibrate_stereo, detect_boards,
+    hand_eye, match_pair, measure, point_cloud, rectified_abs_dv, rectify, rectify_images, to_robot_frame,
+};

@@ -1,0 +1,224 @@
+//! One function per stage: plain inputs in, typed results out. The chain ([`crate::run_chain`]),
+//! the CLI commands and users' own programs all call these.
+
+use glam::{DVec2, DVec3};
+use parallax_camera_model::{Camera, Chessboard, CornerGrid, DisparityMap, Isometry3, StereoRig};
+use parallax_hand_eye::{HandEyeConfig, HandEyeSolution, Method, Setup};
+use parallax_planar_calibration::{CalibrationConfig, CalibrationResult, StereoCalibrationResult, StereoConfig};
+use parallax_stereo_rectify::{Rectification, RectifyConfig};
+use parallax_triangulation::{CornerDistance, Measurement, PointCloud, TriangulationConfig};
+use rayon::prelude::*;
+
+use crate::{PipelineError, Result};
+
+/// Detects `board` in every image (in parallel); `None` where the board is not found.
+pub fn detect_boards(
+    images: &[image::GrayImage],
+    board: &Chessboard,
+    config: &parallax_corner_detection::ChessboardConfig,
+) -> Result<Vec<Option<CornerGrid>>> {
+    images
+        .par_iter()
+        .map(|img| Ok(parallax_corner_detection::find_chessboard(img, board.cols, board.rows, config)?))
+        .collect()
+}
+
+/// The views of a stereo session with the board found in both images: their indices and the
+/// left and right grids, in order.
+#[derive(Debug, Clone, Default)]
+pub struct StereoViews {
+    /// Index of each kept view in the session.
+    pub index: Vec<usize>,
+    /// Left grids of the kept views.
+    pub left: Vec<CornerGrid>,
+    /// Right grids of the kept views.
+    pub right: Vec<CornerGrid>,
+}
+
+impl StereoViews {
+    /// Keeps the views whose board was found in both images.
+    pub fn from_detections(detections: &[[Option<CornerGrid>; 2]]) -> Self {
+        let mut out = Self::default();
+        for (i, [l, r]) in detections.iter().enumerate() {
+            if let (Some(l), Some(r)) = (l, r) {
+                out.index.push(i);
+                out.left.push(l.clone());
+                out.right.push(r.clone());
+            }
+        }
+        out
+    }
+
+    /// Number of kept views.
+    pub fn len(&self) -> usize {
+        self.index.len()
+    }
+
+    /// True when no view has the board in both images.
+    pub fn is_empty(&self) -> bool {
+        self.index.is_empty()
+    }
+}
+
+/// Mono calibration from the grids of one camera (images of `size`).
+pub fn calibrate_mono(
+    board: &Chessboard,
+    grids: &[CornerGrid],
+    size: (u32, u32),
+    config: &CalibrationConfig,
+) -> Result<CalibrationResult> {
+    Ok(parallax_planar_calibration::calibrate_chessboard(board, grids, size.0, size.1, config)?)
+}
+
+/// Stereo calibration from the views with the board in both images.
+pub fn calibrate_stereo(
+    board: &Chessboard,
+    views: &StereoViews,
+    left_size: (u32, u32),
+    right_size: (u32, u32),
+    config: &StereoConfig,
+) -> Result<StereoCalibrationResult> {
+    Ok(parallax_planar_calibration::calibrate_stereo_chessboard(
+        board,
+        &views.left,
+        &views.right,
+        left_size,
+        right_size,
+        config,
+    )?)
+}
+
+/// A rectified rig and how well the detected corners line up after rectification.
+#[derive(Debug, Clone)]
+pub struct RectifiedRig {
+    /// `R1, R2, P1, P2, Q` and the valid regions.
+    pub rectification: Rectification,
+    /// `|v_left − v_right|` of every corner of the stereo views after rectification, pixels.
+    pub abs_dv: Vec<f64>,
+}
+
+impl RectifiedRig {
+    /// Mean `|Δv|` of the corners (NaN without corners).
+    pub fn mean_abs_dv(&self) -> f64 {
+        crate::stats::mean(&self.abs_dv)
+    }
+}
+
+/// `|v_left − v_right|` of every corner of matched left/right grids after rectification
+/// (point-level: undistort, rotate, project; no image resampling), in pixels.
+pub fn rectified_abs_dv(
+    rig: &StereoRig,
+    rect: &Rectification,
+    left: &[CornerGrid],
+    right: &[CornerGrid],
+) -> Result<Vec<f64>> {
+    let mut dv = Vec::new();
+    for (l, r) in left.iter().zip(right) {
+        let lp = parallax_stereo_rectify::rectify_points(&rig.left, rect.r1, &rect.p1, &l.corners)?;
+        let rp = parallax_stereo_rectify::rectify_points(&rig.right, rect.r2, &rect.p2, &r.corners)?;
+        dv.extend(lp.iter().zip(&rp).map(|(a, b)| (a.y - b.y).abs()));
+    }
+    Ok(dv)
+}
+
+/// Rectifies the rig (Bouguet) and measures the corners' `|Δv|` after rectification.
+pub fn rectify(rig: &StereoRig, views: &StereoViews, config: &RectifyConfig) -> Result<RectifiedRig> {
+    let rectification = parallax_stereo_rectify::stereo_rectify(rig, config)?;
+    let abs_dv = rectified_abs_dv(rig, &rectification, &views.left, &views.right)?;
+    Ok(RectifiedRig { rectification, abs_dv })
+}
+
+/// Resamples a stereo pair into the rectified geometry (bilinear, black outside the image).
+pub fn rectify_images(
+    rig: &StereoRig,
+    rectification: &Rectification,
+    left: &image::GrayImage,
+    right: &image::GrayImage,
+) -> Result<(image::GrayImage, image::GrayImage)> {
+    let rectifier = parallax_stereo_rectify::Rectifier::from_rectification(rig, *rectification)?;
+    Ok(rectifier.rectify_pair(left, right, parallax_stereo_rectify::Border::Constant(image::Luma([0u8])))?)
+}
+
+/// Dense disparity of a rectified pair.
+pub fn match_pair(
+    left: &image::GrayImage,
+    right: &image::GrayImage,
+    config: &parallax_block_matching::MatcherConfig,
+) -> Result<DisparityMap> {
+    let mut matcher = parallax_block_matching::BlockMatcher::new(config.clone())?;
+    Ok(matcher.compute(left, right)?)
+}
+
+/// The point cloud of a disparity map through a rectification's `Q` (grey colours from the
+/// rectified left image when given).
+pub fn point_cloud(disparity: &DisparityMap, q: [[f64; 4]; 4], left: Option<&image::GrayImage>) -> Result<PointCloud> {
+    let q = parallax_triangulation::ReprojectionMatrix::new(q)?;
+    Ok(parallax_triangulation::disparity_to_point_cloud(
+        disparity,
+        &q,
+        &parallax_triangulation::CloudConfig::default(),
+        left.map(|l| parallax_triangulation::PixelColors::Grey(l.as_raw())),
+    )?)
+}
+
+/// Distances between horizontally and vertically adjacent corners of every stereo view,
+/// triangulated with the rig (their true value is the square size).
+pub fn adjacent_distances(
+    rig: &StereoRig,
+    views: &StereoViews,
+    config: &TriangulationConfig,
+) -> Result<Vec<CornerDistance>> {
+    let mut out = Vec::new();
+    for (l, r) in views.left.iter().zip(&views.right) {
+        out.extend(parallax_triangulation::adjacent_corner_distances(rig, l, r, config)?);
+    }
+    Ok(out)
+}
+
+/// Triangulates matched pixel pairs and measures every distance between them, with σ.
+pub fn measure(rig: &StereoRig, pairs: &[(DVec2, DVec2)], config: &TriangulationConfig) -> Result<Measurement> {
+    Ok(parallax_triangulation::measure_stereo(rig, pairs, config)?)
+}
+
+/// `camera_from_board` of every found grid by planar PnP with a calibrated camera (`None`
+/// where the board was not found).
+pub fn board_poses(
+    camera: &Camera,
+    board: &Chessboard,
+    grids: &[Option<CornerGrid>],
+) -> Result<Vec<Option<Isometry3>>> {
+    grids
+        .iter()
+        .map(|g| match g {
+            Some(g) => Ok(Some(parallax_planar_calibration::solve_pnp_planar(camera, board, &g.corners)?.0)),
+            None => Ok(None),
+        })
+        .collect()
+}
+
+/// Hand-eye calibration (`AX = XB`) of paired robot and camera poses.
+pub fn hand_eye(
+    base_from_gripper: &[Isometry3],
+    camera_from_board: &[Isometry3],
+    method: Method,
+    config: &HandEyeConfig,
+) -> Result<HandEyeSolution> {
+    if base_from_gripper.len() != camera_from_board.len() {
+        return Err(PipelineError::Input(format!(
+            "hand-eye: {} robot poses for {} camera poses",
+            base_from_gripper.len(),
+            camera_from_board.len()
+        )));
+    }
+    Ok(parallax_hand_eye::calibrate(base_from_gripper, camera_from_board, method, config)?)
+}
+
+/// Points measured in the camera frame, expressed in the robot base frame: through the
+/// gripper pose for eye-in-hand (`x` = `gripper_from_camera`), directly for eye-to-hand
+/// (`x` = `base_from_camera`).
+pub fn to_robot_frame(setup: Setup, x: &Isometry3, base_from_gripper: &Isometry3, points: &[DVec3]) -> Vec<DVec3> {
+    match setup {
+        Setup::EyeInHand => parallax_hand_eye::points_to_base(base_from_gripper, x, points),
+        Setup::EyeToHand => points.iter().map(|p| x.transform_point(*p)).collect(),
+    }
+}

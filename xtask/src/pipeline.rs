@@ -1,0 +1,150 @@
+//! `cargo xtask pipeline`: the whole chain on a synthetic scene, checked against ground truth,
+//! or (`--real`) on the user's stereo chessboard folder, checked for self-consistency.
+//!
+//! The chain, the truth scoring and the checks live in `parallax-composition`; this module
+//! parses the arguments, reads the input files and prints the table and the verdict.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use parallax_composition::{Corruption, RealChecks, RealInputs, Report, io};
+
+use crate::util;
+
+/// A deliberate corruption of one stage's input, to check that the pipeline notices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CorruptionArg {
+    /// Calibrate with a square size 5 % larger than the rendered one.
+    SquareSize,
+    /// Swap the left and right images of the stereo calibration session.
+    SwapStereo,
+}
+
+/// Arguments of `cargo xtask pipeline`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scene description (RON, `parallax_synthetic::SceneDescription`); the built-in scene when absent.
+    #[arg(long, conflicts_with = "real")]
+    scene: Option<PathBuf>,
+    /// Directory for the artifacts (RON results, overlays, rectified pair, disparity PNG/PFM,
+    /// PLY, report.md / report.html / report.ron). Default `target/pipeline/<scene>/`.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Corrupt one stage's input on purpose (checks that the pipeline fails and names the stage).
+    #[arg(long, value_enum, conflicts_with = "real")]
+    corrupt: Option<CorruptionArg>,
+    /// Run the chain on real data instead (no truth; self-consistency checks): needs --left,
+    /// --right, --board, --square.
+    #[arg(long, requires_all = ["left", "right", "board", "square"])]
+    real: bool,
+    /// With --real: glob of the left chessboard images.
+    #[arg(long, requires = "real")]
+    left: Option<String>,
+    /// With --real: glob of the right chessboard images (same order).
+    #[arg(long, requires = "real")]
+    right: Option<String>,
+    /// With --real: inner corners, COLSxROWS (e.g. 9x6).
+    #[arg(long, requires = "real", value_parser = util::parse_board_size)]
+    board: Option<(usize, usize)>,
+    /// With --real: square size (the length unit of every result).
+    #[arg(long, requires = "real", allow_negative_numbers = true)]
+    square: Option<f64>,
+    /// With --real: name of the square size's unit, for the report.
+    #[arg(long, requires = "real", default_value = "mm")]
+    unit: String,
+    /// With --real: the left image of the pair to block-match (default: the first calibration pair).
+    #[arg(long, requires_all = ["pair_right", "real"])]
+    pair_left: Option<PathBuf>,
+    /// With --real: the right image of the pair to block-match.
+    #[arg(long, requires_all = ["pair_left", "real"])]
+    pair_right: Option<PathBuf>,
+    /// With --real: disparities to search.
+    #[arg(long, default_value_t = 128)]
+    disparities: usize,
+    /// With --real: robot base_from_gripper poses (file or glob; ViSP YAML, RON or text), one per
+    /// image pair, for hand-eye with the left camera.
+    #[arg(long, requires = "real")]
+    robot: Option<String>,
+}
+
+fn print_summary(report: &Report, out: &std::path::Path, started: std::time::Instant) {
+    println!();
+    for (stage, text) in &report.notes {
+        println!("{stage:<14} {text}");
+    }
+    println!("\n{}", report.table());
+    println!("artifacts and report: {}", out.join("report.html").display());
+    println!("total time: {:.1} s", started.elapsed().as_secs_f64());
+    println!("{}", report.verdict());
+}
+
+fn run_real(args: &Args) -> anyhow::Result<ExitCode> {
+    let (cols, rows) = args.board.context("--board is required with --real")?;
+    let board = util::board(cols, rows, args.square.unwrap_or(f64::NAN))?;
+    let lp = io::expand_glob(args.left.as_deref().unwrap_or_default())?;
+    let rp = io::expand_glob(args.right.as_deref().unwrap_or_default())?;
+    anyhow::ensure!(lp.len() == rp.len(), "{} left images but {} right images", lp.len(), rp.len());
+    let robot = match &args.robot {
+        Some(spec) => Some(crate::handeye::read_poses(spec, crate::handeye::PoseFormat::Auto)?),
+        None => None,
+    };
+    let pair = match (&args.pair_left, &args.pair_right) {
+        (Some(l), Some(r)) => Some([io::load_gray(l)?, io::load_gray(r)?]),
+        _ => None,
+    };
+    let mut calibration = Vec::with_capacity(lp.len());
+    for (l, r) in lp.iter().zip(&rp) {
+        let name = l.file_name().map_or_else(|| l.display().to_string(), |n| n.to_string_lossy().into_owned());
+        calibration.push(([io::load_gray(l)?, io::load_gray(r)?], name));
+    }
+    let inputs = RealInputs {
+        board,
+        unit: args.unit.clone(),
+        calibration,
+        pair,
+        disparities: args.disparities,
+        robot,
+        checks: RealChecks::default(),
+    };
+    let out = args.out.clone().unwrap_or_else(|| workspace_root().join("target").join("pipeline").join("real"));
+    let started = std::time::Instant::now();
+    let report = parallax_composition::run_real(inputs, &out)?;
+    print_summary(&report, &out, started);
+    println!("checks run: {}", report.rows.len());
+    Ok(if report.passed() { ExitCode::SUCCESS } else { ExitCode::FAILURE })
+}
+
+/// Runs `cargo xtask pipeline`.
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    if args.real {
+        return run_real(&args);
+    }
+    let (name, scene) = match &args.scene {
+        Some(path) => {
+            let text = std::fs::read_to_string(path).with_context(|| format!("reading scene {}", path.display()))?;
+            let scene = parallax_synthetic::SceneDescription::from_ron(&text)
+                .with_context(|| format!("parsing scene {}", path.display()))?;
+            let name = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+            (name, scene)
+        }
+        None => ("builtin".to_string(), parallax_synthetic::SceneDescription::builtin()),
+    };
+    let out = args.out.clone().unwrap_or_else(|| workspace_root().join("target").join("pipeline").join(&name));
+    let corrupt = args.corrupt.map(|c| match c {
+        CorruptionArg::SquareSize => Corruption::SquareSize,
+        CorruptionArg::SwapStereo => Corruption::SwapStereo,
+    });
+    let started = std::time::Instant::now();
+    let report = parallax_composition::run_scene(&name, &scene, &out, corrupt)?;
+    println!("\n{}", report.table());
+    println!("artifacts and report: {}", out.join("report.html").display());
+    println!("total time: {:.1} s", started.elapsed().as_secs_f64());
+    println!("{}", report.verdict());
+    Ok(if report.passed() { ExitCode::SUCCESS } else { ExitCode::FAILURE })
+}
+
+/// The workspace root (the parent of this crate's directory).
+pub fn workspace_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).parent().map(PathBuf::from).unwrap_or_else(|| PathBuf::from("."))
+}

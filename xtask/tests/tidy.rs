@@ -1,0 +1,283 @@
+//! Tidy tests (rust-analyzer style): checks of the repository itself that keep the
+//! architecture's invariants true. They read files only and run with `cargo test`.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("xtask is inside the workspace").to_path_buf()
+}
+
+fn read(p: &Path) -> String {
+    std::fs::read_to_string(p).unwrap_or_else(|e| panic!("reading {}: {e}", p.display()))
+}
+
+/// Every `*.rs` file below `dir`.
+fn rust_files(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let Ok(entries) = std::fs::read_dir(dir) else { return out };
+    for e in entries.flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            out.extend(rust_files(&p));
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            out.push(p);
+        }
+    }
+    out.sort();
+    out
+}
+
+/// The members of the workspace: (directory, parsed manifest).
+fn members() -> Vec<(PathBuf, toml_lite::Manifest)> {
+    let mut dirs: Vec<PathBuf> = std::fs::read_dir(root().join("crates"))
+        .expect("crates/")
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.join("Cargo.toml").is_file())
+        .collect();
+    dirs.push(root().join("xtask"));
+    dirs.push(root().join("benches"));
+    dirs.sort();
+    dirs.into_iter().map(|d| (d.clone(), toml_lite::Manifest::parse(&read(&d.join("Cargo.toml"))))).collect()
+}
+
+/// The stage crates: one stage each, meeting only in the composition layer.
+const STAGES: [&str; 7] = [
+    "parallax-corner-detection",
+    "parallax-planar-calibration",
+    "parallax-stereo-rectify",
+    "parallax-block-matching",
+    "parallax-triangulation",
+    "parallax-hand-eye",
+    "parallax-synthetic",
+];
+
+#[test]
+fn the_crate_graph_is_a_star() {
+    let shared = ["parallax-camera-model", "parallax-least-squares"];
+    let mut seen = 0;
+    for (dir, m) in members() {
+        let ours = |deps: &[String]| deps.iter().filter(|d| d.starts_with("parallax-")).cloned().collect::<Vec<_>>();
+        let deps = ours(&m.dependencies);
+        match m.name.as_str() {
+            "parallax-camera-model" | "parallax-least-squares" => {
+                assert!(deps.is_empty(), "{} depends on {deps:?}: the vocabulary depends on no stage", dir.display())
+            }
+            name if STAGES.contains(&name) => {
+                seen += 1;
+                for d in &deps {
+                    assert!(
+                        shared.contains(&d.as_str()),
+                        "stage crate {name} depends on {d}: stages meet only in parallax-composition"
+                    );
+                }
+                for d in ours(&m.dev_dependencies) {
+                    assert!(
+                        shared.contains(&d.as_str()) || d == "parallax-synthetic",
+                        "stage crate {name} has the dev-dependency {d} (only parallax-synthetic is allowed)"
+                    );
+                }
+            }
+            _ => {}
+        }
+    }
+    assert_eq!(seen, STAGES.len(), "a stage crate is missing or renamed");
+}
+
+#[test]
+fn every_declared_dependency_is_used() {
+    let mut unused = Vec::new();
+    for (dir, m) in members() {
+        let text_of = |subdirs: &[&str]| -> String {
+            subdirs.iter().flat_map(|s| rust_files(&dir.join(s))).map(|p| read(&p)).collect::<Vec<_>>().join("\n")
+        };
+        let lib_dirs: &[&str] = if m.name == "parallax-benches" { &["src", "benches"] } else { &["src"] };
+        let lib_text = text_of(lib_dirs);
+        let all_text = text_of(&["src", "tests", "benches", "examples"]);
+        for (deps, text, kind) in
+            [(&m.dependencies, &lib_text, "dependency"), (&m.dev_dependencies, &all_text, "dev-dependency")]
+        {
+            for d in deps {
+                let id = d.replace('-', "_");
+                let used = [format!("{id}::"), format!("use {id}"), format!("{id} as "), format!("{id}!")]
+                    .iter()
+                    .any(|pat| text.contains(pat.as_str()));
+                if !used {
+                    unused.push(format!("{}: {kind} {d}", m.name));
+                }
+            }
+        }
+    }
+    assert!(unused.is_empty(), "declared but never used (remove them):\n{}", unused.join("\n"));
+}
+
+#[test]
+fn publishable_crates_carry_their_metadata() {
+    for f in ["LICENSE-MIT", "LICENSE-APACHE"] {
+        assert!(root().join(f).is_file(), "{f} is missing");
+    }
+    for (dir, m) in members() {
+        if !m.publish {
+            continue;
+        }
+        assert!(m.name.starts_with("parallax"), "{}: package names start with parallax (free on crates.io)", m.name);
+        for key in ["description", "readme", "keywords", "categories"] {
+            assert!(m.keys.contains(&key.to_string()), "{}: no `{key}` in its Cargo.toml", m.name);
+        }
+        assert!(dir.join("README.md").is_file(), "{}: README.md missing", m.name);
+    }
+}
+
+#[test]
+fn every_path_in_architecture_md_exists() {
+    let text = read(&root().join("ARCHITECTURE.md"));
+    let mut section: Option<PathBuf> = None;
+    let mut missing = Vec::new();
+    for line in text.lines() {
+        if let Some(h) = line.strip_prefix("### `") {
+            section = h.split('`').next().map(|p| root().join(p.trim_end_matches('/')));
+        }
+        for (i, token) in line.split('`').enumerate() {
+            if i % 2 == 0 || token.contains(' ') || token.starts_with("../") {
+                continue;
+            }
+            let top_level =
+                ["crates/", "xtask", "benches", "fixtures/", ".ci/", ".cargo/"].iter().any(|p| token.starts_with(p));
+            let file = [".rs", ".md", ".toml", ".ron"].iter().any(|x| token.ends_with(x));
+            if top_level {
+                if !root().join(token).exists() {
+                    missing.push(token.to_string());
+                }
+            } else if file {
+                let found = match &section {
+                    Some(dir) => rust_and_other_files(dir).iter().any(|p| p.ends_with(token)),
+                    None => root().join(token).exists(),
+                };
+                if !found {
+                    missing
+                        .push(format!("{token} (in section {:?})", section.as_ref().map(|s| s.display().to_string())));
+                }
+            }
+        }
+    }
+    assert!(missing.is_empty(), "ARCHITECTURE.md names paths that do not exist: {missing:?}");
+}
+
+fn rust_and_other_files(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let Ok(entries) = std::fs::read_dir(dir) else { return out };
+    for e in entries.flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            if !p.ends_with("target") {
+                out.extend(rust_and_other_files(&p));
+            }
+        } else {
+            out.push(p);
+        }
+    }
+    out
+}
+
+#[test]
+fn every_unsafe_fn_documents_its_safety_contract() {
+    let mut bad = Vec::new();
+    let mut count = 0;
+    for (dir, _) in members() {
+        for f in rust_files(&dir) {
+            let text = read(&f);
+            let lines: Vec<&str> = text.lines().collect();
+            for (i, l) in lines.iter().enumerate() {
+                let code = l.trim_start();
+                let declares = ["unsafe fn ", "pub unsafe fn ", "pub(crate) unsafe fn ", "pub(super) unsafe fn "]
+                    .iter()
+                    .any(|d| code.starts_with(d));
+                if !declares {
+                    continue;
+                }
+                count += 1;
+                // The doc block above the item (attributes may sit between).
+                let mut j = i;
+                let mut doc = String::new();
+                while j > 0 {
+                    j -= 1;
+                    let p = lines[j].trim_start();
+                    if p.starts_with("///") {
+                        doc.push_str(p);
+                    } else if !p.starts_with("#[") {
+                        break;
+                    }
+                }
+                if !doc.contains("# Safety") {
+                    bad.push(format!("{}:{}", f.strip_prefix(root()).unwrap_or(&f).display(), i + 1));
+                }
+            }
+        }
+    }
+    assert!(count > 0, "no unsafe fn found at all: the scan is broken");
+    assert!(bad.is_empty(), "unsafe fn without a `# Safety` doc section: {bad:?}");
+}
+
+#[test]
+fn workspace_lints_hold_the_unsafe_rules() {
+    let text = read(&root().join("Cargo.toml"));
+    assert!(text.contains("undocumented_unsafe_blocks = \"warn\""), "clippy::undocumented_unsafe_blocks must be on");
+    assert!(text.contains("unsafe_op_in_unsafe_fn = \"deny\""));
+    let mut missing = BTreeMap::new();
+    for (dir, m) in members() {
+        if !read(&dir.join("Cargo.toml")).contains("[lints]\nworkspace = true") {
+            missing.insert(m.name, ());
+        }
+    }
+    assert!(missing.is_empty(), "crates not using [workspace.lints]: {:?}", missing.keys());
+}
+
+/// A tiny reader of the parts of Cargo.toml these checks need (the manifests are ours and
+/// simple: one key per line).
+mod toml_lite {
+    /// What the checks read from a manifest.
+    pub struct Manifest {
+        pub name: String,
+        pub publish: bool,
+        pub keys: Vec<String>,
+        pub dependencies: Vec<String>,
+        pub dev_dependencies: Vec<String>,
+    }
+
+    impl Manifest {
+        pub fn parse(text: &str) -> Self {
+            let mut m = Manifest {
+                name: String::new(),
+                publish: true,
+                keys: Vec::new(),
+                dependencies: Vec::new(),
+                dev_dependencies: Vec::new(),
+            };
+            let mut section = String::new();
+            for line in text.lines().map(str::trim) {
+                if line.starts_with('[') {
+                    section = line.trim_matches(['[', ']']).to_string();
+                    continue;
+                }
+                let Some((key, value)) = line.split_once('=') else { continue };
+                let key = key.trim().trim_end_matches(".workspace").to_string();
+                match section.as_str() {
+                    "package" => {
+                        if key == "name" {
+                            m.name = value.trim().trim_matches('"').to_string();
+                        }
+                        if key == "publish" && value.trim() == "false" {
+                            m.publish = false;
+                        }
+                        m.keys.push(key);
+                    }
+                    "dependencies" => m.dependencies.push(key),
+                    "dev-dependencies" => m.dev_dependencies.push(key),
+                    _ => {}
+                }
+            }
+            m
+        }
+    }
+}
