@@ -6,7 +6,6 @@ use std::time::Instant;
 
 use anyhow::Context;
 use parallax_camera_model::{Chessboard, CornerGrid};
-use parallax_corner_detection::{ChessboardConfig, find_chessboard};
 use parallax_planar_calibration::{
     CalibrationConfig, CalibrationResult, IntrinsicStdDevs, StereoCalibrationResult, StereoConfig,
     calibrate_chessboard, calibrate_stereo_chessboard,
@@ -54,20 +53,16 @@ pub struct Args {
 /// One image: path, size, and the corner grid if a board was found.
 type Detected = (PathBuf, (u32, u32), Option<CornerGrid>);
 
-/// Detected corners of one image list.
+/// Detected corners of one image list (images read in order, detected in parallel).
 fn detect(paths: &[PathBuf], board: &Chessboard) -> anyhow::Result<Vec<Detected>> {
-    let cfg = ChessboardConfig::default();
-    let mut out = Vec::with_capacity(paths.len());
-    for p in paths {
-        let img = parallax_composition::io::load_gray(p)?;
-        let grid = find_chessboard(&img, board.cols, board.rows, &cfg)
-            .with_context(|| format!("corner detection on {}", p.display()))?;
-        if grid.is_none() {
+    let images = paths.iter().map(|p| parallax_composition::io::load_gray(p)).collect::<Result<Vec<_>, _>>()?;
+    let grids = parallax_composition::detect_boards(&images, board, &Default::default())?;
+    for (p, g) in paths.iter().zip(&grids) {
+        if g.is_none() {
             eprintln!("  no {}x{} board found in {}", board.cols, board.rows, p.display());
         }
-        out.push((p.clone(), img.dimensions(), grid));
     }
-    Ok(out)
+    Ok(paths.iter().zip(&images).zip(grids).map(|((p, i), g)| (p.clone(), i.dimensions(), g)).collect())
 }
 
 fn common_size(found: &[&Detected]) -> anyhow::Result<(u32, u32)> {
@@ -268,14 +263,12 @@ fn run_stereo(
     println!("rotation_deg: {:.6}", e.angle().to_degrees());
     // Rectification of the detected corners (point-level, no resampling) and triangulated
     // distances between adjacent corners, both from the calibration just made.
-    let rect = parallax_stereo_rectify::stereo_rectify(&r.rig, &parallax_stereo_rectify::RectifyConfig::default())?;
-    let dv = parallax_composition::rectified_abs_dv(&r.rig, &rect, &lg, &rg)?;
-    let mut distances = Vec::new();
+    let views = parallax_composition::StereoViews { index: (0..lg.len()).collect(), left: lg, right: rg };
+    let rectified = parallax_composition::rectify(&r.rig, &views, &Default::default())?;
+    let (rect, dv) = (rectified.rectification, &rectified.abs_dv);
     let tri = parallax_triangulation::TriangulationConfig { pixel_sigma: r.sigma_px, ..Default::default() };
-    for (l, rr) in lg.iter().zip(&rg) {
-        distances.extend(parallax_triangulation::adjacent_corner_distances(&r.rig, l, rr, &tri)?);
-    }
-    let mean_dv = dv.iter().sum::<f64>() / dv.len().max(1) as f64;
+    let distances = parallax_composition::adjacent_distances(&r.rig, &views, &tri)?;
+    let mean_dv = parallax_composition::stats::mean(dv);
     let max_dv = dv.iter().fold(0.0f64, |a, b| a.max(*b));
     let dist_rms = parallax_triangulation::distance_rms(&distances, board.square_size).unwrap_or(f64::NAN);
     println!(

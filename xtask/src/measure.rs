@@ -6,7 +6,6 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail, ensure};
 use glam::DVec2;
-use parallax_camera_model::StereoRig;
 use parallax_triangulation::{Method, TriangulationConfig, measure_stereo};
 
 /// Triangulation method (see the `triangulation` crate).
@@ -123,71 +122,6 @@ fn parse_pairs(points: &str, right_points: Option<&str>) -> anyhow::Result<Vec<(
     }
 }
 
-/// Blob targets of both images matched by epipolar distance (undistorted pixels, rig's `F`):
-/// every left blob must have exactly one right blob within `max_epipolar_px` of its epipolar
-/// line on the positive-disparity side, and the match must be mutual; anything else is an
-/// error that asks for `--points`.
-fn blob_pairs(
-    rig: &StereoRig,
-    left: &image::GrayImage,
-    right: &image::GrayImage,
-    bright: bool,
-    max_epipolar_px: f64,
-) -> anyhow::Result<Vec<(DVec2, DVec2)>> {
-    use parallax_corner_detection::{BlobConfig, BlobPolarity, detect_blobs};
-    let cfg = BlobConfig {
-        polarity: if bright { BlobPolarity::Bright } else { BlobPolarity::Dark },
-        ..BlobConfig::default()
-    };
-    let bl = detect_blobs(left, &cfg).context("blob detection in the left image")?.blobs;
-    let br = detect_blobs(right, &cfg).context("blob detection in the right image")?.blobs;
-    ensure!(!bl.is_empty(), "no blob target found in the left image");
-    ensure!(
-        bl.len() == br.len(),
-        "{} blobs in the left image but {} in the right one: give --points",
-        bl.len(),
-        br.len()
-    );
-    let ul: Vec<DVec2> = bl.iter().map(|b| rig.left.undistort_pixel(b.centroid)).collect::<Result<_, _>>()?;
-    let ur: Vec<DVec2> = br.iter().map(|b| rig.right.undistort_pixel(b.centroid)).collect::<Result<_, _>>()?;
-    let f = rig.fundamental();
-    let views = parallax_triangulation::stereo_views(rig);
-    let cfg = TriangulationConfig { method: Method::Midpoint, covariance: false, ..Default::default() };
-    // candidates[i] = right blobs compatible with left blob i.
-    let candidates: Vec<Vec<usize>> = ul
-        .iter()
-        .zip(&bl)
-        .map(|(l, lb)| {
-            let line = f * l.extend(1.0);
-            let norm = line.truncate().length();
-            (0..ur.len())
-                .filter(|&j| {
-                    let d = line.dot(ur[j].extend(1.0)).abs() / norm;
-                    d <= max_epipolar_px
-                        && parallax_triangulation::triangulate(&views, &[lb.centroid, br[j].centroid], &cfg)
-                            .is_ok_and(|p| !p.behind_camera)
-                })
-                .collect()
-        })
-        .collect();
-    let mut pairs = Vec::with_capacity(bl.len());
-    for (i, c) in candidates.iter().enumerate() {
-        let (l, r) = (bl[i].centroid, c.first().map(|&j| br[j].centroid).unwrap_or_default());
-        ensure!(
-            c.len() == 1,
-            "left blob {i} at ({:.1}, {:.1}) has {} right candidates within {max_epipolar_px} px of its epipolar line: give --points",
-            l.x,
-            l.y,
-            c.len()
-        );
-        let others = candidates.iter().filter(|o| o.contains(&c[0])).count();
-        ensure!(others == 1, "right blob at ({:.1}, {:.1}) matches {others} left blobs: give --points", r.x, r.y);
-        pairs.push((l, r));
-    }
-    println!("blob targets: {} matched pairs", pairs.len());
-    Ok(pairs)
-}
-
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let rig = parallax_composition::io::load_rig(&args.calib)?;
     let mut images = Vec::new();
@@ -207,7 +141,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
     let pairs = match (&args.points, images.as_slice()) {
         (Some(points), _) => parse_pairs(points, args.right_points.as_deref())?,
-        (None, [left, right]) => blob_pairs(&rig, left, right, args.bright_blobs, args.max_epipolar_px)?,
+        (None, [left, right]) => {
+            let pairs = parallax_composition::match_blobs(&rig, left, right, args.bright_blobs, args.max_epipolar_px)
+                .context("blob targets (give --points to measure chosen pixels instead)")?;
+            println!("blob targets: {} matched pairs", pairs.len());
+            pairs
+        }
         (None, _) => bail!("give --points, or both --left and --right images to find blob targets"),
     };
     for (i, (l, r)) in pairs.iter().enumerate() {
@@ -288,6 +227,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 mod tests {
     use super::*;
     use glam::DVec3;
+    use parallax_camera_model::StereoRig;
     use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3};
 
     fn rig() -> StereoRig {
@@ -337,7 +277,7 @@ mod tests {
         };
         let left = draw(&rig.left, &Isometry3::IDENTITY);
         let right = draw(&rig.right, &rig.right_from_left);
-        let pairs = blob_pairs(&rig, &left, &right, false, 2.0).unwrap();
+        let pairs = parallax_composition::match_blobs(&rig, &left, &right, false, 2.0).unwrap();
         assert_eq!(pairs.len(), 4);
         let m = measure_stereo(&rig, &pairs, &TriangulationConfig::default()).unwrap();
         for d in &m.distances {
@@ -350,7 +290,7 @@ mod tests {
         }
         // A missing target in the right image is reported, not guessed.
         let blank = image::GrayImage::from_pixel(1280, 960, image::Luma([230]));
-        assert!(blob_pairs(&rig, &left, &blank, false, 2.0).is_err());
+        assert!(parallax_composition::match_blobs(&rig, &left, &blank, false, 2.0).is_err());
     }
 
     /// Real data: the project's stereo calibration of `../shared/data/opencv-stereo-chessboard`

@@ -49,9 +49,9 @@ impl DisparityMap {
     /// A map from row-major data; errors when the length is not `width · height`.
     pub fn from_data(width: usize, height: usize, data: Vec<f32>) -> Result<Self> {
         if width.checked_mul(height) != Some(data.len()) {
+            let needs = width.checked_mul(height).map_or_else(|| "more than usize::MAX".to_string(), |n| n.to_string());
             return Err(CameraModelError::SizeMismatch(format!(
-                "disparity map {width}x{height} needs {} values, got {}",
-                width * height,
+                "disparity map {width}x{height} needs {needs} values, got {}",
                 data.len()
             )));
         }

@@ -76,7 +76,10 @@ impl Isometry3 {
         if (norm - 1.0).abs() > Self::QUATERNION_NORM_TOLERANCE {
             return Err(CameraModelError::NotAUnitQuaternion { norm });
         }
-        Ok(Self { rotation: rotation / norm, translation })
+        // A quaternion that is unit to rounding is kept bit for bit (so a written transform reads
+        // back exactly); any other is re-normalised.
+        let rotation = if (norm - 1.0).abs() <= 4.0 * f64::EPSILON { rotation } else { rotation / norm };
+        Ok(Self { rotation, translation })
     }
 
     /// From any non-zero quaternion and a translation: the quaternion is re-normalised,

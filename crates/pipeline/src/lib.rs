@@ -29,6 +29,7 @@
 pub mod artifacts;
 pub mod chain;
 mod error;
+pub mod fixtures;
 pub mod io;
 pub mod real;
 pub mod report;
@@ -43,5 +44,5 @@ pub use report::{Bound, Report, Row};
 pub use scene::{Corruption, run_scene};
 pub use stages::{
     RectifiedRig, StereoViews, adjacent_distances, board_poses, calibrate_mono, calibrate_stereo, detect_boards,
-    hand_eye, match_pair, measure, point_cloud, rectified_abs_dv, rectify, rectify_images, to_robot_frame,
+    hand_eye, match_blobs, match_pair, measure, point_cloud, rectified_abs_dv, rectify, rectify_images, to_robot_frame,
 };

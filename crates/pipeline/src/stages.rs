@@ -222,3 +222,79 @@ pub fn to_robot_frame(setup: Setup, x: &Isometry3, base_from_gripper: &Isometry3
         Setup::EyeToHand => points.iter().map(|p| x.transform_point(*p)).collect(),
     }
 }
+
+/// Blob targets of both images matched by epipolar distance (undistorted pixels, rig's `F`):
+/// every left blob must have exactly one right blob within `max_epipolar_px` of its epipolar
+/// line on the positive-disparity side, and the match must be mutual; anything else is an
+/// error that asks for the points to be given.
+pub fn match_blobs(
+    rig: &StereoRig,
+    left: &image::GrayImage,
+    right: &image::GrayImage,
+    bright: bool,
+    max_epipolar_px: f64,
+) -> Result<Vec<(DVec2, DVec2)>> {
+    use parallax_corner_detection::{BlobConfig, BlobPolarity, detect_blobs};
+    use parallax_triangulation::Method;
+    let refuse = |m: String| Err(PipelineError::Input(m));
+    let cfg = BlobConfig {
+        polarity: if bright { BlobPolarity::Bright } else { BlobPolarity::Dark },
+        ..BlobConfig::default()
+    };
+    let bl = detect_blobs(left, &cfg)?.blobs;
+    let br = detect_blobs(right, &cfg)?.blobs;
+    if bl.is_empty() {
+        return refuse("no blob target found in the left image".into());
+    }
+    if bl.len() != br.len() {
+        return refuse(format!(
+            "{} blobs in the left image but {} in the right one: give the points",
+            bl.len(),
+            br.len()
+        ));
+    }
+    let ul: Vec<DVec2> = bl.iter().map(|b| rig.left.undistort_pixel(b.centroid)).collect::<Result<_, _>>()?;
+    let ur: Vec<DVec2> = br.iter().map(|b| rig.right.undistort_pixel(b.centroid)).collect::<Result<_, _>>()?;
+    let f = rig.fundamental();
+    let views = parallax_triangulation::stereo_views(rig);
+    let cfg = TriangulationConfig { method: Method::Midpoint, covariance: false, ..Default::default() };
+    // candidates[i] = right blobs compatible with left blob i.
+    let candidates: Vec<Vec<usize>> = ul
+        .iter()
+        .zip(&bl)
+        .map(|(l, lb)| {
+            let line = f * l.extend(1.0);
+            let norm = line.truncate().length();
+            (0..ur.len())
+                .filter(|&j| {
+                    let d = line.dot(ur[j].extend(1.0)).abs() / norm;
+                    d <= max_epipolar_px
+                        && parallax_triangulation::triangulate(&views, &[lb.centroid, br[j].centroid], &cfg)
+                            .is_ok_and(|p| !p.behind_camera)
+                })
+                .collect()
+        })
+        .collect();
+    let mut pairs = Vec::with_capacity(bl.len());
+    for (i, c) in candidates.iter().enumerate() {
+        let (l, r) = (bl[i].centroid, c.first().map(|&j| br[j].centroid).unwrap_or_default());
+        if c.len() != 1 {
+            return refuse(format!(
+                "left blob {i} at ({:.1}, {:.1}) has {} right candidates within {max_epipolar_px} px of its epipolar line: \
+                 give the points",
+                l.x,
+                l.y,
+                c.len()
+            ));
+        }
+        let others = candidates.iter().filter(|o| o.contains(&c[0])).count();
+        if others != 1 {
+            return refuse(format!(
+                "right blob at ({:.1}, {:.1}) matches {others} left blobs: give the points",
+                r.x, r.y
+            ));
+        }
+        pairs.push((l, r));
+    }
+    Ok(pairs)
+}
