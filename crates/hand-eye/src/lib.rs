@@ -42,20 +42,28 @@
 //! ```
 
 mod calibrate;
+mod consistency;
 mod error;
 pub mod io;
 pub mod linear;
 mod motion;
+mod observability;
+mod output;
 mod quality;
 mod refine;
 pub mod robot_world;
+pub mod visp;
 
 pub use calibrate::{
-    HandEyeConfig, HandEyeSolution, Method, calibrate, calibrate_all, evaluate, points_to_base, points_to_gripper,
-    solve_motions,
+    HandEyeConfig, HandEyeSolution, Method, calibrate, calibrate_all, evaluate, length_scale, points_to_base,
+    points_to_gripper, solve_motions,
 };
+pub use consistency::{ConsistencyConfig, ConsistencyReport, Inconsistency, check_consistency, unit_factor_hint};
 pub use error::HandEyeError;
 pub use motion::{DegeneracyConfig, Motion, PairSelection, Setup, check_motions, relative_motions};
+pub use observability::{HandEyeWarning, ObservabilityConfig, axis_spread_deg};
+pub use output::PoseConventions;
+pub use parallax_least_squares::StopReason;
 pub use quality::{MotionResidual, Quality, motion_residual};
 pub use refine::{RefineConfig, Refinement};
 

@@ -1,0 +1,1 @@
+//! ViSP formats.
