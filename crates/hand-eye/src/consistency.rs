@@ -5,8 +5,8 @@
 //! by a rigid transform preserves
 //!
 //! * the rotation angle of each motion (`θ_A = θ_B`),
-//! * the angles between the rotation axes of any two motions, and their handedness (the sign
-//!   of the triple product of three axes),
+//! * the rotation axes up to one common rotation (`axis_A = R_X axis_B`): after the best such
+//!   rotation (orthogonal Procrustes, a lower bound over every `X`) only noise is left,
 //! * the screw invariants with a length: the scalar part of the dual quaternion
 //!   (`−½ sin(θ/2) · (axis · t)`) and the dual part of the inner product of two motions' screw
 //!   axes (`v_k·d_l + d_k·v_l` with `q = v + ε d` the vector parts). Their ratio robot : camera is
@@ -14,17 +14,18 @@
 //!
 //! Inverting one side (robot poses given as `gripper_from_base`, eye-to-hand data solved as
 //! eye-in-hand or the reverse, camera poses given as `board_from_camera`) keeps the angles but
-//! rotates each motion's axis by a different station orientation and flips the handedness;
+//! rotates each motion's axis by a different station orientation and mirrors it (`α' = −R_j α`);
 //! reading roll-pitch-yaw degrees as axis-angle radians changes the angles themselves. A camera
 //! pose `camera_from_board` must also put the board in front of the camera (`t_z > 0`).
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 use parallax_camera_model::Isometry3;
 use serde::{Deserialize, Serialize};
 
 use crate::linear::dual_quat;
 use crate::motion::{Motion, PairSelection, Setup, check_stations, motions_from_internal, robot_side};
 use crate::{HandEyeError, Result};
+use parallax_least_squares::nearest_rotation;
 
 /// Thresholds and overrides of the consistency checks (all unit-free).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -33,11 +34,11 @@ pub struct ConsistencyConfig {
     /// Largest median over the motions of `|θ_A − θ_B|`, degrees. Pose noise of 0.1° gives
     /// about 0.1°; a wrong rotation convention gives tens of degrees.
     pub max_angle_mismatch_deg: f64,
-    /// Largest median over pairs of motions of the difference between the angle of their robot
-    /// axes and the angle of their camera axes, degrees.
+    /// Largest median angle between the robot motions' rotation axes and the camera motions'
+    /// axes under the best common rotation, degrees (noise of 0.1° gives well under 1°).
     pub max_axis_mismatch_deg: f64,
     /// Motions rotating by less than this (or more than 180° minus this) on either side are left
-    /// out of the axis and handedness tests (their axes are noisy or sign-ambiguous), degrees.
+    /// out of the axis test (their axes are noisy or sign-ambiguous), degrees.
     pub min_axis_rotation_deg: f64,
     /// Largest accepted ratio (either way) of the robot's to the camera's length invariants.
     pub max_scale_ratio: f64,
@@ -103,12 +104,9 @@ pub enum Inconsistency {
 pub struct ConsistencyReport {
     /// Median over the motions of `|θ_A − θ_B|`, degrees.
     pub angle_mismatch_deg: f64,
-    /// Median over pairs of motions of the axis-angle difference, degrees (`None` with fewer
-    /// than two motions usable for axes).
+    /// Median angle between the robot axes and the best common rotation of the camera axes,
+    /// degrees (`None` with fewer than two motions usable for axes).
     pub axis_mismatch_deg: Option<f64>,
-    /// Fraction of confidently oriented triples of motions whose handedness differs between
-    /// robot and camera (`None` when no triple is confident).
-    pub handedness_flips: Option<f64>,
     /// Robot : camera ratio of the length invariants (`None` without translation signal).
     pub scale_ratio: Option<f64>,
     /// Correlation of the robot and camera length invariants (1 when they agree up to scale).
@@ -141,17 +139,20 @@ fn spread<T: Copy>(items: &[T]) -> Vec<T> {
 struct RotationStats {
     angle: f64,
     axis: Option<f64>,
-    flips: Option<f64>,
 }
 
 impl RotationStats {
     fn consistent(&self, cfg: &ConsistencyConfig) -> bool {
-        self.angle <= cfg.max_angle_mismatch_deg
-            && self.axis.is_none_or(|a| a <= cfg.max_axis_mismatch_deg)
-            && self.flips.is_none_or(|f| f <= 0.5)
+        self.angle <= cfg.max_angle_mismatch_deg && self.axis.is_none_or(|a| a <= cfg.max_axis_mismatch_deg)
     }
 }
 
+/// Median `|θ_A − θ_B|`, and the median angle left between the robot axes and the camera axes
+/// under the best common proper rotation (orthogonal Procrustes over the unit axes of the
+/// motions that rotate by at least `min_axis_rotation_deg` on both sides). The second is a
+/// lower bound over every `X`: no hand-eye solution can map the axes closer, so it does not
+/// depend on a solver; with one side inverted the axes are rotated by each station's own
+/// orientation and mirrored, which no single rotation undoes.
 fn rotation_stats(motions: &[Motion], cfg: &ConsistencyConfig) -> RotationStats {
     let angle = median(motions.iter().map(|m| (m.a.angle() - m.b.angle()).abs().to_degrees()).collect()).unwrap_or(0.0);
     let lo = cfg.min_axis_rotation_deg.to_radians();
@@ -161,29 +162,16 @@ fn rotation_stats(motions: &[Motion], cfg: &ConsistencyConfig) -> RotationStats 
         .filter(|m| (lo..=hi).contains(&m.a.angle()) && (lo..=hi).contains(&m.b.angle()))
         .map(|m| (m.a.rvec().normalize(), m.b.rvec().normalize()))
         .collect();
-    let usable = spread(&usable);
-    let mut axis = Vec::new();
-    for (k, (ak, bk)) in usable.iter().enumerate() {
-        for (al, bl) in &usable[k + 1..] {
-            axis.push((vec_angle_deg(*ak, *al) - vec_angle_deg(*bk, *bl)).abs());
+    let axis = if usable.len() < 2 {
+        None
+    } else {
+        let mut m = DMat3::ZERO;
+        for (a, b) in &usable {
+            m += DMat3::from_cols(*a * b.x, *a * b.y, *a * b.z);
         }
-    }
-    let (mut confident, mut flipped) = (0usize, 0usize);
-    for k in 0..usable.len() {
-        for l in k + 1..usable.len() {
-            for m in l + 1..usable.len() {
-                let da = usable[k].0.dot(usable[l].0.cross(usable[m].0));
-                let db = usable[k].1.dot(usable[l].1.cross(usable[m].1));
-                if da.abs() >= 0.2 && db.abs() >= 0.2 {
-                    confident += 1;
-                    if da.signum() != db.signum() {
-                        flipped += 1;
-                    }
-                }
-            }
-        }
-    }
-    RotationStats { angle, axis: median(axis), flips: (confident >= 3).then(|| flipped as f64 / confident as f64) }
+        nearest_rotation(m).ok().and_then(|r| median(usable.iter().map(|(a, b)| vec_angle_deg(*a, r * *b)).collect()))
+    };
+    RotationStats { angle, axis }
 }
 
 /// Robot : camera ratio and correlation of the length invariants (dual-quaternion scalar parts
@@ -287,19 +275,14 @@ pub(crate) fn check(
         }
     }
     let rot = rotation_stats(motions, cfg);
-    let mut report = ConsistencyReport {
-        angle_mismatch_deg: rot.angle,
-        axis_mismatch_deg: rot.axis,
-        handedness_flips: rot.flips,
-        ..Default::default()
-    };
+    let mut report =
+        ConsistencyReport { angle_mismatch_deg: rot.angle, axis_mismatch_deg: rot.axis, ..Default::default() };
     if !cfg.allow_rotation_mismatch && !rot.consistent(cfg) {
         let figures = format!(
-            "median |θ_robot − θ_camera| {:.2}° (limit {}°), median axis-angle mismatch {}, handedness flipped in {}",
+            "median |θ_robot − θ_camera| {:.2}° (limit {}°), median axis mismatch under the best common rotation {}",
             rot.angle,
             cfg.max_angle_mismatch_deg,
             rot.axis.map_or("n/a".into(), |a| format!("{a:.2}° (limit {}°)", cfg.max_axis_mismatch_deg)),
-            rot.flips.map_or("n/a".into(), |f| format!("{:.0} % of triples", 100.0 * f)),
         );
         let inverted: Vec<Isometry3> = robot.iter().map(Isometry3::inverse).collect();
         let inv = rotation_stats(&motions_from_internal(&inverted, camera_from_board, pairs), cfg);
