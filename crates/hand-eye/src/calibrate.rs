@@ -324,7 +324,11 @@ fn warnings(
                 out.push(HandEyeWarning::ScaleUnchecked { correlation: c })
             }
             None => out.push(HandEyeWarning::ScaleUnchecked { correlation: 0.0 }),
-            _ => {}
+            Some(c) => {
+                if let Some(r) = report.scale_ratio.filter(|r| r.max(1.0 / r) > config.consistency.warn_scale_ratio) {
+                    out.push(HandEyeWarning::ScaleDisagreement { ratio: r, correlation: c });
+                }
+            }
         }
     }
     out

@@ -55,6 +55,14 @@ pub enum HandEyeWarning {
         /// The threshold in the data unit (`max_translation_sigma_rel` × scene scale).
         threshold: f64,
     },
+    /// Robot and camera lengths agree in unit but not exactly: a square size or focal length
+    /// off by this factor (the translation of `X` absorbs it).
+    ScaleDisagreement {
+        /// Robot : camera ratio of the length invariants.
+        ratio: f64,
+        /// Their correlation.
+        correlation: f64,
+    },
     /// The length units of robot and camera could not be compared: the motions carry too little
     /// translation (rotations about nearly one point).
     ScaleUnchecked {
@@ -78,6 +86,12 @@ impl fmt::Display for HandEyeWarning {
             HandEyeWarning::LargeTranslationSigma { sigma, threshold } => {
                 write!(f, "weak geometry: refined translation σ {sigma:.6} (> {threshold:.6}, data unit)")
             }
+            HandEyeWarning::ScaleDisagreement { ratio, correlation } => write!(
+                f,
+                "robot and camera lengths differ by ×{ratio:.4} (screw invariants of the paired motions, correlation \
+                 {correlation:.4}): check the board's square size, the camera's focal length and the robot's unit — \
+                 the translation of the result absorbs such an error"
+            ),
             HandEyeWarning::ScaleUnchecked { correlation } => write!(
                 f,
                 "length units of robot and camera not checked: the motions rotate about nearly one point \

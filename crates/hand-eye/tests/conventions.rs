@@ -145,6 +145,23 @@ fn robot_in_metres_with_camera_in_millimetres_is_refused_naming_the_factor() {
     }
 }
 
+/// A camera length scale 15 % off (a wrong square size): solved, with a warning giving the ratio.
+#[test]
+fn a_square_size_fifteen_percent_off_is_a_warning() {
+    let mut r = rng(29);
+    for trial in 0..20 {
+        let s = with_noise(&realistic_scene(&mut r, 10), &mut r, 0.1, 0.001);
+        let c: Vec<Isometry3> = s.c.iter().map(|p| scaled(p, 1.0 / 1.15)).collect();
+        let sol = calibrate(&s.g, &c, Method::Park, &HandEyeConfig::default()).unwrap();
+        let ratio = sol.warnings.iter().find_map(|w| match w {
+            HandEyeWarning::ScaleDisagreement { ratio, .. } => Some(*ratio),
+            _ => None,
+        });
+        let ratio = ratio.unwrap_or_else(|| panic!("trial {trial}: no scale warning in {:?}", sol.warnings));
+        assert!((ratio - 1.15).abs() < 0.05, "trial {trial}: ratio {ratio}");
+    }
+}
+
 #[test]
 fn inverted_robot_poses_are_refused() {
     let mut r = rng(22);
@@ -257,6 +274,11 @@ fn correct_data_is_never_refused() {
             let s = with_noise(&clean, &mut r, sd, st);
             let sol = calibrate(&s.g, &s.c, Method::Park, &setup_cfg(setup))
                 .unwrap_or_else(|e| panic!("trial {trial} {setup:?} ({sd}°, {st} m, {n} stations): {e}"));
+            assert!(
+                !sol.warnings.iter().any(|w| matches!(w, HandEyeWarning::ScaleDisagreement { .. })),
+                "trial {trial}: {:?}",
+                sol.warnings
+            );
             let c = sol.consistency;
             worst.angle_mismatch_deg = worst.angle_mismatch_deg.max(c.angle_mismatch_deg);
             worst.axis_mismatch_deg = match (worst.axis_mismatch_deg, c.axis_mismatch_deg) {
