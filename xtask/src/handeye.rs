@@ -14,8 +14,10 @@ use std::process::ExitCode;
 
 use anyhow::{Context, ensure};
 use parallax_camera_model::Isometry3;
-use parallax_hand_eye::io::{RotationFormat, parse_pose_lines, parse_pose_ron, parse_visp_pose};
-use parallax_hand_eye::{HandEyeConfig, HandEyeSolution, Method, PairSelection, Setup, calibrate};
+use parallax_hand_eye::io::{PoseFileFormat, parse_pose_file};
+use parallax_hand_eye::{
+    ConsistencyConfig, HandEyeConfig, HandEyeSolution, Method, PairSelection, RefineConfig, Setup, calibrate,
+};
 
 /// Format of a pose file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -43,9 +45,10 @@ pub struct Args {
     /// Format of the robot poses.
     #[arg(long, value_enum, default_value = "auto")]
     robot_format: PoseFormat,
-    /// Camera poses `camera_from_board`, one per station (instead of `--images`).
+    /// Camera poses `camera_from_board`: one file holding a list, or a glob of one-pose files
+    /// (e.g. ViSP's `cPo_*.yaml`), sorted like `--robot` (instead of `--images`).
     #[arg(long, conflicts_with = "images")]
-    camera_poses: Option<PathBuf>,
+    camera_poses: Option<String>,
     /// Format of the camera poses.
     #[arg(long, value_enum, default_value = "auto")]
     camera_format: PoseFormat,
@@ -59,7 +62,8 @@ pub struct Args {
     /// Square size, in the robot poses' length unit (with `--images`).
     #[arg(long)]
     square: Option<f64>,
-    /// Camera intrinsics: ViSP XML (`px py u0 v0`) or a RON `Camera` (with `--images`).
+    /// Camera intrinsics: ViSP XML (`perspectiveProjWithDistortion` when present, its `kud` as
+    /// OpenCV's k1, else the undistorted model) or a RON `Camera` (with `--images`).
     #[arg(long)]
     intrinsics: Option<PathBuf>,
     /// Method: all, tsai, park, horaud, andreff, daniilidis, rodrigues, refined, shah, li.
@@ -78,28 +82,41 @@ pub struct Args {
     /// Write every solution (with residuals and covariance) to this RON file.
     #[arg(long)]
     output: Option<PathBuf>,
-}
-
-fn resolve_format(path: &Path, format: PoseFormat) -> PoseFormat {
-    if format != PoseFormat::Auto {
-        return format;
-    }
-    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("ron") => PoseFormat::Ron,
-        Some("yaml" | "yml") => PoseFormat::Visp,
-        _ => PoseFormat::AxisAngle,
-    }
+    /// Write `X` of the refined method (else the first that succeeded) as ViSP's `ePc` pose
+    /// vector YAML (`eMc` 4x4 matrix when the name contains `eMc`).
+    #[arg(long)]
+    save_visp: Option<PathBuf>,
+    /// Pose rotation noise of robot and camera for the refinement, degrees per axis.
+    #[arg(long, default_value_t = 0.1)]
+    rotation_noise_deg: f64,
+    /// Pose translation noise of robot and camera, in the poses' length unit (default: estimated
+    /// from the data, which makes the result independent of the unit).
+    #[arg(long)]
+    translation_noise: Option<f64>,
+    /// Solve even when robot and camera rotations disagree (inverted poses, wrong mode or format).
+    #[arg(long)]
+    allow_rotation_mismatch: bool,
+    /// Solve even when robot and camera lengths look like different units.
+    #[arg(long)]
+    allow_scale_mismatch: bool,
+    /// Accept camera poses that put the board behind the camera.
+    #[arg(long)]
+    allow_board_behind_camera: bool,
+    /// Report an unconverged refinement (`converged: false`) instead of failing.
+    #[arg(long)]
+    allow_unconverged: bool,
 }
 
 fn read_pose_file(path: &Path, format: PoseFormat) -> anyhow::Result<Vec<Isometry3>> {
     let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let name = path.display().to_string();
-    Ok(match resolve_format(path, format) {
-        PoseFormat::Ron => parse_pose_ron(&text, &name)?,
-        PoseFormat::Visp => vec![parse_visp_pose(&text, &name)?],
-        PoseFormat::RpyDeg => parse_pose_lines(&text, RotationFormat::RollPitchYawDeg, &name)?,
-        PoseFormat::AxisAngle | PoseFormat::Auto => parse_pose_lines(&text, RotationFormat::AxisAngle, &name)?,
-    })
+    let format = match format {
+        PoseFormat::Auto => PoseFileFormat::from_path(path),
+        PoseFormat::Ron => PoseFileFormat::Ron,
+        PoseFormat::Visp => PoseFileFormat::Visp,
+        PoseFormat::AxisAngle => PoseFileFormat::AxisAngle,
+        PoseFormat::RpyDeg => PoseFileFormat::RollPitchYawDeg,
+    };
+    Ok(parse_pose_file(&text, format, &path.display().to_string())?)
 }
 
 /// Reads poses from one file or a glob of files (concatenated in natural order).
@@ -114,21 +131,6 @@ pub fn read_poses(spec: &str, format: PoseFormat) -> anyhow::Result<Vec<Isometry
         poses.extend(read_pose_file(p, format)?);
     }
     Ok(poses)
-}
-
-/// Pinhole intrinsics `(fx, fy, cx, cy)` from ViSP's camera XML (`<px>`, `<py>`, `<u0>`, `<v0>`
-/// of the first `<model>`); parsed by hand, the format is four tags.
-pub fn parse_visp_intrinsics(xml: &str, what: &str) -> anyhow::Result<[f64; 4]> {
-    let tag = |name: &str| -> anyhow::Result<f64> {
-        let open = format!("<{name}>");
-        let close = format!("</{name}>");
-        let start = xml.find(&open).with_context(|| format!("{what}: no <{name}> element"))? + open.len();
-        let end = xml[start..].find(&close).with_context(|| format!("{what}: <{name}> is not closed"))? + start;
-        let v: f64 = xml[start..end].trim().parse().with_context(|| format!("{what}: <{name}> is not a number"))?;
-        ensure!(v.is_finite(), "{what}: <{name}> is not finite");
-        Ok(v)
-    };
-    Ok([tag("px")?, tag("py")?, tag("u0")?, tag("v0")?])
 }
 
 fn parse_methods(spec: &str) -> anyhow::Result<Vec<Method>> {
@@ -168,21 +170,27 @@ fn camera_poses_from_images(args: &Args, robot: Vec<Isometry3>) -> anyhow::Resul
         Some(_) => None,
         None => {
             let text = std::fs::read_to_string(intr).with_context(|| format!("reading {}", intr.display()))?;
-            Some(parse_visp_intrinsics(&text, &intr.display().to_string())?)
+            let cam = parallax_hand_eye::visp::parse_camera_xml(&text, &intr.display().to_string(), None, None)?;
+            println!(
+                "  ViSP intrinsics {}: px {} py {} u0 {} v0 {} kud {} (→ k1) kdu {}",
+                cam.projection.visp_name(),
+                cam.px,
+                cam.py,
+                cam.u0,
+                cam.v0,
+                cam.kud,
+                cam.kdu
+            );
+            Some(cam)
         }
     };
     let cfg = parallax_corner_detection::ChessboardConfig::default();
     let (mut kept_robot, mut camera) = (Vec::new(), Vec::new());
     for (path, g) in images.iter().zip(robot) {
         let img = parallax_composition::io::load_gray(path)?;
-        let cam = match (&ron_camera, xml_intrinsics) {
+        let cam = match (&ron_camera, &xml_intrinsics) {
             (Some(c), _) => *c,
-            (None, Some([fx, fy, cx, cy])) => parallax_camera_model::Camera::new(
-                parallax_camera_model::Intrinsics::new(fx, fy, cx, cy),
-                parallax_camera_model::Distortion::default(),
-                img.width(),
-                img.height(),
-            )?,
+            (None, Some(v)) => v.camera(img.width(), img.height())?,
             (None, None) => unreachable!("one intrinsics source is always read"),
         };
         let name = path.display();
@@ -205,10 +213,23 @@ fn camera_poses_from_images(args: &Args, robot: Vec<Isometry3>) -> anyhow::Resul
 fn print_solution(s: &HandEyeSolution) {
     let t = s.transform.translation;
     let r = s.transform.rvec() * (180.0 / std::f64::consts::PI);
+    let [qx, qy, qz, qw] = s.conventions().quaternion_xyzw;
+    let converged = s.refinement.as_ref().map(|rf| format!(" converged: {}", rf.converged)).unwrap_or_default();
     println!(
-        "method: {} tx: {:.6} ty: {:.6} tz: {:.6} rx_deg: {:.4} ry_deg: {:.4} rz_deg: {:.4} rot_residual_deg: {:.4} trans_residual: {:.6}",
-        s.method, t.x, t.y, t.z, r.x, r.y, r.z, s.quality.mean_rotation_deg, s.quality.mean_translation
+        "method: {} tx: {:.6} ty: {:.6} tz: {:.6} qx: {:.9} qy: {:.9} qz: {:.9} qw: {:.9} rx_deg: {:.4} ry_deg: {:.4} rz_deg: {:.4} rot_residual_deg: {:.4} trans_residual: {:.6}{converged}",
+        s.method, t.x, t.y, t.z, qx, qy, qz, qw, r.x, r.y, r.z, s.quality.mean_rotation_deg, s.quality.mean_translation
     );
+    if let Some(rf) = &s.refinement {
+        println!(
+            "    {}; translation noise robot {:.6} camera {:.6} (data unit)",
+            rf.convergence_summary(),
+            rf.robot_translation_sigma,
+            rf.camera_translation_sigma
+        );
+    }
+    for w in &s.warnings {
+        println!("    warning: {w}");
+    }
     println!(
         "    board spread {:.4}° / {:.6}, table-4 error {:.6}",
         s.quality.board_spread_rotation_deg, s.quality.board_spread_translation, s.quality.mean_matrix_error
@@ -231,9 +252,8 @@ fn print_solution(s: &HandEyeSolution) {
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let robot = read_poses(&args.robot, args.robot_format).with_context(|| format!("robot poses {:?}", args.robot))?;
     let (robot, camera) = match &args.camera_poses {
-        Some(path) => {
-            let c =
-                read_pose_file(path, args.camera_format).with_context(|| format!("camera poses {}", path.display()))?;
+        Some(spec) => {
+            let c = read_poses(spec, args.camera_format).with_context(|| format!("camera poses {spec:?}"))?;
             (robot, c)
         }
         None => camera_poses_from_images(&args, robot)?,
@@ -252,6 +272,21 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let config = HandEyeConfig {
         setup: if args.eye_to_hand { Setup::EyeToHand } else { Setup::EyeInHand },
         pairs: if args.consecutive { PairSelection::Consecutive } else { PairSelection::All },
+        refine: RefineConfig {
+            robot_rotation_sigma_deg: args.rotation_noise_deg,
+            camera_rotation_sigma_deg: args.rotation_noise_deg,
+            estimate_translation_noise: args.translation_noise.is_none(),
+            robot_translation_sigma: args.translation_noise.unwrap_or(1.0),
+            camera_translation_sigma: args.translation_noise.unwrap_or(1.0),
+            allow_unconverged: args.allow_unconverged,
+            ..Default::default()
+        },
+        consistency: ConsistencyConfig {
+            allow_rotation_mismatch: args.allow_rotation_mismatch,
+            allow_scale_mismatch: args.allow_scale_mismatch,
+            allow_board_behind_camera: args.allow_board_behind_camera,
+            ..Default::default()
+        },
         ..Default::default()
     };
     let what = if args.eye_to_hand { "base_from_camera" } else { "gripper_from_camera" };
@@ -278,18 +313,17 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         parallax_composition::io::write_ron(out, &ok)?;
         println!("wrote {}", out.display());
     }
+    if let Some(out) = &args.save_visp {
+        let s = ok.iter().find(|s| s.method == Method::Refined).or(ok.first()).context("no solution to write")?;
+        let emc = out.file_name().is_some_and(|n| n.to_string_lossy().contains("eMc"));
+        let text = if emc {
+            parallax_hand_eye::visp::homogeneous_matrix_yaml(&s.transform)
+        } else {
+            parallax_hand_eye::visp::pose_vector_yaml(&s.transform)
+        };
+        std::fs::write(out, text).with_context(|| format!("writing {}", out.display()))?;
+        println!("wrote {} ({} of {})", out.display(), if emc { "eMc" } else { "ePc" }, s.method);
+    }
     println!("{} of {} methods succeeded", ok.len(), ok.len() + failed);
     Ok(if ok.is_empty() { ExitCode::FAILURE } else { ExitCode::SUCCESS })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn visp_intrinsics_are_read() {
-        let xml = "<camera><model><px>607.59</px><py>607.57</py><u0>323.46</u0><v0>243.25</v0></model></camera>";
-        assert_eq!(parse_visp_intrinsics(xml, "x").unwrap(), [607.59, 607.57, 323.46, 243.25]);
-        assert!(parse_visp_intrinsics("<px>1</px>", "cam.xml").unwrap_err().to_string().contains("cam.xml: no <py>"));
-    }
 }

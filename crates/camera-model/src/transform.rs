@@ -88,6 +88,12 @@ impl Isometry3 {
         Self { rotation: rotation.normalize(), translation }
     }
 
+    /// The same rotation with another translation.
+    #[inline]
+    pub fn with_translation(&self, translation: DVec3) -> Self {
+        Self { rotation: self.rotation, translation }
+    }
+
     /// The rotation, a unit quaternion.
     #[inline]
     pub fn rotation(&self) -> DQuat {

@@ -7,9 +7,12 @@ use glam::DVec3;
 use parallax_camera_model::Isometry3;
 use serde::{Deserialize, Serialize};
 
+use crate::consistency::{self, ConsistencyConfig, ConsistencyReport};
 use crate::motion::{
     DegeneracyConfig, Motion, PairSelection, Setup, check_motions, check_stations, motions_from_internal, robot_side,
 };
+use crate::observability::{HandEyeWarning, ObservabilityConfig, axis_spread_deg};
+use crate::output::PoseConventions;
 use crate::quality::{Quality, quality};
 use crate::refine::{RefineConfig, Refinement, initial_cost, refine};
 use crate::{HandEyeError, Result, linear, robot_world};
@@ -100,6 +103,10 @@ pub struct HandEyeConfig {
     pub degeneracy: DegeneracyConfig,
     /// Noise model and options of the refinement.
     pub refine: RefineConfig,
+    /// Pre-solve consistency checks (thresholds and overrides).
+    pub consistency: ConsistencyConfig,
+    /// Weak-geometry warning thresholds.
+    pub observability: ObservabilityConfig,
 }
 
 /// A hand-eye solution with its quality.
@@ -118,17 +125,66 @@ pub struct HandEyeSolution {
     pub quality: Quality,
     /// For [`Method::Refined`]: the linear method it started from.
     pub start: Option<Method>,
-    /// For [`Method::Refined`]: covariance, standard deviations and fit statistics.
+    /// For [`Method::Refined`]: covariance, standard deviations, fit statistics and convergence.
     pub refinement: Option<Refinement>,
+    /// The scene scale `L` (RMS translation of the input poses, data unit) the solvers worked
+    /// in: translations were divided by it before solving and the result multiplied back, so no
+    /// method depends on the length unit.
+    pub length_scale: f64,
+    /// Figures of the pre-solve consistency checks.
+    pub consistency: ConsistencyReport,
+    /// Spread of the motions' rotation axes, degrees (see [`crate::axis_spread_deg`]).
+    pub axis_spread_deg: Option<f64>,
+    /// Weak-geometry and unchecked-unit warnings (the solution is still returned).
+    pub warnings: Vec<HandEyeWarning>,
+}
+
+impl HandEyeSolution {
+    /// `X` in every common convention (quaternion, matrix, rotation vector, ROS tf order).
+    pub fn conventions(&self) -> PoseConventions {
+        PoseConventions::of(&self.transform)
+    }
+}
+
+/// The scene scale of a set of stations: RMS of the translation lengths of both pose lists
+/// (1 when they are all zero). Scaling every translation by `s` scales it by `s`.
+pub fn length_scale(base_from_gripper: &[Isometry3], camera_from_board: &[Isometry3]) -> f64 {
+    rms_length(base_from_gripper.iter().chain(camera_from_board).map(|p| p.translation))
+}
+
+fn rms_length(ts: impl Iterator<Item = DVec3>) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for t in ts {
+        sum += t.length_squared();
+        n += 1;
+    }
+    let l = (sum / n.max(1) as f64).sqrt();
+    if l.is_finite() && l > 0.0 { l } else { 1.0 }
+}
+
+/// `p` with its translation multiplied by `s`.
+fn scaled(p: &Isometry3, s: f64) -> Isometry3 {
+    p.with_translation(p.translation * s)
 }
 
 /// Solves `A X = X B` over the given motions with one closed-form method
 /// ([`Method::LINEAR`]; other methods need absolute poses: use [`calibrate`]).
+///
+/// Scale-invariant: the translations are divided by three times their RMS length before solving
+/// and the result's translation multiplied back (Daniilidis mixes rotations and lengths in one
+/// system; every method then gives the same rotation whatever the length unit).
 pub fn solve_motions(method: Method, motions: &[Motion]) -> Result<Isometry3> {
     if motions.len() < 2 {
         return Err(HandEyeError::NotEnoughData(format!("{} motion(s), at least 2 needed", motions.len())));
     }
-    match method {
+    // Translations to an RMS of 1/3: only Daniilidis (one SVD over rotation and translation
+    // equations) depends on the choice. Mean rotation error of Daniilidis on the peer protocol
+    // (300 trials) with RMS 1/0.3, 1, 1/3, 1/10: 0.376°, 0.270°, 0.225°, 0.248°.
+    let l = 3.0 * rms_length(motions.iter().flat_map(|m| [m.a.translation, m.b.translation]));
+    let normalised: Vec<Motion> =
+        motions.iter().map(|m| Motion { a: scaled(&m.a, 1.0 / l), b: scaled(&m.b, 1.0 / l), ..*m }).collect();
+    let motions = &normalised;
+    let x = match method {
         Method::Tsai => linear::tsai(motions),
         Method::Park => linear::park(motions),
         Method::Horaud => linear::horaud(motions),
@@ -136,7 +192,8 @@ pub fn solve_motions(method: Method, motions: &[Motion]) -> Result<Isometry3> {
         Method::Daniilidis => linear::daniilidis(motions),
         Method::Rodrigues => linear::rodrigues(motions),
         other => Err(HandEyeError::InvalidConfig(format!("{other} needs absolute poses: call calibrate()"))),
-    }
+    }?;
+    Ok(scaled(&x, l))
 }
 
 /// Hand-eye calibration from `N ≥ 3` stations: `base_from_gripper[i]` (robot forward
@@ -173,12 +230,17 @@ pub fn calibrate(
     config: &HandEyeConfig,
 ) -> Result<HandEyeSolution> {
     check_stations(base_from_gripper, camera_from_board, 3)?;
-    let robot = robot_side(base_from_gripper, config.setup);
-    let motions = motions_from_internal(&robot, camera_from_board, config.pairs);
+    // Unit-free from here on: every length divided by the scene scale, multiplied back at the end.
+    let l = length_scale(base_from_gripper, camera_from_board);
+    let g: Vec<Isometry3> = base_from_gripper.iter().map(|p| scaled(p, 1.0 / l)).collect();
+    let c: Vec<Isometry3> = camera_from_board.iter().map(|p| scaled(p, 1.0 / l)).collect();
+    let robot = robot_side(&g, config.setup);
+    let motions = motions_from_internal(&robot, &c, config.pairs);
     check_motions(&motions, &config.degeneracy)?;
+    let report = consistency::check(&robot, &c, &motions, config.setup, config.pairs, &config.consistency)?;
     let (transform, board, start, refinement) = match method {
         Method::Shah | Method::Li => {
-            let b: Vec<Isometry3> = camera_from_board.iter().map(Isometry3::inverse).collect();
+            let b: Vec<Isometry3> = c.iter().map(Isometry3::inverse).collect();
             let (x, z) =
                 if method == Method::Shah { robot_world::shah(&robot, &b)? } else { robot_world::li(&robot, &b)? };
             (x, Some(z), None, None)
@@ -189,7 +251,7 @@ pub fn calibrate(
             for m in Method::LINEAR {
                 match solve_motions(m, &motions) {
                     Ok(x) => {
-                        let cost = initial_cost(&robot, camera_from_board, config.setup, &x, &config.refine)?;
+                        let cost = initial_cost(&robot, &c, config.setup, &x, &config.refine, l)?;
                         if cost.is_finite() && best.as_ref().is_none_or(|b| cost < b.2) {
                             best = Some((m, x, cost));
                         }
@@ -198,12 +260,26 @@ pub fn calibrate(
                 }
             }
             let (m, x0, _) = best.ok_or_else(|| last_err.expect("six solvers tried"))?;
-            let r = refine(&robot, camera_from_board, &motions, config.setup, &x0, &config.refine)?;
+            let r = refine(&robot, &c, &motions, config.setup, &x0, &config.refine, l)?.scaled(l);
+            if !r.converged && !config.refine.allow_unconverged {
+                return Err(HandEyeError::NotConverged(format!(
+                    "{}; the result may not be a minimum. Hint: raise refine.lm.max_iterations or \
+                     refine.max_passes, check the inputs, or accept it with refine.allow_unconverged (--allow-unconverged)",
+                    r.convergence_summary()
+                )));
+            }
             (r.transform, Some(r.board), Some(m), Some(r))
         }
         linear => (solve_motions(linear, &motions)?, None, None, None),
     };
-    let quality = quality(&robot, camera_from_board, &motions, &transform)?;
+    let transform = if method == Method::Refined { transform } else { scaled(&transform, l) };
+    let board = board.map(|b| if method == Method::Refined { b } else { scaled(&b, l) });
+    // Quality on the data as given.
+    let robot_orig = robot_side(base_from_gripper, config.setup);
+    let motions_orig = motions_from_internal(&robot_orig, camera_from_board, config.pairs);
+    let quality = quality(&robot_orig, camera_from_board, &motions_orig, &transform)?;
+    let spread = axis_spread_deg(&motions, config.degeneracy.min_rotation_deg);
+    let warnings = warnings(&report, spread, refinement.as_ref(), l, config);
     Ok(HandEyeSolution {
         method,
         setup: config.setup,
@@ -212,7 +288,50 @@ pub fn calibrate(
         quality,
         start,
         refinement,
+        length_scale: l,
+        consistency: report,
+        axis_spread_deg: spread,
+        warnings,
     })
+}
+
+fn warnings(
+    report: &ConsistencyReport,
+    spread: Option<f64>,
+    refinement: Option<&Refinement>,
+    l: f64,
+    config: &HandEyeConfig,
+) -> Vec<HandEyeWarning> {
+    let obs = &config.observability;
+    let mut out = Vec::new();
+    if let Some(s) = spread.filter(|s| *s < obs.min_axis_spread_deg) {
+        out.push(HandEyeWarning::WeakRotationAxes { spread_deg: s, threshold_deg: obs.min_axis_spread_deg });
+    }
+    if let Some(sd) = refinement.and_then(|r| r.std_devs) {
+        let rot = sd[..3].iter().fold(0.0f64, |a, v| a.max(*v)).to_degrees();
+        if rot > obs.max_rotation_sigma_deg {
+            out.push(HandEyeWarning::LargeRotationSigma { sigma_deg: rot, threshold_deg: obs.max_rotation_sigma_deg });
+        }
+        let tr = sd[3..].iter().fold(0.0f64, |a, v| a.max(*v));
+        let limit = obs.max_translation_sigma_rel * l;
+        if tr > limit {
+            out.push(HandEyeWarning::LargeTranslationSigma { sigma: tr, threshold: limit });
+        }
+    }
+    if !config.consistency.allow_scale_mismatch {
+        match report.scale_correlation {
+            Some(c) if c < config.consistency.min_scale_correlation => {
+                out.push(HandEyeWarning::ScaleUnchecked { correlation: c })
+            }
+            None => out.push(HandEyeWarning::ScaleUnchecked { correlation: 0.0 }),
+            Some(c) => {
+                if let Some(r) = report.scale_ratio.filter(|r| r.max(1.0 / r) > config.consistency.warn_scale_ratio) {
+                    out.push(HandEyeWarning::ScaleDisagreement { ratio: r, correlation: c });
+                }
+            }
+        }
+    }
+    out
 }
 
 /// The [`Quality`] of any transform `x` (for example another tool's result) on these stations:

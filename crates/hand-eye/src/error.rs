@@ -31,6 +31,18 @@ pub enum HandEyeError {
     /// A configuration value is out of range.
     #[error("invalid configuration: {0}")]
     InvalidConfig(String),
+    /// A pre-solve consistency check failed: the inputs contradict `A X = X B` whatever `X`
+    /// is. The message names the likely mistake and the override.
+    #[error("inconsistent inputs ({kind:?}): {message}")]
+    Inconsistent {
+        /// Which check failed.
+        kind: crate::Inconsistency,
+        /// Figures, likely mistake and override.
+        message: String,
+    },
+    /// The refinement did not converge (and `refine.allow_unconverged` is not set).
+    #[error("refinement did not converge: {0}")]
+    NotConverged(String),
     /// A pose list could not be parsed; names the line (1-based) or entry.
     #[error("cannot parse {what}: {message}")]
     Parse {

@@ -60,6 +60,17 @@ pub fn parse_pose_lines(text: &str, format: RotationFormat, what: &str) -> Resul
         if nums.iter().any(|v| !v.is_finite()) {
             return Err(parse_err(what, format!("line {}: non-finite number", n + 1)));
         }
+        let angle = (nums[3] * nums[3] + nums[4] * nums[4] + nums[5] * nums[5]).sqrt();
+        if format == RotationFormat::AxisAngle && angle > std::f64::consts::TAU {
+            return Err(parse_err(
+                what,
+                format!(
+                    "line {}: rotation vector of length {angle:.3} > 2π is not an axis-angle in radians — are these \
+                     roll-pitch-yaw angles in degrees (RotationFormat::RollPitchYawDeg, --robot-format rpy-deg)?",
+                    n + 1
+                ),
+            ));
+        }
         out.push(pose_from_six(std::array::from_fn(|i| nums[i]), format));
     }
     if out.is_empty() {
@@ -68,7 +79,7 @@ pub fn parse_pose_lines(text: &str, format: RotationFormat, what: &str) -> Resul
     Ok(out)
 }
 
-/// Parses ViSP's 6x1 pose file (`vpPoseVector` saved as YAML):
+/// Parses ViSP's pose file: a 6x1 `vpPoseVector` YAML
 ///
 /// ```text
 /// rows: 6
@@ -78,28 +89,47 @@ pub fn parse_pose_lines(text: &str, format: RotationFormat, what: &str) -> Resul
 ///   ...
 /// ```
 ///
-/// holding `[tx, ty, tz, θux, θuy, θuz]` (metres, axis × angle radians). Also accepts the
-/// inline form `data: [a, b, c, d, e, f]`.
+/// holding `[tx, ty, tz, θux, θuy, θuz]` (axis × angle radians), also inline
+/// (`data: [a, b, c, d, e, f]`), or a 4x4 `vpHomogeneousMatrix` (see
+/// [`crate::visp::parse_pose_yaml`]).
 pub fn parse_visp_pose(text: &str, what: &str) -> Result<Isometry3> {
-    let start = text.find("data:").ok_or_else(|| parse_err(what, "no `data:` entry".into()))?;
-    let mut nums = Vec::new();
-    for tok in text[start + 5..].split(|c: char| c.is_whitespace() || c == ',') {
-        let tok = tok.trim_matches(|c: char| c == '[' || c == ']' || c == ',');
-        if tok.is_empty() || tok == "-" {
-            continue;
+    crate::visp::parse_pose_yaml(text, what)
+}
+
+/// Format of one pose file (see [`parse_pose_file`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PoseFileFormat {
+    /// RON list of [`Isometry3`].
+    Ron,
+    /// ViSP YAML, one pose per file (6x1 pose vector or 4x4 matrix).
+    Visp,
+    /// Text lines `tx ty tz rx ry rz`, axis-angle radians.
+    AxisAngle,
+    /// Text lines `x y z roll pitch yaw`, degrees, `R = Rz(yaw) Ry(pitch) Rx(roll)`.
+    RollPitchYawDeg,
+}
+
+impl PoseFileFormat {
+    /// The format a file name suggests: `.ron` RON, `.yaml`/`.yml` ViSP, anything else
+    /// axis-angle text lines.
+    pub fn from_path(path: &std::path::Path) -> Self {
+        match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+            Some("ron") => PoseFileFormat::Ron,
+            Some("yaml" | "yml") => PoseFileFormat::Visp,
+            _ => PoseFileFormat::AxisAngle,
         }
-        match tok.parse::<f64>() {
-            Ok(v) => nums.push(v),
-            Err(_) => break, // the next YAML key ends the list
-        }
     }
-    if nums.len() != 6 {
-        return Err(parse_err(what, format!("`data:` holds {} numbers, expected 6", nums.len())));
+}
+
+/// The poses of one file's text in the given format (`what` names it in errors). Reading a
+/// glob of per-station files is the caller's: call this per file, in station order.
+pub fn parse_pose_file(text: &str, format: PoseFileFormat, what: &str) -> Result<Vec<Isometry3>> {
+    match format {
+        PoseFileFormat::Ron => parse_pose_ron(text, what),
+        PoseFileFormat::Visp => Ok(vec![parse_visp_pose(text, what)?]),
+        PoseFileFormat::AxisAngle => parse_pose_lines(text, RotationFormat::AxisAngle, what),
+        PoseFileFormat::RollPitchYawDeg => parse_pose_lines(text, RotationFormat::RollPitchYawDeg, what),
     }
-    if nums.iter().any(|v| !v.is_finite()) {
-        return Err(parse_err(what, "non-finite number in `data:`".into()));
-    }
-    Ok(pose_from_six(std::array::from_fn(|i| nums[i]), RotationFormat::AxisAngle))
 }
 
 /// Parses a RON list of poses (`[(rotation: (x, y, z, w), translation: (x, y, z)), …]`, the
@@ -130,7 +160,7 @@ mod tests {
         assert!((p.rvec() - DVec3::new(-3.01226, 0.0236777, -0.451343)).length() < 1e-12);
         let inline = parse_visp_pose("data: [0.1, 0.2, 0.3, 0.0, 0.0, 0.5]\n", "inline").unwrap();
         assert!((inline.angle() - 0.5).abs() < 1e-15);
-        let short = parse_visp_pose("rows: 6\ndata:\n  - [1]\n  - [2]\nfoo: 3\n", "short.yaml").unwrap_err();
+        let short = parse_visp_pose("rows: 6\ncols: 1\ndata:\n  - [1]\n  - [2]\nfoo: 3\n", "short.yaml").unwrap_err();
         assert!(short.to_string().contains("short.yaml") && short.to_string().contains("2 numbers"), "{short}");
     }
 
@@ -152,6 +182,13 @@ mod tests {
         assert!(bad.to_string().contains("line 1") && bad.to_string().contains("robot.txt"), "{bad}");
         assert!(parse_pose_lines("1 2 x 4 5 6\n", RotationFormat::AxisAngle, "r").is_err());
         assert!(parse_pose_lines("# nothing\n", RotationFormat::AxisAngle, "r").is_err());
+        // Roll-pitch-yaw degrees given as axis-angle: refused with the hint.
+        let rpy = parse_pose_lines("0.1 0.2 0.3 180 0 90\n", RotationFormat::AxisAngle, "robot.txt").unwrap_err();
+        assert!(rpy.to_string().contains("roll-pitch-yaw") && rpy.to_string().contains("201.246"), "{rpy}");
+        // parse_pose_file dispatches by format.
+        let f = parse_pose_file("1 2 3 0 0 90\n", PoseFileFormat::RollPitchYawDeg, "r").unwrap();
+        assert!((f[0].transform_vector(DVec3::X) - DVec3::Y).length() < 1e-15);
+        assert_eq!(PoseFileFormat::from_path(std::path::Path::new("a/cPo_1.YAML")), PoseFileFormat::Visp);
     }
 
     #[test]

@@ -1,21 +1,34 @@
 //! Nonlinear refinement: maximum likelihood over the absolute station poses.
+//!
+//! Runs on translations divided by the data's length scale `L` (see [`crate::calibrate`]), so
+//! every tolerance, step and starting value is unit-free; the result is scaled back.
 
 use faer::MatMut;
 use glam::{DMat3, DVec3};
 use parallax_camera_model::Isometry3;
-use parallax_least_squares::{EvaluationError, LmConfig, Problem, levenberg_marquardt, nearest_rotation};
+use parallax_least_squares::{
+    EvaluationError, LmConfig, LmReport, Problem, StopReason, levenberg_marquardt, nearest_rotation,
+};
 use serde::{Deserialize, Serialize};
 
 use crate::linear::skew;
 use crate::motion::{Motion, Setup};
 use crate::{HandEyeError, Result};
 
-/// Noise model and options of [`refine`].
+/// Noise model and options of the refinement.
 ///
 /// The poses are modelled as right-multiplied noise, `G̃ = G · (Exp ω, v)` and `C̃ = C · (Exp ω, v)`
 /// with independent zero-mean Gaussian `ω`, `v` per axis. Only the *ratios* of the four sigmas
 /// shape the estimate; the reported covariance is rescaled by the fitted variance factor, so a
 /// wrong overall level does not make the standard deviations wrong.
+///
+/// **Units.** Rotation sigmas are in degrees (unit-free). With `estimate_translation_noise`
+/// (default) the translation sigmas are *estimated from the data* — by variance-component
+/// estimation of the rotation and translation parts of the station residuals, re-run after each
+/// pass until it settles — and the two translation fields only give the robot : camera ratio;
+/// the result then does not depend on the length unit. With `estimate_translation_noise = false`
+/// the translation sigmas are taken as given, **in the length unit of the poses** (1 mm is
+/// `0.001` for poses in metres and `1.0` for poses in millimetres).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct RefineConfig {
@@ -26,15 +39,30 @@ pub struct RefineConfig {
     pub estimate_board: bool,
     /// Robot pose rotation noise per axis, degrees.
     pub robot_rotation_sigma_deg: f64,
-    /// Robot pose translation noise per axis, in the scene length unit (default 0.001: 1 mm in metres).
+    /// Robot pose translation noise per axis, in the length unit of the poses (used as given
+    /// only when `estimate_translation_noise` is false; otherwise only its ratio to
+    /// `camera_translation_sigma` matters).
     pub robot_translation_sigma: f64,
     /// Camera pose (`camera_from_board`) rotation noise per axis, degrees.
     pub camera_rotation_sigma_deg: f64,
-    /// Camera pose translation noise per axis, scene length unit.
+    /// Camera pose translation noise per axis, length unit of the poses (see
+    /// `robot_translation_sigma`).
     pub camera_translation_sigma: f64,
-    /// Times the per-station covariances are re-linearised at the current estimate (≥ 1).
+    /// Estimate the translation noise level from the data (default; unit-free). When false, the
+    /// translation sigmas are used as given, in the data's length unit.
+    pub estimate_translation_noise: bool,
+    /// Minimum number of passes: the per-station covariances are re-linearised at the current
+    /// estimate after each pass (≥ 1).
     pub passes: usize,
-    /// Levenberg–Marquardt settings.
+    /// Maximum number of passes while the estimated translation noise still changes by more
+    /// than `noise_tolerance` (relative); reaching it leaves the refinement unconverged.
+    pub max_passes: usize,
+    /// Relative change of the estimated translation sigma below which its estimation has settled.
+    pub noise_tolerance: f64,
+    /// Return an unconverged refinement (iteration cap, no improvement, or unsettled noise
+    /// estimate) with `converged: false` instead of an error.
+    pub allow_unconverged: bool,
+    /// Levenberg–Marquardt settings (tolerances apply to the normalised, unit-free problem).
     pub lm: LmConfig,
 }
 
@@ -46,7 +74,11 @@ impl Default for RefineConfig {
             robot_translation_sigma: 0.001,
             camera_rotation_sigma_deg: 0.1,
             camera_translation_sigma: 0.001,
+            estimate_translation_noise: true,
             passes: 2,
+            max_passes: 20,
+            noise_tolerance: 1e-3,
+            allow_unconverged: false,
             lm: LmConfig::default(),
         }
     }
@@ -65,11 +97,48 @@ impl RefineConfig {
                 "refinement sigmas must be finite and non-negative with a positive rotation and translation total, got {s:?}"
             )));
         }
+        if self.passes == 0 || self.max_passes < self.passes {
+            return Err(HandEyeError::InvalidConfig(format!(
+                "refinement passes: need 1 ≤ passes ≤ max_passes, got {} and {}",
+                self.passes, self.max_passes
+            )));
+        }
+        if !(self.noise_tolerance.is_finite() && self.noise_tolerance > 0.0) {
+            return Err(HandEyeError::InvalidConfig(format!(
+                "refinement noise_tolerance must be positive, got {}",
+                self.noise_tolerance
+            )));
+        }
         Ok(())
+    }
+
+    /// Sigmas in the normalised problem (radians; lengths divided by `scale`).
+    fn initial_sigmas(&self, scale: f64) -> Sigmas {
+        let gr = self.robot_rotation_sigma_deg.to_radians();
+        let cr = self.camera_rotation_sigma_deg.to_radians();
+        if self.estimate_translation_noise {
+            // Unit-free start: the rotation noise at the lever arm of the scene (L = 1 here),
+            // split between robot and camera in the configured ratio.
+            let tau = 0.5 * (gr + cr);
+            let total = self.robot_translation_sigma + self.camera_translation_sigma;
+            let (fr, fc) = (self.robot_translation_sigma / total, self.camera_translation_sigma / total);
+            Sigmas { gr, cr, gt: 2.0 * tau * fr, ct: 2.0 * tau * fc }
+        } else {
+            Sigmas { gr, cr, gt: self.robot_translation_sigma / scale, ct: self.camera_translation_sigma / scale }
+        }
     }
 }
 
-/// Result of [`refine`].
+/// Noise sigmas of the normalised problem: radians and scene-scale units.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Sigmas {
+    gr: f64,
+    gt: f64,
+    cr: f64,
+    ct: f64,
+}
+
+/// Result of the refinement.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Refinement {
     /// The refined `X` (`gripper_from_camera` or `base_from_camera`).
@@ -82,12 +151,80 @@ pub struct Refinement {
     pub covariance: Option<[[f64; 6]; 6]>,
     /// `√diag(covariance)`: `[ωx, ωy, ωz]` radians then `[tx, ty, tz]`.
     pub std_devs: Option<[f64; 6]>,
-    /// Fitted variance factor `σ̂²` (≈ 1 when the noise model's sigmas are right).
+    /// Fitted variance factor `σ̂²` (≈ 1 when the rotation sigmas are right).
     pub variance_factor: f64,
     /// Weighted RMS of the whitened residuals.
     pub rms: f64,
     /// Levenberg–Marquardt iterations over all passes.
     pub iterations: usize,
+    /// Passes run (each one Levenberg–Marquardt solve with re-linearised covariances).
+    pub passes: usize,
+    /// True when the last Levenberg–Marquardt run stopped at a minimum (gradient, step or cost
+    /// tolerance, or zero residual) and the translation-noise estimate settled.
+    pub converged: bool,
+    /// Why the last Levenberg–Marquardt run stopped.
+    pub stop_reason: StopReason,
+    /// True when the translation noise was given, or its estimate changed by less than
+    /// `noise_tolerance` in the last pass.
+    pub noise_settled: bool,
+    /// Robot translation sigma used in the last pass, length unit of the poses (estimated or given).
+    pub robot_translation_sigma: f64,
+    /// Camera translation sigma used in the last pass, length unit of the poses.
+    pub camera_translation_sigma: f64,
+}
+
+impl Refinement {
+    /// One line: `converged: true (cost tolerance, 14 iterations in 3 passes)` or why not.
+    pub fn convergence_summary(&self) -> String {
+        let reason = match self.stop_reason {
+            StopReason::GradientTolerance => "gradient tolerance",
+            StopReason::StepTolerance => "step tolerance",
+            StopReason::CostTolerance => "cost tolerance",
+            StopReason::ZeroResidual => "zero residual",
+            StopReason::MaxIterations => "iteration cap reached",
+            StopReason::NoImprovement => "no step lowered the cost",
+        };
+        format!(
+            "converged: {} ({reason}{}, {} iterations in {} passes)",
+            self.converged,
+            if self.noise_settled { "" } else { ", translation-noise estimate not settled" },
+            self.iterations,
+            self.passes
+        )
+    }
+
+    /// The same refinement with every length multiplied by `s` (translations, covariance,
+    /// standard deviations, translation sigmas).
+    pub(crate) fn scaled(mut self, s: f64) -> Self {
+        self.transform.translation *= s;
+        self.board.translation *= s;
+        if let Some(c) = self.covariance.as_mut() {
+            for (r, row) in c.iter_mut().enumerate() {
+                for (k, v) in row.iter_mut().enumerate() {
+                    *v *= if r >= 3 { s } else { 1.0 } * if k >= 3 { s } else { 1.0 };
+                }
+            }
+        }
+        if let Some(sd) = self.std_devs.as_mut() {
+            for v in &mut sd[3..] {
+                *v *= s;
+            }
+        }
+        self.robot_translation_sigma *= s;
+        self.camera_translation_sigma *= s;
+        self
+    }
+}
+
+/// True for the stop reasons that mean a minimum was reached.
+fn at_minimum(r: StopReason) -> bool {
+    matches!(
+        r,
+        StopReason::GradientTolerance
+            | StopReason::StepTolerance
+            | StopReason::CostTolerance
+            | StopReason::ZeroResidual
+    )
 }
 
 fn pose_to_params(p: &Isometry3, out: &mut [f64]) {
@@ -137,12 +274,11 @@ fn whitening(sigma: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
     Some(inv)
 }
 
-/// Covariance of the station error `Log(C̃⁻¹ X⁻¹ G̃⁻¹ W)` to first order:
+/// The two parts of the covariance of the station error `Log(C̃⁻¹ X⁻¹ G̃⁻¹ W)` to first order,
+/// `Σ = Q_rot + Q_trans`: the rotation-noise part and the translation-noise part of
 /// `Σ_c + J Σ_g Jᵀ`, with `J = [[Rᵀ, 0], [−Rᵀ[t]×, Rᵀ]]` of `M = gripper_from_board` (the
 /// robot's gripper-frame noise seen from the board frame).
-fn station_covariance(m: &Isometry3, cfg: &RefineConfig) -> [[f64; 6]; 6] {
-    let (gr, gt) = (cfg.robot_rotation_sigma_deg.to_radians().powi(2), cfg.robot_translation_sigma.powi(2));
-    let (cr, ct) = (cfg.camera_rotation_sigma_deg.to_radians().powi(2), cfg.camera_translation_sigma.powi(2));
+fn station_covariance_parts(m: &Isometry3, s: &Sigmas) -> ([[f64; 6]; 6], [[f64; 6]; 6]) {
     let rt = m.rotation_matrix().transpose();
     let b = -(rt * skew(m.translation));
     let mut j = [[0.0; 6]; 6];
@@ -153,15 +289,117 @@ fn station_covariance(m: &Isometry3, cfg: &RefineConfig) -> [[f64; 6]; 6] {
             j[3 + r][3 + c] = rt.col(c)[r];
         }
     }
-    let d = [gr, gr, gr, gt, gt, gt];
-    let mut s = [[0.0; 6]; 6];
-    for r in 0..6 {
-        for c in 0..6 {
-            s[r][c] = (0..6).map(|k| j[r][k] * d[k] * j[c][k]).sum::<f64>();
+    let (gr, gt, cr, ct) = (s.gr * s.gr, s.gt * s.gt, s.cr * s.cr, s.ct * s.ct);
+    let part = |d: [f64; 6], cam: [f64; 6]| {
+        let mut q = [[0.0; 6]; 6];
+        for r in 0..6 {
+            for c in 0..6 {
+                q[r][c] = (0..6).map(|k| j[r][k] * d[k] * j[c][k]).sum::<f64>();
+            }
+            q[r][r] += cam[r];
         }
-        s[r][r] += if r < 3 { cr } else { ct };
+        q
+    };
+    (
+        part([gr, gr, gr, 0.0, 0.0, 0.0], [cr, cr, cr, 0.0, 0.0, 0.0]),
+        part([0.0, 0.0, 0.0, gt, gt, gt], [0.0, 0.0, 0.0, ct, ct, ct]),
+    )
+}
+
+fn add6(a: &[[f64; 6]; 6], b: &[[f64; 6]; 6]) -> [[f64; 6]; 6] {
+    std::array::from_fn(|r| std::array::from_fn(|c| a[r][c] + b[r][c]))
+}
+
+/// The fixed-frame-side pose `M` whose lever arm carries the robot noise into the station error.
+fn lever(setup: Setup, x: &Isometry3, c: &Isometry3, w: &Isometry3) -> Isometry3 {
+    match setup {
+        Setup::EyeInHand => *x * *c,
+        Setup::EyeToHand => *w,
     }
-    s
+}
+
+/// Per station: whitening `S`, rotation-noise part `Q_rot`, translation-noise part `Q_trans`.
+type StationNoise = ([[f64; 6]; 6], [[f64; 6]; 6], [[f64; 6]; 6]);
+
+fn whitenings(
+    camera_from_board: &[Isometry3],
+    setup: Setup,
+    x: &Isometry3,
+    w: &Isometry3,
+    s: &Sigmas,
+) -> Result<Vec<StationNoise>> {
+    camera_from_board
+        .iter()
+        .enumerate()
+        .map(|(k, ci)| {
+            let (qr, qt) = station_covariance_parts(&lever(setup, x, ci, w), s);
+            let sw = whitening(&add6(&qr, &qt)).ok_or_else(|| {
+                HandEyeError::numerical(
+                    "refinement",
+                    format!("noise covariance of station {k} is not positive definite"),
+                )
+            })?;
+            Ok((sw, qr, qt))
+        })
+        .collect()
+}
+
+/// Whitened noise blocks of one station (or motion): `T_k = S Q_k Sᵀ` for the rotation-noise
+/// and translation-noise parts, with `S` the whitening (`T_rot + T_trans = I`).
+type Blocks = ([[f64; 6]; 6], [[f64; 6]; 6]);
+
+fn whitened_blocks(s: &[[f64; 6]; 6], qr: &[[f64; 6]; 6], qt: &[[f64; 6]; 6]) -> Blocks {
+    let t = |q: &[[f64; 6]; 6]| -> [[f64; 6]; 6] {
+        std::array::from_fn(|a| {
+            std::array::from_fn(|b| (0..=a).map(|k| (0..=b).map(|l| s[a][k] * q[k][l] * s[b][l]).sum::<f64>()).sum())
+        })
+    };
+    (t(qr), t(qt))
+}
+
+/// One variance-component step (Helmert / Förstner) for the two noise groups: with whitened
+/// residuals `r`, whitened Jacobian `J`, `N = JᵀJ` and the whitened group blocks `T_k`,
+/// `f_k = rᵀ T_k r / (tr T_k − tr(N⁻¹ Jᵀ T_k J))` — the denominator is the group's share of the
+/// redundancy, so the group the parameters absorb more of is not under-estimated. Returns
+/// `√(f_trans / f_rot)`, the factor for the translation sigmas, or `None` when the residuals are
+/// at round-off level (noise-free data: nothing to estimate) or the step is not defined.
+fn translation_noise_factor<P: Problem>(problem: &P, params: &[f64], blocks: &[Blocks]) -> Option<f64> {
+    let (m, n) = (problem.num_residuals(), problem.num_params());
+    let mut r = vec![0.0; m];
+    let mut j = faer::Mat::<f64>::zeros(m, n);
+    problem.evaluate(params, &mut r, Some(j.as_mut())).ok()?;
+    let nmat = j.transpose() * &j;
+    let ninv = faer::linalg::solvers::DenseSolveCore::inverse(&nmat.llt(faer::Side::Lower).ok()?);
+    let (mut num, mut den) = ([0.0f64; 2], [0.0f64; 2]);
+    let mut max_r = 0.0f64;
+    for (i, (tr_, tt)) in blocks.iter().enumerate() {
+        let ri: [f64; 6] = std::array::from_fn(|a| r[6 * i + a]);
+        max_r = ri.iter().fold(max_r, |acc, v| acc.max(v.abs()));
+        for (g, t) in [tr_, tt].into_iter().enumerate() {
+            num[g] += (0..6).map(|a| (0..6).map(|b| ri[a] * t[a][b] * ri[b]).sum::<f64>()).sum::<f64>();
+            den[g] += (0..6).map(|a| t[a][a]).sum::<f64>();
+            // − tr(N⁻¹ J_iᵀ T J_i) = − Σ_pq N⁻¹[p][q] (J_iᵀ T J_i)[q][p]
+            let mut jtj = vec![0.0; n * n];
+            for q in 0..n {
+                for p in 0..n {
+                    let mut v = 0.0;
+                    for a in 0..6 {
+                        for b in 0..6 {
+                            v += j[(6 * i + a, q)] * t[a][b] * j[(6 * i + b, p)];
+                        }
+                    }
+                    jtj[q * n + p] = v;
+                }
+            }
+            den[g] -= (0..n).map(|p| (0..n).map(|q| ninv[(p, q)] * jtj[q * n + p]).sum::<f64>()).sum::<f64>();
+        }
+    }
+    // Whitened residuals of noise-free data are round-off (≲ 1e-6 of a sigma).
+    if max_r < 1e-7 || den[0] <= 0.0 || den[1] <= 0.0 {
+        return None;
+    }
+    let f = ((num[1] / den[1]) / (num[0] / den[0])).sqrt();
+    (f.is_finite() && f > 0.0).then_some(f)
 }
 
 /// Chordal mean of `G_i X C_i` (the fixed frame implied by every station).
@@ -330,7 +568,8 @@ fn covariance_of_x(cov: &faer::Mat<f64>, t: DVec3) -> [[f64; 6]; 6] {
     out
 }
 
-/// Refines `X` from an initial estimate by Levenberg–Marquardt.
+/// Refines `X` from an initial estimate by Levenberg–Marquardt, on normalised data (lengths in
+/// units of the scene scale `scale`, which only converts given translation sigmas).
 ///
 /// `robot` are the robot poses in the form `G_i X C_i = W` (`base_from_gripper` eye-in-hand,
 /// `gripper_from_base` eye-to-hand: see [`crate::Setup`]), `camera_from_board` the camera
@@ -339,7 +578,8 @@ fn covariance_of_x(cov: &faer::Mat<f64>, t: DVec3) -> [[f64; 6]; 6] {
 /// With `estimate_board` (default), the unknowns are `X` and `W` and every station contributes
 /// `Log(C̃_i⁻¹ X⁻¹ G̃_i⁻¹ W)`, whitened by its first-order covariance under the noise model of
 /// [`RefineConfig`] (robot noise is carried through the lever arm of the board): maximum
-/// likelihood to first order. The covariance is `σ̂² (JᵀJ)⁻¹`.
+/// likelihood to first order. The covariance is `σ̂² (JᵀJ)⁻¹`. The result is in the
+/// normalised unit; the caller scales it back ([`Refinement::scaled`]).
 pub(crate) fn refine(
     robot: &[Isometry3],
     camera_from_board: &[Isometry3],
@@ -347,35 +587,32 @@ pub(crate) fn refine(
     setup: Setup,
     initial: &Isometry3,
     cfg: &RefineConfig,
+    scale: f64,
 ) -> Result<Refinement> {
     cfg.validate()?;
     let mut x = *initial;
     let mut w = mean_board(robot, camera_from_board, &x)?;
-    let passes = cfg.passes.max(1);
+    let mut sig = cfg.initial_sigmas(scale);
     let mut iterations = 0;
-    let mut report = None;
+    let mut passes = 0;
+    let mut settled = !cfg.estimate_translation_noise;
+    let mut report: Option<LmReport> = None;
+    let mut used = sig;
+    let mut last_vce: Option<(f64, f64)> = None;
     let lm_err = |e| HandEyeError::numerical("refinement", e);
-    if cfg.estimate_board {
-        for _ in 0..passes {
-            let mut whiten = Vec::with_capacity(robot.len());
-            for (k, ci) in camera_from_board.iter().enumerate() {
-                let m = match setup {
-                    Setup::EyeInHand => x * *ci,
-                    Setup::EyeToHand => w,
-                };
-                let s = whitening(&station_covariance(&m, cfg)).ok_or_else(|| {
-                    HandEyeError::numerical(
-                        "refinement",
-                        format!("noise covariance of station {k} is not positive definite"),
-                    )
-                })?;
-                whiten.push(s);
-            }
+    let g_inv: Vec<Isometry3> = robot.iter().map(Isometry3::inverse).collect();
+    let c_inv: Vec<Isometry3> = camera_from_board.iter().map(Isometry3::inverse).collect();
+    while passes < cfg.max_passes {
+        passes += 1;
+        used = sig;
+        let factor = if cfg.estimate_board {
+            let parts = whitenings(camera_from_board, setup, &x, &w, &sig)?;
             let problem = AbsoluteProblem {
-                g_inv: robot.iter().map(Isometry3::inverse).collect(),
-                c_inv: camera_from_board.iter().map(Isometry3::inverse).collect(),
-                whiten,
+                g_inv: g_inv.clone(),
+                c_inv: c_inv.clone(),
+                whiten: parts.iter().map(|p| p.0).collect(),
             };
+            let blocks: Vec<Blocks> = parts.iter().map(|(s, qr, qt)| whitened_blocks(s, qr, qt)).collect();
             let mut p0 = [0.0; 12];
             pose_to_params(&x, &mut p0[..6]);
             pose_to_params(&w, &mut p0[6..]);
@@ -383,21 +620,60 @@ pub(crate) fn refine(
             x = params_to_pose(&rep.params[..6]);
             w = params_to_pose(&rep.params[6..12]);
             iterations += rep.iterations;
+            let f = if settled { None } else { translation_noise_factor(&problem, &rep.params, &blocks) };
             report = Some(rep);
+            f
+        } else {
+            let sr = (sig.gr * sig.gr + sig.cr * sig.cr).sqrt() * std::f64::consts::SQRT_2;
+            let st = (sig.gt * sig.gt + sig.ct * sig.ct).sqrt() * std::f64::consts::SQRT_2;
+            let problem = RelativeProblem { motions, scale: [sr, sr, sr, st, st, st] };
+            let mut p0 = [0.0; 6];
+            pose_to_params(&x, &mut p0);
+            let rep = levenberg_marquardt(&problem, &p0, &cfg.lm).map_err(lm_err)?;
+            x = params_to_pose(&rep.params);
+            w = mean_board(robot, camera_from_board, &x)?;
+            iterations += rep.iterations;
+            let mut rot = [[0.0; 6]; 6];
+            let mut tra = [[0.0; 6]; 6];
+            for i in 0..3 {
+                rot[i][i] = 1.0;
+                tra[3 + i][3 + i] = 1.0;
+            }
+            let blocks = vec![(rot, tra); motions.len()];
+            let f = if settled { None } else { translation_noise_factor(&problem, &rep.params, &blocks) };
+            report = Some(rep);
+            f
+        };
+        if !settled {
+            match factor {
+                None => settled = true,
+                Some(f) => {
+                    // Fixed point in log space: ln σ_t such that f(σ_t) = 1. The plain
+                    // variance-component step (ln σ += ln f) converges linearly and slowly when
+                    // the groups are correlated; a secant step on (ln σ, ln f) is used when the
+                    // previous pass gives a slope of the right sign, bounded to a factor 10.
+                    let (x, y) = (sig.ct.ln(), f.ln());
+                    if y.abs() <= cfg.noise_tolerance {
+                        settled = true;
+                    } else {
+                        let plain = x + y;
+                        let next = match last_vce {
+                            Some((x0, y0)) if x != x0 && (y - y0) / (x - x0) < 0.0 => x - y * (x - x0) / (y - y0),
+                            _ => plain,
+                        };
+                        let next = next.clamp(x - std::f64::consts::LN_10, x + std::f64::consts::LN_10);
+                        last_vce = Some((x, y));
+                        // Keep the estimate within [1e-6, 1] scene scales.
+                        let ct = next.exp().clamp(1e-6, 1.0);
+                        sig.gt *= ct / sig.ct;
+                        sig.ct = ct;
+                    }
+                }
+            }
         }
-    } else {
-        let (gr, gt) = (cfg.robot_rotation_sigma_deg.to_radians(), cfg.robot_translation_sigma);
-        let (cr, ct) = (cfg.camera_rotation_sigma_deg.to_radians(), cfg.camera_translation_sigma);
-        let sr = (2.0 * (gr * gr + cr * cr)).sqrt();
-        let st = (2.0 * (gt * gt + ct * ct)).sqrt();
-        let problem = RelativeProblem { motions, scale: [sr, sr, sr, st, st, st] };
-        let mut p0 = [0.0; 6];
-        pose_to_params(&x, &mut p0);
-        let rep = levenberg_marquardt(&problem, &p0, &cfg.lm).map_err(lm_err)?;
-        x = params_to_pose(&rep.params);
-        w = mean_board(robot, camera_from_board, &x)?;
-        iterations += rep.iterations;
-        report = Some(rep);
+        if passes >= cfg.passes && settled {
+            break;
+        }
     }
     let rep = report.expect("at least one pass");
     let covariance = rep.covariance.as_ref().map(|c| covariance_of_x(c, x.translation));
@@ -413,26 +689,30 @@ pub(crate) fn refine(
         variance_factor: rep.sigma2,
         rms: rep.rms(),
         iterations,
+        passes,
+        converged: at_minimum(rep.stop_reason) && settled,
+        stop_reason: rep.stop_reason,
+        noise_settled: settled,
+        robot_translation_sigma: used.gt,
+        camera_translation_sigma: used.ct,
     })
 }
 
-/// The refinement cost `½‖r‖²` at `x` (used to pick the best linear start).
+/// The refinement cost `½‖r‖²` at `x` under the starting noise model (used to pick the best
+/// linear start; normalised data).
 pub(crate) fn initial_cost(
     robot: &[Isometry3],
     camera_from_board: &[Isometry3],
     setup: Setup,
     x: &Isometry3,
     cfg: &RefineConfig,
+    scale: f64,
 ) -> Result<f64> {
     let w = mean_board(robot, camera_from_board, x)?;
+    let sig = cfg.initial_sigmas(scale);
+    let parts = whitenings(camera_from_board, setup, x, &w, &sig)?;
     let mut cost = 0.0;
-    for (gi, ci) in robot.iter().zip(camera_from_board) {
-        let m = match setup {
-            Setup::EyeInHand => *x * *ci,
-            Setup::EyeToHand => w,
-        };
-        let s = whitening(&station_covariance(&m, cfg))
-            .ok_or_else(|| HandEyeError::numerical("refinement", "noise covariance is not positive definite"))?;
+    for ((gi, ci), (s, _, _)) in robot.iter().zip(camera_from_board).zip(&parts) {
         let e = error_vector(&(ci.inverse() * x.inverse() * gi.inverse() * w));
         for row in 0..6 {
             let v: f64 = (0..=row).map(|c| s[row][c] * e[c]).sum();

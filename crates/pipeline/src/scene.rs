@@ -129,8 +129,9 @@ pub fn run_scene(name: &str, scene: &SceneDescription, out: &Path, corrupt: Opti
         num_disparities: (scene.stereo_scene.max_disparity.ceil() as usize + 16) & !15,
         ..Default::default()
     };
-    // Noise model of the refinement in the scene's units: the robot's from the scene, the camera
-    // poses (from PnP on detected corners) taken as no better than the robot's.
+    // Noise model of the refinement in the scene's units: the robot's from the scene (known here,
+    // so not estimated), the camera poses (from PnP on detected corners) taken as no better than
+    // the robot's.
     let sigma_deg = scene.trajectory.rot_noise_rad.to_degrees().max(1e-3);
     let sigma_t = scene.trajectory.trans_noise.max(1e-3 * scene.board.square_size);
     input.hand_eye = parallax_hand_eye::HandEyeConfig {
@@ -140,6 +141,7 @@ pub fn run_scene(name: &str, scene: &SceneDescription, out: &Path, corrupt: Opti
             robot_translation_sigma: sigma_t,
             camera_rotation_sigma_deg: sigma_deg,
             camera_translation_sigma: sigma_t,
+            estimate_translation_noise: false,
             ..Default::default()
         },
         ..Default::default()

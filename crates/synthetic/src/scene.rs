@@ -276,7 +276,7 @@ impl SceneDescription {
     pub fn in_unit(&self, factor: f64, unit: &str) -> Self {
         let mut s = self.clone();
         s.unit = unit.to_string();
-        let scale_pose = |p: &Isometry3| Isometry3::from_quat_translation(p.rotation(), p.translation * factor);
+        let scale_pose = |p: &Isometry3| p.with_translation(p.translation * factor);
         s.rig.right_from_left = scale_pose(&s.rig.right_from_left);
         s.board.square_size *= factor;
         for v in [&mut s.views, &mut s.stereo_views] {

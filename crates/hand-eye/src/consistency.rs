@@ -1,0 +1,388 @@
+//! Pre-solve consistency checks of the paired poses: facts every correct data set satisfies
+//! whatever `X` is, so a failure names a mistake in the input rather than a bad solution.
+//!
+//! `A X = X B` makes every robot motion `A` a conjugate of its camera motion `B`; conjugation
+//! by a rigid transform preserves
+//!
+//! * the rotation angle of each motion (`θ_A = θ_B`),
+//! * the rotation axes up to one common rotation (`axis_A = R_X axis_B`): after the best such
+//!   rotation (orthogonal Procrustes, a lower bound over every `X`) only noise is left,
+//! * the screw invariants with a length: the scalar part of the dual quaternion
+//!   (`−½ sin(θ/2) · (axis · t)`) and the dual part of the inner product of two motions' screw
+//!   axes (`v_k·d_l + d_k·v_l` with `q = v + ε d` the vector parts). Their ratio robot : camera is
+//!   the ratio of the length units.
+//!
+//! Inverting one side (robot poses given as `gripper_from_base`, eye-to-hand data solved as
+//! eye-in-hand or the reverse, camera poses given as `board_from_camera`) keeps the angles but
+//! rotates each motion's axis by a different station orientation and mirrors it (`α' = −R_j α`);
+//! reading roll-pitch-yaw degrees as axis-angle radians changes the angles themselves. A camera
+//! pose `camera_from_board` must also put the board in front of the camera (`t_z > 0`).
+
+use glam::{DMat3, DVec3};
+use parallax_camera_model::Isometry3;
+use serde::{Deserialize, Serialize};
+
+use crate::linear::dual_quat;
+use crate::motion::{Motion, PairSelection, Setup, check_stations, motions_from_internal, robot_side};
+use crate::{HandEyeError, Result};
+use parallax_least_squares::nearest_rotation;
+
+/// Thresholds and overrides of the consistency checks (all unit-free).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ConsistencyConfig {
+    /// Largest median over the motions of `|θ_A − θ_B|`, degrees. Pose noise of 0.1° gives
+    /// about 0.1°; a wrong rotation convention gives tens of degrees.
+    pub max_angle_mismatch_deg: f64,
+    /// Largest median angle between the robot motions' rotation axes and the camera motions'
+    /// axes under the best common rotation, degrees (noise of 0.1° gives well under 1°).
+    pub max_axis_mismatch_deg: f64,
+    /// Motions rotating by less than this (or more than 180° minus this) on either side are left
+    /// out of the axis test (their axes are noisy or sign-ambiguous), degrees.
+    pub min_axis_rotation_deg: f64,
+    /// Largest accepted ratio (either way) of the robot's to the camera's length invariants.
+    pub max_scale_ratio: f64,
+    /// Above this ratio (either way, and up to `max_scale_ratio`) the solution carries a
+    /// [`crate::HandEyeWarning::ScaleDisagreement`]: a wrong square size or focal length, whose
+    /// error the translation of `X` absorbs. Noise of 0.3° / 3 mm gives at most ×1.07 over 400
+    /// synthetic sets.
+    pub warn_scale_ratio: f64,
+    /// The length invariants decide the scale only when robot and camera invariants correlate
+    /// at least this much; below, the motions carry too little translation signal (rotations
+    /// about one point) and the scale is reported unchecked (a warning).
+    pub min_scale_correlation: f64,
+    /// Skip the rotation checks (angles, axes, handedness) — CLI `--allow-rotation-mismatch`.
+    pub allow_rotation_mismatch: bool,
+    /// Skip the length-unit check — CLI `--allow-scale-mismatch`.
+    pub allow_scale_mismatch: bool,
+    /// Accept camera poses with the board behind the camera — CLI `--allow-board-behind-camera`.
+    pub allow_board_behind_camera: bool,
+}
+
+impl Default for ConsistencyConfig {
+    fn default() -> Self {
+        Self {
+            max_angle_mismatch_deg: 2.0,
+            max_axis_mismatch_deg: 5.0,
+            min_axis_rotation_deg: 10.0,
+            max_scale_ratio: 1.2,
+            warn_scale_ratio: 1.1,
+            min_scale_correlation: 0.95,
+            allow_rotation_mismatch: false,
+            allow_scale_mismatch: false,
+            allow_board_behind_camera: false,
+        }
+    }
+}
+
+impl ConsistencyConfig {
+    fn validate(&self) -> Result<()> {
+        let ok = self.max_angle_mismatch_deg >= 0.0
+            && self.max_axis_mismatch_deg >= 0.0
+            && (0.0..90.0).contains(&self.min_axis_rotation_deg)
+            && self.max_scale_ratio >= 1.0
+            && self.warn_scale_ratio >= 1.0
+            && (0.0..=1.0).contains(&self.min_scale_correlation);
+        if !ok {
+            return Err(HandEyeError::InvalidConfig(format!("consistency thresholds out of range: {self:?}")));
+        }
+        Ok(())
+    }
+}
+
+/// The kind of mistake a consistency check found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Inconsistency {
+    /// A camera pose puts the board behind the camera: inverted camera poses or a
+    /// non-OpenCV camera frame.
+    BoardBehindCamera,
+    /// The motions agree only with one side inverted: robot poses inverted, the wrong
+    /// eye-in-hand / eye-to-hand mode, or camera poses inverted.
+    InvertedPoses,
+    /// Robot and camera rotations disagree outright: a wrong rotation format (roll-pitch-yaw
+    /// degrees read as axis-angle, degrees for radians), or stations out of order.
+    RotationMismatch,
+    /// The robot and camera translations are in different length units.
+    UnitMismatch,
+}
+
+/// Figures of the consistency checks (all unit-free).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct ConsistencyReport {
+    /// Median over the motions of `|θ_A − θ_B|`, degrees.
+    pub angle_mismatch_deg: f64,
+    /// Median angle between the robot axes and the best common rotation of the camera axes,
+    /// degrees (`None` with fewer than two motions usable for axes).
+    pub axis_mismatch_deg: Option<f64>,
+    /// Robot : camera ratio of the length invariants (`None` without translation signal).
+    pub scale_ratio: Option<f64>,
+    /// Correlation of the robot and camera length invariants (1 when they agree up to scale).
+    pub scale_correlation: Option<f64>,
+}
+
+/// At most this many motions enter the pair and triple statistics (spread over the list).
+const MAX_STAT_MOTIONS: usize = 30;
+
+fn vec_angle_deg(u: DVec3, v: DVec3) -> f64 {
+    u.cross(v).length().atan2(u.dot(v)).to_degrees()
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) })
+}
+
+/// Evenly spread subset of at most `MAX_STAT_MOTIONS` items.
+fn spread<T: Copy>(items: &[T]) -> Vec<T> {
+    let step = items.len().div_ceil(MAX_STAT_MOTIONS).max(1);
+    items.iter().step_by(step).copied().collect()
+}
+
+#[derive(Debug, Clone, Copy)]
+struct RotationStats {
+    angle: f64,
+    axis: Option<f64>,
+}
+
+impl RotationStats {
+    fn consistent(&self, cfg: &ConsistencyConfig) -> bool {
+        self.angle <= cfg.max_angle_mismatch_deg && self.axis.is_none_or(|a| a <= cfg.max_axis_mismatch_deg)
+    }
+}
+
+/// Median `|θ_A − θ_B|`, and the median angle left between the robot axes and the camera axes
+/// under the best common proper rotation (orthogonal Procrustes over the unit axes of the
+/// motions that rotate by at least `min_axis_rotation_deg` on both sides). The second is a
+/// lower bound over every `X`: no hand-eye solution can map the axes closer, so it does not
+/// depend on a solver; with one side inverted the axes are rotated by each station's own
+/// orientation and mirrored, which no single rotation undoes.
+fn rotation_stats(motions: &[Motion], cfg: &ConsistencyConfig) -> RotationStats {
+    let angle = median(motions.iter().map(|m| (m.a.angle() - m.b.angle()).abs().to_degrees()).collect()).unwrap_or(0.0);
+    let lo = cfg.min_axis_rotation_deg.to_radians();
+    let hi = std::f64::consts::PI - lo;
+    let usable: Vec<(DVec3, DVec3)> = motions
+        .iter()
+        .filter(|m| (lo..=hi).contains(&m.a.angle()) && (lo..=hi).contains(&m.b.angle()))
+        .map(|m| (m.a.rvec().normalize(), m.b.rvec().normalize()))
+        .collect();
+    let axis = if usable.len() < 2 {
+        None
+    } else {
+        let mut m = DMat3::ZERO;
+        for (a, b) in &usable {
+            m += DMat3::from_cols(*a * b.x, *a * b.y, *a * b.z);
+        }
+        nearest_rotation(m).ok().and_then(|r| median(usable.iter().map(|(a, b)| vec_angle_deg(*a, r * *b)).collect()))
+    };
+    RotationStats { angle, axis }
+}
+
+/// Robot : camera ratio and correlation of the length invariants (dual-quaternion scalar parts
+/// and pairwise dual inner products); `None` when either side has no translation signal.
+fn scale_stats(motions: &[Motion]) -> Option<(f64, f64)> {
+    let lim = 170f64.to_radians();
+    let dq: Vec<((glam::DQuat, glam::DQuat), (glam::DQuat, glam::DQuat))> = motions
+        .iter()
+        .filter(|m| m.a.angle() <= lim && m.b.angle() <= lim)
+        .map(|m| (dual_quat(&m.a), dual_quat(&m.b)))
+        .collect();
+    let dq = spread(&dq);
+    let (mut saa, mut sbb, mut sab) = (0.0, 0.0, 0.0);
+    let mut add = |a: f64, b: f64| {
+        saa += a * a;
+        sbb += b * b;
+        sab += a * b;
+    };
+    for ((_, ad), (_, bd)) in &dq {
+        add(ad.w, bd.w);
+    }
+    for k in 0..dq.len() {
+        for l in k + 1..dq.len() {
+            let inv = |(rk, dk): (glam::DQuat, glam::DQuat), (rl, dl): (glam::DQuat, glam::DQuat)| {
+                rk.xyz().dot(dl.xyz()) + dk.xyz().dot(rl.xyz())
+            };
+            add(inv(dq[k].0, dq[l].0), inv(dq[k].1, dq[l].1));
+        }
+    }
+    (saa > 0.0 && sbb > 0.0 && saa.is_finite() && sbb.is_finite())
+        .then(|| ((saa / sbb).sqrt(), sab / (saa * sbb).sqrt()))
+}
+
+/// Known ratios between length units, with the reading of `robot = factor × camera`.
+const UNIT_FACTORS: [(f64, &str); 9] = [
+    (1000.0, "robot in millimetres and camera in metres"),
+    (100.0, "robot in centimetres and camera in metres"),
+    (10.0, "robot in millimetres and camera in centimetres"),
+    (25.4, "robot in millimetres and camera in inches"),
+    (2.54, "robot in centimetres and camera in inches"),
+    (39.37, "robot in inches and camera in metres"),
+    (304.8, "robot in millimetres and camera in feet"),
+    (3.2808, "robot in feet and camera in metres"),
+    (12.0, "robot in inches and camera in feet"),
+];
+
+/// The standard unit factor within 15 % of `ratio` (robot : camera), with its reading.
+pub fn unit_factor_hint(ratio: f64) -> Option<(f64, String)> {
+    let swap = |s: &str| {
+        let (r, c) = s.split_once(" and camera in ").expect("fixed format");
+        format!("camera in {} and robot in {}", r.trim_start_matches("robot in "), c)
+    };
+    UNIT_FACTORS.iter().find_map(|(f, what)| {
+        if (ratio / f).ln().abs() < 0.15f64.ln_1p() {
+            Some((*f, what.to_string()))
+        } else if (ratio * f).ln().abs() < 0.15f64.ln_1p() {
+            Some((1.0 / f, swap(what)))
+        } else {
+            None
+        }
+    })
+}
+
+fn inconsistent(kind: Inconsistency, message: String) -> HandEyeError {
+    HandEyeError::Inconsistent { kind, message }
+}
+
+fn list_stations(idx: &[usize]) -> String {
+    let shown: Vec<String> = idx.iter().take(12).map(usize::to_string).collect();
+    format!("{}{}", shown.join(", "), if idx.len() > 12 { ", …" } else { "" })
+}
+
+/// Checks the poses (already in the `G_i X C_i = W` form of `setup`) and their motions; returns
+/// the figures or the first failed check as [`HandEyeError::Inconsistent`] with a hint.
+pub(crate) fn check(
+    robot: &[Isometry3],
+    camera_from_board: &[Isometry3],
+    motions: &[Motion],
+    setup: Setup,
+    pairs: PairSelection,
+    cfg: &ConsistencyConfig,
+) -> Result<ConsistencyReport> {
+    cfg.validate()?;
+    if !cfg.allow_board_behind_camera {
+        let behind: Vec<usize> =
+            camera_from_board.iter().enumerate().filter(|(_, c)| c.translation.z <= 0.0).map(|(k, _)| k).collect();
+        if !behind.is_empty() {
+            return Err(inconsistent(
+                Inconsistency::BoardBehindCamera,
+                format!(
+                    "{} of {} camera poses put the board behind the camera (t_z ≤ 0; stations {}): a \
+                     camera_from_board pose has the board in front (OpenCV camera frame, z forward). \
+                     Likely mistake: the camera poses are inverted (board_from_camera) — invert them; or the \
+                     camera frame is z-backward (OpenGL). Override: consistency.allow_board_behind_camera \
+                     (--allow-board-behind-camera)",
+                    behind.len(),
+                    camera_from_board.len(),
+                    list_stations(&behind)
+                ),
+            ));
+        }
+    }
+    let rot = rotation_stats(motions, cfg);
+    let mut report =
+        ConsistencyReport { angle_mismatch_deg: rot.angle, axis_mismatch_deg: rot.axis, ..Default::default() };
+    if !cfg.allow_rotation_mismatch && !rot.consistent(cfg) {
+        let figures = format!(
+            "median |θ_robot − θ_camera| {:.2}° (limit {}°), median axis mismatch under the best common rotation {}",
+            rot.angle,
+            cfg.max_angle_mismatch_deg,
+            rot.axis.map_or("n/a".into(), |a| format!("{a:.2}° (limit {}°)", cfg.max_axis_mismatch_deg)),
+        );
+        let inverted: Vec<Isometry3> = robot.iter().map(Isometry3::inverse).collect();
+        let inv = rotation_stats(&motions_from_internal(&inverted, camera_from_board, pairs), cfg);
+        if inv.consistent(cfg) {
+            let (mode, other) = match setup {
+                Setup::EyeInHand => ("eye-in-hand", "eye-to-hand (camera fixed, board on the gripper: --eye-to-hand)"),
+                Setup::EyeToHand => ("eye-to-hand", "eye-in-hand (camera on the gripper: drop --eye-to-hand)"),
+            };
+            return Err(inconsistent(
+                Inconsistency::InvertedPoses,
+                format!(
+                    "robot and camera motions disagree ({figures}) but agree with the robot poses inverted \
+                     (median angle mismatch {:.2}°, axis mismatch {}). Likely mistake: the data is {other} \
+                     while solving {mode}; or the robot poses are gripper_from_base instead of base_from_gripper \
+                     (invert them); or the camera poses are board_from_camera instead of camera_from_board. \
+                     Override: consistency.allow_rotation_mismatch (--allow-rotation-mismatch)",
+                    inv.angle,
+                    inv.axis.map_or("n/a".into(), |a| format!("{a:.2}°")),
+                ),
+            ));
+        }
+        return Err(inconsistent(
+            Inconsistency::RotationMismatch,
+            format!(
+                "robot and camera rotations disagree ({figures}); equal motion angles are required by \
+                 A X = X B whatever X is. Likely mistake: the robot rotation format — roll-pitch-yaw in \
+                 degrees read as axis-angle radians (or the reverse, or degrees for radians, or another \
+                 Euler order); or the robot and camera lists are not in the same station order. \
+                 Override: consistency.allow_rotation_mismatch (--allow-rotation-mismatch)"
+            ),
+        ));
+    }
+    if let Some((ratio, corr)) = scale_stats(motions) {
+        report.scale_ratio = Some(ratio);
+        report.scale_correlation = Some(corr);
+        let off = ratio.max(1.0 / ratio);
+        if !cfg.allow_scale_mismatch && corr >= cfg.min_scale_correlation && off > cfg.max_scale_ratio {
+            let hint = match unit_factor_hint(ratio) {
+                Some((f, what)) => {
+                    format!("factor ≈ {}: {what}", if f >= 1.0 { format!("{f}") } else { format!("1/{}", 1.0 / f) })
+                }
+                None => "not a standard unit factor: check the square size and the robot's length unit".into(),
+            };
+            return Err(inconsistent(
+                Inconsistency::UnitMismatch,
+                format!(
+                    "the robot's translations are {ratio:.4}× the camera's (screw invariants of the paired motions, \
+                     correlation {corr:.4}; limit ×{} either way): {hint}. Give both in one unit (with images, \
+                     --square in the robot poses' unit). Override: consistency.allow_scale_mismatch \
+                     (--allow-scale-mismatch)",
+                    cfg.max_scale_ratio
+                ),
+            ));
+        }
+    }
+    Ok(report)
+}
+
+/// The consistency checks on their own (as [`crate::calibrate`] runs them before solving).
+pub fn check_consistency(
+    base_from_gripper: &[Isometry3],
+    camera_from_board: &[Isometry3],
+    setup: Setup,
+    pairs: PairSelection,
+    cfg: &ConsistencyConfig,
+) -> Result<ConsistencyReport> {
+    check_stations(base_from_gripper, camera_from_board, 3)?;
+    let robot = robot_side(base_from_gripper, setup);
+    let motions = motions_from_internal(&robot, camera_from_board, pairs);
+    check(&robot, camera_from_board, &motions, setup, pairs, cfg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unit_factors_are_named_both_ways() {
+        let (f, what) = unit_factor_hint(1003.0).unwrap();
+        assert_eq!(f, 1000.0);
+        assert!(what.contains("robot in millimetres and camera in metres"), "{what}");
+        let (f, what) = unit_factor_hint(1.0 / 998.0).unwrap();
+        assert!((f - 1e-3).abs() < 1e-15);
+        assert!(what.contains("camera in millimetres and robot in metres"), "{what}");
+        assert_eq!(unit_factor_hint(25.0).unwrap().0, 25.4);
+        assert!(unit_factor_hint(1.5).is_none());
+        assert!(unit_factor_hint(600.0).is_none());
+    }
+
+    #[test]
+    fn median_of_even_and_odd_lists() {
+        assert_eq!(median(vec![3.0, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(vec![4.0, 1.0, 2.0, 3.0]), Some(2.5));
+        assert_eq!(median(vec![]), None);
+    }
+}
