@@ -85,10 +85,49 @@ pub fn load_rig(path: &Path) -> Result<parallax_camera_model::StereoRig> {
         .map_err(|e| PipelineError::Format { path: path.to_path_buf(), message: format!("invalid stereo rig: {e}") })
 }
 
-/// Loads an image as 8-bit grayscale (colour is converted with the image crate's luma weights).
+/// Largest image accepted by [`load_image`]: 2^28 pixels (e.g. 16384 x 16384), and at most
+/// 2 GiB of decoded data, so a corrupt or hostile header cannot make the decoder allocate more.
+pub const MAX_IMAGE_PIXELS: u64 = 1 << 28;
+
+/// Decodes an image file, refusing what a decoder would silently accept: a JPEG without its
+/// end-of-image marker (a truncated file decodes with the missing rows grey), images larger
+/// than [`MAX_IMAGE_PIXELS`], and anything the decoder reports. Every error names the file.
+pub fn load_image(path: &Path) -> Result<image::DynamicImage> {
+    let bytes = std::fs::read(path).map_err(io_err("reading", path))?;
+    let image_err = |source| PipelineError::Image { path: path.to_path_buf(), source };
+    let format = image::guess_format(&bytes).map_err(image_err)?;
+    if format == image::ImageFormat::Jpeg {
+        // A complete JPEG ends with the EOI marker FF D9 (some writers pad with zeros after it).
+        let end = bytes.iter().rposition(|&b| b != 0).map_or(0, |i| i + 1);
+        if end < 2 || bytes[end - 2..end] != [0xFF, 0xD9] {
+            return Err(PipelineError::Input(format!(
+                "{}: truncated or corrupt JPEG (no end-of-image marker): re-export or re-copy the file",
+                path.display()
+            )));
+        }
+    }
+    let mut reader = image::ImageReader::with_format(std::io::Cursor::new(&bytes), format);
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(2 << 30);
+    reader.limits(limits);
+    let (w, h) = reader.into_dimensions().map_err(image_err)?;
+    if u64::from(w) * u64::from(h) > MAX_IMAGE_PIXELS {
+        return Err(PipelineError::Input(format!(
+            "{}: {w}x{h} is larger than the {MAX_IMAGE_PIXELS}-pixel limit",
+            path.display()
+        )));
+    }
+    let mut reader = image::ImageReader::with_format(std::io::Cursor::new(&bytes), format);
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(2 << 30);
+    reader.limits(limits);
+    reader.decode().map_err(image_err)
+}
+
+/// Loads an image as 8-bit grayscale (colour is converted with the image crate's luma weights),
+/// through [`load_image`]'s checks.
 pub fn load_gray(path: &Path) -> Result<image::GrayImage> {
-    let img = image::open(path).map_err(|source| PipelineError::Image { path: path.to_path_buf(), source })?;
-    Ok(img.into_luma8())
+    Ok(load_image(path)?.into_luma8())
 }
 
 /// Encodes an image as PNG (in memory).
@@ -218,6 +257,26 @@ mod tests {
         let junk = dir.join("junk.ron");
         write_atomic(&junk, b"(a: 1)").unwrap();
         assert!(load_rig(&junk).unwrap_err().to_string().contains("junk.ron"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_truncated_jpeg_is_refused_naming_the_file() {
+        let dir = temp("jpeg");
+        std::fs::create_dir_all(&dir).unwrap();
+        let img = image::GrayImage::from_fn(64, 48, |x, y| image::Luma([((x * 7 + y * 3) % 256) as u8]));
+        let mut bytes = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Jpeg).unwrap();
+        let whole = dir.join("whole.jpg");
+        std::fs::write(&whole, &bytes).unwrap();
+        assert_eq!(load_gray(&whole).unwrap().dimensions(), (64, 48));
+        let cut = dir.join("cut.jpg");
+        std::fs::write(&cut, &bytes[..bytes.len() * 2 / 3]).unwrap();
+        let err = load_gray(&cut).unwrap_err().to_string();
+        assert!(err.contains("cut.jpg") && err.contains("truncated"), "{err}");
+        let garbage = dir.join("garbage.png");
+        std::fs::write(&garbage, b"\x89PNG\r\n\x1a\nnot really").unwrap();
+        assert!(load_gray(&garbage).unwrap_err().to_string().contains("garbage.png"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
