@@ -323,7 +323,7 @@ impl FisheyeLens {
 
     /// Normalised image point of a camera-frame direction, its 2x3 Jacobian with respect to the
     /// direction and its 2xN Jacobian with respect to the lens parameters.
-    pub fn project_normalized(&self, p: DVec3) -> Result<(DVec2, [[f64; 3]; 2], [[f64; 4]; 2])> {
+    pub fn project_normalized(&self, p: DVec3) -> Result<NormalizedProjection> {
         if !p.is_finite() {
             return Err(CameraModelError::NonFinite { what: "point" });
         }
@@ -360,6 +360,10 @@ impl FisheyeLens {
     }
 }
 
+/// A normalised image point, its 2x3 Jacobian with respect to the camera-frame point and its
+/// Jacobian with respect to the lens parameters (first `num_parameters` columns used).
+pub type NormalizedProjection = (DVec2, [[f64; 3]; 2], [[f64; 4]; 2]);
+
 fn outside_fov(theta: f64, max: f64) -> CameraModelError {
     CameraModelError::OutsideValidRegion {
         what: "point",
@@ -371,7 +375,7 @@ fn outside_fov(theta: f64, max: f64) -> CameraModelError {
     }
 }
 
-fn kb_project(m: &KannalaBrandt, p: DVec3, norm: f64) -> Result<(DVec2, [[f64; 3]; 2], [[f64; 4]; 2])> {
+fn kb_project(m: &KannalaBrandt, p: DVec3, norm: f64) -> Result<NormalizedProjection> {
     let (x, y, z) = (p.x, p.y, p.z);
     let rho = x.hypot(y);
     let theta = rho.atan2(z);
@@ -397,7 +401,7 @@ fn kb_project(m: &KannalaBrandt, p: DVec3, norm: f64) -> Result<(DVec2, [[f64; 3
     Ok((DVec2::new(s * x, s * y), d, dl))
 }
 
-fn ds_project(m: &DoubleSphere, p: DVec3, d1: f64) -> Result<(DVec2, [[f64; 3]; 2], [[f64; 4]; 2])> {
+fn ds_project(m: &DoubleSphere, p: DVec3, d1: f64) -> Result<NormalizedProjection> {
     let (x, y, z) = (p.x, p.y, p.z);
     let (xi, alpha) = (m.xi, m.alpha);
     let w2 = m.w2();
@@ -407,7 +411,7 @@ fn ds_project(m: &DoubleSphere, p: DVec3, d1: f64) -> Result<(DVec2, [[f64; 3]; 
     let k = xi * d1 + z;
     let d2 = (x * x + y * y + k * k).sqrt();
     let den = alpha * d2 + (1.0 - alpha) * k;
-    if !(den > 0.0) {
+    if den.is_nan() || den <= 0.0 {
         return Err(outside_fov((z / d1).clamp(-1.0, 1.0).acos(), m.max_theta()));
     }
     let mx = x / den;
@@ -444,7 +448,7 @@ fn ds_unproject(m: &DoubleSphere, n: DVec2) -> Result<DVec3> {
     }
     let mz = (1.0 - alpha * alpha * r2) / (alpha * (1.0 - (2.0 * alpha - 1.0) * r2).max(0.0).sqrt() + 1.0 - alpha);
     let disc = mz * mz + (1.0 - xi * xi) * r2;
-    if !(disc >= 0.0) || mz * mz + r2 == 0.0 {
+    if disc.is_nan() || disc < 0.0 || mz * mz + r2 == 0.0 {
         return Err(CameraModelError::OutsideValidRegion {
             what: "pixel",
             detail: format!("no ray of the double sphere (ξ = {xi}, α = {alpha}) maps to normalised radius² {r2:.6}"),

@@ -47,6 +47,7 @@ pub use error::CameraModelError;
 pub use fisheye::{
     DoubleSphere, DoubleSphereParameters, FISHEYE_UNPROJECT_MAX_ITERATIONS, FISHEYE_UNPROJECT_TOLERANCE, FisheyeCamera,
     FisheyeCameraParameters, FisheyeLens, FisheyeStereoRig, KannalaBrandt, KannalaBrandtCoefficients,
+    NormalizedProjection,
 };
 pub use model::CameraModel;
 pub use projection::{ProjectionJacobians, UNDISTORT_MAX_ITERATIONS, UNDISTORT_TOLERANCE};
