@@ -1,0 +1,202 @@
+//! Calibration view sets for wide-angle cameras: the board is placed anywhere in the (possibly
+//! more than 180°) field of view, facing the camera, so the periphery of a fisheye lens is
+//! covered. Works for any [`CameraModel`]; rendering goes through [`crate::render_chessboard`],
+//! which is generic too.
+
+use glam::{DQuat, DVec2, DVec3};
+use parallax_camera_model::{CameraModel, Chessboard, Isometry3};
+use serde::{Deserialize, Serialize};
+
+use crate::SyntheticError;
+use crate::error::{non_negative, positive};
+use crate::noise::{rng, uniform};
+
+/// How [`wide_angle_calibration_poses`] spreads the views. Lengths are in the board's unit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct WideViewSetConfig {
+    /// Number of views (at least 1).
+    pub views: usize,
+    /// Largest tilt of the board away from facing the camera (its normal along the line of
+    /// sight), degrees, below 75. Default 45.
+    pub max_tilt_deg: f64,
+    /// Smallest camera-to-board-centre distance. Default 200.
+    pub min_distance: f64,
+    /// Largest camera-to-board-centre distance. Default 450.
+    pub max_distance: f64,
+    /// Largest rotation of the board about its normal, degrees. Default 180 (any roll).
+    pub max_roll_deg: f64,
+    /// Part of the board that must be visible around the inner corners, in squares. Default 1.5.
+    pub border_squares: f64,
+    /// Distance every visible point keeps from the image border, pixels. Default 4.
+    pub margin_px: f64,
+    /// Seed of the generator.
+    pub seed: u64,
+}
+
+impl Default for WideViewSetConfig {
+    fn default() -> Self {
+        Self {
+            views: 20,
+            max_tilt_deg: 45.0,
+            min_distance: 200.0,
+            max_distance: 450.0,
+            max_roll_deg: 180.0,
+            border_squares: 1.5,
+            margin_px: 4.0,
+            seed: 1,
+        }
+    }
+}
+
+impl WideViewSetConfig {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), SyntheticError> {
+        if self.views == 0 {
+            return Err(SyntheticError::config("views", "must be at least 1"));
+        }
+        non_negative("max_tilt_deg", self.max_tilt_deg)?;
+        if self.max_tilt_deg >= 75.0 {
+            return Err(SyntheticError::config("max_tilt_deg", format!("must be below 75, got {}", self.max_tilt_deg)));
+        }
+        non_negative("max_roll_deg", self.max_roll_deg)?;
+        positive("min_distance", self.min_distance)?;
+        positive("max_distance", self.max_distance)?;
+        if self.min_distance > self.max_distance {
+            return Err(SyntheticError::config(
+                "min_distance",
+                format!("{} is larger than max_distance {}", self.min_distance, self.max_distance),
+            ));
+        }
+        non_negative("border_squares", self.border_squares)?;
+        non_negative("margin_px", self.margin_px)?;
+        Ok(())
+    }
+}
+
+const ATTEMPTS_PER_VIEW: usize = 4000;
+
+/// `camera_from_board` poses for a mono session with a wide-angle camera: the board centre is
+/// seen at a pixel drawn uniformly over the image (so views reach the periphery, beyond 90°
+/// from the axis when the lens images it), at a distance in `[min_distance, max_distance]`,
+/// facing the camera up to `max_tilt_deg`; every inner corner and the border
+/// (`border_squares`) project inside the image by `margin_px`, inside the model's valid region,
+/// and are seen from the front at less than 75° from the board normal. Seeded.
+pub fn wide_angle_calibration_poses<C: CameraModel>(
+    camera: &C,
+    board: &Chessboard,
+    cfg: &WideViewSetConfig,
+) -> Result<Vec<Isometry3>, SyntheticError> {
+    camera.validate().map_err(SyntheticError::model("camera"))?;
+    generate(&[(camera, Isometry3::IDENTITY)], board, cfg)
+}
+
+/// Left `camera_from_board` poses for a stereo session of two wide-angle cameras
+/// (`right_from_left` the rig's pose): the board fully visible in both.
+pub fn wide_angle_stereo_calibration_poses<C: CameraModel>(
+    left: &C,
+    right: &C,
+    right_from_left: &Isometry3,
+    board: &Chessboard,
+    cfg: &WideViewSetConfig,
+) -> Result<Vec<Isometry3>, SyntheticError> {
+    left.validate().map_err(SyntheticError::model("left camera"))?;
+    right.validate().map_err(SyntheticError::model("right camera"))?;
+    if !right_from_left.is_finite() {
+        return Err(SyntheticError::config("right_from_left", "pose is not finite"));
+    }
+    generate(&[(left, Isometry3::IDENTITY), (right, *right_from_left)], board, cfg)
+}
+
+fn generate<C: CameraModel>(
+    cameras: &[(&C, Isometry3)],
+    board: &Chessboard,
+    cfg: &WideViewSetConfig,
+) -> Result<Vec<Isometry3>, SyntheticError> {
+    board.validate().map_err(SyntheticError::model("board"))?;
+    cfg.validate()?;
+    let mut rng = rng(cfg.seed);
+    let reference = cameras[0].0;
+    let s = board.square_size;
+    let centre = DVec3::new((board.cols - 1) as f64 * s * 0.5, (board.rows - 1) as f64 * s * 0.5, 0.0);
+    let samples = border(board, cfg.border_squares);
+    let mut points = board.object_points();
+    points.extend(samples);
+    let mut poses = Vec::with_capacity(cfg.views);
+    for view in 0..cfg.views {
+        let mut found = None;
+        for _ in 0..ATTEMPTS_PER_VIEW {
+            let target = DVec2::new(
+                uniform(&mut rng, 0.0, reference.width() as f64 - 1.0),
+                uniform(&mut rng, 0.0, reference.height() as f64 - 1.0),
+            );
+            let tilt = uniform(&mut rng, 0.0, cfg.max_tilt_deg).to_radians();
+            let tilt_axis = uniform(&mut rng, 0.0, std::f64::consts::TAU);
+            let roll = uniform(&mut rng, -cfg.max_roll_deg, cfg.max_roll_deg).to_radians();
+            let distance = uniform(&mut rng, cfg.min_distance, cfg.max_distance);
+            let Ok(ray) = reference.unproject_ray(target) else { continue };
+            let ray = ray.normalize();
+            // Board z (its normal, pointing away from the viewer) along the line of sight, then
+            // tilted about an in-plane axis and rolled about the normal.
+            let facing = DQuat::from_rotation_arc(DVec3::Z, ray);
+            let axis = DVec3::new(tilt_axis.cos(), tilt_axis.sin(), 0.0);
+            let rotation = facing * DQuat::from_axis_angle(axis, tilt) * DQuat::from_rotation_z(roll);
+            let pose = Isometry3::from_quat_translation(rotation, ray * distance - rotation * centre);
+            if cameras.iter().all(|(c, c_from_ref)| visible(*c, &(*c_from_ref * pose), &points, cfg.margin_px)) {
+                found = Some(pose);
+                break;
+            }
+        }
+        match found {
+            Some(p) => poses.push(p),
+            None => {
+                return Err(SyntheticError::Infeasible {
+                    what: format!("wide-angle view {view} of {}", cfg.views),
+                    attempts: ATTEMPTS_PER_VIEW,
+                    hint: format!(
+                        "the board ({}x{} inner corners, square {}) does not fit the image(s) at distances {}..{}; \
+                         check the units or increase the distances",
+                        board.cols, board.rows, board.square_size, cfg.min_distance, cfg.max_distance
+                    ),
+                });
+            }
+        }
+    }
+    Ok(poses)
+}
+
+/// Every point seen from the front of the board (< 75° from its normal), projected inside the
+/// image by `margin`, through the valid region, and unprojecting back to its own direction.
+fn visible<C: CameraModel>(camera: &C, camera_from_board: &Isometry3, points: &[DVec3], margin: f64) -> bool {
+    let normal = camera_from_board.transform_vector(DVec3::Z);
+    let (w, h) = (camera.width() as f64, camera.height() as f64);
+    points.iter().all(|&p| {
+        let pc = camera_from_board.transform_point(p);
+        let cos = normal.dot(pc) / pc.length();
+        if cos.is_nan() || cos <= 15f64.to_radians().sin() {
+            return false;
+        }
+        let Ok(px) = camera.project(pc) else { return false };
+        if !(px.x >= margin && px.y >= margin && px.x <= w - 1.0 - margin && px.y <= h - 1.0 - margin) {
+            return false;
+        }
+        camera.unproject_ray(px).is_ok_and(|r| (r.normalize() - pc.normalize()).length() < 1e-9)
+    })
+}
+
+/// Points along the border rectangle `border` squares outside the inner corners.
+fn border(board: &Chessboard, border: f64) -> Vec<DVec3> {
+    let s = board.square_size;
+    let (x0, y0) = (-border * s, -border * s);
+    let (x1, y1) = ((board.cols - 1) as f64 * s + border * s, (board.rows - 1) as f64 * s + border * s);
+    let n = 16;
+    let mut out = Vec::with_capacity(4 * n);
+    for k in 0..n {
+        let t = k as f64 / n as f64;
+        out.push(DVec3::new(x0 + t * (x1 - x0), y0, 0.0));
+        out.push(DVec3::new(x1, y0 + t * (y1 - y0), 0.0));
+        out.push(DVec3::new(x1 - t * (x1 - x0), y1, 0.0));
+        out.push(DVec3::new(x0, y1 - t * (y1 - y0), 0.0));
+    }
+    out
+}
