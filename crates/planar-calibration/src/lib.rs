@@ -45,6 +45,7 @@ mod bundle;
 mod calibrate;
 mod dlt;
 mod error;
+mod fisheye;
 mod homography;
 mod pnp;
 mod stereo;
@@ -56,6 +57,11 @@ pub use calibrate::{
 };
 pub use dlt::{DltCalibration, calibrate_dlt, rq_decomposition};
 pub use error::{CalibrationError, Result};
+pub use fisheye::{
+    FisheyeCalibrationConfig, FisheyeCalibrationResult, FisheyeModelKind, FisheyeStdDevs,
+    FisheyeStereoCalibrationResult, FisheyeStereoConfig, FisheyeWarning, calibrate_fisheye,
+    calibrate_fisheye_chessboard, calibrate_fisheye_stereo,
+};
 pub use homography::{Homography, estimate_homography, homography_dlt};
 pub use pnp::{solve_pnp_planar, solve_pnp_planar_points};
 pub use stereo::{

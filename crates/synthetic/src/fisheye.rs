@@ -30,6 +30,10 @@ pub struct WideViewSetConfig {
     pub border_squares: f64,
     /// Distance every visible point keeps from the image border, pixels. Default 4.
     pub margin_px: f64,
+    /// Largest angle between the optical axis and any visible point (corners and border),
+    /// degrees; the default 360 leaves only the lens's own limit. Set it below 90 to keep every
+    /// point in front of the image plane (for tools that need `z > 0`, like OpenCV's `fisheye`).
+    pub max_field_angle_deg: f64,
     /// Seed of the generator.
     pub seed: u64,
 }
@@ -44,6 +48,7 @@ impl Default for WideViewSetConfig {
             max_roll_deg: 180.0,
             border_squares: 1.5,
             margin_px: 4.0,
+            max_field_angle_deg: 360.0,
             seed: 1,
         }
     }
@@ -70,6 +75,7 @@ impl WideViewSetConfig {
         }
         non_negative("border_squares", self.border_squares)?;
         non_negative("margin_px", self.margin_px)?;
+        positive("max_field_angle_deg", self.max_field_angle_deg)?;
         Ok(())
     }
 }
@@ -122,6 +128,7 @@ fn generate<C: CameraModel>(
     let samples = border(board, cfg.border_squares);
     let mut points = board.object_points();
     points.extend(samples);
+    let cos_max = if cfg.max_field_angle_deg >= 180.0 { -2.0 } else { cfg.max_field_angle_deg.to_radians().cos() };
     let mut poses = Vec::with_capacity(cfg.views);
     for view in 0..cfg.views {
         let mut found = None;
@@ -142,7 +149,8 @@ fn generate<C: CameraModel>(
             let axis = DVec3::new(tilt_axis.cos(), tilt_axis.sin(), 0.0);
             let rotation = facing * DQuat::from_axis_angle(axis, tilt) * DQuat::from_rotation_z(roll);
             let pose = Isometry3::from_quat_translation(rotation, ray * distance - rotation * centre);
-            if cameras.iter().all(|(c, c_from_ref)| visible(*c, &(*c_from_ref * pose), &points, cfg.margin_px)) {
+            if cameras.iter().all(|(c, c_from_ref)| visible(*c, &(*c_from_ref * pose), &points, cfg.margin_px, cos_max))
+            {
                 found = Some(pose);
                 break;
             }
@@ -165,15 +173,22 @@ fn generate<C: CameraModel>(
     Ok(poses)
 }
 
-/// Every point seen from the front of the board (< 75° from its normal), projected inside the
-/// image by `margin`, through the valid region, and unprojecting back to its own direction.
-fn visible<C: CameraModel>(camera: &C, camera_from_board: &Isometry3, points: &[DVec3], margin: f64) -> bool {
+/// Every point seen from the front of the board (< 75° from its normal), within the field angle
+/// (`cos θ > cos_max`), projected inside the image by `margin`, through the valid region, and
+/// unprojecting back to its own direction.
+fn visible<C: CameraModel>(
+    camera: &C,
+    camera_from_board: &Isometry3,
+    points: &[DVec3],
+    margin: f64,
+    cos_max: f64,
+) -> bool {
     let normal = camera_from_board.transform_vector(DVec3::Z);
     let (w, h) = (camera.width() as f64, camera.height() as f64);
     points.iter().all(|&p| {
         let pc = camera_from_board.transform_point(p);
         let cos = normal.dot(pc) / pc.length();
-        if cos.is_nan() || cos <= 15f64.to_radians().sin() {
+        if cos.is_nan() || cos <= 15f64.to_radians().sin() || pc.z <= cos_max * pc.length() {
             return false;
         }
         let Ok(px) = camera.project(pc) else { return false };
