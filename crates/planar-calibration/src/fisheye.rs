@@ -644,14 +644,16 @@ fn sse(camera: &FisheyeCamera, poses: &[Isometry3], object: &[Vec<DVec3>], image
     s
 }
 
-/// The initial camera and poses: the focal scan (see the module docs), or the guess.
-fn initial_estimate(
+/// The initial cameras and poses to refine (the refinement keeps the lowest cost): the guess,
+/// or the focal scan (see the module docs); for double sphere, one start per band of `ξ` fitted
+/// to a Kannala–Brandt calibration.
+fn initial_estimates(
     object: &[Vec<DVec3>],
     image: &[Vec<DVec2>],
     width: u32,
     height: u32,
     cfg: &FisheyeCalibrationConfig,
-) -> Result<(FisheyeCamera, Vec<Isometry3>)> {
+) -> Result<Vec<(FisheyeCamera, Vec<Isometry3>)>> {
     if let Some(guess) = &cfg.intrinsic_guess {
         if (guess.width(), guess.height()) != (width, height) {
             return Err(CalibrationError::InvalidConfig(format!(
@@ -672,7 +674,7 @@ fn initial_estimate(
                 "a corner lies outside the intrinsic guess's valid region (its ray cannot be found)".into(),
             )
         })?;
-        return Ok((*guess, poses));
+        return Ok(vec![(*guess, poses)]);
     }
     if cfg.model == FisheyeModelKind::DoubleSphere {
         let kb_cfg = FisheyeCalibrationConfig {
@@ -681,10 +683,11 @@ fn initial_estimate(
             estimate_skew: false,
             ..cfg.clone()
         };
-        if let Ok(kb) = calibrate_fisheye(object, image, width, height, &kb_cfg)
-            && let Some(ds) = double_sphere_from_kannala_brandt(&kb.camera, &kb.camera_from_board, object)
-        {
-            return Ok((ds, kb.camera_from_board));
+        if let Ok(kb) = calibrate_fisheye(object, image, width, height, &kb_cfg) {
+            let starts = double_sphere_from_kannala_brandt(&kb.camera, &kb.camera_from_board, object);
+            if !starts.is_empty() {
+                return Ok(starts.into_iter().map(|c| (c, kb.camera_from_board.clone())).collect());
+            }
         }
     }
     let centre = (0.5 * (width as f64 - 1.0), 0.5 * (height as f64 - 1.0));
@@ -741,21 +744,23 @@ fn initial_estimate(
     if cfg.fix_aspect_ratio {
         camera = camera.with_intrinsics(Intrinsics { fx: camera.intrinsics().fy, ..camera.intrinsics() })?;
     }
-    Ok((camera, poses))
+    Ok(vec![(camera, poses)])
 }
 
-/// The double sphere camera closest to a calibrated Kannala–Brandt one over the field angles
+/// The double sphere cameras closest to a calibrated Kannala–Brandt one over the field angles
 /// the corners reach: `(ξ, α)` on a grid (ξ ∈ [−0.9, 0.9] by 0.025, α ∈ [0.025, 0.975] by
 /// 0.025), the focal scale in closed form (least squares of `s·r_DS(θ) = r_KB(θ)` over 200
-/// angles), the best fit kept. This is the double sphere initialisation: a Kannala–Brandt
-/// calibration from the focal scan is robust, while starting the double sphere refinement from
-/// the neutral `ξ = 0, α = ½` lands in a wrong minimum for some view sets.
+/// angles); the best fit in each of the three bands ξ < −0.3, −0.3 ≤ ξ < 0.3, ξ ≥ 0.3 is kept.
+/// These are the double sphere starts: `fx` and `ξ` are nearly interchangeable (near the axis
+/// only `fx/(1 + ξ)` is seen), the cost has several valleys, and a single start (the neutral
+/// `ξ = 0, α = ½`, or the single best fit) lands in a wrong one for some view sets (1 in 100
+/// in the seeded trials); the refinement runs from each start and keeps the lowest cost.
 fn double_sphere_from_kannala_brandt(
     kb: &FisheyeCamera,
     poses: &[Isometry3],
     object: &[Vec<DVec3>],
-) -> Option<FisheyeCamera> {
-    let FisheyeLens::KannalaBrandt(model) = kb.lens() else { return None };
+) -> Vec<FisheyeCamera> {
+    let FisheyeLens::KannalaBrandt(model) = kb.lens() else { return Vec::new() };
     let theta_max = poses
         .iter()
         .zip(object)
@@ -764,11 +769,11 @@ fn double_sphere_from_kannala_brandt(
         .fold(0.0, f64::max)
         .min(0.999 * model.max_theta());
     if theta_max.is_nan() || theta_max <= 0.0 {
-        return None;
+        return Vec::new();
     }
     let thetas: Vec<f64> = (1..=200).map(|i| theta_max * i as f64 / 200.0).collect();
     let target: Vec<f64> = thetas.iter().map(|&t| model.distort_theta(t)).collect();
-    let mut best: Option<(f64, FisheyeLens, f64)> = None;
+    let mut best: [Option<(f64, FisheyeLens, f64)>; 3] = [None; 3];
     for i in 0..=72 {
         let xi = -0.9 + 0.025 * i as f64;
         for j in 1..=39 {
@@ -783,20 +788,31 @@ fn double_sphere_from_kannala_brandt(
             let gg: f64 = g.iter().map(|v| v * v).sum();
             let scale = g.iter().zip(&target).map(|(a, b)| a * b).sum::<f64>() / gg;
             let err: f64 = g.iter().zip(&target).map(|(a, b)| (scale * a - b).powi(2)).sum();
-            if scale > 0.0 && best.as_ref().is_none_or(|b| err < b.0) {
-                best = Some((err, lens, scale));
+            let band = if i < 24 {
+                0
+            } else if i < 48 {
+                1
+            } else {
+                2
+            };
+            if scale > 0.0 && best[band].as_ref().is_none_or(|b| err < b.0) {
+                best[band] = Some((err, lens, scale));
             }
         }
     }
-    let (_, lens, scale) = best?;
     let k = kb.intrinsics();
-    FisheyeCamera::new(
-        Intrinsics { fx: k.fx * scale, fy: k.fy * scale, cx: k.cx, cy: k.cy, skew: 0.0 },
-        lens,
-        kb.width(),
-        kb.height(),
-    )
-    .ok()
+    best.iter()
+        .flatten()
+        .filter_map(|&(_, lens, scale)| {
+            FisheyeCamera::new(
+                Intrinsics { fx: k.fx * scale, fy: k.fy * scale, cx: k.cx, cy: k.cy, skew: 0.0 },
+                lens,
+                kb.width(),
+                kb.height(),
+            )
+            .ok()
+        })
+        .collect()
 }
 
 fn check_size(width: u32, height: u32) -> Result<()> {
@@ -925,29 +941,49 @@ pub fn calibrate_fisheye(
             why: "a planar target fixes only 2 of the intrinsics per view (give more views, or an intrinsic guess with a fixed principal point)",
         });
     }
-    let (init_camera, init_poses) = initial_estimate(object_points, image_points, width, height, config)?;
-    let slots = Slots::new(config, &init_camera, false);
-    let views: Vec<ViewObs> = object_points
-        .iter()
-        .zip(image_points)
-        .map(|(o, i)| ViewObs { object: o, image: [Some(i.as_slice()), None] })
-        .collect();
-    let bundle = FisheyeBundle::new(vec![slots.clone()], false, views);
+    let starts = initial_estimates(object_points, image_points, width, height, config)?;
+    let views = || -> Vec<ViewObs> {
+        object_points
+            .iter()
+            .zip(image_points)
+            .map(|(o, i)| ViewObs { object: o, image: [Some(i.as_slice()), None] })
+            .collect()
+    };
+    let mut best: Option<(Slots, LmReport)> = None;
+    let mut last_error = None;
+    for (init_camera, init_poses) in &starts {
+        let slots = Slots::new(config, init_camera, false);
+        let bundle = FisheyeBundle::new(vec![slots.clone()], false, views());
+        let n = bundle.num_params();
+        if bundle.num_residuals <= n {
+            return Err(CalibrationError::TooFewPoints {
+                what: "fisheye calibration (all views)".into(),
+                got: bundle.num_residuals / 2,
+                needed: n / 2 + 1,
+            });
+        }
+        let mut x0 = vec![0.0; n];
+        x0[..slots.num_free].copy_from_slice(&slots.free_values(init_camera));
+        for (v, p) in init_poses.iter().enumerate() {
+            let o = bundle.view_offset(v);
+            store_pose(p, &mut x0[o..o + 6]);
+        }
+        match levenberg_marquardt(&bundle, &x0, &LmConfig { covariance: true, ..config.lm }) {
+            Ok(report) => {
+                if best.as_ref().is_none_or(|(_, b)| report.cost < b.cost) {
+                    best = Some((slots, report));
+                }
+            }
+            Err(e) => last_error = Some(e),
+        }
+    }
+    let (slots, report) = match (best, last_error) {
+        (Some(b), _) => b,
+        (None, Some(e)) => return Err(e.into()),
+        (None, None) => return Err(CalibrationError::EstimationFailed("no initial estimate".into())),
+    };
+    let bundle = FisheyeBundle::new(vec![slots.clone()], false, views());
     let n = bundle.num_params();
-    if bundle.num_residuals <= n {
-        return Err(CalibrationError::TooFewPoints {
-            what: "fisheye calibration (all views)".into(),
-            got: bundle.num_residuals / 2,
-            needed: n / 2 + 1,
-        });
-    }
-    let mut x0 = vec![0.0; n];
-    x0[..slots.num_free].copy_from_slice(&slots.free_values(&init_camera));
-    for (v, p) in init_poses.iter().enumerate() {
-        let o = bundle.view_offset(v);
-        store_pose(p, &mut x0[o..o + 6]);
-    }
-    let report = levenberg_marquardt(&bundle, &x0, &LmConfig { covariance: true, ..config.lm })?;
     let poses: Vec<Isometry3> =
         (0..object_points.len()).map(|v| pose_at(&report.params[bundle.view_offset(v)..])).collect();
     let spread = view_spread_deg(&poses);

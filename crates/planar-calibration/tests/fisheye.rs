@@ -357,6 +357,9 @@ fn export_corner_sets_for_opencv() {
             let res = calibrate_fisheye(&object, &image, 1280, 960, &config(FisheyeModelKind::KannalaBrandt)).unwrap();
             let k = res.camera.intrinsics();
             let l = res.camera.lens().parameters();
+            let sd = res.std_devs;
+            let std = [sd.fx, sd.fy, sd.cx, sd.cy, sd.lens[0], sd.lens[1], sd.lens[2], sd.lens[3]]
+                .map(|v| v.expect("every parameter is estimated"));
             let pts =
                 |v: &[DVec2]| v.iter().map(|p| format!("[{:.17e},{:.17e}]", p.x, p.y)).collect::<Vec<_>>().join(",");
             let views = image.iter().map(|v| format!("[{}]", pts(v))).collect::<Vec<_>>().join(",");
@@ -368,8 +371,17 @@ fn export_corner_sets_for_opencv() {
             out.push_str(&format!(
                 "{{\"family\":\"{family}\",\"seed\":{seed},\"width\":1280,\"height\":960,\"object\":[{obj}],\"image\":[{views}],\
                  \"truth\":[397.0,396.5,639.3,479.6,0.02,-0.005,0.001,-0.0002],\
-                 \"ours\":[{},{},{},{},{},{},{},{}],\"ours_rms\":{}}}",
-                k.fx, k.fy, k.cx, k.cy, l[0], l[1], l[2], l[3], res.rms_px
+                 \"ours\":[{},{},{},{},{},{},{},{}],\"ours_std\":[{}],\"ours_rms\":{}}}",
+                k.fx,
+                k.fy,
+                k.cx,
+                k.cy,
+                l[0],
+                l[1],
+                l[2],
+                l[3],
+                std.iter().map(|v| format!("{v:e}")).collect::<Vec<_>>().join(","),
+                res.rms_px
             ));
         }
     }
