@@ -215,3 +215,109 @@ fn border(board: &Chessboard, border: f64) -> Vec<DVec3> {
     }
     out
 }
+
+/// A closed, textured box room (axis-aligned in its own frame): every ray from a point inside
+/// hits a wall, so cameras of any field of view see texture everywhere. Each of the six walls
+/// carries its own smooth value-noise texture (two octaves, feature size `texture_scale`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TexturedRoom {
+    /// The corner with the smallest coordinates.
+    pub min: DVec3,
+    /// The corner with the largest coordinates.
+    pub max: DVec3,
+    /// Size of the texture's coarse features, in the room's length unit.
+    pub texture_scale: f64,
+    /// Seed of the textures.
+    pub seed: u64,
+}
+
+impl TexturedRoom {
+    /// Checks that the room has positive extent and a positive texture scale.
+    pub fn validate(&self) -> Result<(), SyntheticError> {
+        if !(self.min.is_finite() && self.max.is_finite()) || (self.max - self.min).min_element() <= 0.0 {
+            return Err(SyntheticError::config(
+                "room",
+                format!("min {} must be below max {} on every axis", self.min, self.max),
+            ));
+        }
+        positive("texture_scale", self.texture_scale)
+    }
+
+    /// The first wall point along `direction` from `origin` (inside the room), with the wall's
+    /// grey level; `None` when the origin is outside or the direction is zero.
+    pub fn hit(&self, origin: DVec3, direction: DVec3) -> Option<(DVec3, f64)> {
+        if !(origin.cmpgt(self.min).all() && origin.cmplt(self.max).all()) || direction.length_squared() == 0.0 {
+            return None;
+        }
+        let (mut t, mut axis) = (f64::INFINITY, 0);
+        for a in 0..3 {
+            let d = direction[a];
+            let ta = if d > 0.0 {
+                (self.max[a] - origin[a]) / d
+            } else if d < 0.0 {
+                (self.min[a] - origin[a]) / d
+            } else {
+                f64::INFINITY
+            };
+            if ta < t {
+                t = ta;
+                axis = a;
+            }
+        }
+        let p = origin + direction * t;
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        let wall = 2 * axis as u64 + u64::from(direction[axis] > 0.0);
+        let seed = crate::stereo::splitmix(self.seed ^ wall);
+        let (x, y) = (p[u] / self.texture_scale, p[v] / self.texture_scale);
+        let n = 0.65 * crate::stereo::value_noise(x, y, seed)
+            + 0.35 * crate::stereo::value_noise(4.0 * x, 4.0 * y, seed ^ 1);
+        Some((p, 30.0 + 195.0 * n))
+    }
+}
+
+/// Renders `room` through any camera model placed at `camera_from_room` (inside the room):
+/// `samples_per_axis²` point samples per pixel, each unprojected through the model and cast to
+/// the walls (area-averaged grey level, rounded to 8 bits). Pixels whose samples have no ray
+/// (outside a fisheye's image circle) are 0. Rows in parallel.
+pub fn render_room<C: CameraModel + Sync>(
+    camera: &C,
+    camera_from_room: &Isometry3,
+    room: &TexturedRoom,
+    samples_per_axis: u32,
+) -> Result<image::GrayImage, SyntheticError> {
+    use rayon::prelude::*;
+    camera.validate().map_err(SyntheticError::model("camera"))?;
+    room.validate()?;
+    if !(1..=16).contains(&samples_per_axis) {
+        return Err(SyntheticError::config("samples_per_axis", format!("must be in 1..=16, got {samples_per_axis}")));
+    }
+    let room_from_camera = camera_from_room.inverse();
+    let origin = room_from_camera.translation;
+    if room.hit(origin, DVec3::Z).is_none() {
+        return Err(SyntheticError::config("camera_from_room", "the camera is not inside the room"));
+    }
+    let (w, h) = (camera.width() as usize, camera.height() as usize);
+    let n = samples_per_axis as usize;
+    let mut data = vec![0u8; w * h];
+    data.par_chunks_mut(w).enumerate().for_each(|(v, row)| {
+        for (u, out) in row.iter_mut().enumerate() {
+            let (mut sum, mut count) = (0.0, 0usize);
+            for j in 0..n {
+                for i in 0..n {
+                    let px = DVec2::new(
+                        u as f64 - 0.5 + (i as f64 + 0.5) / n as f64,
+                        v as f64 - 0.5 + (j as f64 + 0.5) / n as f64,
+                    );
+                    if let Ok(ray) = camera.unproject_ray(px)
+                        && let Some((_, g)) = room.hit(origin, room_from_camera.transform_vector(ray))
+                    {
+                        sum += g;
+                        count += 1;
+                    }
+                }
+            }
+            *out = if count == n * n { (sum / count as f64).round().clamp(0.0, 255.0) as u8 } else { 0 };
+        }
+    });
+    Ok(image::GrayImage::from_raw(w as u32, h as u32, data).expect("buffer of width x height"))
+}

@@ -8,7 +8,8 @@
 //! - rendered chessboard views with exact anti-aliasing ([`render_chessboard`]) through any
 //!   `CameraModel`: pinhole or fisheye (Kannala–Brandt, double sphere; fields of view beyond 180°);
 //! - wide-angle view sets that cover a fisheye's periphery ([`wide_angle_calibration_poses`],
-//!   [`wide_angle_stereo_calibration_poses`]);
+//!   [`wide_angle_stereo_calibration_poses`]) and a textured room rendered through any lens
+//!   ([`TexturedRoom`], [`render_room`]) for wide-angle stereo;
 //! - rectified stereo pairs with exact disparity and occlusion masks ([`render_stereo_scene`]);
 //! - robot trajectories for hand-eye calibration ([`hand_eye_trajectory`]);
 //! - scene descriptions in RON with the pipeline's tolerances ([`SceneDescription`]).
@@ -38,7 +39,9 @@ mod trajectory;
 mod views;
 
 pub use error::SyntheticError;
-pub use fisheye::{WideViewSetConfig, wide_angle_calibration_poses, wide_angle_stereo_calibration_poses};
+pub use fisheye::{
+    TexturedRoom, WideViewSetConfig, render_room, wide_angle_calibration_poses, wide_angle_stereo_calibration_poses,
+};
 pub use noise::{add_pixel_noise, perturb_pose, rng};
 pub use render::{RenderOptions, RenderedView, render_chessboard};
 pub use scene::{SceneDescription, Tolerances};

@@ -159,3 +159,46 @@ fn wide_angle_views_cover_the_periphery() {
     );
     assert!(wide_angle_calibration_poses(&camera, &board, &WideViewSetConfig { views: 0, ..cfg }).is_err());
 }
+
+/// The room seen through a 190° lens: with one sample per pixel each pixel is the grey level
+/// of the wall its centre ray hits (±0.5 from rounding), behind the image plane too; pixels
+/// without a ray are 0; a camera outside the room is an error.
+#[test]
+fn room_renders_through_the_lens() {
+    let room = TexturedRoom {
+        min: DVec3::new(-2000.0, -1500.0, -2000.0),
+        max: DVec3::new(2000.0, 1500.0, 3000.0),
+        texture_scale: 80.0,
+        seed: 3,
+    };
+    let camera = FisheyeCamera::new(
+        Intrinsics::new(150.0, 150.0, 255.5, 191.5),
+        FisheyeLens::KannalaBrandt(KannalaBrandt::new(0.021, -0.0043, 0.0011, -0.00017).unwrap()),
+        512,
+        384,
+    )
+    .unwrap();
+    let pose = Isometry3::from_rvec_tvec(DVec3::new(0.05, 0.3, 0.0), DVec3::new(100.0, -50.0, 200.0));
+    let img = render_room(&camera, &pose, &room, 1).unwrap();
+    let origin = pose.inverse().translation;
+    let (mut behind, mut dark) = (0, 0);
+    for v in (0..384).step_by(7) {
+        for u in (0..512).step_by(7) {
+            let got = f64::from(img.get_pixel(u, v).0[0]);
+            match camera.unproject_ray(DVec2::new(u as f64, v as f64)) {
+                Ok(ray) => {
+                    let (_, g) = room.hit(origin, pose.inverse().transform_vector(ray)).unwrap();
+                    assert!((got - g).abs() <= 0.5, "({u}, {v}): {got} vs {g}");
+                    behind += usize::from(ray.z < 0.0);
+                }
+                Err(_) => {
+                    assert_eq!(got, 0.0);
+                    dark += 1;
+                }
+            }
+        }
+    }
+    assert!(behind > 10, "behind {behind}, dark {dark}");
+    let outside = Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(0.0, 0.0, -5000.0));
+    assert!(render_room(&camera, &outside, &room, 1).is_err());
+}
