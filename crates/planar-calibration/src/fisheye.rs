@@ -923,6 +923,24 @@ fn common_warnings(
 /// Errors: fewer than 2 views (or 1 with a guess and a fixed principal point), fewer than 4
 /// points in a view, mismatched sizes, non-finite values, non-planar targets, parallel views,
 /// an inconsistent configuration, or no focal length that explains the corners.
+///
+/// ```
+/// use parallax_camera_model::{Chessboard, FisheyeCamera, FisheyeLens, Intrinsics, KannalaBrandt};
+/// use parallax_planar_calibration::{calibrate_fisheye, FisheyeCalibrationConfig};
+/// use parallax_synthetic::{project_corners, wide_angle_calibration_poses, WideViewSetConfig};
+///
+/// // A 190° lens; no focal-length guess is given to the calibration.
+/// let lens = FisheyeLens::KannalaBrandt(KannalaBrandt::new(0.021, -0.0043, 0.0011, -0.00017)?);
+/// let truth = FisheyeCamera::new(Intrinsics::new(290.0, 289.0, 511.5, 383.5), lens, 1024, 768)?;
+/// let board = Chessboard::new(9, 6, 25.0)?;
+/// let poses = wide_angle_calibration_poses(&truth, &board, &WideViewSetConfig { views: 8, ..Default::default() })?;
+/// let image: Vec<_> = poses.iter().map(|p| project_corners(&truth, &board, p)).collect::<Result<_, _>>()?;
+/// let object = vec![board.object_points(); poses.len()];
+/// let result = calibrate_fisheye(&object, &image, 1024, 768, &FisheyeCalibrationConfig::default())?;
+/// assert!(result.rms_px < 1e-6);
+/// assert!((result.camera.intrinsics().fx - 290.0).abs() < 1e-5);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn calibrate_fisheye(
     object_points: &[Vec<DVec3>],
     image_points: &[Vec<DVec2>],

@@ -11,6 +11,10 @@
 //! * [`calibrate_stereo`]: both cameras + `right_from_left` jointly, `E`, `F`, rig std devs.
 //! * [`calibrate_dlt`]: `P` from a non-planar target, RQ into `K`, `R`, `t`.
 //! * [`solve_pnp_planar`]: the pose of a calibrated camera from a planar target.
+//! * [`calibrate_fisheye`] / [`calibrate_fisheye_stereo`]: wide-angle cameras
+//!   (`parallax_camera_model::FisheyeCamera`, Kannala–Brandt as OpenCV's `fisheye` or double
+//!   sphere) with the same refinement, standard deviations, per-view errors and warnings
+//!   ([`FisheyeWarning`]), and an initialisation that needs no focal-length guess.
 //!
 //! Conventions are OpenCV's (see `camera-model`): distortion `(k1, k2, p1, p2, k3[, k4..k6])`,
 //! RMS = `sqrt(Σ‖e‖²/N)` over corners, poses `camera_from_board` in board units.

@@ -390,3 +390,63 @@ fn export_corner_sets_for_opencv() {
     std::fs::write(&path, out).unwrap();
     println!("wrote {}", path.display());
 }
+
+/// OpenCV-style options: `fix_lens` (CALIB_FIX_K3/K4), a fixed principal point, a fixed aspect
+/// ratio and an estimated skew change what is free and what gets a standard deviation, and a
+/// lens with `k3 = k4 = 0` and the principal point at the image centre is recovered exactly.
+#[test]
+fn options_hold_and_free_the_right_parameters() {
+    let truth = FisheyeCamera::new(
+        Intrinsics::new(397.0, 397.0, 639.5, 479.5),
+        FisheyeLens::KannalaBrandt(KannalaBrandt::new(0.02, -0.005, 0.0, 0.0).unwrap()),
+        1280,
+        960,
+    )
+    .unwrap();
+    let (object, image, _) = corner_sets(&truth, 5, 0.0);
+    let cfg = FisheyeCalibrationConfig {
+        fix_lens: [false, false, true, true],
+        fix_principal_point: true,
+        fix_aspect_ratio: true,
+        ..config(FisheyeModelKind::KannalaBrandt)
+    };
+    let r = calibrate_fisheye(&object, &image, 1280, 960, &cfg).unwrap();
+    assert!(r.rms_px < 1e-6, "rms {}", r.rms_px);
+    let k = r.camera.intrinsics();
+    assert!((k.fx - 397.0).abs() < 1e-6 && (k.fy - 397.0).abs() < 1e-6 && k.cx == 639.5 && k.cy == 479.5);
+    assert_eq!(&r.camera.lens().parameters()[2..], &[0.0, 0.0]);
+    let s = r.std_devs;
+    assert!(s.cx.is_none() && s.cy.is_none() && s.skew.is_none() && s.lens[2].is_none() && s.lens[3].is_none());
+    assert!(s.fx.is_some() && s.fy.is_some() && s.lens[0].is_some() && s.lens[1].is_some());
+    assert_eq!(r.num_parameters, 3 + 6 * object.len());
+    let skew = FisheyeCalibrationConfig { estimate_skew: true, ..config(FisheyeModelKind::KannalaBrandt) };
+    let r = calibrate_fisheye(&object, &image, 1280, 960, &skew).unwrap();
+    assert!(r.std_devs.skew.is_some() && r.camera.intrinsics().skew.abs() < 1e-6);
+}
+
+/// A lens whose polynomial folds back inside the image (k1 = −0.05: `dθ_d/dθ = 0` at 148°,
+/// 683 px from the centre, the image corner is 800 px away) is calibrated and reported.
+#[test]
+fn folding_lens_is_reported() {
+    let truth = FisheyeCamera::new(
+        Intrinsics::new(397.0, 397.0, 639.5, 479.5),
+        FisheyeLens::KannalaBrandt(KannalaBrandt::new(-0.05, 0.0, 0.0, 0.0).unwrap()),
+        1280,
+        960,
+    )
+    .unwrap();
+    let (object, image, _) = corner_sets(&truth, 6, 0.0);
+    let r = calibrate_fisheye(&object, &image, 1280, 960, &config(FisheyeModelKind::KannalaBrandt)).unwrap();
+    assert!(r.rms_px < 1e-6);
+    let fold = r.warnings.iter().find_map(|w| match w {
+        FisheyeWarning::LensFoldsInsideImage { max_field_deg, radius_px, image_radius_px, .. } => {
+            Some((*max_field_deg, *radius_px, *image_radius_px))
+        }
+        _ => None,
+    });
+    let (deg, radius, image_radius) = fold.expect("fold warning");
+    let t = (1.0f64 / 0.15).sqrt();
+    assert!((deg - t.to_degrees()).abs() < 1e-3, "{deg}");
+    assert!((radius - 397.0 * t * (1.0 - 0.05 * t * t)).abs() < 1e-3, "{radius}");
+    assert!((image_radius - 800.0).abs() < 1e-6, "{image_radius}");
+}

@@ -298,6 +298,21 @@ pub enum WideProjection {
 
 /// A wide output view of the rectified frame: projection, focal length `f` (pixels per radian
 /// for angles, pixels per unit for the cylinder's axis), centre and size.
+///
+/// ```
+/// use glam::DVec3;
+/// use parallax_stereo_rectify::{WideProjection, WideView};
+///
+/// let view = WideView::with_field_of_view(WideProjection::Cylindrical, 120.0, 200.0, 640, 480)?;
+/// // A point beside and behind the rig (z < 0) and the same point seen 60 units along the baseline.
+/// let left = DVec3::new(50.0, 300.0, -100.0);
+/// let right = left - DVec3::new(60.0, 0.0, 0.0);
+/// let (l, r) = (view.pixel(left).unwrap(), view.pixel(right).unwrap());
+/// assert!((l.y - r.y).abs() < 1e-9); // same row
+/// let back = view.reproject(l, l.x - r.x, 60.0).unwrap();
+/// assert!((back - left).length() < 1e-9);
+/// # Ok::<(), parallax_stereo_rectify::RectifyError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct WideView {
     projection: WideProjection,
