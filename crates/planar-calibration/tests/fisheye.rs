@@ -450,3 +450,50 @@ fn folding_lens_is_reported() {
     assert!((radius - 397.0 * t * (1.0 - 0.05 * t * t)).abs() < 1e-3, "{radius}");
     assert!((image_radius - 800.0).abs() < 1e-6, "{image_radius}");
 }
+
+/// Stereo with two double sphere cameras (noise σ = 0.2 px): the rig translation within 4σ per
+/// axis and the baseline within 0.5 %, the paraxial focal lengths `fx/(1 + ξ)` within 0.1 %.
+#[test]
+fn stereo_rig_of_two_double_sphere_cameras() {
+    let left = ds_truth();
+    let right = FisheyeCamera::new(
+        Intrinsics::new(343.0, 342.0, 641.0, 478.0),
+        FisheyeLens::DoubleSphere(DoubleSphere::new(-0.18, 0.61).unwrap()),
+        1280,
+        960,
+    )
+    .unwrap();
+    let truth_rig = Isometry3::from_rvec_tvec(DVec3::new(-0.01, 0.02, 0.004), DVec3::new(-70.0, -0.5, 1.0));
+    let b = board();
+    let poses = wide_angle_stereo_calibration_poses(&left, &right, &truth_rig, &b, &view_config(8)).unwrap();
+    let mut r = rng(88);
+    let mut corners = |cam: &FisheyeCamera, rig: Isometry3| -> Vec<Vec<DVec2>> {
+        poses
+            .iter()
+            .map(|p| {
+                let mut c = project_corners(cam, &b, &(rig * *p)).unwrap();
+                add_pixel_noise(&mut c, 0.2, &mut r);
+                c
+            })
+            .collect()
+    };
+    let l = corners(&left, Isometry3::IDENTITY);
+    let rr = corners(&right, truth_rig);
+    let object = vec![b.object_points(); poses.len()];
+    let ds = config(FisheyeModelKind::DoubleSphere);
+    let cfg = FisheyeStereoConfig { left: ds.clone(), right: ds, ..Default::default() };
+    let res = calibrate_fisheye_stereo(&object, &l, &rr, (1280, 960), (1280, 960), &cfg).unwrap();
+    assert!(res.converged && (res.rms_px - 0.2 * 2f64.sqrt()).abs() < 0.03, "rms {}", res.rms_px);
+    let t = res.rig.right_from_left.translation - truth_rig.translation;
+    for a in 0..3 {
+        assert!(t[a].abs() < 4.0 * res.rig_std_devs.translation[a], "t[{a}] off by {}", t[a]);
+    }
+    assert!((res.rig.baseline() / truth_rig.translation.length() - 1.0).abs() < 5e-3);
+    for (est, tru) in [(res.rig.left, left), (res.rig.right, right)] {
+        let paraxial = |c: &FisheyeCamera| match c.lens() {
+            FisheyeLens::DoubleSphere(m) => c.intrinsics().fx / (1.0 + m.xi()),
+            FisheyeLens::KannalaBrandt(_) => unreachable!("double sphere rig"),
+        };
+        assert!((paraxial(&est) / paraxial(&tru) - 1.0).abs() < 1e-3);
+    }
+}

@@ -501,3 +501,52 @@ pub fn init_fisheye_undistort_map(
 ) -> Result<RemapTable> {
     init_fisheye_undistort_rectify_map(camera, DMat3::IDENTITY, new_camera_matrix, width, height)
 }
+
+/// Rectifies pixels of a wide-angle (or any) camera onto a pinhole rectification: unprojection
+/// through the model (converged), rotation by `r` (`R1` or `R2`), projection with the left 3x3
+/// block of `p` (as [`crate::rectify_points`]: the baseline column is not applied, so the two
+/// pixels of a scene point share their row). Errors name the first pixel without a ray or whose
+/// ray turns behind the rectified camera.
+pub fn rectify_points_fisheye<C: CameraModel>(
+    camera: &C,
+    r: DMat3,
+    p: &ProjectionMatrix,
+    pixels: &[DVec2],
+) -> Result<Vec<DVec2>> {
+    let kr = p.left_block() * r;
+    if !kr.is_finite() {
+        return Err(RectifyError::NonFinite("rotation or projection matrix"));
+    }
+    map_points(camera, pixels, |ray| {
+        let h = kr * ray;
+        (h.z > 0.0).then(|| DVec2::new(h.x / h.z, h.y / h.z))
+    })
+}
+
+/// Rectifies pixels of a wide-angle (or any) camera onto a [`WideView`] of its rectified frame
+/// (`r` = `R1` or `R2`): the row of a scene point is the same in both images and the column
+/// difference is the view's disparity ([`WideView::reproject`]).
+pub fn rectify_points_wide<C: CameraModel>(
+    camera: &C,
+    r: DMat3,
+    view: &WideView,
+    pixels: &[DVec2],
+) -> Result<Vec<DVec2>> {
+    if !r.is_finite() {
+        return Err(RectifyError::NonFinite("rotation"));
+    }
+    map_points(camera, pixels, |ray| view.pixel(r * ray))
+}
+
+fn map_points<C: CameraModel>(camera: &C, pixels: &[DVec2], f: impl Fn(DVec3) -> Option<DVec2>) -> Result<Vec<DVec2>> {
+    camera.validate().map_err(|source| RectifyError::Camera { what: "camera of the points", source })?;
+    pixels
+        .iter()
+        .enumerate()
+        .map(|(index, &pixel)| {
+            let fail = |reason: String| RectifyError::Point { what: "pixels", index, u: pixel.x, v: pixel.y, reason };
+            let ray = camera.unproject_ray(pixel).map_err(|e| fail(e.to_string()))?;
+            f(ray).filter(|q| q.is_finite()).ok_or_else(|| fail("its ray has no rectified position".into()))
+        })
+        .collect()
+}

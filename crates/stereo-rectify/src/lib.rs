@@ -67,7 +67,8 @@ pub use error::{RectifyError, Result};
 pub use fisheye::{
     FisheyeRectifyConfig, WideProjection, WideRectification, WideView,
     estimate_new_camera_matrix_for_undistort_rectify, fisheye_stereo_rectify, fisheye_wide_rectify,
-    init_fisheye_undistort_map, init_fisheye_undistort_rectify_map, init_wide_view_map, rectifying_rotations,
+    init_fisheye_undistort_map, init_fisheye_undistort_rectify_map, init_wide_view_map, rectify_points_fisheye,
+    rectify_points_wide, rectifying_rotations,
 };
 pub use hartley::{UncalibratedRectification, stereo_rectify_uncalibrated};
 pub use maps::{RemapTable, init_homography_map, init_undistort_map, init_undistort_rectify_map};

@@ -6,7 +6,8 @@ use glam::{DMat3, DVec2, DVec3};
 use parallax_camera_model::{FisheyeCamera, FisheyeLens, FisheyeStereoRig, Intrinsics, Isometry3, KannalaBrandt};
 use parallax_stereo_rectify::{
     FisheyeRectifyConfig, RectifyError, WideProjection, WideView, estimate_new_camera_matrix_for_undistort_rectify,
-    fisheye_stereo_rectify, fisheye_wide_rectify, init_fisheye_undistort_rectify_map, rectifying_rotations,
+    fisheye_stereo_rectify, fisheye_wide_rectify, init_fisheye_undistort_rectify_map, rectify_points_fisheye,
+    rectify_points_wide, rectifying_rotations,
 };
 
 type NewK = (f64, f64, [u32; 2], [[f64; 3]; 3]);
@@ -136,6 +137,9 @@ fn rows_align_and_disparity_triangulates() {
         assert!((l.y - r.y).abs() < 1e-9, "rows {} vs {}", l.y, r.y);
         let p = rect.reproject(l, l.x - r.x).unwrap();
         assert!((p - r1 * x).length() < 1e-9 * x.length(), "{p} vs {}", r1 * x);
+        let lp = rectify_points_fisheye(&rig.left, r1, &rect.p1, &[pl]).unwrap()[0];
+        let rp = rectify_points_fisheye(&rig.right, r2, &rect.p2, &[pr]).unwrap()[0];
+        assert!((lp - l).length() < 1e-9 && (rp - r).length() < 1e-9);
     }
     for projection in [WideProjection::Equirectangular, WideProjection::Cylindrical] {
         let view = WideView::with_field_of_view(projection, 160.0, 200.0, 1024, 768).unwrap();
@@ -145,6 +149,11 @@ fn rows_align_and_disparity_triangulates() {
             let xr = r2 * rig.right_from_left.transform_point(x);
             let (l, r) = (view.pixel(xl).unwrap(), view.pixel(xr).unwrap());
             assert!((l.y - r.y).abs() < 1e-9, "{projection:?}: rows {} vs {}", l.y, r.y);
+            let pl = rig.left.project(x).unwrap();
+            let pr = rig.right.project(rig.right_from_left.transform_point(x)).unwrap();
+            let lp = rectify_points_wide(&rig.left, r1, &view, &[pl]).unwrap()[0];
+            let rp = rectify_points_wide(&rig.right, r2, &view, &[pr]).unwrap()[0];
+            assert!((lp - l).length() < 1e-9 && (rp - r).length() < 1e-9, "{lp} {l} {rp} {r}");
             let p = view.reproject(l, l.x - r.x, t.x.abs()).unwrap();
             assert!((p - xl).length() < 1e-9 * x.length(), "{projection:?}: {p} vs {xl}");
             let back = view.pixel(view.ray(l)).unwrap();
@@ -183,6 +192,10 @@ fn wide_views_hold_what_a_pinhole_cannot() {
     assert!(WideView::new(WideProjection::Equirectangular, -1.0, 0.0, 0.0, 10, 10).is_err());
     let bad = FisheyeRectifyConfig { balance: 1.5, ..Default::default() };
     assert!(matches!(fisheye_stereo_rectify(&rig, &bad), Err(RectifyError::Config(_))));
+    // A pixel no ray maps to is named in the error.
+    let far = DVec2::new(5000.0, 5000.0);
+    let err = rectify_points_wide(&wide, w.r1, &view, &[DVec2::new(500.0, 300.0), far]).unwrap_err();
+    assert!(matches!(err, RectifyError::Point { index: 1, .. }), "{err}");
     let zero = FisheyeStereoRig::new(wide, wide, Isometry3::IDENTITY).unwrap();
     assert!(matches!(fisheye_wide_rectify(&zero, &view), Err(RectifyError::ZeroBaseline(_))));
 }
