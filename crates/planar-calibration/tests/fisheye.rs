@@ -497,3 +497,30 @@ fn stereo_rig_of_two_double_sphere_cameras() {
         assert!((paraxial(&est) / paraxial(&tru) - 1.0).abs() < 1e-3);
     }
 }
+
+/// Per-view errors and the outlier warning: one view whose corners carry 3 px noise (the rest
+/// 0.2 px) stands out in `per_view_rms_px` and is reported as an outlier view.
+#[test]
+fn a_bad_view_is_reported() {
+    let truth = kb_truth();
+    let (object, mut image, _) = corner_sets(&truth, 9, 0.2);
+    add_pixel_noise(&mut image[7], 3.0, &mut rng(99));
+    let r = calibrate_fisheye(&object, &image, 1280, 960, &config(FisheyeModelKind::KannalaBrandt)).unwrap();
+    assert_eq!(r.per_view_rms_px.len(), 20);
+    let worst = (0..20).max_by(|&a, &b| r.per_view_rms_px[a].total_cmp(&r.per_view_rms_px[b])).unwrap();
+    assert_eq!(worst, 7);
+    assert!(r.per_view_rms_px[7] > 3.0, "{:?}", r.per_view_rms_px);
+    assert!(
+        r.warnings.iter().any(|w| matches!(
+            w,
+            FisheyeWarning::Calibration(parallax_planar_calibration::CalibrationWarning::OutlierView {
+                view: 7,
+                camera: 0,
+                ..
+            })
+        )),
+        "{:?}",
+        r.warnings
+    );
+    assert_eq!(r.residuals_px[7].len(), 140);
+}
