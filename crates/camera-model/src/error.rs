@@ -69,4 +69,16 @@ pub enum CameraModelError {
     /// Sizes of inputs that must agree do not.
     #[error("size mismatch: {0}")]
     SizeMismatch(String),
+    /// A point or pixel lies outside the region where a (wide-angle) lens model is defined and
+    /// invertible: beyond its largest field angle, or a pixel no ray maps to.
+    #[error("{what} is outside the lens model's valid region: {detail}")]
+    OutsideValidRegion {
+        /// Which input ("point", "pixel").
+        what: &'static str,
+        /// Why, with the numbers.
+        detail: String,
+    },
+    /// Lens-model parameters are out of their domain (non-finite, `α ∉ [0, 1]`, `ξ ∉ [−1, 1]`).
+    #[error("invalid lens parameters: {0}")]
+    InvalidLens(String),
 }

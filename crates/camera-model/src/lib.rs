@@ -34,6 +34,8 @@
 mod camera;
 mod disparity;
 mod error;
+mod fisheye;
+mod model;
 mod projection;
 mod stereo;
 mod target;
@@ -42,6 +44,12 @@ mod transform;
 pub use camera::{Camera, Distortion, Intrinsics};
 pub use disparity::DisparityMap;
 pub use error::CameraModelError;
+pub use fisheye::{
+    DoubleSphere, DoubleSphereParameters, FISHEYE_UNPROJECT_MAX_ITERATIONS, FISHEYE_UNPROJECT_TOLERANCE, FisheyeCamera,
+    FisheyeCameraParameters, FisheyeLens, FisheyeStereoRig, KannalaBrandt, KannalaBrandtCoefficients,
+    NormalizedProjection,
+};
+pub use model::CameraModel;
 pub use projection::{ProjectionJacobians, UNDISTORT_MAX_ITERATIONS, UNDISTORT_TOLERANCE};
 pub use stereo::{ProjectionMatrix, StereoRig, skew_symmetric};
 pub use target::{Chessboard, CornerGrid};

@@ -26,7 +26,8 @@ pub struct ProjectionJacobians {
     pub d_pose: [[f64; 6]; 2],
     /// ∂pixel/∂(fx, fy, cx, cy, skew).
     pub d_intrinsics: [[f64; 5]; 2],
-    /// ∂pixel/∂(k1, k2, p1, p2, k3, k4, k5, k6).
+    /// ∂pixel/∂(k1, k2, p1, p2, k3, k4, k5, k6) for [`Camera`]; for a [`crate::FisheyeCamera`] the lens
+    /// parameters `(k1, k2, k3, k4)` or `(ξ, α)` in the first columns, the rest 0.
     pub d_distortion: [[f64; 8]; 2],
 }
 

@@ -11,6 +11,10 @@
 //! * [`calibrate_stereo`]: both cameras + `right_from_left` jointly, `E`, `F`, rig std devs.
 //! * [`calibrate_dlt`]: `P` from a non-planar target, RQ into `K`, `R`, `t`.
 //! * [`solve_pnp_planar`]: the pose of a calibrated camera from a planar target.
+//! * [`calibrate_fisheye`] / [`calibrate_fisheye_stereo`]: wide-angle cameras
+//!   (`parallax_camera_model::FisheyeCamera`, Kannala–Brandt as OpenCV's `fisheye` or double
+//!   sphere) with the same refinement, standard deviations, per-view errors and warnings
+//!   ([`FisheyeWarning`]), and an initialisation that needs no focal-length guess.
 //!
 //! Conventions are OpenCV's (see `camera-model`): distortion `(k1, k2, p1, p2, k3[, k4..k6])`,
 //! RMS = `sqrt(Σ‖e‖²/N)` over corners, poses `camera_from_board` in board units.
@@ -45,6 +49,7 @@ mod bundle;
 mod calibrate;
 mod dlt;
 mod error;
+mod fisheye;
 mod homography;
 mod pnp;
 mod stereo;
@@ -62,6 +67,11 @@ pub use calibrate::{
 };
 pub use dlt::{DltCalibration, calibrate_dlt, rq_decomposition};
 pub use error::{CalibrationError, Result};
+pub use fisheye::{
+    FisheyeCalibrationConfig, FisheyeCalibrationResult, FisheyeModelKind, FisheyeStdDevs,
+    FisheyeStereoCalibrationResult, FisheyeStereoConfig, FisheyeWarning, calibrate_fisheye,
+    calibrate_fisheye_chessboard, calibrate_fisheye_stereo,
+};
 pub use homography::{Homography, estimate_homography, homography_dlt};
 pub use pnp::{solve_pnp_planar, solve_pnp_planar_points};
 pub use stereo::{

@@ -14,6 +14,13 @@
 //! * [`stereo_rectify_uncalibrated`]: Hartley's rectification from a fundamental matrix and
 //!   matches (OpenCV's `stereoRectifyUncalibrated`).
 //!
+//! * Wide-angle rigs ([`parallax_camera_model::FisheyeCamera`], or any `CameraModel`):
+//!   [`estimate_new_camera_matrix_for_undistort_rectify`] and [`fisheye_stereo_rectify`]
+//!   (OpenCV's `fisheye::` functions, number for number where OpenCV's undistortion converges),
+//!   [`init_fisheye_undistort_rectify_map`] to a pinhole, and [`WideView`] /
+//!   [`fisheye_wide_rectify`] to an equirectangular or cylindrical view whose rows are epipolar
+//!   planes, for fields of view a pinhole cannot hold.
+//!
 //! Frames and names follow `camera-model`: the rig's `right_from_left` is OpenCV's `(R, T)`;
 //! `r1` maps the left camera frame to the rectified left frame.
 //!
@@ -47,6 +54,7 @@
 
 mod bouguet;
 mod error;
+mod fisheye;
 mod hartley;
 mod maps;
 mod opencv_compat;
@@ -63,6 +71,12 @@ pub use parallax_least_squares;
 
 pub use bouguet::{ExtentMethod, Rectification, RectifyConfig, Roi, stereo_rectify};
 pub use error::{RectifyError, Result};
+pub use fisheye::{
+    FisheyeRectifyConfig, WideProjection, WideRectification, WideView,
+    estimate_new_camera_matrix_for_undistort_rectify, fisheye_stereo_rectify, fisheye_wide_rectify,
+    init_fisheye_undistort_map, init_fisheye_undistort_rectify_map, init_wide_view_map, rectify_points_fisheye,
+    rectify_points_wide, rectifying_rotations,
+};
 pub use hartley::{UncalibratedRectification, stereo_rectify_uncalibrated};
 pub use maps::{RemapTable, init_homography_map, init_undistort_map, init_undistort_rectify_map};
 pub use points::rectify_points;

@@ -5,7 +5,11 @@
 //! - seeded noise helpers ([`rng`], [`add_pixel_noise`], [`perturb_pose`]);
 //! - calibration view sets ([`calibration_poses`], [`stereo_calibration_poses`]) and the true
 //!   corner positions ([`project_corners`], through `camera-model`'s projection);
-//! - rendered chessboard views with exact anti-aliasing ([`render_chessboard`]);
+//! - rendered chessboard views with exact anti-aliasing ([`render_chessboard`]) through any
+//!   `CameraModel`: pinhole or fisheye (Kannala–Brandt, double sphere; fields of view beyond 180°);
+//! - wide-angle view sets that cover a fisheye's periphery ([`wide_angle_calibration_poses`],
+//!   [`wide_angle_stereo_calibration_poses`]) and a textured room rendered through any lens
+//!   ([`TexturedRoom`], [`render_room`]) for wide-angle stereo;
 //! - rectified stereo pairs with exact disparity and occlusion masks ([`render_stereo_scene`]);
 //! - robot trajectories for hand-eye calibration ([`hand_eye_trajectory`]);
 //! - scene descriptions in RON with the pipeline's tolerances ([`SceneDescription`]).
@@ -26,6 +30,7 @@
 //! ```
 
 mod error;
+mod fisheye;
 mod noise;
 mod render;
 mod scene;
@@ -41,6 +46,9 @@ pub use parallax_camera_model;
 pub use parallax_least_squares;
 
 pub use error::SyntheticError;
+pub use fisheye::{
+    TexturedRoom, WideViewSetConfig, render_room, wide_angle_calibration_poses, wide_angle_stereo_calibration_poses,
+};
 pub use noise::{add_pixel_noise, perturb_pose, rng};
 pub use render::{RenderOptions, RenderedView, render_chessboard};
 pub use scene::{SceneDescription, Tolerances};

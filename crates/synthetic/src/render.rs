@@ -2,7 +2,7 @@
 
 use glam::{DMat3, DVec2, DVec3};
 use image::{GrayImage, ImageBuffer, Luma};
-use parallax_camera_model::{Camera, Chessboard, Isometry3};
+use parallax_camera_model::{CameraModel, Chessboard, Isometry3};
 use rand::Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -87,7 +87,7 @@ impl RenderOptions {
 /// A rendered view and its ground truth.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderedView {
-    /// The 8-bit image (`camera.width x camera.height`).
+    /// The 8-bit image (`camera.width() x camera.height()`).
     pub image: GrayImage,
     /// True image positions of the inner corners in OpenCV's order (row-major), projected
     /// through the camera model, distortion included. Corners may lie outside the image.
@@ -99,7 +99,7 @@ pub struct RenderedView {
 /// Renders an 8-bit view of `board` seen by `camera` from `camera_from_board`.
 ///
 /// Anti-aliasing is exact area coverage: the four corners of every pixel are unprojected
-/// through the lens model (`Camera::unproject`) and intersected with the board plane; on the
+/// through the lens model ([`CameraModel::unproject_ray`]) and intersected with the board plane; on the
 /// plane the pixel is the quadrilateral they span, which is clipped against the squares
 /// (Sutherland–Hodgman), and each clipped piece is mapped back to the pixel through the local
 /// homography of the four corners, where its area is the piece's weight. Without distortion
@@ -114,16 +114,20 @@ pub struct RenderedView {
 /// multiply the image, the blur is applied (imageproc's Gaussian), then Gaussian noise, impulse
 /// noise and rounding to 8 bits. The true corners are [`project_corners`].
 ///
-/// Errors on an invalid camera, board, pose or option, or when a corner is behind the camera.
-pub fn render_chessboard(
-    camera: &Camera,
+/// Any [`CameraModel`] renders: the pinhole `Camera` and the wide-angle `FisheyeCamera` (rays
+/// behind the image plane included; pixels no ray maps to show the background).
+///
+/// Errors on an invalid camera, board, pose or option, or when a corner is outside the camera's
+/// valid region (behind a pinhole camera).
+pub fn render_chessboard<C: CameraModel + Sync>(
+    camera: &C,
     board: &Chessboard,
     camera_from_board: &Isometry3,
     opts: &RenderOptions,
 ) -> Result<RenderedView, SyntheticError> {
     opts.validate()?;
     let corners = project_corners(camera, board, camera_from_board)?;
-    let (w, h) = (camera.width as usize, camera.height as usize);
+    let (w, h) = (camera.width() as usize, camera.height() as usize);
     let mut rng = rng(opts.seed);
     let background = if opts.clutter {
         clutter(w, h, f64::from(opts.background), &mut rng)
@@ -215,8 +219,8 @@ struct CornerGrid {
 }
 
 impl CornerGrid {
-    fn new(camera: &Camera, camera_from_board: &Isometry3, square: f64) -> Self {
-        let (w, h) = (camera.width as usize + 1, camera.height as usize + 1);
+    fn new<C: CameraModel + Sync>(camera: &C, camera_from_board: &Isometry3, square: f64) -> Self {
+        let (w, h) = (camera.width() as usize + 1, camera.height() as usize + 1);
         let plane = Plane::new(camera_from_board, square);
         let mut points = vec![None; w * h];
         points.par_chunks_mut(w).enumerate().for_each(|(j, row)| {
@@ -254,8 +258,8 @@ impl Plane {
 
     /// Board point (in squares) seen through a pixel, `None` when the ray misses the plane.
     #[inline]
-    fn hit(&self, camera: &Camera, pixel: DVec2) -> Option<DVec2> {
-        let ray = camera.unproject(pixel).ok()?;
+    fn hit<C: CameraModel>(&self, camera: &C, pixel: DVec2) -> Option<DVec2> {
+        let ray = camera.unproject_ray(pixel).ok()?;
         let denom = self.normal.dot(ray);
         let lambda = self.offset / denom;
         if !(lambda > 0.0 && lambda.is_finite()) {
@@ -268,10 +272,10 @@ impl Plane {
 }
 
 /// The radiance of pixel `(u, v)` before lighting, blur and noise.
-fn pixel_value(
+fn pixel_value<C: CameraModel>(
     grid: &CornerGrid,
     pattern: &Pattern,
-    camera: &Camera,
+    camera: &C,
     camera_from_board: &Isometry3,
     square: f64,
     u: usize,
@@ -409,9 +413,9 @@ fn clip(q: &[DVec2; 4], x0: f64, x1: f64, y0: f64, y1: f64) -> Poly {
 }
 
 /// Fallback: 16x16 point samples, each unprojected through the lens model.
-fn point_sampled(
+fn point_sampled<C: CameraModel>(
     pattern: &Pattern,
-    camera: &Camera,
+    camera: &C,
     camera_from_board: &Isometry3,
     square: f64,
     u: usize,
@@ -432,22 +436,22 @@ fn point_sampled(
 }
 
 /// Multiplies by the illumination gradient and the vignetting.
-fn apply_lighting(radiance: &mut [f32], camera: &Camera, opts: &RenderOptions, rng: &mut impl Rng) {
+fn apply_lighting<C: CameraModel>(radiance: &mut [f32], camera: &C, opts: &RenderOptions, rng: &mut impl Rng) {
     let angle = uniform(rng, 0.0, std::f64::consts::TAU);
     if opts.illumination_gradient == 0.0 && opts.vignetting == 0.0 {
         return;
     }
-    let (w, h) = (camera.width as f64, camera.height as f64);
+    let (w, h) = (camera.width() as f64, camera.height() as f64);
     let centre = DVec2::new((w - 1.0) * 0.5, (h - 1.0) * 0.5);
     let dir = DVec2::new(angle.cos(), angle.sin());
     let half_extent = 0.5 * ((w - 1.0) * dir.x.abs() + (h - 1.0) * dir.y.abs()).max(1e-9);
-    let pp = DVec2::new(camera.intrinsics.cx, camera.intrinsics.cy);
+    let pp = DVec2::new(camera.intrinsics().cx, camera.intrinsics().cy);
     let r_max2 =
         [DVec2::new(0.0, 0.0), DVec2::new(w - 1.0, 0.0), DVec2::new(0.0, h - 1.0), DVec2::new(w - 1.0, h - 1.0)]
             .iter()
             .map(|c| (*c - pp).length_squared())
             .fold(1e-9, f64::max);
-    let width = camera.width as usize;
+    let width = camera.width() as usize;
     radiance.par_chunks_mut(width).enumerate().for_each(|(v, row)| {
         for (u, out) in row.iter_mut().enumerate() {
             let p = DVec2::new(u as f64, v as f64);

@@ -184,7 +184,7 @@ impl Layer {
     }
 }
 
-fn splitmix(mut x: u64) -> u64 {
+pub(crate) fn splitmix(mut x: u64) -> u64 {
     x = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
     x = (x ^ (x >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     x = (x ^ (x >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
@@ -199,7 +199,7 @@ fn lattice(i: i64, j: i64, seed: u64) -> f64 {
 
 /// Value noise in `[0, 1]` with a C² (quintic) interpolation between lattice values.
 #[inline]
-fn value_noise(x: f64, y: f64, seed: u64) -> f64 {
+pub(crate) fn value_noise(x: f64, y: f64, seed: u64) -> f64 {
     let (fx, fy) = (x.floor(), y.floor());
     let (i, j) = (fx as i64, fy as i64);
     let fade = |t: f64| t * t * t * (t * (t * 6.0 - 15.0) + 10.0);

@@ -1,7 +1,7 @@
 //! Calibration view sets: seeded `camera_from_board` poses with the board visible.
 
 use glam::{DQuat, DVec2, DVec3};
-use parallax_camera_model::{Camera, Chessboard, Isometry3, StereoRig};
+use parallax_camera_model::{Camera, CameraModel, Chessboard, Isometry3, StereoRig};
 use serde::{Deserialize, Serialize};
 
 use crate::SyntheticError;
@@ -82,9 +82,10 @@ impl ViewSetConfig {
 /// The image positions of a board's inner corners (OpenCV's order) seen through
 /// `camera_from_board`, projected with `camera-model` (distortion included).
 ///
-/// Errors on an invalid camera or board, a non-finite pose, or a corner behind the camera.
-pub fn project_corners(
-    camera: &Camera,
+/// Any [`CameraModel`] (pinhole or fisheye). Errors on an invalid camera or board, a non-finite
+/// pose, or a corner outside the camera's valid region (behind a pinhole camera).
+pub fn project_corners<C: CameraModel>(
+    camera: &C,
     board: &Chessboard,
     camera_from_board: &Isometry3,
 ) -> Result<Vec<DVec2>, SyntheticError> {

@@ -1,0 +1,1282 @@
+//! Calibration of wide-angle cameras ([`FisheyeCamera`]: Kannala–Brandt or double sphere),
+//! mono and stereo, from planar targets: an initialisation that needs no focal-length guess,
+//! then the same maximum-likelihood refinement as the pinhole path (Levenberg–Marquardt over
+//! intrinsics, lens parameters and every view pose, block-accumulated normal equations,
+//! covariance `σ² (JᵀJ)⁻¹`), standard deviations, per-view errors and warnings.
+//!
+//! Initialisation (no guess needed): with the principal point at the image centre and the
+//! lens at its neutral shape (Kannala–Brandt: equidistant `θ_d = θ`; double sphere: `ξ = 0,
+//! α = ½`, the stereographic projection), every candidate focal length `f` turns the corners
+//! into rays; each view's pose follows linearly from the plane ↔ ray homography (DLT on
+//! `d × H q = 0`, valid for rays beyond 90°), and `f` minimises the total reprojection error
+//! (a scan over 48 log-spaced values from 0.05 to 2 image sizes, then golden-section search).
+//! A double sphere calibration starts from the double sphere closest to a Kannala–Brandt
+//! calibration of the same corners (grid over `ξ, α`, focal scale in closed form), falling back
+//! to the neutral scan if that fails.
+
+use glam::{DMat3, DVec2, DVec3};
+use parallax_camera_model::{
+    CameraModelError, Chessboard, CornerGrid, DoubleSphere, FisheyeCamera, FisheyeLens, FisheyeStereoRig, Intrinsics,
+    Isometry3, KannalaBrandt,
+};
+use parallax_least_squares::{
+    EvaluationError, LmConfig, LmReport, Problem, levenberg_marquardt, nearest_rotation, null_vector,
+};
+use serde::{Deserialize, Serialize};
+
+use crate::bundle::{Slot, ViewObs, pose_at, store_pose};
+use crate::calibrate::{
+    CalibrationWarning, PARALLEL_VIEWS_DEG, PoseStdDevs, board_views, outlier_views, pose_std_devs, rms_of,
+    validate_views, view_spread_deg,
+};
+use crate::stereo::{RigStdDevs, median_rig};
+use crate::{CalibrationError, Result};
+
+/// Length of the full per-camera parameter vector `(fx, fy, cx, cy, skew, l0, l1, l2, l3)`
+/// (`l` = lens parameters in the model's order; double sphere uses `l0 = ξ`, `l1 = α`).
+const N_FULL: usize = 9;
+
+/// Which wide-angle model to calibrate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum FisheyeModelKind {
+    /// Kannala–Brandt / OpenCV `fisheye` (`k1..k4`).
+    #[default]
+    KannalaBrandt,
+    /// Double sphere (`ξ, α`).
+    DoubleSphere,
+}
+
+/// Options of [`calibrate_fisheye`]. The default is OpenCV `fisheye::calibrate`'s model with
+/// `CALIB_FIX_SKEW`: `fx, fy, cx, cy, k1..k4` estimated, no skew.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct FisheyeCalibrationConfig {
+    /// The lens model.
+    pub model: FisheyeModelKind,
+    /// Hold `cx, cy` (at the guess, else the image centre `((w−1)/2, (h−1)/2)`).
+    pub fix_principal_point: bool,
+    /// Estimate only `fy`, with `fx = a·fy`, `a` from the guess (else 1).
+    pub fix_aspect_ratio: bool,
+    /// Estimate the skew `K[0][1]` (OpenCV fisheye's `alpha · fx`; held at 0 by default).
+    pub estimate_skew: bool,
+    /// Hold lens parameter `i` (model order: `k1..k4`, or `ξ, α`) at the guess, else at the
+    /// neutral value (0 for `k1..k4` and `ξ`, ½ for `α`), as OpenCV's `CALIB_FIX_K1..K4`.
+    pub fix_lens: [bool; 4],
+    /// Start from this camera (`CALIB_USE_INTRINSIC_GUESS`); its lens must be of `model` and
+    /// its image size the views'.
+    pub intrinsic_guess: Option<FisheyeCamera>,
+    /// Levenberg–Marquardt settings of the refinement.
+    pub lm: LmConfig,
+    /// A view is an outlier when its RMS exceeds this multiple of the median view RMS (and the
+    /// median plus 4 robust standard deviations).
+    pub outlier_view_factor: f64,
+    /// Views whose board normals all lie within this angle (degrees) are reported as similar.
+    pub min_view_spread_deg: f64,
+    /// Warn when the observed corners reach less than this fraction of the field angle at the
+    /// midpoints of the image edges (the model extrapolates beyond). Default 0.8.
+    pub min_field_coverage: f64,
+}
+
+impl Default for FisheyeCalibrationConfig {
+    fn default() -> Self {
+        Self {
+            model: FisheyeModelKind::KannalaBrandt,
+            fix_principal_point: false,
+            fix_aspect_ratio: false,
+            estimate_skew: false,
+            fix_lens: [false; 4],
+            intrinsic_guess: None,
+            lm: LmConfig {
+                max_iterations: 200,
+                gradient_tolerance: 1e-10,
+                step_tolerance: 1e-12,
+                cost_tolerance: 1e-12,
+                ..LmConfig::default()
+            },
+            outlier_view_factor: 2.0,
+            min_view_spread_deg: 10.0,
+            min_field_coverage: 0.8,
+        }
+    }
+}
+
+/// 1σ of every parameter of a wide-angle camera; `None` for parameters held fixed.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct FisheyeStdDevs {
+    /// 1σ of `fx`.
+    pub fx: Option<f64>,
+    /// 1σ of `fy`.
+    pub fy: Option<f64>,
+    /// 1σ of `cx`.
+    pub cx: Option<f64>,
+    /// 1σ of `cy`.
+    pub cy: Option<f64>,
+    /// 1σ of the skew.
+    pub skew: Option<f64>,
+    /// 1σ of the lens parameters in the model's order (`k1..k4`, or `ξ, α, −, −`).
+    pub lens: [Option<f64>; 4],
+}
+
+/// Something the user should know about a wide-angle calibration that nevertheless succeeded.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum FisheyeWarning {
+    /// A warning shared with the pinhole path (outlier view, too few views, similar views,
+    /// not converged).
+    Calibration(CalibrationWarning),
+    /// The Kannala–Brandt polynomial folds back (`dθ_d/dθ = 0`) inside the image: pixels beyond
+    /// that radius have no ray; the fitted polynomial is extrapolating.
+    LensFoldsInsideImage {
+        /// Camera index (0 mono / left, 1 right).
+        camera: usize,
+        /// The fold angle, degrees.
+        max_field_deg: f64,
+        /// Its distance from the principal point, pixels (along x).
+        radius_px: f64,
+        /// Distance from the principal point to the farthest image corner, pixels (along x).
+        image_radius_px: f64,
+    },
+    /// The corners reach a much smaller field angle than the image shows: the lens model is
+    /// extrapolated in the periphery (put the board near the image border too).
+    ExtrapolatedPeriphery {
+        /// Camera index.
+        camera: usize,
+        /// Largest field angle of an observed corner, degrees.
+        observed_deg: f64,
+        /// Largest field angle of the midpoints of the image edges, degrees.
+        image_deg: f64,
+    },
+}
+
+impl std::fmt::Display for FisheyeWarning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Calibration(w) => w.fmt(f),
+            Self::LensFoldsInsideImage { camera, max_field_deg, radius_px, image_radius_px } => write!(
+                f,
+                "camera {camera}: the lens polynomial folds back at {max_field_deg:.1}° ({radius_px:.0} px from the \
+                 principal point), inside the image (corner at {image_radius_px:.0} px)"
+            ),
+            Self::ExtrapolatedPeriphery { camera, observed_deg, image_deg } => write!(
+                f,
+                "camera {camera}: the corners reach {observed_deg:.1}° off axis but the image shows {image_deg:.1}°; \
+                 the periphery is extrapolated (show the board near the image border)"
+            ),
+        }
+    }
+}
+
+/// The result of [`calibrate_fisheye`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FisheyeCalibrationResult {
+    /// The calibrated camera.
+    pub camera: FisheyeCamera,
+    /// Per-view `camera_from_board` (board units).
+    pub camera_from_board: Vec<Isometry3>,
+    /// RMS reprojection error over all corners, `sqrt(Σ‖e‖² / N)`, pixels.
+    pub rms_px: f64,
+    /// The same per view.
+    pub per_view_rms_px: Vec<f64>,
+    /// Per view, per corner: observed − projected, pixels.
+    pub residuals_px: Vec<Vec<DVec2>>,
+    /// 1σ of the camera parameters.
+    pub std_devs: FisheyeStdDevs,
+    /// 1σ of every view pose.
+    pub pose_std_devs: Vec<PoseStdDevs>,
+    /// Estimated corner noise per coordinate `sqrt(‖r‖² / (m − n))`, pixels.
+    pub sigma_px: f64,
+    /// Degrees of freedom (residuals − parameters).
+    pub dof: usize,
+    /// Estimated parameters (camera + 6 per view).
+    pub num_parameters: usize,
+    /// LM iterations.
+    pub iterations: usize,
+    /// Whether LM converged.
+    pub converged: bool,
+    /// Diagnostics.
+    pub warnings: Vec<FisheyeWarning>,
+}
+
+/// Options of [`calibrate_fisheye_stereo`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct FisheyeStereoConfig {
+    /// Hold both cameras (at their `intrinsic_guess`, else their mono calibrations).
+    pub fix_intrinsics: bool,
+    /// Model, flags and guess of the left camera.
+    pub left: FisheyeCalibrationConfig,
+    /// Model, flags and guess of the right camera.
+    pub right: FisheyeCalibrationConfig,
+    /// Levenberg–Marquardt settings of the joint refinement.
+    pub lm: LmConfig,
+}
+
+impl Default for FisheyeStereoConfig {
+    fn default() -> Self {
+        let left = FisheyeCalibrationConfig::default();
+        Self { fix_intrinsics: false, lm: left.lm, right: left.clone(), left }
+    }
+}
+
+/// The result of [`calibrate_fisheye_stereo`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FisheyeStereoCalibrationResult {
+    /// Both cameras and `right_from_left`.
+    pub rig: FisheyeStereoRig,
+    /// Per-view left `camera_from_board`.
+    pub camera_from_board: Vec<Isometry3>,
+    /// RMS over all corners of both cameras, pixels.
+    pub rms_px: f64,
+    /// RMS over the left camera's corners, pixels.
+    pub left_rms_px: f64,
+    /// RMS over the right camera's corners, pixels.
+    pub right_rms_px: f64,
+    /// Per view `[left, right]` RMS, pixels.
+    pub per_view_rms_px: Vec<[f64; 2]>,
+    /// Per view `[left, right]`, per corner: observed − projected, pixels.
+    pub residuals_px: Vec<[Vec<DVec2>; 2]>,
+    /// 1σ of the left camera (`None` = held).
+    pub left_std_devs: FisheyeStdDevs,
+    /// 1σ of the right camera.
+    pub right_std_devs: FisheyeStdDevs,
+    /// 1σ of the rig.
+    pub rig_std_devs: RigStdDevs,
+    /// Essential matrix `E = [t]× R` (`r_rᵀ E r_l = 0` for the rays of a match).
+    pub essential: DMat3,
+    /// Estimated corner noise per coordinate, pixels.
+    pub sigma_px: f64,
+    /// Degrees of freedom.
+    pub dof: usize,
+    /// Estimated parameters.
+    pub num_parameters: usize,
+    /// LM iterations of the joint refinement.
+    pub iterations: usize,
+    /// Whether the joint refinement converged.
+    pub converged: bool,
+    /// Diagnostics (camera 0 = left, 1 = right).
+    pub warnings: Vec<FisheyeWarning>,
+}
+
+/// The parametrisation of one camera.
+#[derive(Debug, Clone)]
+struct Slots {
+    slots: [Slot; N_FULL],
+    num_free: usize,
+    template: FisheyeCamera,
+}
+
+fn full_of(c: &FisheyeCamera) -> [f64; N_FULL] {
+    let k = c.intrinsics();
+    let l = c.lens().parameters();
+    let mut t = [k.fx, k.fy, k.cx, k.cy, k.skew, 0.0, 0.0, 0.0, 0.0];
+    t[5..5 + l.len()].copy_from_slice(&l);
+    t
+}
+
+impl Slots {
+    fn new(cfg: &FisheyeCalibrationConfig, init: &FisheyeCamera, all_fixed: bool) -> Self {
+        let theta = full_of(init);
+        let mut slots: [Slot; N_FULL] = std::array::from_fn(|i| Slot::Fixed(theta[i]));
+        if all_fixed {
+            return Self { slots, num_free: 0, template: *init };
+        }
+        let mut n = 0;
+        let mut free = |slots: &mut [Slot; N_FULL], i: usize| {
+            slots[i] = Slot::Free { index: n, scale: 1.0 };
+            n += 1;
+        };
+        free(&mut slots, 1);
+        if cfg.fix_aspect_ratio {
+            slots[0] = Slot::Free { index: 0, scale: theta[0] / theta[1] };
+        } else {
+            free(&mut slots, 0);
+        }
+        if !cfg.fix_principal_point {
+            free(&mut slots, 2);
+            free(&mut slots, 3);
+        }
+        if cfg.estimate_skew {
+            free(&mut slots, 4);
+        }
+        for i in 0..init.lens().num_parameters() {
+            if !cfg.fix_lens[i] {
+                free(&mut slots, 5 + i);
+            }
+        }
+        Self { slots, num_free: n, template: *init }
+    }
+
+    fn full(&self, free: &[f64]) -> [f64; N_FULL] {
+        std::array::from_fn(|i| match self.slots[i] {
+            Slot::Fixed(v) => v,
+            Slot::Free { index, scale } => scale * free[index],
+        })
+    }
+
+    fn camera(&self, free: &[f64]) -> std::result::Result<FisheyeCamera, CameraModelError> {
+        let t = self.full(free);
+        let nl = self.template.lens().num_parameters();
+        let lens = self.template.lens().with_parameters(&t[5..5 + nl])?;
+        FisheyeCamera::new(
+            Intrinsics { fx: t[0], fy: t[1], cx: t[2], cy: t[3], skew: t[4] },
+            lens,
+            self.template.width(),
+            self.template.height(),
+        )
+    }
+
+    fn free_values(&self, c: &FisheyeCamera) -> Vec<f64> {
+        let theta = full_of(c);
+        let mut out = vec![0.0; self.num_free];
+        for (i, s) in self.slots.iter().enumerate() {
+            if let Slot::Free { index, scale } = *s {
+                out[index] = theta[i] / scale;
+            }
+        }
+        out
+    }
+
+    fn std_devs(&self, offset: usize, cov: Option<&faer::Mat<f64>>) -> FisheyeStdDevs {
+        let a: [Option<f64>; N_FULL] = std::array::from_fn(|i| match self.slots[i] {
+            Slot::Fixed(_) => None,
+            Slot::Free { index, scale } => {
+                Some(cov.map_or(f64::NAN, |c| scale.abs() * c[(offset + index, offset + index)].max(0.0).sqrt()))
+            }
+        });
+        FisheyeStdDevs { fx: a[0], fy: a[1], cx: a[2], cy: a[3], skew: a[4], lens: [a[5], a[6], a[7], a[8]] }
+    }
+}
+
+/// The bundle problem of the fisheye path: free camera parameters (one or two cameras), the
+/// rig pose (stereo), then one 6-vector pose per view (the layout of the pinhole bundle).
+struct FisheyeBundle<'a> {
+    cams: Vec<Slots>,
+    cam_offsets: Vec<usize>,
+    rig_offset: Option<usize>,
+    num_global: usize,
+    views: Vec<ViewObs<'a>>,
+    num_residuals: usize,
+}
+
+impl<'a> FisheyeBundle<'a> {
+    fn new(cams: Vec<Slots>, stereo: bool, views: Vec<ViewObs<'a>>) -> Self {
+        let mut cam_offsets = Vec::with_capacity(cams.len());
+        let mut off = 0;
+        for c in &cams {
+            cam_offsets.push(off);
+            off += c.num_free;
+        }
+        let rig_offset = stereo.then_some(off);
+        if stereo {
+            off += 6;
+        }
+        let num_residuals =
+            views.iter().map(|v| v.image.iter().flatten().map(|img| 2 * img.len()).sum::<usize>()).sum();
+        Self { cams, cam_offsets, rig_offset, num_global: off, views, num_residuals }
+    }
+
+    fn view_offset(&self, v: usize) -> usize {
+        self.num_global + 6 * v
+    }
+
+    fn cameras(&self, params: &[f64]) -> std::result::Result<Vec<FisheyeCamera>, EvaluationError> {
+        self.cams
+            .iter()
+            .zip(&self.cam_offsets)
+            .map(|(c, &o)| c.camera(&params[o..o + c.num_free]).map_err(|e| EvaluationError(e.to_string())))
+            .collect()
+    }
+
+    /// Visits every observation: `f(view, camera, residual, entries)` with the non-zero
+    /// Jacobian columns `(parameter index, ∂r/∂p)` of its 2-row block.
+    fn for_each_observation(
+        &self,
+        params: &[f64],
+        mut f: impl FnMut(usize, usize, DVec2, &[(usize, [f64; 2])]),
+    ) -> std::result::Result<(), EvaluationError> {
+        let cameras = self.cameras(params)?;
+        let rig = self.rig_offset.map(|o| pose_at(&params[o..o + 6]));
+        // Adjoint of the rig for the left perturbation (ω, v): [[R, 0], [[t]× R, R]].
+        let adj = rig.map(|e| {
+            let r = e.rotation_matrix();
+            let tx = parallax_camera_model::skew_symmetric(e.translation) * r;
+            let mut a = [[0.0; 6]; 6];
+            for i in 0..3 {
+                for j in 0..3 {
+                    a[i][j] = r.col(j)[i];
+                    a[3 + i][3 + j] = r.col(j)[i];
+                    a[3 + i][j] = tx.col(j)[i];
+                }
+            }
+            a
+        });
+        let mut entries: Vec<(usize, [f64; 2])> = Vec::with_capacity(32);
+        for (v, view) in self.views.iter().enumerate() {
+            let vo = self.view_offset(v);
+            let left = pose_at(&params[vo..vo + 6]);
+            for (c, img) in view.image.iter().enumerate() {
+                let Some(img) = img else { continue };
+                let ci = c.min(self.cams.len() - 1);
+                let slots = &self.cams[ci];
+                let camera = &cameras[ci];
+                let pose = if c == 0 { left } else { rig.expect("stereo bundle has a rig") * left };
+                for (i, (x, q)) in view.object.iter().zip(img.iter()).enumerate() {
+                    let pj = camera
+                        .project_with_jacobians(&pose, *x)
+                        .map_err(|e| EvaluationError(format!("view {v}, camera {c}, point {i}: {e}")))?;
+                    let r = pj.pixel - *q;
+                    entries.clear();
+                    let co = self.cam_offsets[ci];
+                    for k in 0..slots.num_free {
+                        entries.push((co + k, [0.0, 0.0]));
+                    }
+                    for (t, s) in slots.slots.iter().enumerate() {
+                        if let Slot::Free { index, scale } = *s {
+                            let (a, b) = if t < 5 {
+                                (pj.d_intrinsics[0][t], pj.d_intrinsics[1][t])
+                            } else {
+                                (pj.d_distortion[0][t - 5], pj.d_distortion[1][t - 5])
+                            };
+                            let e = &mut entries[index].1;
+                            e[0] += scale * a;
+                            e[1] += scale * b;
+                        }
+                    }
+                    if c == 0 {
+                        for k in 0..6 {
+                            entries.push((vo + k, [pj.d_pose[0][k], pj.d_pose[1][k]]));
+                        }
+                    } else {
+                        let ro = self.rig_offset.expect("stereo bundle has a rig");
+                        let a = adj.as_ref().expect("stereo bundle has a rig");
+                        for k in 0..6 {
+                            entries.push((ro + k, [pj.d_pose[0][k], pj.d_pose[1][k]]));
+                        }
+                        for k in 0..6 {
+                            let mut d = [0.0; 2];
+                            for l in 0..6 {
+                                d[0] += pj.d_pose[0][l] * a[l][k];
+                                d[1] += pj.d_pose[1][l] * a[l][k];
+                            }
+                            entries.push((vo + k, d));
+                        }
+                    }
+                    f(v, c, r, &entries);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn residuals_by_view(&self, params: &[f64]) -> std::result::Result<Vec<[Vec<DVec2>; 2]>, EvaluationError> {
+        let mut out: Vec<[Vec<DVec2>; 2]> = (0..self.views.len()).map(|_| [Vec::new(), Vec::new()]).collect();
+        self.for_each_observation(params, |v, c, r, _| out[v][c].push(r))?;
+        Ok(out)
+    }
+}
+
+impl Problem for FisheyeBundle<'_> {
+    fn num_params(&self) -> usize {
+        self.num_global + 6 * self.views.len()
+    }
+    fn num_residuals(&self) -> usize {
+        self.num_residuals
+    }
+    fn evaluate(
+        &self,
+        params: &[f64],
+        residuals: &mut [f64],
+        mut jacobian: Option<faer::MatMut<'_, f64>>,
+    ) -> std::result::Result<(), EvaluationError> {
+        if let Some(j) = jacobian.as_mut() {
+            j.fill(0.0);
+        }
+        let mut row = 0;
+        self.for_each_observation(params, |_, _, r, entries| {
+            residuals[row] = r.x;
+            residuals[row + 1] = r.y;
+            if let Some(j) = jacobian.as_mut() {
+                for &(col, d) in entries {
+                    j[(row, col)] += d[0];
+                    j[(row + 1, col)] += d[1];
+                }
+            }
+            row += 2;
+        })
+    }
+
+    fn retract(&self, params: &[f64], delta: &[f64], out: &mut [f64]) {
+        for i in 0..self.num_params() {
+            out[i] = params[i] + delta[i];
+        }
+        let mut pose_offsets: Vec<usize> = (0..self.views.len()).map(|v| self.view_offset(v)).collect();
+        if let Some(o) = self.rig_offset {
+            pose_offsets.push(o);
+        }
+        for o in pose_offsets {
+            let d: [f64; 6] = std::array::from_fn(|k| delta[o + k]);
+            let p = pose_at(&params[o..o + 6]).retract(&d);
+            store_pose(&p, &mut out[o..o + 6]);
+        }
+    }
+
+    fn normal_equations(
+        &self,
+        params: &[f64],
+        jtj: &mut faer::Mat<f64>,
+        jtr: &mut faer::Col<f64>,
+        residuals: &mut [f64],
+    ) -> std::result::Result<(), EvaluationError> {
+        let n = self.num_params();
+        if jtj.nrows() != n || jtj.ncols() != n {
+            *jtj = faer::Mat::zeros(n, n);
+        } else {
+            jtj.fill(0.0);
+        }
+        if jtr.nrows() != n {
+            *jtr = faer::Col::zeros(n);
+        } else {
+            jtr.fill(0.0);
+        }
+        let mut row = 0;
+        self.for_each_observation(params, |_, _, r, entries| {
+            residuals[row] = r.x;
+            residuals[row + 1] = r.y;
+            row += 2;
+            for (a, &(ia, da)) in entries.iter().enumerate() {
+                jtr[ia] += da[0] * r.x + da[1] * r.y;
+                for &(ib, db) in &entries[a..] {
+                    let v = da[0] * db[0] + da[1] * db[1];
+                    let (lo, hi) = if ia <= ib { (ia, ib) } else { (ib, ia) };
+                    jtj[(lo, hi)] += v;
+                }
+            }
+        })?;
+        for j in 0..n {
+            for i in (j + 1)..n {
+                jtj[(i, j)] = jtj[(j, i)];
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The pose of a plane seen along unit rays: DLT of `d × (H q) = 0` (all three rows, so rays
+/// at or beyond 90° from the axis are fine) on similarity-normalised plane points, then
+/// `H = λ [r1 r2 t]` with the sign that puts the points in front along their rays and the
+/// rotation projected onto SO(3).
+pub(crate) fn pose_from_rays(plane: &[DVec2], rays: &[DVec3]) -> Result<Isometry3> {
+    let n = plane.len() as f64;
+    let c = plane.iter().copied().sum::<DVec2>() / n;
+    let spread = plane.iter().map(|p| (*p - c).length()).sum::<f64>() / n;
+    if spread.is_nan() || spread <= 0.0 {
+        return Err(CalibrationError::Degenerate("all plane points coincide".into()));
+    }
+    let s = std::f64::consts::SQRT_2 / spread;
+    let mut a = faer::Mat::<f64>::zeros(3 * plane.len(), 9);
+    for (i, (p, d)) in plane.iter().zip(rays).enumerate() {
+        let q = [(p.x - c.x) * s, (p.y - c.y) * s, 1.0];
+        // d × (H q): rows of H are h0, h1, h2; (H q)_k = h_k · q.
+        // x: d_y (h2·q) − d_z (h1·q); y: d_z (h0·q) − d_x (h2·q); z: d_x (h1·q) − d_y (h0·q)
+        for k in 0..3 {
+            a[(3 * i, 6 + k)] = d.y * q[k];
+            a[(3 * i, 3 + k)] = -d.z * q[k];
+            a[(3 * i + 1, k)] = d.z * q[k];
+            a[(3 * i + 1, 6 + k)] = -d.x * q[k];
+            a[(3 * i + 2, 3 + k)] = d.x * q[k];
+            a[(3 * i + 2, k)] = -d.y * q[k];
+        }
+    }
+    let nv = null_vector(a.as_ref())?;
+    let h = &nv.vector;
+    let hn = DMat3::from_cols(DVec3::new(h[0], h[3], h[6]), DVec3::new(h[1], h[4], h[7]), DVec3::new(h[2], h[5], h[8]));
+    let t = DMat3::from_cols(DVec3::new(s, 0.0, 0.0), DVec3::new(0.0, s, 0.0), DVec3::new(-s * c.x, -s * c.y, 1.0));
+    let m = hn * t;
+    let (c0, c1, c2) = (m.col(0), m.col(1), m.col(2));
+    let scale = 0.5 * (c0.length() + c1.length());
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(CalibrationError::Degenerate("plane ↔ ray homography is degenerate".into()));
+    }
+    let front: f64 = plane.iter().zip(rays).map(|(p, d)| d.dot(m * p.extend(1.0))).sum();
+    let lambda = if front < 0.0 { -1.0 / scale } else { 1.0 / scale };
+    let (r1, r2, tr) = (c0 * lambda, c1 * lambda, c2 * lambda);
+    let r = nearest_rotation(DMat3::from_cols(r1, r2, r1.cross(r2)))?;
+    Ok(Isometry3::from_rotation_translation(r, tr)?)
+}
+
+fn neutral_lens(model: FisheyeModelKind) -> FisheyeLens {
+    match model {
+        FisheyeModelKind::KannalaBrandt => FisheyeLens::KannalaBrandt(KannalaBrandt::equidistant()),
+        FisheyeModelKind::DoubleSphere => {
+            FisheyeLens::DoubleSphere(DoubleSphere::new(0.0, 0.5).expect("ξ = 0, α = ½ is in the domain"))
+        }
+    }
+}
+
+fn lens_kind(lens: &FisheyeLens) -> FisheyeModelKind {
+    match lens {
+        FisheyeLens::KannalaBrandt(_) => FisheyeModelKind::KannalaBrandt,
+        FisheyeLens::DoubleSphere(_) => FisheyeModelKind::DoubleSphere,
+    }
+}
+
+/// Poses of every view for a given camera (rays from unprojecting the corners), or `None`
+/// when a corner cannot be unprojected.
+fn poses_for(camera: &FisheyeCamera, object: &[Vec<DVec3>], image: &[Vec<DVec2>]) -> Option<Vec<Isometry3>> {
+    object
+        .iter()
+        .zip(image)
+        .map(|(o, i)| {
+            let rays: Option<Vec<DVec3>> = i.iter().map(|q| camera.unproject(*q).ok()).collect();
+            let plane: Vec<DVec2> = o.iter().map(|p| p.truncate()).collect();
+            pose_from_rays(&plane, &rays?).ok()
+        })
+        .collect()
+}
+
+/// Sum of squared reprojection errors (a corner that cannot be projected costs `penalty`).
+fn sse(camera: &FisheyeCamera, poses: &[Isometry3], object: &[Vec<DVec3>], image: &[Vec<DVec2>], penalty: f64) -> f64 {
+    let mut s = 0.0;
+    for ((p, o), i) in poses.iter().zip(object).zip(image) {
+        for (x, q) in o.iter().zip(i) {
+            s += camera.project_from(p, *x).map_or(penalty, |u| (u - *q).length_squared().min(penalty));
+        }
+    }
+    s
+}
+
+/// The initial cameras and poses to refine (the refinement keeps the lowest cost): the guess,
+/// or the focal scan (see the module docs); for double sphere, one start per band of `ξ` fitted
+/// to a Kannala–Brandt calibration.
+fn initial_estimates(
+    object: &[Vec<DVec3>],
+    image: &[Vec<DVec2>],
+    width: u32,
+    height: u32,
+    cfg: &FisheyeCalibrationConfig,
+) -> Result<Vec<(FisheyeCamera, Vec<Isometry3>)>> {
+    if let Some(guess) = &cfg.intrinsic_guess {
+        if (guess.width(), guess.height()) != (width, height) {
+            return Err(CalibrationError::InvalidConfig(format!(
+                "intrinsic guess is for {}x{} images, the views are {width}x{height}",
+                guess.width(),
+                guess.height()
+            )));
+        }
+        if lens_kind(&guess.lens()) != cfg.model {
+            return Err(CalibrationError::InvalidConfig(format!(
+                "intrinsic guess has a {:?} lens but the configuration asks for {:?}",
+                lens_kind(&guess.lens()),
+                cfg.model
+            )));
+        }
+        let poses = poses_for(guess, object, image).ok_or_else(|| {
+            CalibrationError::EstimationFailed(
+                "a corner lies outside the intrinsic guess's valid region (its ray cannot be found)".into(),
+            )
+        })?;
+        return Ok(vec![(*guess, poses)]);
+    }
+    if cfg.model == FisheyeModelKind::DoubleSphere {
+        let kb_cfg = FisheyeCalibrationConfig {
+            model: FisheyeModelKind::KannalaBrandt,
+            fix_lens: [false; 4],
+            estimate_skew: false,
+            ..cfg.clone()
+        };
+        if let Ok(kb) = calibrate_fisheye(object, image, width, height, &kb_cfg) {
+            let starts = double_sphere_from_kannala_brandt(&kb.camera, &kb.camera_from_board, object);
+            if !starts.is_empty() {
+                return Ok(starts.into_iter().map(|c| (c, kb.camera_from_board.clone())).collect());
+            }
+        }
+    }
+    let centre = (0.5 * (width as f64 - 1.0), 0.5 * (height as f64 - 1.0));
+    let lens = neutral_lens(cfg.model);
+    let size = width.max(height) as f64;
+    let penalty = size * size;
+    let eval = |f: f64| -> (f64, Option<(FisheyeCamera, Vec<Isometry3>)>) {
+        let Ok(cam) = FisheyeCamera::new(Intrinsics::new(f, f, centre.0, centre.1), lens, width, height) else {
+            return (f64::INFINITY, None);
+        };
+        match poses_for(&cam, object, image) {
+            Some(poses) => (sse(&cam, &poses, object, image, penalty), Some((cam, poses))),
+            None => (f64::INFINITY, None),
+        }
+    };
+    const SCAN: usize = 48;
+    let (lo, hi) = ((0.05 * size).ln(), (2.0 * size).ln());
+    let grid: Vec<f64> = (0..SCAN).map(|i| (lo + (hi - lo) * i as f64 / (SCAN - 1) as f64).exp()).collect();
+    let costs: Vec<f64> = grid.iter().map(|&f| eval(f).0).collect();
+    let best = (0..SCAN).min_by(|&a, &b| costs[a].total_cmp(&costs[b])).expect("non-empty scan");
+    if !costs[best].is_finite() {
+        return Err(CalibrationError::EstimationFailed(format!(
+            "no focal length between {:.0} and {:.0} px turns the corners into rays of a {:?} lens; check the \
+             image size and the corner coordinates",
+            grid[0],
+            grid[SCAN - 1],
+            cfg.model
+        )));
+    }
+    // Golden-section search on ln f between the neighbours of the best grid value.
+    let (mut a, mut b) = (grid[best.saturating_sub(1)].ln(), grid[(best + 1).min(SCAN - 1)].ln());
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut x1, mut x2) = (b - g * (b - a), a + g * (b - a));
+    let (mut f1, mut f2) = (eval(x1.exp()).0, eval(x2.exp()).0);
+    for _ in 0..40 {
+        if f1 < f2 {
+            b = x2;
+            (x2, f2) = (x1, f1);
+            x1 = b - g * (b - a);
+            f1 = eval(x1.exp()).0;
+        } else {
+            a = x1;
+            (x1, f1) = (x2, f2);
+            x2 = a + g * (b - a);
+            f2 = eval(x2.exp()).0;
+        }
+    }
+    let f = if f1.min(f2) < costs[best] { (0.5 * (a + b)).exp() } else { grid[best] };
+    let (_, init) = eval(f);
+    let (mut camera, poses) = match init {
+        Some(x) => x,
+        None => eval(grid[best]).1.expect("the best grid value evaluated"),
+    };
+    if cfg.fix_aspect_ratio {
+        camera = camera.with_intrinsics(Intrinsics { fx: camera.intrinsics().fy, ..camera.intrinsics() })?;
+    }
+    Ok(vec![(camera, poses)])
+}
+
+/// The double sphere cameras closest to a calibrated Kannala–Brandt one over the field angles
+/// the corners reach: `(ξ, α)` on a grid (ξ ∈ [−0.9, 0.9] by 0.025, α ∈ [0.025, 0.975] by
+/// 0.025), the focal scale in closed form (least squares of `s·r_DS(θ) = r_KB(θ)` over 200
+/// angles); the best fit in each of the three bands ξ < −0.3, −0.3 ≤ ξ < 0.3, ξ ≥ 0.3 is kept.
+/// These are the double sphere starts: `fx` and `ξ` are nearly interchangeable (near the axis
+/// only `fx/(1 + ξ)` is seen), the cost has several valleys, and a single start (the neutral
+/// `ξ = 0, α = ½`, or the single best fit) lands in a wrong one for some view sets (1 in 100
+/// in the seeded trials); the refinement runs from each start and keeps the lowest cost.
+fn double_sphere_from_kannala_brandt(
+    kb: &FisheyeCamera,
+    poses: &[Isometry3],
+    object: &[Vec<DVec3>],
+) -> Vec<FisheyeCamera> {
+    let FisheyeLens::KannalaBrandt(model) = kb.lens() else { return Vec::new() };
+    let theta_max = poses
+        .iter()
+        .zip(object)
+        .flat_map(|(p, o)| o.iter().map(move |x| p.transform_point(*x)))
+        .map(|q| (q.z / q.length()).clamp(-1.0, 1.0).acos())
+        .fold(0.0, f64::max)
+        .min(0.999 * model.max_theta());
+    if theta_max.is_nan() || theta_max <= 0.0 {
+        return Vec::new();
+    }
+    let thetas: Vec<f64> = (1..=200).map(|i| theta_max * i as f64 / 200.0).collect();
+    let target: Vec<f64> = thetas.iter().map(|&t| model.distort_theta(t)).collect();
+    let mut best: [Option<(f64, FisheyeLens, f64)>; 3] = [None; 3];
+    for i in 0..=72 {
+        let xi = -0.9 + 0.025 * i as f64;
+        for j in 1..=39 {
+            let alpha = 0.025 * j as f64;
+            let Ok(ds) = DoubleSphere::new(xi, alpha) else { continue };
+            let lens = FisheyeLens::DoubleSphere(ds);
+            let g: Option<Vec<f64>> = thetas
+                .iter()
+                .map(|&t| lens.project_normalized(DVec3::new(t.sin(), 0.0, t.cos())).ok().map(|(m, _, _)| m.x))
+                .collect();
+            let Some(g) = g else { continue };
+            let gg: f64 = g.iter().map(|v| v * v).sum();
+            let scale = g.iter().zip(&target).map(|(a, b)| a * b).sum::<f64>() / gg;
+            let err: f64 = g.iter().zip(&target).map(|(a, b)| (scale * a - b).powi(2)).sum();
+            let band = if i < 24 {
+                0
+            } else if i < 48 {
+                1
+            } else {
+                2
+            };
+            if scale > 0.0 && best[band].as_ref().is_none_or(|b| err < b.0) {
+                best[band] = Some((err, lens, scale));
+            }
+        }
+    }
+    let k = kb.intrinsics();
+    best.iter()
+        .flatten()
+        .filter_map(|&(_, lens, scale)| {
+            FisheyeCamera::new(
+                Intrinsics { fx: k.fx * scale, fy: k.fy * scale, cx: k.cx, cy: k.cy, skew: 0.0 },
+                lens,
+                kb.width(),
+                kb.height(),
+            )
+            .ok()
+        })
+        .collect()
+}
+
+fn check_size(width: u32, height: u32) -> Result<()> {
+    if width == 0 || height == 0 {
+        return Err(CalibrationError::InvalidConfig(format!("image size {width}x{height}")));
+    }
+    Ok(())
+}
+
+fn check_config(cfg: &FisheyeCalibrationConfig) -> Result<()> {
+    if !(cfg.min_field_coverage.is_finite() && (0.0..=1.0).contains(&cfg.min_field_coverage)) {
+        return Err(CalibrationError::InvalidConfig(format!(
+            "min_field_coverage must be in [0, 1], got {}",
+            cfg.min_field_coverage
+        )));
+    }
+    if cfg.model == FisheyeModelKind::DoubleSphere && (cfg.fix_lens[2] || cfg.fix_lens[3]) {
+        return Err(CalibrationError::InvalidConfig(
+            "the double sphere model has 2 lens parameters (ξ, α): fix_lens[2] and fix_lens[3] do not exist".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Largest field angle (degrees) of the midpoints of the four image edges that unproject
+/// (the image's horizontal or vertical half field of view; the image corners, rarely covered
+/// by a board, are left out).
+fn image_field_deg(camera: &FisheyeCamera) -> f64 {
+    let (w, h) = (camera.width() as f64 - 1.0, camera.height() as f64 - 1.0);
+    [DVec2::new(0.5 * w, 0.0), DVec2::new(0.5 * w, h), DVec2::new(0.0, 0.5 * h), DVec2::new(w, 0.5 * h)]
+        .iter()
+        .filter_map(|p| camera.unproject(*p).ok())
+        .map(|r| r.z.clamp(-1.0, 1.0).acos().to_degrees())
+        .fold(0.0, f64::max)
+}
+
+fn lens_warnings(
+    warnings: &mut Vec<FisheyeWarning>,
+    camera: &FisheyeCamera,
+    index: usize,
+    poses: &[Isometry3],
+    object: &[Vec<DVec3>],
+    cfg: &FisheyeCalibrationConfig,
+) {
+    let k = camera.intrinsics();
+    let corners = [
+        DVec2::new(-0.5, -0.5),
+        DVec2::new(camera.width() as f64 - 0.5, -0.5),
+        DVec2::new(-0.5, camera.height() as f64 - 0.5),
+        DVec2::new(camera.width() as f64 - 0.5, camera.height() as f64 - 0.5),
+    ];
+    let rho_max = corners.iter().map(|c| k.to_normalized(*c).length()).fold(0.0, f64::max);
+    if let FisheyeLens::KannalaBrandt(kb) = camera.lens()
+        && kb.max_theta() < std::f64::consts::PI
+    {
+        let fold = kb.distort_theta(kb.max_theta());
+        if fold < rho_max {
+            warnings.push(FisheyeWarning::LensFoldsInsideImage {
+                camera: index,
+                max_field_deg: kb.max_theta().to_degrees(),
+                radius_px: fold * k.fx,
+                image_radius_px: rho_max * k.fx,
+            });
+        }
+    }
+    let observed = poses
+        .iter()
+        .zip(object)
+        .flat_map(|(p, o)| o.iter().map(move |x| p.transform_point(*x)))
+        .map(|q| (q.z / q.length()).clamp(-1.0, 1.0).acos().to_degrees())
+        .fold(0.0, f64::max);
+    let image = image_field_deg(camera);
+    if observed < cfg.min_field_coverage * image {
+        warnings.push(FisheyeWarning::ExtrapolatedPeriphery {
+            camera: index,
+            observed_deg: observed,
+            image_deg: image,
+        });
+    }
+}
+
+fn common_warnings(
+    warnings: &mut Vec<FisheyeWarning>,
+    poses: &[Isometry3],
+    cfg: &FisheyeCalibrationConfig,
+    report: &LmReport,
+) {
+    let recommended = if cfg.fix_principal_point { 2 } else { 3 };
+    if poses.len() < recommended {
+        warnings.push(FisheyeWarning::Calibration(CalibrationWarning::TooFewViews { views: poses.len(), recommended }));
+    }
+    let spread = view_spread_deg(poses);
+    if cfg.intrinsic_guess.is_none() && spread < cfg.min_view_spread_deg {
+        warnings.push(FisheyeWarning::Calibration(CalibrationWarning::SimilarViews {
+            max_angle_deg: spread,
+            threshold_deg: cfg.min_view_spread_deg,
+        }));
+    }
+    if !report.stop_reason.converged() {
+        warnings.push(FisheyeWarning::Calibration(CalibrationWarning::NotConverged { iterations: report.iterations }));
+    }
+}
+
+/// Calibrates one wide-angle camera from views of a planar target: `object_points[v]` on the
+/// plane `z = 0` (board units), `image_points[v]` the observed pixels in the same order. The
+/// model is `config.model`; no focal-length guess is needed (see the module docs).
+///
+/// Errors: fewer than 2 views (or 1 with a guess and a fixed principal point), fewer than 4
+/// points in a view, mismatched sizes, non-finite values, non-planar targets, parallel views,
+/// an inconsistent configuration, or no focal length that explains the corners.
+///
+/// ```
+/// use parallax_camera_model::{Chessboard, FisheyeCamera, FisheyeLens, Intrinsics, KannalaBrandt};
+/// use parallax_planar_calibration::{calibrate_fisheye, FisheyeCalibrationConfig};
+/// use parallax_synthetic::{project_corners, wide_angle_calibration_poses, WideViewSetConfig};
+///
+/// // A 190° lens; no focal-length guess is given to the calibration.
+/// let lens = FisheyeLens::KannalaBrandt(KannalaBrandt::new(0.021, -0.0043, 0.0011, -0.00017)?);
+/// let truth = FisheyeCamera::new(Intrinsics::new(290.0, 289.0, 511.5, 383.5), lens, 1024, 768)?;
+/// let board = Chessboard::new(9, 6, 25.0)?;
+/// let poses = wide_angle_calibration_poses(&truth, &board, &WideViewSetConfig { views: 8, ..Default::default() })?;
+/// let image: Vec<_> = poses.iter().map(|p| project_corners(&truth, &board, p)).collect::<Result<_, _>>()?;
+/// let object = vec![board.object_points(); poses.len()];
+/// let result = calibrate_fisheye(&object, &image, 1024, 768, &FisheyeCalibrationConfig::default())?;
+/// assert!(result.rms_px < 1e-6);
+/// assert!((result.camera.intrinsics().fx - 290.0).abs() < 1e-5);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn calibrate_fisheye(
+    object_points: &[Vec<DVec3>],
+    image_points: &[Vec<DVec2>],
+    width: u32,
+    height: u32,
+    config: &FisheyeCalibrationConfig,
+) -> Result<FisheyeCalibrationResult> {
+    validate_views(object_points, image_points, "fisheye calibration")?;
+    check_size(width, height)?;
+    check_config(config)?;
+    let needed = if config.intrinsic_guess.is_some() && config.fix_principal_point { 1 } else { 2 };
+    if object_points.len() < needed {
+        return Err(CalibrationError::TooFewViews {
+            got: object_points.len(),
+            needed,
+            why: "a planar target fixes only 2 of the intrinsics per view (give more views, or an intrinsic guess with a fixed principal point)",
+        });
+    }
+    let starts = initial_estimates(object_points, image_points, width, height, config)?;
+    let views = || -> Vec<ViewObs> {
+        object_points
+            .iter()
+            .zip(image_points)
+            .map(|(o, i)| ViewObs { object: o, image: [Some(i.as_slice()), None] })
+            .collect()
+    };
+    let mut best: Option<(Slots, LmReport)> = None;
+    let mut last_error = None;
+    for (init_camera, init_poses) in &starts {
+        let slots = Slots::new(config, init_camera, false);
+        let bundle = FisheyeBundle::new(vec![slots.clone()], false, views());
+        let n = bundle.num_params();
+        if bundle.num_residuals <= n {
+            return Err(CalibrationError::TooFewPoints {
+                what: "fisheye calibration (all views)".into(),
+                got: bundle.num_residuals / 2,
+                needed: n / 2 + 1,
+            });
+        }
+        let mut x0 = vec![0.0; n];
+        x0[..slots.num_free].copy_from_slice(&slots.free_values(init_camera));
+        for (v, p) in init_poses.iter().enumerate() {
+            let o = bundle.view_offset(v);
+            store_pose(p, &mut x0[o..o + 6]);
+        }
+        match levenberg_marquardt(&bundle, &x0, &LmConfig { covariance: true, ..config.lm }) {
+            Ok(report) => {
+                if best.as_ref().is_none_or(|(_, b)| report.cost < b.cost) {
+                    best = Some((slots, report));
+                }
+            }
+            Err(e) => last_error = Some(e),
+        }
+    }
+    let (slots, report) = match (best, last_error) {
+        (Some(b), _) => b,
+        (None, Some(e)) => return Err(e.into()),
+        (None, None) => return Err(CalibrationError::EstimationFailed("no initial estimate".into())),
+    };
+    let bundle = FisheyeBundle::new(vec![slots.clone()], false, views());
+    let n = bundle.num_params();
+    let poses: Vec<Isometry3> =
+        (0..object_points.len()).map(|v| pose_at(&report.params[bundle.view_offset(v)..])).collect();
+    let spread = view_spread_deg(&poses);
+    if config.intrinsic_guess.is_none() && !config.fix_principal_point && spread < PARALLEL_VIEWS_DEG {
+        return Err(CalibrationError::Degenerate(format!(
+            "all {} board views are parallel (normals within {spread:.2}°): they do not determine the focal \
+             length and principal point; tilt the board differently in each view",
+            poses.len()
+        )));
+    }
+    let camera = slots
+        .camera(&report.params[..slots.num_free])
+        .map_err(|e| CalibrationError::EstimationFailed(format!("refined camera is invalid: {e}")))?;
+    let by_view = bundle.residuals_by_view(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
+    let residuals_px: Vec<Vec<DVec2>> = by_view.into_iter().map(|[r, _]| r.into_iter().map(|e| -e).collect()).collect();
+    let per_view_rms_px: Vec<f64> = residuals_px.iter().map(|r| rms_of(r)).collect();
+    let all: Vec<DVec2> = residuals_px.iter().flatten().copied().collect();
+    let cov = report.covariance.as_ref();
+    let std_devs = slots.std_devs(0, cov);
+    let pose_std_devs = poses.iter().enumerate().map(|(v, p)| pose_std_devs(p, bundle.view_offset(v), cov)).collect();
+    let mut warnings: Vec<FisheyeWarning> = outlier_views(&per_view_rms_px, config.outlier_view_factor, 0)
+        .into_iter()
+        .map(FisheyeWarning::Calibration)
+        .collect();
+    common_warnings(&mut warnings, &poses, config, &report);
+    lens_warnings(&mut warnings, &camera, 0, &poses, object_points, config);
+    Ok(FisheyeCalibrationResult {
+        camera,
+        camera_from_board: poses,
+        rms_px: rms_of(&all),
+        per_view_rms_px,
+        residuals_px,
+        std_devs,
+        pose_std_devs,
+        sigma_px: report.sigma2.sqrt(),
+        dof: report.dof,
+        num_parameters: n,
+        iterations: report.iterations,
+        converged: report.stop_reason.converged(),
+        warnings,
+    })
+}
+
+/// [`calibrate_fisheye`] for chessboard corner grids (OpenCV order).
+pub fn calibrate_fisheye_chessboard(
+    board: &Chessboard,
+    grids: &[CornerGrid],
+    width: u32,
+    height: u32,
+    config: &FisheyeCalibrationConfig,
+) -> Result<FisheyeCalibrationResult> {
+    let object = board_views(board, grids, "fisheye calibration")?;
+    let image: Vec<Vec<DVec2>> = grids.iter().map(|g| g.corners.clone()).collect();
+    calibrate_fisheye(&object, &image, width, height, config)
+}
+
+/// Calibrates a rig of two wide-angle cameras from views of a planar target seen by both:
+/// each camera alone ([`calibrate_fisheye`], or held at its guess with `fix_intrinsics`), the
+/// element-wise median of the per-view relative poses, then one joint refinement of both
+/// cameras, `right_from_left` and the left view poses.
+pub fn calibrate_fisheye_stereo(
+    object_points: &[Vec<DVec3>],
+    left_points: &[Vec<DVec2>],
+    right_points: &[Vec<DVec2>],
+    left_size: (u32, u32),
+    right_size: (u32, u32),
+    config: &FisheyeStereoConfig,
+) -> Result<FisheyeStereoCalibrationResult> {
+    validate_views(object_points, left_points, "left camera")?;
+    validate_views(object_points, right_points, "right camera")?;
+    check_config(&config.left)?;
+    check_config(&config.right)?;
+    let mono = |points: &[Vec<DVec2>], size: (u32, u32), cfg: &FisheyeCalibrationConfig, which: &str| {
+        if config.fix_intrinsics
+            && let Some(guess) = &cfg.intrinsic_guess
+        {
+            let poses = poses_for(guess, object_points, points).ok_or_else(|| {
+                CalibrationError::EstimationFailed(format!("a {which} corner lies outside the guess's valid region"))
+            })?;
+            return Ok((*guess, poses));
+        }
+        let r = calibrate_fisheye(object_points, points, size.0, size.1, cfg)?;
+        Ok::<_, CalibrationError>((r.camera, r.camera_from_board))
+    };
+    let (lcam, lposes) = mono(left_points, left_size, &config.left, "left")?;
+    let (rcam, rposes) = mono(right_points, right_size, &config.right, "right")?;
+    let rig0 = median_rig(&lposes, &rposes)?;
+    let ls = Slots::new(&config.left, &lcam, config.fix_intrinsics);
+    let rs = Slots::new(&config.right, &rcam, config.fix_intrinsics);
+    let views: Vec<ViewObs> = object_points
+        .iter()
+        .zip(left_points.iter().zip(right_points))
+        .map(|(o, (l, r))| ViewObs { object: o, image: [Some(l.as_slice()), Some(r.as_slice())] })
+        .collect();
+    let bundle = FisheyeBundle::new(vec![ls.clone(), rs.clone()], true, views);
+    let n = bundle.num_params();
+    let mut x0 = vec![0.0; n];
+    x0[..ls.num_free].copy_from_slice(&ls.free_values(&lcam));
+    let ro = bundle.cam_offsets[1];
+    x0[ro..ro + rs.num_free].copy_from_slice(&rs.free_values(&rcam));
+    let rig_offset = bundle.rig_offset.expect("stereo bundle");
+    store_pose(&rig0, &mut x0[rig_offset..rig_offset + 6]);
+    for (v, p) in lposes.iter().enumerate() {
+        let o = bundle.view_offset(v);
+        store_pose(p, &mut x0[o..o + 6]);
+    }
+    let report = levenberg_marquardt(&bundle, &x0, &LmConfig { covariance: true, ..config.lm })?;
+    let cams = bundle.cameras(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
+    let right_from_left = pose_at(&report.params[rig_offset..]);
+    let rig = FisheyeStereoRig::new(cams[0], cams[1], right_from_left)?;
+    let poses: Vec<Isometry3> =
+        (0..object_points.len()).map(|v| pose_at(&report.params[bundle.view_offset(v)..])).collect();
+    let by_view = bundle.residuals_by_view(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
+    let residuals_px: Vec<[Vec<DVec2>; 2]> = by_view
+        .into_iter()
+        .map(|[l, r]| [l.into_iter().map(|e| -e).collect(), r.into_iter().map(|e| -e).collect()])
+        .collect();
+    let per_view_rms_px: Vec<[f64; 2]> = residuals_px.iter().map(|[l, r]| [rms_of(l), rms_of(r)]).collect();
+    let all_l: Vec<DVec2> = residuals_px.iter().flat_map(|[l, _]| l.iter().copied()).collect();
+    let all_r: Vec<DVec2> = residuals_px.iter().flat_map(|[_, r]| r.iter().copied()).collect();
+    let all: Vec<DVec2> = all_l.iter().chain(&all_r).copied().collect();
+    let cov = report.covariance.as_ref();
+    let rig_pose_std = pose_std_devs(&right_from_left, rig_offset, cov);
+    let baseline_std = cov.map_or(f64::NAN, |c| {
+        let u = right_from_left.translation.normalize();
+        let mut s = 0.0;
+        for a in 0..3 {
+            for b in 0..3 {
+                s += u[a] * c[(rig_offset + 3 + a, rig_offset + 3 + b)] * u[b];
+            }
+        }
+        s.max(0.0).sqrt()
+    });
+    let mut warnings: Vec<FisheyeWarning> = Vec::new();
+    for (camera, cfg) in [(0, &config.left), (1, &config.right)] {
+        let rms: Vec<f64> = per_view_rms_px.iter().map(|r| r[camera]).collect();
+        warnings
+            .extend(outlier_views(&rms, cfg.outlier_view_factor, camera).into_iter().map(FisheyeWarning::Calibration));
+    }
+    let guessless = FisheyeCalibrationConfig {
+        intrinsic_guess: if config.fix_intrinsics { Some(cams[0]) } else { config.left.intrinsic_guess },
+        ..config.left.clone()
+    };
+    common_warnings(&mut warnings, &poses, &guessless, &report);
+    let right_poses: Vec<Isometry3> = poses.iter().map(|p| right_from_left * *p).collect();
+    lens_warnings(&mut warnings, &cams[0], 0, &poses, object_points, &config.left);
+    lens_warnings(&mut warnings, &cams[1], 1, &right_poses, object_points, &config.right);
+    Ok(FisheyeStereoCalibrationResult {
+        essential: rig.essential(),
+        rig,
+        camera_from_board: poses,
+        rms_px: rms_of(&all),
+        left_rms_px: rms_of(&all_l),
+        right_rms_px: rms_of(&all_r),
+        per_view_rms_px,
+        residuals_px,
+        left_std_devs: ls.std_devs(0, cov),
+        right_std_devs: rs.std_devs(ro, cov),
+        rig_std_devs: RigStdDevs {
+            rotation_rad: rig_pose_std.rotation_rad,
+            translation: rig_pose_std.translation,
+            baseline: baseline_std,
+        },
+        sigma_px: report.sigma2.sqrt(),
+        dof: report.dof,
+        num_parameters: n,
+        iterations: report.iterations,
+        converged: report.stop_reason.converged(),
+        warnings,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The analytic Jacobian of the stereo fisheye bundle (through `retract`) matches central
+    /// differences, and the block-accumulated normal equations equal `JᵀJ`, `Jᵀr`.
+    #[test]
+    fn bundle_jacobian_matches_finite_differences_and_normal_equations() {
+        let kb = FisheyeCamera::new(
+            Intrinsics { fx: 300.0, fy: 298.0, cx: 512.0, cy: 384.0, skew: 0.2 },
+            FisheyeLens::KannalaBrandt(KannalaBrandt::new(0.02, -0.004, 0.001, -0.0002).unwrap()),
+            1024,
+            768,
+        )
+        .unwrap();
+        let ds = FisheyeCamera::new(
+            Intrinsics::new(330.0, 331.0, 510.0, 380.0),
+            FisheyeLens::DoubleSphere(DoubleSphere::new(-0.15, 0.6).unwrap()),
+            1024,
+            768,
+        )
+        .unwrap();
+        let object: Vec<DVec3> =
+            (0..12).map(|i| DVec3::new((i % 4) as f64 * 30.0, (i / 4) as f64 * 30.0, 0.0)).collect();
+        let image: Vec<DVec2> = (0..12).map(|i| DVec2::new(300.0 + i as f64, 200.0 - i as f64)).collect();
+        let cfg = FisheyeCalibrationConfig { estimate_skew: true, ..Default::default() };
+        let views = vec![
+            ViewObs { object: &object, image: [Some(&image), Some(&image)] },
+            ViewObs { object: &object, image: [Some(&image), Some(&image)] },
+        ];
+        let b = FisheyeBundle::new(vec![Slots::new(&cfg, &kb, false), Slots::new(&cfg, &ds, false)], true, views);
+        let n = b.num_params();
+        let mut x = vec![0.0; n];
+        x[..9].copy_from_slice(&b.cams[0].free_values(&kb));
+        let o1 = b.cam_offsets[1];
+        x[o1..o1 + b.cams[1].num_free].copy_from_slice(&b.cams[1].free_values(&ds));
+        let ro = b.rig_offset.unwrap();
+        store_pose(
+            &Isometry3::from_rvec_tvec(DVec3::new(0.01, -0.02, 0.03), DVec3::new(-100.0, 2.0, 1.0)),
+            &mut x[ro..ro + 6],
+        );
+        // The second view is 100° off axis: behind the image plane.
+        store_pose(
+            &Isometry3::from_rvec_tvec(DVec3::new(0.3, -0.2, 0.1), DVec3::new(-40.0, -30.0, 300.0)),
+            &mut x[b.view_offset(0)..b.view_offset(0) + 6],
+        );
+        store_pose(
+            &Isometry3::from_rvec_tvec(DVec3::new(0.1, 1.4, 0.0), DVec3::new(300.0, -20.0, -50.0)),
+            &mut x[b.view_offset(1)..b.view_offset(1) + 6],
+        );
+        let m = b.num_residuals();
+        let mut r = vec![0.0; m];
+        let mut j = faer::Mat::<f64>::zeros(m, n);
+        b.evaluate(&x, &mut r, Some(j.as_mut())).unwrap();
+        let (mut xp, mut xm) = (vec![0.0; n], vec![0.0; n]);
+        let (mut rp, mut rm) = (vec![0.0; m], vec![0.0; m]);
+        for k in 0..n {
+            let h = if k < b.num_global { 1e-6 * x[k].abs().max(0.1) } else { 1e-6 };
+            let mut d = vec![0.0; n];
+            d[k] = h;
+            b.retract(&x, &d, &mut xp);
+            d[k] = -h;
+            b.retract(&x, &d, &mut xm);
+            b.evaluate(&xp, &mut rp, None).unwrap();
+            b.evaluate(&xm, &mut rm, None).unwrap();
+            for i in 0..m {
+                let fd = (rp[i] - rm[i]) / (2.0 * h);
+                assert!(
+                    (fd - j[(i, k)]).abs() < 1e-4 * (1.0 + fd.abs()),
+                    "row {i} col {k}: fd {fd} analytic {}",
+                    j[(i, k)]
+                );
+            }
+        }
+        let mut jtj = faer::Mat::<f64>::zeros(n, n);
+        let mut jtr = faer::Col::<f64>::zeros(n);
+        let mut r2 = vec![0.0; m];
+        b.normal_equations(&x, &mut jtj, &mut jtr, &mut r2).unwrap();
+        let dense = j.transpose() * &j;
+        let rc = faer::Col::from_fn(m, |i| r[i]);
+        let g = j.transpose() * &rc;
+        for a in 0..n {
+            assert!((g[a] - jtr[a]).abs() <= 1e-9 * (1.0 + g[a].abs()));
+            for c in 0..n {
+                assert!((dense[(a, c)] - jtj[(a, c)]).abs() <= 1e-9 * (1.0 + dense[(a, c)].abs()));
+            }
+        }
+    }
+
+    /// `pose_from_rays` recovers a pose exactly from noise-free rays, also when the board lies
+    /// beside the camera (rays beyond 90° from the axis).
+    #[test]
+    fn pose_from_rays_is_exact_beyond_90_degrees() {
+        let plane: Vec<DVec2> = (0..20).map(|i| DVec2::new((i % 5) as f64 * 25.0, (i / 5) as f64 * 25.0)).collect();
+        for pose in [
+            Isometry3::from_rvec_tvec(DVec3::new(0.2, -0.1, 0.3), DVec3::new(-50.0, -40.0, 400.0)),
+            Isometry3::from_rvec_tvec(DVec3::new(0.1, 2.0, 0.0), DVec3::new(300.0, 0.0, -60.0)),
+        ] {
+            let rays: Vec<DVec3> = plane.iter().map(|p| pose.transform_point(p.extend(0.0)).normalize()).collect();
+            assert!(rays.iter().any(|r| r.z < 0.0) || pose.translation.z > 0.0);
+            let got = pose_from_rays(&plane, &rays).unwrap();
+            let (angle, dist) = got.distance(&pose);
+            assert!(angle < 1e-9 && dist < 1e-7, "angle {angle}, distance {dist}");
+        }
+    }
+}
