@@ -189,9 +189,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             p.point.x,
             p.point.y,
             p.point.z,
-            p.std_dev.x,
-            p.std_dev.y,
-            p.std_dev.z,
+            p.std_dev.map_or(f64::NAN, |s| s.x),
+            p.std_dev.map_or(f64::NAN, |s| s.y),
+            p.std_dev.map_or(f64::NAN, |s| s.z),
             p.reprojection_error,
             p.parallax_deg,
             flags.join(" ")
@@ -200,11 +200,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if !m.distances.is_empty() {
         println!("distances:");
         for d in &m.distances {
-            let unreliable = m.points[d.from].behind_camera || m.points[d.to].behind_camera;
-            if unreliable {
-                println!("  {:>3} – {:<3} {:>12.4} ± n/a (a point is behind a camera)", d.from, d.to, d.distance);
-            } else {
-                println!("  {:>3} – {:<3} {:>12.4} ± {:.4}", d.from, d.to, d.distance, d.std_dev);
+            match d.std_dev {
+                Some(s) => println!("  {:>3} – {:<3} {:>12.4} ± {s:.4}", d.from, d.to, d.distance),
+                None => println!(
+                    "  {:>3} – {:<3} {:>12.4} ± n/a (no covariance: a point behind a camera?)",
+                    d.from, d.to, d.distance
+                ),
             }
         }
     }

@@ -31,6 +31,10 @@ pub struct Args {
     /// PLY, report.md / report.html / report.ron). Default `target/pipeline/<scene>/`.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Reseed every generator of the scene (views, noise, stereo scene, trajectory): the same
+    /// scene drawn again, to check that its tolerances hold for any draw.
+    #[arg(long, conflicts_with = "real")]
+    seed: Option<u64>,
     /// Corrupt one stage's input on purpose (checks that the pipeline fails and names the stage).
     #[arg(long, value_enum, conflicts_with = "real")]
     corrupt: Option<CorruptionArg>,
@@ -129,6 +133,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             (name, scene)
         }
         None => ("builtin".to_string(), parallax_synthetic::SceneDescription::builtin()),
+    };
+    let (name, scene) = match args.seed {
+        Some(seed) => (format!("{name}-seed{seed}"), scene.with_seed(seed)),
+        None => (name, scene),
     };
     let out = args.out.clone().unwrap_or_else(|| workspace_root().join("target").join("pipeline").join(&name));
     let corrupt = args.corrupt.map(|c| match c {

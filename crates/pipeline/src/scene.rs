@@ -362,7 +362,13 @@ fn score(report: &mut Report, scene: &SceneDescription, truth: &Truth, out: &Cha
         for d in &m.measurement.distances {
             report.note(
                 "measurement",
-                format!("target {} – {}: {:.3} ± {:.3} {unit}", d.from + 1, d.to + 1, d.distance, d.std_dev),
+                format!(
+                    "target {} – {}: {:.3} ± {} {unit}",
+                    d.from + 1,
+                    d.to + 1,
+                    d.distance,
+                    d.std_dev.map_or_else(|| "n/a".to_string(), |s| format!("{s:.3}"))
+                ),
             );
         }
     }

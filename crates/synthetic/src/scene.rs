@@ -304,6 +304,19 @@ impl SceneDescription {
         s
     }
 
+    /// The same scene drawn again: every generator (views, rendering noise, stereo scene,
+    /// trajectory) reseeded from `seed`, so a tolerance can be checked over many draws.
+    pub fn with_seed(&self, seed: u64) -> Self {
+        let mut s = self.clone();
+        let mix = |k: u64| seed.wrapping_mul(0x9e37_79b9_7f4a_7c15).wrapping_add(k);
+        s.views.seed = mix(1);
+        s.stereo_views.seed = mix(2);
+        s.render.seed = mix(3);
+        s.stereo_scene.seed = mix(4);
+        s.trajectory.seed = mix(5);
+        s
+    }
+
     /// Parses and validates a RON description.
     pub fn from_ron(text: &str) -> Result<Self, SyntheticError> {
         let scene: Self = ron::from_str(text).map_err(|e| SyntheticError::Scene(format!("parse error: {e}")))?;

@@ -167,8 +167,9 @@ pub struct MeasuredPoint {
     pub right: DVec2,
     /// The point in the left camera frame (length unit of the calibration).
     pub point: DVec3,
-    /// Standard deviations of `X, Y, Z` (zero when no covariance could be computed).
-    pub std_dev: DVec3,
+    /// Standard deviations of `X, Y, Z`; `None` when no covariance exists (a point on or behind
+    /// a camera, or covariance not requested) — never a σ of zero that was not computed.
+    pub std_dev: Option<DVec3>,
     /// RMS reprojection error over both views, pixels.
     pub reprojection_error: f64,
     /// Angle between the two viewing rays at the point, degrees.
@@ -188,8 +189,9 @@ pub struct MeasuredDistance {
     pub to: usize,
     /// Distance (length unit of the calibration).
     pub distance: f64,
-    /// First-order standard deviation.
-    pub std_dev: f64,
+    /// First-order standard deviation; `None` when either point has no covariance or the two
+    /// points coincide (no gradient), never a zero that was not computed.
+    pub std_dev: Option<f64>,
 }
 
 /// Points measured with a stereo rig and all pairwise distances between them.
@@ -234,7 +236,7 @@ pub fn measure_stereo(rig: &StereoRig, pairs: &[(DVec2, DVec2)], config: &Triang
             left: *l,
             right: *r,
             point: t.point,
-            std_dev: t.std_devs().unwrap_or(DVec3::ZERO),
+            std_dev: if t.behind_camera { None } else { t.std_devs() },
             reprojection_error: t.rms_reprojection_error,
             parallax_deg: t.parallax_deg,
             behind_camera: t.behind_camera,
@@ -244,9 +246,17 @@ pub fn measure_stereo(rig: &StereoRig, pairs: &[(DVec2, DVec2)], config: &Triang
     let mut distances = Vec::new();
     for i in 0..tri.len() {
         for j in i + 1..tri.len() {
-            // Coincident points have distance 0 and no gradient: report 0 ± 0 rather than fail.
-            let d = point_distance(&tri[i], &tri[j]).unwrap_or(Distance { value: 0.0, std_dev: 0.0, bias: 0.0 });
-            distances.push(MeasuredDistance { from: i, to: j, distance: d.value, std_dev: d.std_dev });
+            let (a, b) = (&tri[i], &tri[j]);
+            let distance = (a.point - b.point).length();
+            // σ only where both covariances exist (not behind a camera) and the distance has a
+            // gradient (distinct points).
+            let std_dev = match (a.covariance, b.covariance) {
+                (Some(ca), Some(cb)) if !a.behind_camera && !b.behind_camera => {
+                    self::distance(a.point, &ca, b.point, &cb).ok().map(|d| d.std_dev)
+                }
+                _ => None,
+            };
+            distances.push(MeasuredDistance { from: i, to: j, distance, std_dev });
         }
     }
     Ok(Measurement { config: *config, points, distances })

@@ -106,9 +106,9 @@ impl Measurement {
                 p.point.x,
                 p.point.y,
                 p.point.z,
-                p.std_dev.x,
-                p.std_dev.y,
-                p.std_dev.z,
+                opt(p.std_dev.map(|s| s.x)),
+                opt(p.std_dev.map(|s| s.y)),
+                opt(p.std_dev.map(|s| s.z)),
                 p.reprojection_error,
                 p.parallax_deg,
                 p.behind_camera,
@@ -118,11 +118,11 @@ impl Measurement {
         s
     }
 
-    /// CSV of the distances: `from,to,distance,std_dev`.
+    /// CSV of the distances: `from,to,distance,std_dev` (an empty `std_dev` where none exists).
     pub fn distances_csv(&self) -> String {
         let mut s = String::from("from,to,distance,std_dev\n");
         for d in &self.distances {
-            let _ = writeln!(s, "{},{},{},{}", d.from, d.to, d.distance, d.std_dev);
+            let _ = writeln!(s, "{},{},{},{}", d.from, d.to, d.distance, opt(d.std_dev));
         }
         s
     }
@@ -162,6 +162,11 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         let _ = std::fs::remove_file(&tmp);
         io(path, e)
     })
+}
+
+/// A CSV field: the value, or empty where there is none.
+fn opt(v: Option<f64>) -> String {
+    v.map_or_else(String::new, |v| v.to_string())
 }
 
 #[cfg(test)]
@@ -238,7 +243,7 @@ mod tests {
             left: DVec2::new(100.0 + x, 50.0),
             right: DVec2::new(60.0 + x, 50.0),
             point: DVec3::new(x, 0.0, 500.0),
-            std_dev: DVec3::new(0.01, 0.01, 0.4),
+            std_dev: Some(DVec3::new(0.01, 0.01, 0.4)),
             reprojection_error: 0.05,
             parallax_deg: 11.4,
             behind_camera: false,
@@ -247,7 +252,7 @@ mod tests {
         Measurement {
             config: TriangulationConfig::default(),
             points: vec![p(0, 0.0), p(1, 30.0)],
-            distances: vec![MeasuredDistance { from: 0, to: 1, distance: 30.0, std_dev: 0.0141 }],
+            distances: vec![MeasuredDistance { from: 0, to: 1, distance: 30.0, std_dev: Some(0.0141) }],
         }
     }
 

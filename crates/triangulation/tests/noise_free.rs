@@ -244,12 +244,20 @@ fn measure_stereo_reports_points_and_all_pairwise_distances() {
     assert_eq!(m.distances.len(), 6);
     for p in &m.points {
         assert!((p.point - targets[p.index]).length() < 1e-9 * 600.0);
-        assert!(p.std_dev.z > 0.0 && p.std_dev.z < 1.0);
+        let sz = p.std_dev.expect("a point in front of both cameras has a covariance").z;
+        assert!(sz > 0.0 && sz < 1.0);
     }
     for d in &m.distances {
         let expect = (targets[d.to] - targets[d.from]).length();
         assert!((d.distance - expect).abs() < 1e-8, "{d:?} vs {expect}");
-        assert!(d.std_dev > 0.0 && d.std_dev < 1.0);
+        let sd = d.std_dev.expect("distinct points in front of the cameras have a σ");
+        assert!(sd > 0.0 && sd < 1.0);
+    }
+    // No σ is invented: without covariances every σ is absent, the distances are unchanged.
+    let bare = measure_stereo(&rig, &pairs, &TriangulationConfig { covariance: false, ..Default::default() }).unwrap();
+    assert!(bare.points.iter().all(|p| p.std_dev.is_none()) && bare.distances.iter().all(|d| d.std_dev.is_none()));
+    for (a, b) in bare.distances.iter().zip(&m.distances) {
+        assert!((a.distance - b.distance).abs() < 1e-9);
     }
     // The batch form gives the same points as one call per pair.
     let batch = triangulate_stereo_batch(&rig, &pairs, &TriangulationConfig::default());
