@@ -93,6 +93,8 @@ pub struct ChainInput {
     pub detector: parallax_corner_detection::ChessboardConfig,
     /// Stereo calibration settings.
     pub stereo: StereoConfig,
+    /// Plausibility limits of the stereo calibration.
+    pub stereo_checks: stages::StereoChecks,
     /// Rectification settings.
     pub rectify: RectifyConfig,
     /// Block-matching settings.
@@ -112,6 +114,7 @@ impl ChainInput {
             setup: Setup::EyeInHand,
             detector: Default::default(),
             stereo: Default::default(),
+            stereo_checks: Default::default(),
             rectify: Default::default(),
             matcher: Default::default(),
             hand_eye: Default::default(),
@@ -221,7 +224,8 @@ pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
     let calibration = match input.calibration.first() {
         None => failed("no calibration images"),
         Some([l, r]) => {
-            stages::calibrate_stereo(board, &views, l.dimensions(), r.dimensions(), &input.stereo).or_else(failed)
+            stages::calibrate_stereo(board, &views, l.dimensions(), r.dimensions(), &input.stereo, &input.stereo_checks)
+                .or_else(failed)
         }
     };
 

@@ -43,6 +43,7 @@ pub use real::{RealChecks, RealInputs, run_real};
 pub use report::{Bound, Report, Row};
 pub use scene::{Corruption, run_scene};
 pub use stages::{
-    RectifiedRig, StereoViews, adjacent_distances, board_poses, calibrate_mono, calibrate_stereo, detect_boards,
-    hand_eye, match_blobs, match_pair, measure, point_cloud, rectified_abs_dv, rectify, rectify_images, to_robot_frame,
+    MIN_VALID_RECTIFIED_FRACTION, RectifiedRig, StereoChecks, StereoViews, adjacent_distances, board_poses,
+    calibrate_mono, calibrate_stereo, check_stereo, detect_boards, hand_eye, match_blobs, match_pair, measure,
+    point_cloud, rectified_abs_dv, rectify, rectify_images, to_robot_frame,
 };

@@ -70,22 +70,69 @@ pub fn calibrate_mono(
     Ok(parallax_planar_calibration::calibrate_chessboard(board, grids, size.0, size.1, config)?)
 }
 
-/// Stereo calibration from the views with the board in both images.
+/// Plausibility limits of a stereo calibration: what a correct session never gives and the
+/// common mistakes always do. A result outside them is refused with a hint, before anything is
+/// written.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct StereoChecks {
+    /// Largest stereo RMS reprojection error, pixels. Detected corners are good to a few tenths
+    /// of a pixel; pairs in the wrong order give tens of pixels.
+    pub max_rms_px: f64,
+    /// Accept a rig whose right camera sits to the left of the left camera (the images are
+    /// swapped, unless the cameras were named that way on purpose).
+    pub allow_swapped: bool,
+}
+
+impl Default for StereoChecks {
+    fn default() -> Self {
+        Self { max_rms_px: 2.0, allow_swapped: false }
+    }
+}
+
+/// Refuses a stereo calibration that fails [`StereoChecks`], naming the likely mistake.
+pub fn check_stereo(result: &StereoCalibrationResult, checks: &StereoChecks) -> Result<()> {
+    if !(result.rms_px <= checks.max_rms_px) {
+        return Err(PipelineError::Input(format!(
+            "stereo RMS reprojection error {:.2} px is far above the corner noise (limit {} px): are the left and \
+             right images paired in the same order, and is the board size right?",
+            result.rms_px, checks.max_rms_px
+        )));
+    }
+    let t = result.rig.right_from_left.translation;
+    // OpenCV's convention: the right camera is at +x of the left one, so `right_from_left`
+    // translates by −baseline along x. A horizontal rig with t.x > 0 has its images swapped.
+    if !checks.allow_swapped && t.x > 0.0 && t.x.abs() > t.y.abs().max(t.z.abs()) {
+        return Err(PipelineError::Input(format!(
+            "the right camera is to the left of the left camera (right_from_left t = [{:.3}, {:.3}, {:.3}], t.x should \
+             be negative): the left and right images are probably swapped; swap them (or allow a swapped rig on \
+             purpose)",
+            t.x, t.y, t.z
+        )));
+    }
+    Ok(())
+}
+
+/// Stereo calibration from the views with the board in both images, refused when it fails
+/// the plausibility `checks` ([`check_stereo`]).
 pub fn calibrate_stereo(
     board: &Chessboard,
     views: &StereoViews,
     left_size: (u32, u32),
     right_size: (u32, u32),
     config: &StereoConfig,
+    checks: &StereoChecks,
 ) -> Result<StereoCalibrationResult> {
-    Ok(parallax_planar_calibration::calibrate_stereo_chessboard(
+    let result = parallax_planar_calibration::calibrate_stereo_chessboard(
         board,
         &views.left,
         &views.right,
         left_size,
         right_size,
         config,
-    )?)
+    )?;
+    check_stereo(&result, checks)?;
+    Ok(result)
 }
 
 /// A rectified rig and how well the detected corners line up after rectification.
@@ -121,9 +168,28 @@ pub fn rectified_abs_dv(
     Ok(dv)
 }
 
-/// Rectifies the rig (Bouguet) and measures the corners' `|Δv|` after rectification.
+/// Smallest share of each rectified image that must be valid (inside the source image): below
+/// it the maps have collapsed (an absurd distortion, or a calibration from mismatched pairs).
+pub const MIN_VALID_RECTIFIED_FRACTION: f64 = 0.05;
+
+/// Rectifies the rig (Bouguet) and measures the corners' `|Δv|` after rectification. Refuses a
+/// rectification whose valid region is empty or under [`MIN_VALID_RECTIFIED_FRACTION`] of the
+/// image (the images would be mostly black).
 pub fn rectify(rig: &StereoRig, views: &StereoViews, config: &RectifyConfig) -> Result<RectifiedRig> {
     let rectification = parallax_stereo_rectify::stereo_rectify(rig, config)?;
+    let area = f64::from(rectification.width) * f64::from(rectification.height);
+    for (side, roi) in [("left", rectification.roi1), ("right", rectification.roi2)] {
+        let valid = f64::from(roi.width) * f64::from(roi.height);
+        if !(valid >= MIN_VALID_RECTIFIED_FRACTION * area) {
+            return Err(PipelineError::Input(format!(
+                "the rectified {side} image has a valid region of {}x{} px ({:.1} % of the image): the calibration \
+                 is implausible (check the distortion coefficients and that the calibration pairs were in order)",
+                roi.width,
+                roi.height,
+                100.0 * valid / area.max(1.0)
+            )));
+        }
+    }
     let abs_dv = rectified_abs_dv(rig, &rectification, &views.left, &views.right)?;
     Ok(RectifiedRig { rectification, abs_dv })
 }
