@@ -92,7 +92,7 @@ impl Default for StereoChecks {
 
 /// Refuses a stereo calibration that fails [`StereoChecks`], naming the likely mistake.
 pub fn check_stereo(result: &StereoCalibrationResult, checks: &StereoChecks) -> Result<()> {
-    if !(result.rms_px <= checks.max_rms_px) {
+    if result.rms_px.is_nan() || result.rms_px > checks.max_rms_px {
         return Err(PipelineError::Input(format!(
             "stereo RMS reprojection error {:.2} px is far above the corner noise (limit {} px): are the left and \
              right images paired in the same order, and is the board size right?",
@@ -180,7 +180,7 @@ pub fn rectify(rig: &StereoRig, views: &StereoViews, config: &RectifyConfig) -> 
     let area = f64::from(rectification.width) * f64::from(rectification.height);
     for (side, roi) in [("left", rectification.roi1), ("right", rectification.roi2)] {
         let valid = f64::from(roi.width) * f64::from(roi.height);
-        if !(valid >= MIN_VALID_RECTIFIED_FRACTION * area) {
+        if valid < MIN_VALID_RECTIFIED_FRACTION * area {
             return Err(PipelineError::Input(format!(
                 "the rectified {side} image has a valid region of {}x{} px ({:.1} % of the image): the calibration \
                  is implausible (check the distortion coefficients and that the calibration pairs were in order)",
