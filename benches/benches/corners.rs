@@ -1,12 +1,15 @@
 //! Chessboard detection + sub-pixel refinement on a 640x480 view (issue 4's speed figure, to
 //! compare side by side with OpenCV's `findChessboardCorners` + `cornerSubPix`: on left01 OpenCV 5
-//! took 1.6 ms beside this bench's 1.5 ms (saddle) / 1.4 ms (subpix) on the development machine).
-//! Uses the first real image of `../shared/data/opencv-stereo-chessboard` when present, and a
-//! rendered synthetic view (blur 0.8, noise 2) always.
+//! took 1.6 ms beside this bench's 1.5 ms (saddle) / 1.4 ms (subpix) on the development machine),
+//! and on a 1600x1200 view of a 12x12-corner board (issue 18), both through `find_chessboard` and
+//! through a reused `ChessboardDetector`. Uses the first real image of
+//! `../shared/data/opencv-stereo-chessboard` when present, and rendered synthetic views (blur
+//! 0.8 at 640x480, 1.2 at 1600x1200, noise 2) always. The interleaved run against OpenCV on the
+//! same images is `crates/corner-detection/scripts/chessboard_vs_opencv.py`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics};
-use parallax_corner_detection::{ChessboardConfig, CornerRefinement, find_chessboard};
+use parallax_corner_detection::{ChessboardConfig, ChessboardDetector, CornerRefinement, find_chessboard};
 use std::hint::black_box;
 
 fn synthetic_view() -> image::GrayImage {
@@ -27,7 +30,41 @@ fn synthetic_view() -> image::GrayImage {
     parallax_synthetic::render_chessboard(&camera, &board, &poses[0], &opts).expect("render").image
 }
 
+fn large_view() -> image::GrayImage {
+    let camera = Camera {
+        intrinsics: Intrinsics::new(1400.0, 1400.0, 802.5, 597.5),
+        distortion: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0),
+        width: 1600,
+        height: 1200,
+    };
+    let board = Chessboard { cols: 12, rows: 12, square_size: 25.0 };
+    let poses = parallax_synthetic::calibration_poses(
+        &camera,
+        &board,
+        &parallax_synthetic::ViewSetConfig {
+            views: 1,
+            seed: 3,
+            min_distance: 500.0,
+            max_distance: 900.0,
+            ..Default::default()
+        },
+    )
+    .expect("poses");
+    let opts = parallax_synthetic::RenderOptions { blur_sigma: 1.2, noise_sigma: 2.0, seed: 1, ..Default::default() };
+    parallax_synthetic::render_chessboard(&camera, &board, &poses[0], &opts).expect("render").image
+}
+
 fn bench(c: &mut Criterion) {
+    let big = large_view();
+    let cfg = ChessboardConfig::default();
+    assert!(find_chessboard(&big, 12, 12, &cfg).expect("valid input").is_some(), "1600x1200: board not found");
+    c.bench_function("find_chessboard 12x12 1600x1200 synthetic saddle", |b| {
+        b.iter(|| find_chessboard(black_box(&big), 12, 12, &cfg).expect("valid input"))
+    });
+    let mut detector = ChessboardDetector::new(cfg).expect("valid config");
+    c.bench_function("ChessboardDetector 12x12 1600x1200 synthetic saddle", |b| {
+        b.iter(|| detector.detect(black_box(&big), 12, 12).expect("valid input"))
+    });
     let mut images = vec![("synthetic", synthetic_view())];
     let real = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/opencv-stereo-chessboard/left01.jpg");
     if let Ok(img) = image::open(real) {

@@ -7,7 +7,10 @@
 //!   [`refine_saddle`] (saddle of a quadratic fitted to the smoothed image): sub-pixel corners
 //!   whose window is chosen from the local corner spacing by default ([`WindowSize`]), so it
 //!   never reaches a neighbouring corner.
-//! - [`find_chessboard`]: the inner corners of a chessboard in OpenCV's order, or "not found".
+//! - [`find_chessboard`]: the inner corners of a chessboard in OpenCV's order, or "not found",
+//!   at any image size (a 2x2-averaged pyramid is searched coarsest first, so the pixel-scale
+//!   settings follow the image; boards in 320x240 to 4000x3000 images are found with the
+//!   defaults); [`ChessboardDetector`] keeps its buffers across a session's images.
 //! - [`detect_blobs`]: blob targets (Otsu threshold, 8-connected components, shape filters,
 //!   sub-pixel centroids); [`weighted_gray`] for colour input.
 //!
@@ -38,8 +41,8 @@ mod subpix;
 
 pub use blobs::{BT601, Blob, BlobConfig, BlobDetection, BlobPolarity, detect_blobs, weighted_gray};
 pub use chessboard::{
-    ChessboardConfig, ChessboardDetection, CornerRefinement, chessboard_candidates, detect_chessboard, draw_chessboard,
-    draw_points, find_chessboard,
+    ChessboardConfig, ChessboardDetection, ChessboardDetector, CornerRefinement, chessboard_candidates,
+    detect_chessboard, draw_chessboard, draw_points, find_chessboard,
 };
 pub use error::{CornerError, Result};
 pub use harris::{Corner, CornerConfig, CornerMeasure, HarrisConfig, detect_corners, harris_response};
