@@ -34,9 +34,11 @@
 mod camera;
 mod disparity;
 mod error;
+mod marker_dictionaries;
 mod projection;
 mod stereo;
 mod target;
+mod targets;
 mod transform;
 
 pub use camera::{Camera, Distortion, Intrinsics};
@@ -45,6 +47,10 @@ pub use error::CameraModelError;
 pub use projection::{ProjectionJacobians, UNDISTORT_MAX_ITERATIONS, UNDISTORT_TOLERANCE};
 pub use stereo::{ProjectionMatrix, StereoRig, skew_symmetric};
 pub use target::{Chessboard, CornerGrid};
+pub use targets::{
+    ACCEPTED_FORMS, CharucoBoard, CircleGrid, MarkerDictionary, TargetDescription, TargetError, TargetObservation,
+    dictionary_names,
+};
 pub use transform::Isometry3;
 
 /// Result alias of this crate.

@@ -33,13 +33,16 @@
 //! ```
 
 mod blobs;
+mod charuco;
 mod chessboard;
 mod error;
 mod harris;
 mod imageops;
+mod markers;
 mod subpix;
 
 pub use blobs::{BT601, Blob, BlobConfig, BlobDetection, BlobPolarity, detect_blobs, weighted_gray};
+pub use charuco::{CharucoConfig, CharucoDetection, detect_charuco};
 pub use chessboard::{
     ChessboardConfig, ChessboardDetection, ChessboardDetector, CornerRefinement, chessboard_candidates,
     detect_chessboard, draw_chessboard, draw_points, find_chessboard,
@@ -47,4 +50,5 @@ pub use chessboard::{
 pub use error::{CornerError, Result};
 pub use harris::{Corner, CornerConfig, CornerMeasure, HarrisConfig, detect_corners, harris_response};
 pub use imageops::{ImageF32, gaussian_blur, saddle_response, sample_bilinear, to_f32};
+pub use markers::{DetectedMarker, MarkerConfig, detect_markers};
 pub use subpix::{Refinement, SaddleConfig, SubPixConfig, WindowSize, refine_corners_subpix, refine_saddle};

@@ -5,7 +5,8 @@
 //! - seeded noise helpers ([`rng`], [`add_pixel_noise`], [`perturb_pose`]);
 //! - calibration view sets ([`calibration_poses`], [`stereo_calibration_poses`]) and the true
 //!   corner positions ([`project_corners`], through `camera-model`'s projection);
-//! - rendered chessboard views with exact anti-aliasing ([`render_chessboard`]);
+//! - rendered chessboard views with exact anti-aliasing ([`render_chessboard`]), ChArUco
+//!   views with per-corner truth, partial views and occluders ([`render_charuco`]);
 //! - rectified stereo pairs with exact disparity and occlusion masks ([`render_stereo_scene`]);
 //! - robot trajectories for hand-eye calibration ([`hand_eye_trajectory`]);
 //! - scene descriptions in RON with the pipeline's tolerances ([`SceneDescription`]).
@@ -30,6 +31,7 @@ mod noise;
 mod render;
 mod scene;
 mod stereo;
+mod targets;
 mod trajectory;
 mod views;
 
@@ -38,5 +40,6 @@ pub use noise::{add_pixel_noise, perturb_pose, rng};
 pub use render::{RenderOptions, RenderedView, render_chessboard};
 pub use scene::{SceneDescription, Tolerances};
 pub use stereo::{StereoScene, StereoSceneConfig, render_stereo_scene};
+pub use targets::{Occluder, TargetView, render_charuco};
 pub use trajectory::{HandEyeTruth, Trajectory, TrajectoryConfig, hand_eye_trajectory};
 pub use views::{ViewSetConfig, calibration_poses, project_corners, stereo_calibration_poses};
