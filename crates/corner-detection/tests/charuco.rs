@@ -74,6 +74,14 @@ fn fifty_views_zero_wrong_ids_and_exact_corners() {
         let det = detect_charuco(&view.image, &b, &CharucoConfig::default()).unwrap();
         if let Ok(dir) = std::env::var("CHARUCO_DUMP") {
             view.image.save(format!("{dir}/view{k:02}.png")).unwrap();
+            // Truth: `id u v visible` per corner with a projection.
+            let truth: String = view
+                .points
+                .iter()
+                .enumerate()
+                .filter_map(|(id, p)| p.map(|p| format!("{id} {} {} {}\n", p.x, p.y, view.visible[id] as u8)))
+                .collect();
+            std::fs::write(format!("{dir}/view{k:02}.truth.txt"), truth).unwrap();
         }
         s.views += 1;
         let visible = view.visible.iter().filter(|&&v| v).count();
