@@ -172,7 +172,11 @@ pub fn detect_charuco(img: &GrayImage, board: &CharucoBoard, cfg: &CharucoConfig
         }
         let span = |v: &[f64]| v.iter().fold(f64::MIN, |m, &x| m.max(x)) - v.iter().fold(f64::MAX, |m, &x| m.min(x));
         let contrast = whites.iter().fold(f64::MAX, |m, &x| m.min(x)) - blacks.iter().fold(f64::MIN, |m, &x| m.max(x));
-        if contrast.is_nan() || contrast < cfg.min_contrast || span(&blacks) > 0.25 * contrast || span(&whites) > 0.25 * contrast {
+        if contrast.is_nan()
+            || contrast < cfg.min_contrast
+            || span(&blacks) > 0.25 * contrast
+            || span(&whites) > 0.25 * contrast
+        {
             continue;
         }
         ids.push(id);

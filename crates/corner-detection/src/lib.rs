@@ -35,6 +35,7 @@
 mod blobs;
 mod charuco;
 mod chessboard;
+mod circles;
 mod error;
 mod harris;
 mod imageops;
@@ -47,6 +48,7 @@ pub use chessboard::{
     ChessboardConfig, ChessboardDetection, ChessboardDetector, CornerRefinement, chessboard_candidates,
     detect_chessboard, draw_chessboard, draw_points, find_chessboard,
 };
+pub use circles::{CircleGridConfig, CircleGridDetection, detect_circle_grid};
 pub use error::{CornerError, Result};
 pub use harris::{Corner, CornerConfig, CornerMeasure, HarrisConfig, detect_corners, harris_response};
 pub use imageops::{ImageF32, gaussian_blur, saddle_response, sample_bilinear, to_f32};

@@ -6,7 +6,8 @@
 //! - calibration view sets ([`calibration_poses`], [`stereo_calibration_poses`]) and the true
 //!   corner positions ([`project_corners`], through `camera-model`'s projection);
 //! - rendered chessboard views with exact anti-aliasing ([`render_chessboard`]), ChArUco
-//!   views with per-corner truth, partial views and occluders ([`render_charuco`]);
+//!   views with per-corner truth, partial views and occluders ([`render_charuco`]), circle grids
+//!   with exact disc coverage and the projected centres as truth ([`render_circle_grid`]);
 //! - rectified stereo pairs with exact disparity and occlusion masks ([`render_stereo_scene`]);
 //! - robot trajectories for hand-eye calibration ([`hand_eye_trajectory`]);
 //! - scene descriptions in RON with the pipeline's tolerances ([`SceneDescription`]).
@@ -40,6 +41,6 @@ pub use noise::{add_pixel_noise, perturb_pose, rng};
 pub use render::{RenderOptions, RenderedView, render_chessboard};
 pub use scene::{SceneDescription, Tolerances};
 pub use stereo::{StereoScene, StereoSceneConfig, render_stereo_scene};
-pub use targets::{Occluder, TargetView, render_charuco};
+pub use targets::{Occluder, TargetView, render_charuco, render_circle_grid};
 pub use trajectory::{HandEyeTruth, Trajectory, TrajectoryConfig, hand_eye_trajectory};
 pub use views::{ViewSetConfig, calibration_poses, project_corners, stereo_calibration_poses};

@@ -124,13 +124,16 @@ pub fn render_chessboard(
     opts.validate()?;
     let corners = project_corners(camera, board, camera_from_board)?;
     let pattern = Pattern::new(board, opts);
-    let image = render_pattern(camera, camera_from_board, board.square_size, &pattern, opts, &[]);
+    let image = render_pattern(camera, camera_from_board, board.square_size, &pattern, opts, &[], &|_, v| v);
     Ok(RenderedView { image, corners, camera_from_board: *camera_from_board })
 }
 
 /// Renders `pattern` (in units of `unit` on the target plane `z = 0`) through `camera` from
 /// `camera_from_board`, with `opts`' background, lighting, blur, noise and quantisation, and
-/// `occluders` (convex polygons in pixels, drawn over the target before the blur).
+/// `occluders` (convex polygons in pixels, drawn over the target before the blur). `overlay`
+/// changes a pixel's value given the pixel's preimage on the plane (its four corners, in
+/// units, in pixel order (0,0), (1,0), (1,1), (0,1); `None` where they cannot all be
+/// unprojected) — the circles of a circle grid.
 pub(crate) fn render_pattern(
     camera: &Camera,
     camera_from_board: &Isometry3,
@@ -138,6 +141,7 @@ pub(crate) fn render_pattern(
     pattern: &Pattern,
     opts: &RenderOptions,
     occluders: &[crate::targets::Occluder],
+    overlay: &(dyn Fn(Option<[DVec2; 4]>, f64) -> f64 + Sync),
 ) -> GrayImage {
     let (w, h) = (camera.width as usize, camera.height as usize);
     let mut rng = rng(opts.seed);
@@ -151,7 +155,10 @@ pub(crate) fn render_pattern(
     radiance.par_chunks_mut(w).enumerate().for_each(|(v, row)| {
         for (u, out) in row.iter_mut().enumerate() {
             let bg = background[v * w + u];
-            *out = pixel_value(&grid, pattern, camera, camera_from_board, unit, u, v, bg) as f32;
+            let value = pixel_value(&grid, pattern, camera, camera_from_board, unit, u, v, bg);
+            let quad = [grid.at(u, v), grid.at(u + 1, v), grid.at(u + 1, v + 1), grid.at(u, v + 1)];
+            let quad = if let [Some(a), Some(b), Some(c), Some(d)] = quad { Some([a, b, c, d]) } else { None };
+            *out = overlay(quad, value) as f32;
         }
     });
     for o in occluders {
