@@ -49,7 +49,8 @@ pub enum TargetError {
 pub const ACCEPTED_FORMS: &str = "chessboard:COLSxROWS[:SQUARE] (inner corners, e.g. chessboard:9x6:25), \
      charuco:SQUARESXxSQUARESY:SQUARE:MARKER:DICT[:legacy] (squares, e.g. charuco:7x5:40:30:DICT_5X5_100), \
      circles:COLSxROWS:SPACING[:DIAMETER] (symmetric grid, e.g. circles:4x11:20:10), \
-     acircles:COLSxROWS:SPACING[:DIAMETER] (asymmetric grid as OpenCV's patternSize, e.g. acircles:4x11:20:10)";
+     acircles:COLSxROWS:SPACING[:DIAMETER] (asymmetric grid as OpenCV's patternSize, e.g. acircles:4x11:20:10), \
+     aprilgrid:TAGCOLSxTAGROWS:TAGSIZE:SPACINGRATIO (Kalibr, e.g. aprilgrid:6x6:88:0.3)";
 
 /// Names of the predefined dictionaries, as OpenCV spells them.
 pub fn dictionary_names() -> impl Iterator<Item = &'static str> {
@@ -387,6 +388,122 @@ impl CircleGrid {
     }
 }
 
+/// Kalibr's AprilGrid (`target_type: 'aprilgrid'`): `tag_cols x tag_rows` AprilTags of the
+/// 36h11 family (OpenCV's `DICT_APRILTAG_36h11` codes) with a black border of two bits (10x10
+/// bits edge to edge, `tag_size` edge to edge), `tag_spacing · tag_size` apart, and a small
+/// black square of that size in the gap at every tag corner (as `kalibr_create_target_pdf`
+/// draws them), so every tag corner is an X-junction.
+///
+/// Numbering as Kalibr's `GridCalibrationTargetAprilgrid`: tag 0 at the bottom-left of the
+/// printed target, ids along `x` then up; the target frame has its origin at tag 0's
+/// bottom-left corner, `x` right and `y` **up** on the print (`z` towards the viewer); the
+/// `2·tag_rows x 2·tag_cols` corners are numbered `r · 2·tag_cols + c` with corner `(c, r)` at
+/// `(⌊c/2⌋·(1 + spacing)·size + (c mod 2)·size, ⌊r/2⌋·(1 + spacing)·size + (r mod 2)·size, 0)`;
+/// tag `t`'s corners (bottom-left, bottom-right, top-right, top-left) are
+/// `b, b + 1, b + 2·tag_cols + 1, b + 2·tag_cols` with
+/// `b = ⌊t / tag_cols⌋ · 4·tag_cols + (t mod tag_cols) · 2`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "AprilGridRaw")]
+pub struct AprilGrid {
+    tag_cols: usize,
+    tag_rows: usize,
+    tag_size: f64,
+    tag_spacing: f64,
+}
+
+#[derive(Deserialize)]
+struct AprilGridRaw {
+    tag_cols: usize,
+    tag_rows: usize,
+    tag_size: f64,
+    tag_spacing: f64,
+}
+
+impl TryFrom<AprilGridRaw> for AprilGrid {
+    type Error = TargetError;
+    fn try_from(r: AprilGridRaw) -> Result<Self, TargetError> {
+        Self::new(r.tag_cols, r.tag_rows, r.tag_size, r.tag_spacing)
+    }
+}
+
+impl AprilGrid {
+    /// A checked grid: at least one tag, at most 587 (the 36h11 family), positive finite size,
+    /// spacing ratio in `(0, 1]`.
+    pub fn new(tag_cols: usize, tag_rows: usize, tag_size: f64, tag_spacing: f64) -> Result<Self, TargetError> {
+        let invalid = |reason: String| TargetError::Invalid { target: "AprilGrid", reason };
+        if tag_cols == 0 || tag_rows == 0 || tag_cols * tag_rows > 587 {
+            return Err(invalid(format!("needs 1 to 587 tags (tag36h11), got {tag_cols}x{tag_rows}")));
+        }
+        if !(tag_size.is_finite() && tag_size > 0.0) {
+            return Err(invalid(format!("tag size must be positive and finite, got {tag_size}")));
+        }
+        if !(tag_spacing.is_finite() && tag_spacing > 0.0 && tag_spacing <= 1.0) {
+            return Err(invalid(format!("tag spacing is a ratio of the tag size in (0, 1], got {tag_spacing}")));
+        }
+        Ok(Self { tag_cols, tag_rows, tag_size, tag_spacing })
+    }
+    /// Tags along `x`.
+    pub fn tag_cols(&self) -> usize {
+        self.tag_cols
+    }
+    /// Tags along `y`.
+    pub fn tag_rows(&self) -> usize {
+        self.tag_rows
+    }
+    /// Tag size, edge to edge of the black border.
+    pub fn tag_size(&self) -> f64 {
+        self.tag_size
+    }
+    /// Gap between tags as a ratio of the tag size.
+    pub fn tag_spacing(&self) -> f64 {
+        self.tag_spacing
+    }
+    /// The tag family's dictionary (`DICT_APRILTAG_36h11`).
+    pub fn dictionary(&self) -> MarkerDictionary {
+        MarkerDictionary::predefined("DICT_APRILTAG_36h11").expect("predefined")
+    }
+    /// Number of corners (four per tag).
+    pub fn corner_count(&self) -> usize {
+        4 * self.tag_cols * self.tag_rows
+    }
+    /// Corner ids of tag `t` (bottom-left, bottom-right, top-right, top-left), `None` past the
+    /// last tag.
+    pub fn tag_corner_ids(&self, t: u32) -> Option<[u32; 4]> {
+        let t = t as usize;
+        if t >= self.tag_cols * self.tag_rows {
+            return None;
+        }
+        let cols = 2 * self.tag_cols;
+        let b = (t / self.tag_cols) * cols * 2 + (t % self.tag_cols) * 2;
+        Some([b as u32, (b + 1) as u32, (b + cols + 1) as u32, (b + cols) as u32])
+    }
+    /// Height of the tag area (bottom of the bottom tags to the top of the top tags).
+    pub fn height(&self) -> f64 {
+        (self.tag_rows as f64 * (1.0 + self.tag_spacing) - self.tag_spacing) * self.tag_size
+    }
+
+    /// The target frame seen from the print frame (`x` right, `y` down, origin at the top-left
+    /// corner of the top-left tag, `z` into the paper, as the chessboard and ChArUco frames):
+    /// `target = (x, height − y, −z)`.
+    pub fn target_from_print(&self) -> crate::Isometry3 {
+        crate::Isometry3::from_quat_translation(
+            glam::DQuat::from_rotation_x(std::f64::consts::PI),
+            DVec3::new(0.0, self.height(), 0.0),
+        )
+    }
+
+    /// The target point of corner `id`.
+    pub fn point(&self, id: u32) -> Option<DVec3> {
+        let cols = 2 * self.tag_cols;
+        let (c, r) = (id as usize % cols, id as usize / cols);
+        (r < 2 * self.tag_rows).then(|| {
+            let pitch = (1.0 + self.tag_spacing) * self.tag_size;
+            let f = |k: usize| (k / 2) as f64 * pitch + (k % 2) as f64 * self.tag_size;
+            DVec3::new(f(c), f(r), 0.0)
+        })
+    }
+}
+
 /// Any calibration target, as the command line's `--board` describes it ([`ACCEPTED_FORMS`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum TargetDescription {
@@ -396,6 +513,8 @@ pub enum TargetDescription {
     Charuco(CharucoBoard),
     /// A symmetric or asymmetric circle grid (OpenCV's `findCirclesGrid`).
     CircleGrid(CircleGrid),
+    /// Kalibr's AprilGrid; any subset of tags per view.
+    AprilGrid(AprilGrid),
 }
 
 impl TargetDescription {
@@ -405,6 +524,7 @@ impl TargetDescription {
             Self::Chessboard(b) => b.len(),
             Self::Charuco(b) => b.corner_count(),
             Self::CircleGrid(g) => g.len(),
+            Self::AprilGrid(g) => g.corner_count(),
         }
     }
 
@@ -416,6 +536,7 @@ impl TargetDescription {
             }
             Self::Charuco(b) => b.corner_point(id),
             Self::CircleGrid(g) => g.point(id),
+            Self::AprilGrid(g) => g.point(id),
         }
     }
 
@@ -425,9 +546,9 @@ impl TargetDescription {
     }
 
     /// True when a view must show every point (chessboards and circle grids are only found
-    /// whole); false when any subset is identified (ChArUco).
+    /// whole); false when any subset is identified (ChArUco, AprilGrid).
     pub fn needs_whole_target(&self) -> bool {
-        !matches!(self, Self::Charuco(_))
+        !matches!(self, Self::Charuco(_) | Self::AprilGrid(_))
     }
 }
 
@@ -488,7 +609,13 @@ impl FromStr for TargetDescription {
                 let d = if parts.len() == 4 { length(parts[3], "diameter")? } else { 0.5 * nearest };
                 CircleGrid::new(c, r, sp, d, asym).map(Self::CircleGrid).map_err(invalid)
             }
-            ("chessboard" | "charuco" | "circles" | "acircles", n) => {
+            ("aprilgrid", 4) => {
+                let (c, r) = size(parts[1])?;
+                let t = length(parts[2], "tag size")?;
+                let sp = length(parts[3], "tag spacing ratio")?;
+                AprilGrid::new(c, r, t, sp).map(Self::AprilGrid).map_err(invalid)
+            }
+            ("chessboard" | "charuco" | "circles" | "acircles" | "aprilgrid", n) => {
                 Err(err(&format!("{n} fields separated by ':' is the wrong number for {kind}")))
             }
             _ => Err(err(&format!("unknown target kind {:?}", parts[0]))),
@@ -520,6 +647,7 @@ impl fmt::Display for TargetDescription {
                 g.spacing,
                 g.diameter
             ),
+            Self::AprilGrid(g) => write!(f, "aprilgrid:{}x{}:{}:{}", g.tag_cols, g.tag_rows, g.tag_size, g.tag_spacing),
         }
     }
 }
@@ -619,7 +747,13 @@ mod tests {
 
     #[test]
     fn target_descriptions_parse_and_print_back() {
-        for s in ["chessboard:9x6:25", "charuco:7x5:40:30:DICT_5X5_100", "circles:4x11:20:10", "acircles:4x11:20:10"] {
+        for s in [
+            "chessboard:9x6:25",
+            "charuco:7x5:40:30:DICT_5X5_100",
+            "circles:4x11:20:10",
+            "acircles:4x11:20:10",
+            "aprilgrid:6x6:88:0.3",
+        ] {
             let t: TargetDescription = s.parse().unwrap();
             assert_eq!(t.to_string(), s);
         }
@@ -639,6 +773,17 @@ mod tests {
             let e = bad.parse::<TargetDescription>().unwrap_err().to_string();
             assert!(e.contains("accepted forms") || e.contains("known"), "{bad}: {e}");
         }
+    }
+
+    #[test]
+    fn aprilgrid_numbering_is_kalibrs() {
+        // Kalibr's 2x2 example: tag 3's corners are 10, 11, 15, 14; corner 5 at (size, size).
+        let g = AprilGrid::new(2, 2, 1.0, 0.5).unwrap();
+        assert_eq!(g.tag_corner_ids(3), Some([10, 11, 15, 14]));
+        assert_eq!(g.tag_corner_ids(1), Some([2, 3, 7, 6]));
+        assert!((g.point(5).unwrap() - DVec3::new(1.0, 1.0, 0.0)).length() < 1e-12);
+        assert!((g.point(15).unwrap() - DVec3::new(2.5, 2.5, 0.0)).length() < 1e-12);
+        assert_eq!(g.corner_count(), 16);
     }
 
     #[test]

@@ -187,7 +187,7 @@ pub fn detect_charuco(img: &GrayImage, board: &CharucoBoard, cfg: &CharucoConfig
     Ok(CharucoDetection { observation, markers, refinement })
 }
 
-fn sample_u8(img: &GrayImage, p: DVec2) -> f64 {
+pub(crate) fn sample_u8(img: &GrayImage, p: DVec2) -> f64 {
     let (w, h) = (img.width() as f64, img.height() as f64);
     if !(p.x >= 0.0 && p.y >= 0.0 && p.x <= w - 1.0 && p.y <= h - 1.0) {
         return f64::NAN;
@@ -202,7 +202,7 @@ fn sample_u8(img: &GrayImage, p: DVec2) -> f64 {
 
 /// Saddle fit on a smoothed patch around `p`; `None` when the patch (fit window, its moves and
 /// the smoothing support) does not fit inside the image.
-fn refine(
+pub(crate) fn refine(
     img: &GrayImage,
     p: DVec2,
     half: u32,

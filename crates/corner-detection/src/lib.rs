@@ -32,6 +32,7 @@
 //! # Ok::<(), parallax_corner_detection::CornerError>(())
 //! ```
 
+mod aprilgrid;
 mod blobs;
 mod charuco;
 mod chessboard;
@@ -42,6 +43,7 @@ mod imageops;
 mod markers;
 mod subpix;
 
+pub use aprilgrid::{AprilGridConfig, AprilGridDetection, detect_aprilgrid};
 pub use blobs::{BT601, Blob, BlobConfig, BlobDetection, BlobPolarity, detect_blobs, weighted_gray};
 pub use charuco::{CharucoConfig, CharucoDetection, detect_charuco};
 pub use chessboard::{

@@ -40,6 +40,8 @@ pub struct MarkerConfig {
     /// Largest fraction of border bits allowed to read white (OpenCV's
     /// `maxErroneousBitsInBorderRate` is 0.35; stricter by default).
     pub max_border_error_rate: f64,
+    /// Width of the black border in bits (OpenCV's markers 1, Kalibr's AprilGrid tags 2).
+    pub border_bits: usize,
 }
 
 impl Default for MarkerConfig {
@@ -50,6 +52,7 @@ impl Default for MarkerConfig {
             min_side: 8.0,
             min_contrast: 20.0,
             max_border_error_rate: 0.15,
+            border_bits: 1,
         }
     }
 }
@@ -66,6 +69,12 @@ impl MarkerConfig {
             if !(v.is_finite() && v > 0.0) {
                 return Err(CornerError::InvalidConfig(format!("MarkerConfig::{name} must be positive, got {v}")));
             }
+        }
+        if self.border_bits == 0 || self.border_bits > 3 {
+            return Err(CornerError::InvalidConfig(format!(
+                "MarkerConfig::border_bits must be 1..=3, got {}",
+                self.border_bits
+            )));
         }
         if !(self.threshold_offset.is_finite() && (0.0..=1.0).contains(&self.max_border_error_rate)) {
             return Err(CornerError::InvalidConfig(
@@ -468,11 +477,12 @@ fn sample_u8(img: &GrayImage, p: DVec2) -> f64 {
     top * (1.0 - fy) + bot * fy
 }
 
-/// Reads the `(n + 2)²` cells of the quad, checks the black border and decodes the data bits
+/// Reads the `(n + 2·border)²` cells of the quad, checks the black border and decodes the data bits
 /// in the four rotations against the dictionary.
 fn decode(img: &GrayImage, q: &[DVec2; 4], dict: &MarkerDictionary, cfg: &MarkerConfig) -> Option<DetectedMarker> {
     let n = dict.marker_size();
-    let cells = n + 2;
+    let bb = cfg.border_bits;
+    let cells = n + 2 * bb;
     let hm = square_to_quad(q)?;
     // Mean of 3x3 samples in the central half of each cell.
     let mut v = vec![0.0f64; cells * cells];
@@ -489,10 +499,8 @@ fn decode(img: &GrayImage, q: &[DVec2; 4], dict: &MarkerDictionary, cfg: &Marker
             v[r * cells + c] = s / 9.0;
         }
     }
-    let border: Vec<f64> = (0..cells * cells)
-        .filter(|&k| k / cells == 0 || k % cells == 0 || k / cells == n + 1 || k % cells == n + 1)
-        .map(|k| v[k])
-        .collect();
+    let in_border = |r: usize, c: usize| r < bb || c < bb || r >= n + bb || c >= n + bb;
+    let border: Vec<f64> = (0..cells * cells).filter(|&k| in_border(k / cells, k % cells)).map(|k| v[k]).collect();
     let mut sorted = border.clone();
     sorted.sort_by(f64::total_cmp);
     let black = sorted[sorted.len() / 2];
@@ -516,7 +524,7 @@ fn decode(img: &GrayImage, q: &[DVec2; 4], dict: &MarkerDictionary, cfg: &Marker
         return None;
     }
     // Data bits; bit (r, c) of rotation k.
-    let bit = |r: usize, c: usize| v[(r + 1) * cells + c + 1] > t;
+    let bit = |r: usize, c: usize| v[(r + bb) * cells + c + bb] > t;
     let mut best: Option<(u32, u32, usize)> = None; // (distance, id, rotation)
     for rot in 0..4 {
         let mut code = 0u64;

@@ -3,7 +3,7 @@
 
 use glam::{DVec2, DVec3};
 use image::GrayImage;
-use parallax_camera_model::{Camera, CharucoBoard, CircleGrid, Isometry3};
+use parallax_camera_model::{AprilGrid, Camera, CharucoBoard, CircleGrid, Isometry3};
 use serde::{Deserialize, Serialize};
 
 use crate::SyntheticError;
@@ -238,6 +238,78 @@ pub fn render_circle_grid(
         visible.push(ok && clear);
     }
     Ok(TargetView { image, points, visible, camera_from_target: *camera_from_board })
+}
+
+/// Renders Kalibr's AprilGrid (see [`AprilGrid`]: tag36h11 tags with a two-bit black border,
+/// black squares in the gaps at the tag corners) with exact area coverage (every bit, border
+/// and square is an axis-aligned cell), white paper `opts.margin_squares` tag sizes around
+/// it, `occluders`, and `opts`' lighting, blur and noise. `camera_from_target` is in Kalibr's
+/// target frame (`y` up on the print; [`AprilGrid::target_from_print`]). Truth: every corner's
+/// projection and visibility (`margin_px` from the border and the occluders).
+pub fn render_aprilgrid(
+    camera: &Camera,
+    grid: &AprilGrid,
+    camera_from_target: &Isometry3,
+    opts: &RenderOptions,
+    occluders: &[Occluder],
+    margin_px: f64,
+) -> Result<TargetView, SyntheticError> {
+    opts.validate()?;
+    camera.validate().map_err(SyntheticError::model("camera"))?;
+    if !camera_from_target.is_finite() {
+        return Err(SyntheticError::config("camera_from_target", "pose is not finite"));
+    }
+    let camera_from_print = *camera_from_target * grid.target_from_print();
+    let (cols, rows) = (grid.tag_cols(), grid.tag_rows());
+    let g = grid.tag_spacing();
+    let pitch = 1.0 + g;
+    let dict = grid.dictionary();
+    let m = opts.margin_squares;
+    let breaks = |count: usize| {
+        let mut b = vec![-g - m];
+        for i in 0..=count {
+            let x0 = i as f64 * pitch;
+            b.push(x0 - g);
+            b.push(x0);
+            if i < count {
+                b.extend((0..=10).map(|k| x0 + k as f64 / 10.0));
+            }
+        }
+        b.push(count as f64 * pitch - g + g + m);
+        b.sort_by(f64::total_cmp);
+        b.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
+        b
+    };
+    let (black, white) = (f64::from(opts.black), f64::from(opts.white));
+    let pattern = Pattern::from_fn(breaks(cols), breaks(rows), |x, y| {
+        let (i, j) = ((x / pitch).floor(), (y / pitch).floor());
+        let (fx, fy) = (x - i * pitch, y - j * pitch);
+        if i >= 0.0 && j >= 0.0 && (i as usize) < cols && (j as usize) < rows && fx < 1.0 && fy < 1.0 {
+            let (cx, cy) = ((fx * 10.0).floor() as usize, (fy * 10.0).floor() as usize);
+            if !(2..8).contains(&cx) || !(2..8).contains(&cy) {
+                return black;
+            }
+            let id = ((rows - 1 - j as usize) * cols + i as usize) as u32;
+            return if dict.bit(id, cy - 2, cx - 2) { white } else { black };
+        }
+        // Corner squares: in the gap before tag column i (i = 0..=cols) and row j.
+        let (si, sj) = (((x + g) / pitch).floor(), ((y + g) / pitch).floor());
+        let in_x = si >= 0.0 && si <= cols as f64 && x >= si * pitch - g && x < si * pitch;
+        let in_y = sj >= 0.0 && sj <= rows as f64 && y >= sj * pitch - g && y < sj * pitch;
+        if in_x && in_y { black } else { white }
+    });
+    let image = render_pattern(camera, &camera_from_print, grid.tag_size(), &pattern, opts, occluders, &|_, v| v);
+    let mut points = Vec::with_capacity(grid.corner_count());
+    let mut visible = Vec::with_capacity(grid.corner_count());
+    for id in 0..grid.corner_count() as u32 {
+        let p: DVec3 = grid.point(id).expect("id below corner_count");
+        let ok = crate::views::visible(camera, camera_from_target, p, margin_px);
+        let px = camera.project_from(camera_from_target, p).ok().filter(|q| q.is_finite());
+        let clear = px.is_some_and(|q| occluders.iter().all(|o| o.signed_distance(q) >= margin_px));
+        points.push(px);
+        visible.push(ok && clear);
+    }
+    Ok(TargetView { image, points, visible, camera_from_target: *camera_from_target })
 }
 
 fn polygon_area(p: &[DVec2]) -> f64 {
