@@ -9,6 +9,9 @@
 //!   residuals, the standard deviation of every estimated parameter and warnings
 //!   ([`CalibrationWarning`]).
 //! * [`calibrate_stereo`]: both cameras + `right_from_left` jointly, `E`, `F`, rig std devs.
+//! * [`calibrate_target`] / [`calibrate_stereo_target`]: the same from identified points of any
+//!   target (`TargetDescription` + per-view `TargetObservation`): partial ChArUco / AprilGrid
+//!   views, stereo pairs matched by id.
 //! * [`calibrate_dlt`]: `P` from a non-planar target, RQ into `K`, `R`, `t`.
 //! * [`solve_pnp_planar`]: the pose of a calibrated camera from a planar target.
 //!
@@ -46,6 +49,7 @@ mod calibrate;
 mod dlt;
 mod error;
 mod homography;
+mod partial;
 mod pnp;
 mod stereo;
 mod zhang;
@@ -57,6 +61,7 @@ pub use calibrate::{
 pub use dlt::{DltCalibration, calibrate_dlt, rq_decomposition};
 pub use error::{CalibrationError, Result};
 pub use homography::{Homography, estimate_homography, homography_dlt};
+pub use partial::{calibrate_stereo_target, calibrate_target, common_points, object_points_for};
 pub use pnp::{solve_pnp_planar, solve_pnp_planar_points};
 pub use stereo::{
     RigStdDevs, StereoCalibrationResult, StereoConfig, calibrate_stereo, calibrate_stereo_chessboard, median_rig,
