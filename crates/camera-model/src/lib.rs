@@ -48,8 +48,8 @@ pub use projection::{ProjectionJacobians, UNDISTORT_MAX_ITERATIONS, UNDISTORT_TO
 pub use stereo::{ProjectionMatrix, StereoRig, skew_symmetric};
 pub use target::{Chessboard, CornerGrid};
 pub use targets::{
-    ACCEPTED_FORMS, AprilGrid, CharucoBoard, CircleGrid, MarkerDictionary, TargetDescription, TargetError,
-    TargetObservation, dictionary_names,
+    ACCEPTED_FORMS, AprilGrid, CharucoBoard, CircleGrid, MarkerDictionary, SingleMarker, TargetDescription,
+    TargetError, TargetObservation, dictionary_names,
 };
 pub use transform::Isometry3;
 

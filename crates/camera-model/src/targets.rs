@@ -50,7 +50,8 @@ pub const ACCEPTED_FORMS: &str = "chessboard:COLSxROWS[:SQUARE] (inner corners, 
      charuco:SQUARESXxSQUARESY:SQUARE:MARKER:DICT[:legacy] (squares, e.g. charuco:7x5:40:30:DICT_5X5_100), \
      circles:COLSxROWS:SPACING[:DIAMETER] (symmetric grid, e.g. circles:4x11:20:10), \
      acircles:COLSxROWS:SPACING[:DIAMETER] (asymmetric grid as OpenCV's patternSize, e.g. acircles:4x11:20:10), \
-     aprilgrid:TAGCOLSxTAGROWS:TAGSIZE:SPACINGRATIO (Kalibr, e.g. aprilgrid:6x6:88:0.3)";
+     aprilgrid:TAGCOLSxTAGROWS:TAGSIZE:SPACINGRATIO (Kalibr, e.g. aprilgrid:6x6:88:0.3), \
+     marker:DICT:ID:SIZE (one marker, e.g. marker:DICT_APRILTAG_36h11:0:80)";
 
 /// Names of the predefined dictionaries, as OpenCV spells them.
 pub fn dictionary_names() -> impl Iterator<Item = &'static str> {
@@ -504,6 +505,65 @@ impl AprilGrid {
     }
 }
 
+/// One square marker (an AprilTag or ArUco marker of a predefined dictionary, one-bit black
+/// border) used alone, e.g. as a hand-eye target. Frame as OpenCV's ArUco pose
+/// (`estimatePoseSingleMarkers`, `SOLVEPNP_IPPE_SQUARE`): origin at the marker centre, `x`
+/// right and `y` **up** on the print, `z` towards the viewer; points 0..3 are the marker's
+/// corners top-left `(−s/2, s/2, 0)`, top-right `(s/2, s/2, 0)`, bottom-right `(s/2, −s/2, 0)`,
+/// bottom-left `(−s/2, −s/2, 0)` (`s` the size of the black square, edge to edge).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "SingleMarkerRaw")]
+pub struct SingleMarker {
+    dictionary: MarkerDictionary,
+    id: u32,
+    size: f64,
+}
+
+#[derive(Deserialize)]
+struct SingleMarkerRaw {
+    dictionary: MarkerDictionary,
+    id: u32,
+    size: f64,
+}
+
+impl TryFrom<SingleMarkerRaw> for SingleMarker {
+    type Error = TargetError;
+    fn try_from(r: SingleMarkerRaw) -> Result<Self, TargetError> {
+        Self::new(r.dictionary, r.id, r.size)
+    }
+}
+
+impl SingleMarker {
+    /// A checked marker: an id of the dictionary and a positive finite size.
+    pub fn new(dictionary: MarkerDictionary, id: u32, size: f64) -> Result<Self, TargetError> {
+        let invalid = |reason: String| TargetError::Invalid { target: "marker", reason };
+        if id as usize >= dictionary.len() {
+            return Err(invalid(format!("{} has ids 0..{}, got {id}", dictionary.name(), dictionary.len() - 1)));
+        }
+        if !(size.is_finite() && size > 0.0) {
+            return Err(invalid(format!("size must be positive and finite, got {size}")));
+        }
+        Ok(Self { dictionary, id, size })
+    }
+    /// The dictionary.
+    pub fn dictionary(&self) -> MarkerDictionary {
+        self.dictionary
+    }
+    /// The marker id.
+    pub fn id(&self) -> u32 {
+        self.id
+    }
+    /// Edge-to-edge size of the black square.
+    pub fn size(&self) -> f64 {
+        self.size
+    }
+    /// Corner `k` (0..3) in the marker frame.
+    pub fn point(&self, k: u32) -> Option<DVec3> {
+        let h = 0.5 * self.size;
+        [(-h, h), (h, h), (h, -h), (-h, -h)].get(k as usize).map(|&(x, y)| DVec3::new(x, y, 0.0))
+    }
+}
+
 /// Any calibration target, as the command line's `--board` describes it ([`ACCEPTED_FORMS`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum TargetDescription {
@@ -515,6 +575,8 @@ pub enum TargetDescription {
     CircleGrid(CircleGrid),
     /// Kalibr's AprilGrid; any subset of tags per view.
     AprilGrid(AprilGrid),
+    /// One marker (its four corners), e.g. an AprilTag as a hand-eye target.
+    Marker(SingleMarker),
 }
 
 impl TargetDescription {
@@ -525,6 +587,7 @@ impl TargetDescription {
             Self::Charuco(b) => b.corner_count(),
             Self::CircleGrid(g) => g.len(),
             Self::AprilGrid(g) => g.corner_count(),
+            Self::Marker(_) => 4,
         }
     }
 
@@ -537,6 +600,7 @@ impl TargetDescription {
             Self::Charuco(b) => b.corner_point(id),
             Self::CircleGrid(g) => g.point(id),
             Self::AprilGrid(g) => g.point(id),
+            Self::Marker(m) => m.point(id),
         }
     }
 
@@ -615,7 +679,15 @@ impl FromStr for TargetDescription {
                 let sp = length(parts[3], "tag spacing ratio")?;
                 AprilGrid::new(c, r, t, sp).map(Self::AprilGrid).map_err(invalid)
             }
-            ("chessboard" | "charuco" | "circles" | "acircles" | "aprilgrid", n) => {
+            ("marker", 4) => {
+                let dict = MarkerDictionary::predefined(parts[1]).map_err(|e| err(&e.to_string()))?;
+                let id = parts[2]
+                    .parse::<u32>()
+                    .map_err(|_| err(&format!("marker id {:?} is not a whole number", parts[2])))?;
+                let size = length(parts[3], "marker size")?;
+                SingleMarker::new(dict, id, size).map(Self::Marker).map_err(invalid)
+            }
+            ("chessboard" | "charuco" | "circles" | "acircles" | "aprilgrid" | "marker", n) => {
                 Err(err(&format!("{n} fields separated by ':' is the wrong number for {kind}")))
             }
             _ => Err(err(&format!("unknown target kind {:?}", parts[0]))),
@@ -648,6 +720,7 @@ impl fmt::Display for TargetDescription {
                 g.diameter
             ),
             Self::AprilGrid(g) => write!(f, "aprilgrid:{}x{}:{}:{}", g.tag_cols, g.tag_rows, g.tag_size, g.tag_spacing),
+            Self::Marker(m) => write!(f, "marker:{}:{}:{}", m.dictionary.name(), m.id, m.size),
         }
     }
 }

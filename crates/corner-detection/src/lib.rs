@@ -41,6 +41,7 @@ mod error;
 mod harris;
 mod imageops;
 mod markers;
+mod single_marker;
 mod subpix;
 
 pub use aprilgrid::{AprilGridConfig, AprilGridDetection, detect_aprilgrid};
@@ -55,4 +56,5 @@ pub use error::{CornerError, Result};
 pub use harris::{Corner, CornerConfig, CornerMeasure, HarrisConfig, detect_corners, harris_response};
 pub use imageops::{ImageF32, gaussian_blur, saddle_response, sample_bilinear, to_f32};
 pub use markers::{DetectedMarker, MarkerConfig, detect_markers};
+pub use single_marker::{detect_single_marker, refine_marker_corners};
 pub use subpix::{Refinement, SaddleConfig, SubPixConfig, WindowSize, refine_corners_subpix, refine_saddle};

@@ -8,7 +8,7 @@
 //! - rendered chessboard views with exact anti-aliasing ([`render_chessboard`]), ChArUco
 //!   views with per-corner truth, partial views and occluders ([`render_charuco`]), circle grids
 //!   with exact disc coverage and the projected centres as truth ([`render_circle_grid`]), Kalibr
-//!   AprilGrids ([`render_aprilgrid`]);
+//!   AprilGrids ([`render_aprilgrid`]) and single markers ([`render_marker`]);
 //! - rectified stereo pairs with exact disparity and occlusion masks ([`render_stereo_scene`]);
 //! - robot trajectories for hand-eye calibration ([`hand_eye_trajectory`]);
 //! - scene descriptions in RON with the pipeline's tolerances ([`SceneDescription`]).
@@ -42,6 +42,6 @@ pub use noise::{add_pixel_noise, perturb_pose, rng};
 pub use render::{RenderOptions, RenderedView, render_chessboard};
 pub use scene::{SceneDescription, Tolerances};
 pub use stereo::{StereoScene, StereoSceneConfig, render_stereo_scene};
-pub use targets::{Occluder, TargetView, render_aprilgrid, render_charuco, render_circle_grid};
+pub use targets::{Occluder, TargetView, render_aprilgrid, render_charuco, render_circle_grid, render_marker};
 pub use trajectory::{HandEyeTruth, Trajectory, TrajectoryConfig, hand_eye_trajectory};
 pub use views::{ViewSetConfig, calibration_poses, project_corners, stereo_calibration_poses};

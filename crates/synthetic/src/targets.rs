@@ -3,7 +3,7 @@
 
 use glam::{DVec2, DVec3};
 use image::GrayImage;
-use parallax_camera_model::{AprilGrid, Camera, CharucoBoard, CircleGrid, Isometry3};
+use parallax_camera_model::{AprilGrid, Camera, CharucoBoard, CircleGrid, Isometry3, SingleMarker};
 use serde::{Deserialize, Serialize};
 
 use crate::SyntheticError;
@@ -310,6 +310,62 @@ pub fn render_aprilgrid(
         visible.push(ok && clear);
     }
     Ok(TargetView { image, points, visible, camera_from_target: *camera_from_target })
+}
+
+/// Renders one marker ([`SingleMarker`]: one-bit black border, data bits, white paper
+/// `opts.margin_squares` marker sizes around it) with exact area coverage, `occluders`, and
+/// `opts`' lighting, blur and noise. `camera_from_marker` is in the marker's frame (centre
+/// origin, `y` up on the print). Truth: the four corners' projections (`points[k]` for corner
+/// `k`) and visibility.
+pub fn render_marker(
+    camera: &Camera,
+    marker: &SingleMarker,
+    camera_from_marker: &Isometry3,
+    opts: &RenderOptions,
+    occluders: &[Occluder],
+    margin_px: f64,
+) -> Result<TargetView, SyntheticError> {
+    opts.validate()?;
+    camera.validate().map_err(SyntheticError::model("camera"))?;
+    if !camera_from_marker.is_finite() {
+        return Err(SyntheticError::config("camera_from_marker", "pose is not finite"));
+    }
+    let s = marker.size();
+    let marker_from_print = Isometry3::from_quat_translation(
+        glam::DQuat::from_rotation_x(std::f64::consts::PI),
+        DVec3::new(-0.5 * s, 0.5 * s, 0.0),
+    );
+    let camera_from_print = *camera_from_marker * marker_from_print;
+    let dict = marker.dictionary();
+    let n = dict.marker_size();
+    let cells = (n + 2) as f64;
+    let m = opts.margin_squares;
+    let mut b = vec![-m];
+    b.extend((0..=n + 2).map(|k| k as f64 / cells));
+    b.push(1.0 + m);
+    let (black, white) = (f64::from(opts.black), f64::from(opts.white));
+    let pattern = Pattern::from_fn(b.clone(), b, |x, y| {
+        if !(0.0..1.0).contains(&x) || !(0.0..1.0).contains(&y) {
+            return white;
+        }
+        let (cx, cy) = ((x * cells).floor() as usize, (y * cells).floor() as usize);
+        if cx == 0 || cy == 0 || cx == n + 1 || cy == n + 1 {
+            return black;
+        }
+        if dict.bit(marker.id(), cy - 1, cx - 1) { white } else { black }
+    });
+    let image = render_pattern(camera, &camera_from_print, s, &pattern, opts, occluders, &|_, v| v);
+    let mut points = Vec::with_capacity(4);
+    let mut visible = Vec::with_capacity(4);
+    for k in 0..4 {
+        let p = marker.point(k).expect("four corners");
+        let ok = crate::views::visible(camera, camera_from_marker, p, margin_px);
+        let px = camera.project_from(camera_from_marker, p).ok().filter(|q| q.is_finite());
+        let clear = px.is_some_and(|q| occluders.iter().all(|o| o.signed_distance(q) >= margin_px));
+        points.push(px);
+        visible.push(ok && clear);
+    }
+    Ok(TargetView { image, points, visible, camera_from_target: *camera_from_marker })
 }
 
 fn polygon_area(p: &[DVec2]) -> f64 {
