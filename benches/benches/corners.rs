@@ -9,7 +9,10 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics};
-use parallax_corner_detection::{ChessboardConfig, ChessboardDetector, CornerRefinement, find_chessboard};
+use parallax_camera_model::{CharucoBoard, MarkerDictionary};
+use parallax_corner_detection::{
+    CharucoConfig, ChessboardConfig, ChessboardDetector, CornerRefinement, detect_charuco, find_chessboard,
+};
 use std::hint::black_box;
 
 fn synthetic_view() -> image::GrayImage {
@@ -54,7 +57,41 @@ fn large_view() -> image::GrayImage {
     parallax_synthetic::render_chessboard(&camera, &board, &poses[0], &opts).expect("render").image
 }
 
+/// A ChArUco view as in `crates/corner-detection/tests/charuco.rs` (800x600, 9x7 squares).
+fn charuco_view(board: &CharucoBoard) -> image::GrayImage {
+    let camera = Camera {
+        intrinsics: Intrinsics::new(760.0, 760.0, 402.0, 297.0),
+        distortion: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0),
+        width: 800,
+        height: 600,
+    };
+    let chess = Chessboard { cols: 8, rows: 6, square_size: 25.0 };
+    let cfg = parallax_synthetic::ViewSetConfig {
+        views: 1,
+        seed: 41,
+        min_distance: 350.0,
+        max_distance: 650.0,
+        ..Default::default()
+    };
+    let pose = parallax_synthetic::calibration_poses(&camera, &chess, &cfg).expect("poses")[0]
+        * parallax_camera_model::Isometry3::from_rvec_tvec(glam::DVec3::ZERO, glam::DVec3::new(-25.0, -25.0, 0.0));
+    let opts = parallax_synthetic::RenderOptions { blur_sigma: 0.8, noise_sigma: 2.0, seed: 1, ..Default::default() };
+    parallax_synthetic::render_charuco(&camera, board, &pose, &opts, &[], 4.0).expect("render").image
+}
+
 fn bench(c: &mut Criterion) {
+    let board =
+        CharucoBoard::new(9, 7, 25.0, 18.0, MarkerDictionary::predefined("DICT_4X4_50").expect("predefined"), false)
+            .expect("board");
+    let view = charuco_view(&board);
+    let ccfg = CharucoConfig::default();
+    assert!(
+        detect_charuco(&view, &board, &ccfg).expect("valid input").observation.len() > 40,
+        "ChArUco corners missing"
+    );
+    c.bench_function("detect_charuco 9x7 800x600 synthetic", |b| {
+        b.iter(|| detect_charuco(black_box(&view), &board, &ccfg).expect("valid input"))
+    });
     let big = large_view();
     let cfg = ChessboardConfig::default();
     assert!(find_chessboard(&big, 12, 12, &cfg).expect("valid input").is_some(), "1600x1200: board not found");

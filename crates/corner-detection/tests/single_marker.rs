@@ -1,6 +1,7 @@
 //! One AprilTag (tag36h11) as a hand-eye target (issue 18): 30 synthetic views (blur 0.8 px,
 //! noise σ 2 grey levels, tags of 60–200 px): found in every view, the right corner order,
-//! corner RMS ≤ 0.05 px against the exact projections.
+//! corner RMS ≤ 0.05 px against the exact projections. `MARKER_DUMP=DIR` writes the views and
+//! their truth.
 
 use glam::{DQuat, DVec3};
 use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, MarkerDictionary, SingleMarker};
@@ -32,6 +33,12 @@ fn single_tag_corners_are_exact() {
         let opts = RenderOptions { blur_sigma: 0.8, noise_sigma: 2.0, seed: 50 + k, ..Default::default() };
         let view = render_marker(&cam, &tag, &pose, &opts, &[], 4.0).unwrap();
         assert!(view.visible.iter().all(|&v| v), "view {k}: tag not fully in the image");
+        if let Ok(dir) = std::env::var("MARKER_DUMP") {
+            // Image and truth (`u v` per corner, marker order) for other detectors.
+            view.image.save(format!("{dir}/tag{k:02}.png")).unwrap();
+            let truth: String = view.points.iter().map(|p| format!("{} {}\n", p.unwrap().x, p.unwrap().y)).collect();
+            std::fs::write(format!("{dir}/tag{k:02}.truth.txt"), truth).unwrap();
+        }
         let Some(obs) = detect_single_marker(&view.image, &tag, &MarkerConfig::default()).unwrap() else {
             println!("view {k}: not found");
             continue;
