@@ -4,6 +4,11 @@
 //! so barrel/pincushion distortion and strong perspective are followed), verified (exact size,
 //! alternating square colours, convex cells), put in OpenCV's order and refined to sub-pixel.
 //!
+//! Scale: the search runs on a 2x2-averaged pyramid, coarsest level first
+//! ([`ChessboardConfig::pyramid_side`]), so `detection_sigma` and `ring_radius` are in pixels of a
+//! level of 500–1000 px and boards in 320x240 to 4000x3000 images are found with the defaults;
+//! the board is then refined at full resolution on patches around its corners.
+//!
 //! The detector rejects rather than guesses: a grid that does not have exactly the requested
 //! size (in either orientation), whose square colours do not alternate, or whose cells fold is
 //! "not found".
