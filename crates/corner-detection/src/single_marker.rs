@@ -2,6 +2,14 @@
 //! [`crate::detect_markers`], its corners refined by fitting a straight line to sub-pixel edge
 //! points along each side of the black square and intersecting neighbouring sides (the corners
 //! of a lone marker are L-corners, not X-junctions, so the saddle fit does not apply).
+//!
+//! Why our own decoder rather than `kornia-apriltag` 0.2.0: on the 30 views of
+//! `tests/single_marker.rs` (tag36h11 id 42, 60–200 px, blur 0.8, noise 2) both find every tag
+//! with no wrong id, but kornia's corners are 0.092 px RMS from the truth (worst 0.27 px, after
+//! removing its half-pixel offset: its pixel (0, 0) is the top-left corner of the first pixel)
+//! against 0.038 px (worst 0.12 px) here; and the same decoder serves OpenCV's ArUco
+//! dictionaries, ChArUco boards and Kalibr's two-bit-border AprilGrid tags. (Measured with a
+//! throwaway program outside the workspace on the `MARKER_DUMP` images.)
 
 use glam::DVec2;
 use image::GrayImage;
