@@ -35,10 +35,12 @@ mod camera;
 mod disparity;
 mod error;
 mod fisheye;
+mod marker_dictionaries;
 mod model;
 mod projection;
 mod stereo;
 mod target;
+mod targets;
 mod transform;
 
 pub use camera::{Camera, Distortion, Intrinsics};
@@ -53,6 +55,10 @@ pub use model::CameraModel;
 pub use projection::{ProjectionJacobians, UNDISTORT_MAX_ITERATIONS, UNDISTORT_TOLERANCE};
 pub use stereo::{ProjectionMatrix, StereoRig, skew_symmetric};
 pub use target::{Chessboard, CornerGrid};
+pub use targets::{
+    ACCEPTED_FORMS, AprilGrid, CharucoBoard, CircleGrid, MarkerDictionary, SingleMarker, TargetDescription,
+    TargetError, TargetObservation, dictionary_names,
+};
 pub use transform::Isometry3;
 
 /// Result alias of this crate.

@@ -2,7 +2,7 @@
 //! `path x0 y0 x1 y1 ...` (or `path none`), for comparison with other tools.
 //! Usage: `cargo run --release -p corner-detection --example dump_corners -- [subpix|saddle] COLSxROWS IMAGES...`
 
-use parallax_corner_detection::{ChessboardConfig, CornerRefinement, find_chessboard};
+use parallax_corner_detection::{ChessboardConfig, CornerRefinement, detect_chessboard};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -27,10 +27,12 @@ fn main() {
             }
         };
         let t0 = std::time::Instant::now();
-        let found = find_chessboard(&img, cols, rows, &cfg);
+        let found = detect_chessboard(&img, cols, rows, &cfg);
         let ms = t0.elapsed().as_secs_f64() * 1e3;
         match found {
-            Ok(Some(g)) => {
+            Ok(Some(d)) => {
+                let g = d.grid;
+                eprintln!("{path}: pyramid level {}, {} candidates", d.pyramid_level, d.candidates);
                 let coords: Vec<String> = g.corners.iter().map(|p| format!("{:.4} {:.4}", p.x, p.y)).collect();
                 println!("{path} {ms:.3} {}", coords.join(" "));
             }

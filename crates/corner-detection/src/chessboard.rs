@@ -4,6 +4,11 @@
 //! so barrel/pincushion distortion and strong perspective are followed), verified (exact size,
 //! alternating square colours, convex cells), put in OpenCV's order and refined to sub-pixel.
 //!
+//! Scale: the search runs on a 2x2-averaged pyramid, coarsest level first
+//! ([`ChessboardConfig::pyramid_side`]), so `detection_sigma` and `ring_radius` are in pixels of a
+//! level of 500–1000 px and boards in 320x240 to 4000x3000 images are found with the defaults;
+//! the board is then refined at full resolution on patches around its corners.
+//!
 //! The detector rejects rather than guesses: a grid that does not have exactly the requested
 //! size (in either orientation), whose square colours do not alternate, or whose cells fold is
 //! "not found".
@@ -13,9 +18,12 @@ use image::{GrayImage, Rgb, RgbImage};
 use parallax_camera_model::CornerGrid;
 use serde::{Deserialize, Serialize};
 
-use crate::harris::peaks_above;
-use crate::imageops::{ImageF32, gaussian_blur, saddle_response, sample_bilinear, to_f32};
-use crate::subpix::{Refinement, SaddleConfig, SubPixConfig, saddle_one, subpix_one};
+use crate::harris::row_maxima;
+use crate::imageops::{
+    BlurScratch, ImageF32, gaussian_blur, gaussian_blur_into, halve_f32, halve_u8, saddle_response_into,
+    sample_bilinear, to_f32,
+};
+use crate::subpix::{Refinement, SaddleConfig, SubPixConfig, WindowSize, saddle_one, subpix_one};
 use crate::{CornerError, Result};
 
 /// Which sub-pixel method [`find_chessboard`] applies to the grid it found.
@@ -58,6 +66,15 @@ pub struct ChessboardConfig {
     pub subpix: SubPixConfig,
     /// Settings of the saddle-point refinement.
     pub saddle: SaddleConfig,
+    /// Scale-free search: the detector starts on the coarsest 2x2-averaged pyramid level whose
+    /// longer side is still at least this many pixels and goes down to full resolution until
+    /// the board is found, so `detection_sigma` and `ring_radius` are in pixels of a level
+    /// whose size is between this and twice this (for images larger than that). 0 searches
+    /// full resolution only. Default 500: a 640x480 image is searched as it is, 1600x1200 at
+    /// 800x600 then 1600x1200, 4000x3000 at 500x375, 1000x750, 2000x1500, 4000x3000.
+    pub pyramid_side: u32,
+    /// At most this many halvings. Default 4.
+    pub max_pyramid_levels: u32,
 }
 
 impl Default for ChessboardConfig {
@@ -72,6 +89,8 @@ impl Default for ChessboardConfig {
             refinement: CornerRefinement::Saddle,
             subpix: SubPixConfig::default(),
             saddle: SaddleConfig::default(),
+            pyramid_side: 500,
+            max_pyramid_levels: 4,
         }
     }
 }
@@ -114,8 +133,12 @@ pub struct ChessboardDetection {
     pub min_spacing: f64,
     /// Smallest dark/bright contrast measured at a corner of the grid, grey levels.
     pub min_contrast: f64,
-    /// Number of X-junction candidates that passed the ring test in the whole image.
+    /// Number of X-junction candidates that passed the ring test in the whole image (at the
+    /// pyramid level where the board was found).
     pub candidates: usize,
+    /// Pyramid level the board was found on (0 = full resolution; level `L` is the image
+    /// halved `L` times).
+    pub pyramid_level: u32,
 }
 
 /// A verified X-junction candidate.
@@ -167,114 +190,415 @@ pub fn find_chessboard(
 }
 
 /// As [`find_chessboard`], with the quality of the result (refinement reports, spacing,
-/// contrast, candidate count).
+/// contrast, candidate count, pyramid level). Uses a per-thread [`ChessboardDetector`], so
+/// repeated calls on one thread reuse its buffers.
 pub fn detect_chessboard(
     img: &GrayImage,
     cols: usize,
     rows: usize,
     cfg: &ChessboardConfig,
 ) -> Result<Option<ChessboardDetection>> {
-    if cols < 2 || rows < 2 {
-        return Err(CornerError::InvalidBoardSize { cols, rows });
+    thread_local! {
+        static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
     }
     cfg.validate()?;
-    crate::imageops::check_size(img, 16, "find_chessboard")?;
-    let f = to_f32(img);
-    let smoothed = gaussian_blur(&f, cfg.detection_sigma);
-    let cands = candidates(&smoothed, cfg);
-    let n_cands = cands.len();
-    if n_cands < cols * rows {
-        return Ok(None);
+    SCRATCH.with(|s| {
+        let mut det = ChessboardDetector { cfg: *cfg, scratch: std::mem::take(&mut *s.borrow_mut()) };
+        let out = det.detect(img, cols, rows);
+        *s.borrow_mut() = det.scratch;
+        out
+    })
+}
+
+/// A chessboard detector that keeps its buffers (pyramid levels, smoothed image, response,
+/// peak lists, refinement patches) from one image to the next: after the first image of a
+/// size, detection allocates only its small per-board vectors, so a session of many images
+/// does not pay the page faults of fresh megabyte buffers per image.
+///
+/// ```
+/// use parallax_corner_detection::{ChessboardConfig, ChessboardDetector};
+/// let img = image::GrayImage::from_fn(160, 140, |x, y| {
+///     let (u, v) = (x as i32 - 30, y as i32 - 30);
+///     let inside = (0..100).contains(&u) && (0..80).contains(&v);
+///     image::Luma([if inside && (u / 20 + v / 20) % 2 == 0 { 30 } else { 220 }])
+/// });
+/// let mut detector = ChessboardDetector::new(ChessboardConfig::default())?;
+/// for _ in 0..3 {
+///     let found = detector.detect(&img, 4, 3)?.expect("found");
+///     assert_eq!((found.grid.cols, found.grid.rows, found.pyramid_level), (4, 3, 0));
+/// }
+/// # Ok::<(), parallax_corner_detection::CornerError>(())
+/// ```
+#[derive(Debug, Clone)]
+pub struct ChessboardDetector {
+    cfg: ChessboardConfig,
+    scratch: Scratch,
+}
+
+/// Buffers reused across images.
+#[derive(Debug, Clone, Default)]
+struct Scratch {
+    /// Pyramid levels 0.. as `f32` (level 0 only filled when it is searched).
+    levels: Vec<Vec<f32>>,
+    blur: BlurScratch,
+    smoothed: Vec<f32>,
+    response: Vec<f32>,
+    keep: Vec<bool>,
+    marks: Vec<bool>,
+    peaks: Vec<(f32, u32, u32)>,
+    patch: Vec<f32>,
+    patch_smoothed: Vec<f32>,
+}
+
+impl ChessboardDetector {
+    /// A detector with a checked configuration.
+    pub fn new(cfg: ChessboardConfig) -> Result<Self> {
+        cfg.validate()?;
+        Ok(Self { cfg, scratch: Scratch::default() })
     }
-    let mut used = vec![false; n_cands];
-    let mut seeds_tried = 0;
-    for seed in 0..n_cands {
-        if used[seed] {
-            continue;
-        }
-        seeds_tried += 1;
-        if seeds_tried > 200 {
-            break;
-        }
-        let Some(grid) = grow(&cands, seed, &used, cols.max(rows) + 1, cfg) else {
-            continue;
-        };
-        for row in &grid {
-            for &i in row {
-                used[i] = true;
+
+    /// The configuration.
+    pub fn config(&self) -> &ChessboardConfig {
+        &self.cfg
+    }
+
+    /// The pyramid levels tried on a `width x height` image, coarsest first (level `L` is the
+    /// image halved `L` times by 2x2 averaging): from the coarsest level whose longer side is
+    /// still at least [`ChessboardConfig::pyramid_side`] pixels (and at most
+    /// [`ChessboardConfig::max_pyramid_levels`]) down to 0, full resolution.
+    pub fn levels(&self, width: u32, height: u32) -> Vec<u32> {
+        let mut top = 0;
+        if self.cfg.pyramid_side > 0 {
+            while top < self.cfg.max_pyramid_levels
+                && (width.max(height) >> (top + 1)) >= self.cfg.pyramid_side
+                && (width.min(height) >> (top + 1)) >= 16
+            {
+                top += 1;
             }
         }
-        let (nr, nc) = (grid.len(), grid[0].len());
-        if !((nr == rows && nc == cols) || (nr == cols && nc == rows)) {
-            continue;
+        (0..=top).rev().collect()
+    }
+
+    /// [`find_chessboard`]'s search with this detector's configuration and buffers: the
+    /// pyramid levels of [`Self::levels`] are searched coarsest first, so `detection_sigma`
+    /// and `ring_radius` (pixels of the level) follow the image size; the board found at
+    /// level `L` is refined at full resolution with the refinement window's upper bound scaled
+    /// by `2^L`.
+    pub fn detect(&mut self, img: &GrayImage, cols: usize, rows: usize) -> Result<Option<ChessboardDetection>> {
+        if cols < 2 || rows < 2 {
+            return Err(CornerError::InvalidBoardSize { cols, rows });
         }
-        let pos: Vec<Vec<DVec2>> = grid.iter().map(|r| r.iter().map(|&i| cands[i].p).collect()).collect();
-        let Some(min_contrast) = check_colours(&smoothed, &pos, cfg.min_contrast * 0.5) else {
-            continue;
-        };
-        if !cells_convex(&pos) {
-            continue;
+        crate::imageops::check_size(img, 16, "find_chessboard")?;
+        let levels = self.levels(img.width(), img.height());
+        let top = levels[0] as usize;
+        self.build_pyramid(img, top);
+        for level in levels {
+            if let Some(d) = self.detect_at(img, cols, rows, level)? {
+                return Ok(Some(d));
+            }
         }
-        let Some(ordered) = order_opencv(&smoothed, &pos, cols, rows) else {
-            continue;
+        Ok(None)
+    }
+
+    /// Fills pyramid levels 1..=top (level 0 is converted lazily in `detect_at`).
+    fn build_pyramid(&mut self, img: &GrayImage, top: usize) {
+        let lv = &mut self.scratch.levels;
+        if lv.len() <= top {
+            lv.resize_with(top + 1, Vec::new);
+        }
+        let (mut w, mut h) = (img.width() as usize, img.height() as usize);
+        for l in 1..=top {
+            let (prev, rest) = lv.split_at_mut(l);
+            if l == 1 {
+                halve_u8(img.as_raw(), w, h, &mut rest[0]);
+            } else {
+                halve_f32(&prev[l - 1], w, h, &mut rest[0]);
+            }
+            w /= 2;
+            h /= 2;
+        }
+    }
+
+    fn detect_at(
+        &mut self,
+        img: &GrayImage,
+        cols: usize,
+        rows: usize,
+        level: u32,
+    ) -> Result<Option<ChessboardDetection>> {
+        let cfg = self.cfg;
+        let (w, h) = ((img.width() >> level) as usize, (img.height() >> level) as usize);
+        let sc = &mut self.scratch;
+        if level == 0 {
+            let l0 = &mut sc.levels[0];
+            l0.clear();
+            l0.extend(img.as_raw().iter().map(|&v| v as f32));
+        }
+        gaussian_blur_into(&sc.levels[level as usize], w, h, cfg.detection_sigma, &mut sc.blur, &mut sc.smoothed);
+        let smoothed = ImageF32::from_raw(w as u32, h as u32, std::mem::take(&mut sc.smoothed)).expect("w x h buffer");
+        let cands = candidates_into(&smoothed, &cfg, sc);
+        let result = self.link_and_refine(img, &smoothed, &cands, cols, rows, level);
+        self.scratch.smoothed = smoothed.into_raw();
+        Ok(result)
+    }
+
+    fn link_and_refine(
+        &mut self,
+        img: &GrayImage,
+        smoothed: &ImageF32,
+        cands: &[Candidate],
+        cols: usize,
+        rows: usize,
+        level: u32,
+    ) -> Option<ChessboardDetection> {
+        let cfg = self.cfg;
+        let n_cands = cands.len();
+        if n_cands < cols * rows {
+            return None;
+        }
+        let mut used = vec![false; n_cands];
+        let mut seeds_tried = 0;
+        let scale = f64::from(1u32 << level);
+        let offset = 0.5 * (scale - 1.0);
+        for seed in 0..n_cands {
+            if used[seed] {
+                continue;
+            }
+            seeds_tried += 1;
+            if seeds_tried > 200 {
+                break;
+            }
+            let Some(grid) = grow(cands, seed, &used, cols.max(rows) + 1, &cfg) else {
+                continue;
+            };
+            for row in &grid {
+                for &i in row {
+                    used[i] = true;
+                }
+            }
+            let (nr, nc) = (grid.len(), grid[0].len());
+            if !((nr == rows && nc == cols) || (nr == cols && nc == rows)) {
+                continue;
+            }
+            let pos: Vec<Vec<DVec2>> = grid.iter().map(|r| r.iter().map(|&i| cands[i].p).collect()).collect();
+            let Some(min_contrast) = check_colours(smoothed, &pos, cfg.min_contrast * 0.5) else {
+                continue;
+            };
+            if !cells_convex(&pos) {
+                continue;
+            }
+            let Some(mut corners) = order_opencv(smoothed, &pos, cols, rows) else {
+                continue;
+            };
+            if level > 0 {
+                // Sub-pixel at the detection level first (its smoothed image is at hand), so the
+                // full-resolution refinement starts within a fraction of a level pixel.
+                let halves = WindowSize::FromSpacing { fraction: 0.25, min: 2, max: 5 }.half_sizes(&corners);
+                for (c, h) in corners.iter_mut().zip(halves) {
+                    saddle_one(smoothed, c, h, 10, 0.01);
+                }
+                for c in corners.iter_mut() {
+                    *c = *c * scale + DVec2::splat(offset);
+                }
+            }
+            let refinement = self.refine_full(img, &mut corners, scale);
+            let grid_rows: Vec<Vec<DVec2>> = corners.chunks(cols).map(|r| r.to_vec()).collect();
+            if !cells_convex(&grid_rows) {
+                continue;
+            }
+            let min_spacing = min_neighbour_spacing(&grid_rows);
+            if refinement.iter().any(|r: &Refinement| r.shift > 0.25 * min_spacing) {
+                continue;
+            }
+            return Some(ChessboardDetection {
+                grid: CornerGrid { cols, rows, corners },
+                refinement,
+                min_spacing,
+                min_contrast,
+                candidates: n_cands,
+                pyramid_level: level,
+            });
+        }
+        None
+    }
+
+    /// Sub-pixel refinement at full resolution on small patches around each corner (so no
+    /// full-resolution `f32` copy or smoothed image is needed when the board was found on a
+    /// coarser level). The window's upper bound is scaled by `scale` = `2^level`.
+    fn refine_full(&mut self, img: &GrayImage, corners: &mut [DVec2], scale: f64) -> Vec<Refinement> {
+        let cfg = self.cfg;
+        let scaled = |w: WindowSize| match w {
+            WindowSize::FromSpacing { fraction, min, max } => {
+                WindowSize::FromSpacing { fraction, min, max: ((max as f64) * scale).round() as u32 }
+            }
+            fixed => fixed,
         };
-        let mut corners = ordered;
-        let refinement = match cfg.refinement {
+        let sc = &mut self.scratch;
+        match cfg.refinement {
+            CornerRefinement::None => Vec::new(),
             CornerRefinement::SubPix => {
-                let halves = cfg.subpix.window.half_sizes(&corners);
+                let halves = scaled(cfg.subpix.window).half_sizes(corners);
                 corners
                     .iter_mut()
                     .zip(halves)
                     .map(|(c, h)| {
-                        subpix_one(&f, c, h, cfg.subpix.dead_zone, cfg.subpix.max_iterations.max(1), cfg.subpix.epsilon)
+                        let margin = 2 * h as usize + 3;
+                        let (patch, origin) = Patch::cut(img, *c, margin, &mut sc.patch);
+                        let mut local = *c - origin;
+                        let r = subpix_one(
+                            &patch,
+                            &mut local,
+                            h,
+                            cfg.subpix.dead_zone,
+                            cfg.subpix.max_iterations.max(1),
+                            cfg.subpix.epsilon,
+                        );
+                        sc.patch = patch.into_raw();
+                        *c = local + origin;
+                        r
                     })
                     .collect()
             }
             CornerRefinement::Saddle => {
-                let s = if cfg.saddle.smoothing_sigma == cfg.detection_sigma {
-                    smoothed.clone()
-                } else {
-                    gaussian_blur(&f, cfg.saddle.smoothing_sigma)
-                };
-                let halves = cfg.saddle.window.half_sizes(&corners);
+                let halves = scaled(cfg.saddle.window).half_sizes(corners);
+                let sigma = cfg.saddle.smoothing_sigma;
                 corners
                     .iter_mut()
                     .zip(halves)
-                    .map(|(c, h)| saddle_one(&s, c, h, cfg.saddle.max_iterations.max(1), cfg.saddle.epsilon))
+                    .map(|(c, h)| {
+                        let margin = 2 * h as usize + 3 + (3.0 * sigma).ceil() as usize;
+                        let (patch, origin) = Patch::cut(img, *c, margin, &mut sc.patch);
+                        let (pw, ph) = (patch.width() as usize, patch.height() as usize);
+                        gaussian_blur_into(patch.as_raw(), pw, ph, sigma, &mut sc.blur, &mut sc.patch_smoothed);
+                        sc.patch = patch.into_raw();
+                        let s = ImageF32::from_raw(pw as u32, ph as u32, std::mem::take(&mut sc.patch_smoothed))
+                            .expect("patch buffer");
+                        let mut local = *c - origin;
+                        let r = saddle_one(&s, &mut local, h, cfg.saddle.max_iterations.max(1), cfg.saddle.epsilon);
+                        sc.patch_smoothed = s.into_raw();
+                        *c = local + origin;
+                        r
+                    })
                     .collect()
             }
-            CornerRefinement::None => Vec::new(),
-        };
-        let grid_rows: Vec<Vec<DVec2>> = corners.chunks(cols).map(|r| r.to_vec()).collect();
-        if !cells_convex(&grid_rows) {
-            continue;
         }
-        let min_spacing = min_neighbour_spacing(&grid_rows);
-        if refinement.iter().any(|r: &Refinement| r.shift > 0.25 * min_spacing) {
-            continue;
-        }
-        return Ok(Some(ChessboardDetection {
-            grid: CornerGrid { cols, rows, corners },
-            refinement,
-            min_spacing,
-            min_contrast,
-            candidates: n_cands,
-        }));
     }
-    Ok(None)
 }
 
-/// Saddle peaks that pass the ring test, strongest first.
-fn candidates(smoothed: &ImageF32, cfg: &ChessboardConfig) -> Vec<Candidate> {
-    let resp = saddle_response(smoothed);
+/// A square cut of an 8-bit image as `f32`, clamped to the image.
+struct Patch;
+
+impl Patch {
+    /// The pixels within `margin` of `c` (clamped to the image) in `buf`, and the image
+    /// position of the patch's pixel (0, 0).
+    fn cut(img: &GrayImage, c: DVec2, margin: usize, buf: &mut Vec<f32>) -> (ImageF32, DVec2) {
+        let (w, h) = (img.width() as i64, img.height() as i64);
+        let m = margin as i64;
+        let (cx, cy) = (c.x.round() as i64, c.y.round() as i64);
+        let (x0, x1) = ((cx - m).clamp(0, w - 1), (cx + m).clamp(0, w - 1));
+        let (y0, y1) = ((cy - m).clamp(0, h - 1), (cy + m).clamp(0, h - 1));
+        let (pw, ph) = ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize);
+        let mut data = std::mem::take(buf);
+        data.clear();
+        let raw = img.as_raw();
+        for y in y0..=y1 {
+            let row = (y * w) as usize;
+            data.extend(raw[row + x0 as usize..=row + x1 as usize].iter().map(|&v| v as f32));
+        }
+        (ImageF32::from_raw(pw as u32, ph as u32, data).expect("patch buffer"), DVec2::new(x0 as f64, y0 as f64))
+    }
+}
+
+/// Saddle peaks that pass the ring test, strongest first (buffers from `sc`).
+fn candidates_into(smoothed: &ImageF32, cfg: &ChessboardConfig, sc: &mut Scratch) -> Vec<Candidate> {
+    let (w, h) = (smoothed.width() as usize, smoothed.height() as usize);
+    saddle_response_into(smoothed.as_raw(), w, h, &mut sc.response);
     // Ideal X-junction of contrast C smoothed by σ: −det H = (C / (π σ²))². Keep peaks of at
     // least half the minimum contrast's response amplitude (a junction whose edges meet at 30°
     // still gives half the response of a square one).
     let s2 = cfg.detection_sigma * cfg.detection_sigma;
     let min_resp = (0.5 * cfg.min_contrast / (std::f64::consts::PI * s2)).powi(2) as f32;
-    let border = (cfg.ring_radius + 2.0).ceil() as u32;
-    let peaks = peaks_above(&resp, 1e-4, min_resp, 2.5, cfg.max_candidates, border);
-    peaks.into_iter().filter_map(|c| ring_test(smoothed, c.position, cfg.ring_radius, cfg.min_contrast)).collect()
+    let border = (cfg.ring_radius + 2.0).ceil() as usize;
+    let response = std::mem::take(&mut sc.response);
+    collect_peaks(&response, w, h, min_resp, border, cfg.max_candidates, sc);
+    let out = sc
+        .peaks
+        .iter()
+        .filter_map(|&(_, x, y)| {
+            let p = subpixel_peak(&response, w, x as usize, y as usize);
+            ring_test(smoothed, p, cfg.ring_radius, cfg.min_contrast)
+        })
+        .collect();
+    sc.response = response;
+    out
+}
+
+/// Strongest local maxima of `r` (at least `max(min_abs, 1e-4 · max r)`), none within 2.5 px
+/// of a stronger one, at most `max`, into `sc.peaks` as `(response, x, y)`. The same rule as
+/// `peaks_above` with buffers reused: suppression marks pixels in a reused mask instead of a
+/// bucket grid of vectors.
+fn collect_peaks(r: &[f32], w: usize, h: usize, min_abs: f32, border: usize, max: usize, sc: &mut Scratch) {
+    sc.peaks.clear();
+    let max_r = r.iter().fold(0.0f32, |m, &v| if v > m { v } else { m });
+    if max_r <= 0.0 || !max_r.is_finite() {
+        return;
+    }
+    let thr = (1e-4 * max_r).max(min_abs);
+    let b = border.max(1);
+    if w <= 2 * b || h <= 2 * b {
+        return;
+    }
+    sc.keep.clear();
+    sc.keep.resize(w, false);
+    for y in b..h - b {
+        let rows = (&r[(y - 1) * w..y * w], &r[y * w..(y + 1) * w], &r[(y + 1) * w..(y + 2) * w]);
+        row_maxima(rows, thr, &mut sc.keep[b..w - b], b);
+        for x in b..w - b {
+            if sc.keep[x] {
+                sc.peaks.push((r[y * w + x], x as u32, y as u32));
+            }
+        }
+    }
+    sc.peaks.sort_by(|a, b| b.0.total_cmp(&a.0));
+    // Greedy suppression: distance < 2.5 px means |dx|, |dy| <= 2 and dx² + dy² < 6.25.
+    sc.marks.clear();
+    sc.marks.resize(w * h, false);
+    let mut kept = 0;
+    for k in 0..sc.peaks.len() {
+        let (v, x, y) = sc.peaks[k];
+        let (x, y) = (x as usize, y as usize);
+        if sc.marks[y * w + x] {
+            continue;
+        }
+        for dy in -2i64..=2 {
+            for dx in -2i64..=2 {
+                if dx * dx + dy * dy < 7 {
+                    let (xx, yy) = (x as i64 + dx, y as i64 + dy);
+                    if xx >= 0 && yy >= 0 && (xx as usize) < w && (yy as usize) < h {
+                        sc.marks[yy as usize * w + xx as usize] = true;
+                    }
+                }
+            }
+        }
+        sc.peaks[kept] = (v, x as u32, y as u32);
+        kept += 1;
+        if kept >= max {
+            break;
+        }
+    }
+    sc.peaks.truncate(kept);
+}
+
+/// Peak position refined by 1D parabola fits along x and y.
+fn subpixel_peak(d: &[f32], w: usize, x: usize, y: usize) -> DVec2 {
+    let at = |xx: usize, yy: usize| d[yy * w + xx] as f64;
+    let fit = |m: f64, c: f64, p: f64| {
+        let den = m - 2.0 * c + p;
+        if den < 0.0 { (0.5 * (m - p) / den).clamp(-0.5, 0.5) } else { 0.0 }
+    };
+    let ox = fit(at(x - 1, y), at(x, y), at(x + 1, y));
+    let oy = fit(at(x, y - 1), at(x, y), at(x, y + 1));
+    DVec2::new(x as f64 + ox, y as f64 + oy)
 }
 
 const RING_SAMPLES: usize = 48;
@@ -680,7 +1004,8 @@ pub fn chessboard_candidates(img: &GrayImage, cfg: &ChessboardConfig) -> Result<
     cfg.validate()?;
     crate::imageops::check_size(img, 16, "chessboard_candidates")?;
     let smoothed = gaussian_blur(&to_f32(img), cfg.detection_sigma);
-    Ok(candidates(&smoothed, cfg).into_iter().map(|c| c.p).collect())
+    let mut sc = Scratch::default();
+    Ok(candidates_into(&smoothed, cfg, &mut sc).into_iter().map(|c| c.p).collect())
 }
 
 #[cfg(test)]

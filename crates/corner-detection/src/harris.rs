@@ -183,7 +183,7 @@ pub(crate) fn peaks(r: &ImageF32, quality: f32, min_distance: f64, max: usize, b
 /// in raster order, so a pixel must beat its earlier neighbours and tie-or-beat the later ones)
 /// that are at least `thr` and positive: `keep[i]` is column `x0 + i`. Branch-free so it
 /// vectorises; run through an AVX2 copy when the CPU has it.
-fn row_maxima((prev, cur, next): (&[f32], &[f32], &[f32]), thr: f32, keep: &mut [bool], x0: usize) {
+pub(crate) fn row_maxima((prev, cur, next): (&[f32], &[f32], &[f32]), thr: f32, keep: &mut [bool], x0: usize) {
     #[inline(always)]
     fn imp((prev, cur, next): (&[f32], &[f32], &[f32]), thr: f32, keep: &mut [bool], x0: usize) {
         let n = keep.len();

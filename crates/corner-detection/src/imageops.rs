@@ -35,13 +35,51 @@ pub fn gaussian_blur(img: &ImageF32, sigma: f64) -> ImageF32 {
     if sigma <= 0.0 || img.width() == 0 || img.height() == 0 {
         return img.clone();
     }
-    let k = gaussian_kernel(sigma);
-    let r = k.len() / 2;
     let (w, h) = (img.width() as usize, img.height() as usize);
-    let src = img.as_raw();
+    let mut scratch = BlurScratch::default();
+    let mut dst = Vec::new();
+    gaussian_blur_into(img.as_raw(), w, h, sigma, &mut scratch, &mut dst);
+    ImageBuffer::from_raw(w as u32, h as u32, dst).expect("buffer size matches the image")
+}
+
+/// Reusable buffers of [`gaussian_blur_into`] (the horizontal pass and one padded row).
+#[derive(Debug, Default, Clone)]
+pub(crate) struct BlurScratch {
+    tmp: Vec<f32>,
+    padded: Vec<f32>,
+    kernel: Vec<f32>,
+    kernel_sigma: f64,
+}
+
+/// [`gaussian_blur`] of the `w x h` buffer `src` into `dst` (resized), with buffers reused from
+/// one call to the next (no allocation once they have grown to the image size).
+pub(crate) fn gaussian_blur_into(
+    src: &[f32],
+    w: usize,
+    h: usize,
+    sigma: f64,
+    scratch: &mut BlurScratch,
+    dst: &mut Vec<f32>,
+) {
+    debug_assert_eq!(src.len(), w * h);
+    dst.clear();
+    if sigma <= 0.0 || w == 0 || h == 0 {
+        dst.extend_from_slice(src);
+        return;
+    }
+    if scratch.kernel.is_empty() || scratch.kernel_sigma != sigma {
+        scratch.kernel = gaussian_kernel(sigma);
+        scratch.kernel_sigma = sigma;
+    }
+    let k = &scratch.kernel;
+    let r = k.len() / 2;
     // Horizontal pass, row by row through a padded buffer.
-    let mut tmp = vec![0.0f32; w * h];
-    let mut padded = vec![0.0f32; w + 2 * r];
+    let tmp = &mut scratch.tmp;
+    tmp.clear();
+    tmp.resize(w * h, 0.0);
+    let padded = &mut scratch.padded;
+    padded.clear();
+    padded.resize(w + 2 * r, 0.0);
     for y in 0..h {
         let row = &src[y * w..(y + 1) * w];
         padded[r..r + w].copy_from_slice(row);
@@ -53,7 +91,7 @@ pub fn gaussian_blur(img: &ImageF32, sigma: f64) -> ImageF32 {
         }
     }
     // Vertical pass: each output row is a weighted sum of whole input rows (clamped).
-    let mut dst = vec![0.0f32; w * h];
+    dst.resize(w * h, 0.0);
     for y in 0..h {
         let out = &mut dst[y * w..(y + 1) * w];
         for (j, &kj) in k.iter().enumerate() {
@@ -61,7 +99,37 @@ pub fn gaussian_blur(img: &ImageF32, sigma: f64) -> ImageF32 {
             axpy(out, kj, &tmp[yy * w..(yy + 1) * w]);
         }
     }
-    ImageBuffer::from_raw(w as u32, h as u32, dst).expect("buffer size matches the image")
+}
+
+/// Halves an 8-bit image by 2x2 averaging into `f32` grey levels (`dst` resized to
+/// `(w / 2) x (h / 2)`; an odd last row or column is dropped). Pixel `(i, j)` of the result is
+/// centred on `(2i + ½, 2j + ½)` of the input.
+pub(crate) fn halve_u8(src: &[u8], w: usize, h: usize, dst: &mut Vec<f32>) {
+    let (w2, h2) = (w / 2, h / 2);
+    dst.clear();
+    dst.resize(w2 * h2, 0.0);
+    for y in 0..h2 {
+        let (a, b) = (&src[2 * y * w..2 * y * w + 2 * w2], &src[(2 * y + 1) * w..(2 * y + 1) * w + 2 * w2]);
+        let out = &mut dst[y * w2..(y + 1) * w2];
+        for (x, o) in out.iter_mut().enumerate() {
+            let s = a[2 * x] as u16 + a[2 * x + 1] as u16 + b[2 * x] as u16 + b[2 * x + 1] as u16;
+            *o = s as f32 * 0.25;
+        }
+    }
+}
+
+/// As [`halve_u8`] for an `f32` image.
+pub(crate) fn halve_f32(src: &[f32], w: usize, h: usize, dst: &mut Vec<f32>) {
+    let (w2, h2) = (w / 2, h / 2);
+    dst.clear();
+    dst.resize(w2 * h2, 0.0);
+    for y in 0..h2 {
+        let (a, b) = (&src[2 * y * w..2 * y * w + 2 * w2], &src[(2 * y + 1) * w..(2 * y + 1) * w + 2 * w2]);
+        let out = &mut dst[y * w2..(y + 1) * w2];
+        for (x, o) in out.iter_mut().enumerate() {
+            *o = 0.25 * ((a[2 * x] + a[2 * x + 1]) + (b[2 * x] + b[2 * x + 1]));
+        }
+    }
 }
 
 /// `out += a · x`, element-wise (no fused multiply-add, so every instruction set gives the same
@@ -115,8 +183,15 @@ pub fn sample_bilinear(img: &ImageF32, x: f64, y: f64) -> f32 {
 /// an X-junction of a chessboard.
 pub fn saddle_response(smoothed: &ImageF32) -> ImageF32 {
     let (w, h) = (smoothed.width() as usize, smoothed.height() as usize);
-    let s = smoothed.as_raw();
-    let mut out = vec![0.0f32; w * h];
+    let mut out = Vec::new();
+    saddle_response_into(smoothed.as_raw(), w, h, &mut out);
+    ImageBuffer::from_raw(w as u32, h as u32, out).expect("buffer size matches the image")
+}
+
+/// [`saddle_response`] of the `w x h` buffer `s` into `out` (resized, reused).
+pub(crate) fn saddle_response_into(s: &[f32], w: usize, h: usize, out: &mut Vec<f32>) {
+    out.clear();
+    out.resize(w * h, 0.0);
     if w >= 3 && h >= 3 {
         for y in 1..h - 1 {
             let row = y * w;
@@ -131,7 +206,6 @@ pub fn saddle_response(smoothed: &ImageF32) -> ImageF32 {
             }
         }
     }
-    ImageBuffer::from_raw(w as u32, h as u32, out).expect("buffer size matches the image")
 }
 
 /// Errors unless the image is at least `min x min` pixels.

@@ -7,9 +7,23 @@
 //!   [`refine_saddle`] (saddle of a quadratic fitted to the smoothed image): sub-pixel corners
 //!   whose window is chosen from the local corner spacing by default ([`WindowSize`]), so it
 //!   never reaches a neighbouring corner.
-//! - [`find_chessboard`]: the inner corners of a chessboard in OpenCV's order, or "not found".
+//! - [`find_chessboard`]: the inner corners of a chessboard in OpenCV's order, or "not found",
+//!   at any image size (a 2x2-averaged pyramid is searched coarsest first, so the pixel-scale
+//!   settings follow the image; boards in 320x240 to 4000x3000 images are found with the
+//!   defaults); [`ChessboardDetector`] keeps its buffers across a session's images.
 //! - [`detect_blobs`]: blob targets (Otsu threshold, 8-connected components, shape filters,
 //!   sub-pixel centroids); [`weighted_gray`] for colour input.
+//! - [`detect_markers`]: ArUco / AprilTag markers of OpenCV's predefined dictionaries, decoded
+//!   with error correction; [`detect_single_marker`] refines a lone tag's corners (hand-eye).
+//! - [`detect_charuco`] (OpenCV's `CharucoBoard`), [`detect_aprilgrid`] (Kalibr's AprilGrid):
+//!   any visible subset of corners, ids in OpenCV's / Kalibr's numbering, saddle-refined.
+//! - [`detect_circle_grid`]: symmetric and asymmetric circle grids in `findCirclesGrid`'s order,
+//!   centres corrected for perspective bias.
+//!
+//! Accuracy on the synthetic acceptance sets (800x600, blur 0.8 px, noise σ 2, 50 views each,
+//! partial and occluded views included): ChArUco corner RMS 0.021 px with 0 wrong ids (OpenCV
+//! 5's `CharucoDetector` on the same views: 0.075 px, 2 wrong ids); AprilGrid 0.017 px, 0 wrong
+//! ids; circle grids 0.016–0.018 px with the perspective correction (0.049–0.074 px without).
 //!
 //! Pixel convention as OpenCV: `(u, v)`, `u` right, `v` down, `(0, 0)` the centre of the
 //! top-left pixel.
@@ -29,11 +43,16 @@
 //! # Ok::<(), parallax_corner_detection::CornerError>(())
 //! ```
 
+mod aprilgrid;
 mod blobs;
+mod charuco;
 mod chessboard;
+mod circles;
 mod error;
 mod harris;
 mod imageops;
+mod markers;
+mod single_marker;
 mod subpix;
 
 // The crates whose types this crate's public API uses, re-exported so that a caller needs no
@@ -43,12 +62,17 @@ pub use image;
 pub use parallax_camera_model;
 pub use parallax_least_squares;
 
+pub use aprilgrid::{AprilGridConfig, AprilGridDetection, detect_aprilgrid};
 pub use blobs::{BT601, Blob, BlobConfig, BlobDetection, BlobPolarity, detect_blobs, weighted_gray};
+pub use charuco::{CharucoConfig, CharucoDetection, detect_charuco};
 pub use chessboard::{
-    ChessboardConfig, ChessboardDetection, CornerRefinement, chessboard_candidates, detect_chessboard, draw_chessboard,
-    draw_points, find_chessboard,
+    ChessboardConfig, ChessboardDetection, ChessboardDetector, CornerRefinement, chessboard_candidates,
+    detect_chessboard, draw_chessboard, draw_points, find_chessboard,
 };
+pub use circles::{CircleGridConfig, CircleGridDetection, detect_circle_grid};
 pub use error::{CornerError, Result};
 pub use harris::{Corner, CornerConfig, CornerMeasure, HarrisConfig, detect_corners, harris_response};
 pub use imageops::{ImageF32, gaussian_blur, saddle_response, sample_bilinear, to_f32};
+pub use markers::{DetectedMarker, MarkerConfig, detect_markers};
+pub use single_marker::{detect_single_marker, refine_marker_corners};
 pub use subpix::{Refinement, SaddleConfig, SubPixConfig, WindowSize, refine_corners_subpix, refine_saddle};

@@ -9,6 +9,9 @@
 //!   residuals, the standard deviation of every estimated parameter and warnings
 //!   ([`CalibrationWarning`]).
 //! * [`calibrate_stereo`]: both cameras + `right_from_left` jointly, `E`, `F`, rig std devs.
+//! * [`calibrate_target`] / [`calibrate_stereo_target`]: the same from identified points of any
+//!   target (`TargetDescription` + per-view `TargetObservation`): partial ChArUco / AprilGrid
+//!   views, stereo pairs matched by id.
 //! * [`calibrate_dlt`]: `P` from a non-planar target, RQ into `K`, `R`, `t`.
 //! * [`solve_pnp_planar`]: the pose of a calibrated camera from a planar target.
 //! * [`calibrate_fisheye`] / [`calibrate_fisheye_stereo`]: wide-angle cameras
@@ -51,6 +54,7 @@ mod dlt;
 mod error;
 mod fisheye;
 mod homography;
+mod partial;
 mod pnp;
 mod stereo;
 mod zhang;
@@ -73,6 +77,7 @@ pub use fisheye::{
     calibrate_fisheye_chessboard, calibrate_fisheye_stereo,
 };
 pub use homography::{Homography, estimate_homography, homography_dlt};
+pub use partial::{calibrate_stereo_target, calibrate_target, common_points, object_points_for};
 pub use pnp::{solve_pnp_planar, solve_pnp_planar_points};
 pub use stereo::{
     RigStdDevs, StereoCalibrationResult, StereoConfig, calibrate_stereo, calibrate_stereo_chessboard, median_rig,

@@ -10,6 +10,10 @@
 //! - wide-angle view sets that cover a fisheye's periphery ([`wide_angle_calibration_poses`],
 //!   [`wide_angle_stereo_calibration_poses`]) and a textured room rendered through any lens
 //!   ([`TexturedRoom`], [`render_room`]) for wide-angle stereo;
+//! - rendered chessboard views with exact anti-aliasing ([`render_chessboard`]), ChArUco
+//!   views with per-corner truth, partial views and occluders ([`render_charuco`]), circle grids
+//!   with exact disc coverage and the projected centres as truth ([`render_circle_grid`]), Kalibr
+//!   AprilGrids ([`render_aprilgrid`]) and single markers ([`render_marker`]);
 //! - rectified stereo pairs with exact disparity and occlusion masks ([`render_stereo_scene`]);
 //! - robot trajectories for hand-eye calibration ([`hand_eye_trajectory`]);
 //! - scene descriptions in RON with the pipeline's tolerances ([`SceneDescription`]).
@@ -35,6 +39,7 @@ mod noise;
 mod render;
 mod scene;
 mod stereo;
+mod targets;
 mod trajectory;
 mod views;
 
@@ -53,5 +58,6 @@ pub use noise::{add_pixel_noise, perturb_pose, rng};
 pub use render::{RenderOptions, RenderedView, render_chessboard};
 pub use scene::{SceneDescription, Tolerances};
 pub use stereo::{StereoScene, StereoSceneConfig, render_stereo_scene};
+pub use targets::{Occluder, TargetView, render_aprilgrid, render_charuco, render_circle_grid, render_marker};
 pub use trajectory::{HandEyeTruth, Trajectory, TrajectoryConfig, hand_eye_trajectory};
 pub use views::{ViewSetConfig, calibration_poses, project_corners, stereo_calibration_poses};

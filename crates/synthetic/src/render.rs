@@ -127,6 +127,26 @@ pub fn render_chessboard<C: CameraModel + Sync>(
 ) -> Result<RenderedView, SyntheticError> {
     opts.validate()?;
     let corners = project_corners(camera, board, camera_from_board)?;
+    let pattern = Pattern::new(board, opts);
+    let image = render_pattern(camera, camera_from_board, board.square_size, &pattern, opts, &[], &|_, v| v);
+    Ok(RenderedView { image, corners, camera_from_board: *camera_from_board })
+}
+
+/// Renders `pattern` (in units of `unit` on the target plane `z = 0`) through `camera` from
+/// `camera_from_board`, with `opts`' background, lighting, blur, noise and quantisation, and
+/// `occluders` (convex polygons in pixels, drawn over the target before the blur). `overlay`
+/// changes a pixel's value given the pixel's preimage on the plane (its four corners, in
+/// units, in pixel order (0,0), (1,0), (1,1), (0,1); `None` where they cannot all be
+/// unprojected) — the circles of a circle grid.
+pub(crate) fn render_pattern<C: CameraModel + Sync>(
+    camera: &C,
+    camera_from_board: &Isometry3,
+    unit: f64,
+    pattern: &Pattern,
+    opts: &RenderOptions,
+    occluders: &[crate::targets::Occluder],
+    overlay: &(dyn Fn(Option<[DVec2; 4]>, f64) -> f64 + Sync),
+) -> GrayImage {
     let (w, h) = (camera.width() as usize, camera.height() as usize);
     let mut rng = rng(opts.seed);
     let background = if opts.clutter {
@@ -134,27 +154,31 @@ pub fn render_chessboard<C: CameraModel + Sync>(
     } else {
         vec![f64::from(opts.background); w * h]
     };
-    let pattern = Pattern::new(board, opts);
-    let grid = CornerGrid::new(camera, camera_from_board, board.square_size);
+    let grid = CornerGrid::new(camera, camera_from_board, unit);
     let mut radiance = vec![0f32; w * h];
     radiance.par_chunks_mut(w).enumerate().for_each(|(v, row)| {
         for (u, out) in row.iter_mut().enumerate() {
             let bg = background[v * w + u];
-            *out = pixel_value(&grid, &pattern, camera, camera_from_board, board.square_size, u, v, bg) as f32;
+            let value = pixel_value(&grid, pattern, camera, camera_from_board, unit, u, v, bg);
+            let quad = [grid.at(u, v), grid.at(u + 1, v), grid.at(u + 1, v + 1), grid.at(u, v + 1)];
+            let quad = if let [Some(a), Some(b), Some(c), Some(d)] = quad { Some([a, b, c, d]) } else { None };
+            *out = overlay(quad, value) as f32;
         }
     });
+    for o in occluders {
+        o.paint(&mut radiance, w, h);
+    }
     apply_lighting(&mut radiance, camera, opts, &mut rng);
     let mut img =
         ImageBuffer::<Luma<f32>, Vec<f32>>::from_raw(w as u32, h as u32, radiance).expect("buffer of width x height");
     if opts.blur_sigma > 0.0 {
         img = imageproc::filter::gaussian_blur_f32(&img, opts.blur_sigma as f32);
     }
-    let image = quantise(img.into_raw(), w, h, opts, &mut rng);
-    Ok(RenderedView { image, corners, camera_from_board: *camera_from_board })
+    quantise(img.into_raw(), w, h, opts, &mut rng)
 }
 
 /// Piecewise-constant board colour on a grid of intervals (in squares).
-struct Pattern {
+pub(crate) struct Pattern {
     /// Interval breakpoints along board x and y, in squares.
     xs: Vec<f64>,
     ys: Vec<f64>,
@@ -163,6 +187,17 @@ struct Pattern {
 }
 
 impl Pattern {
+    /// A pattern from increasing breakpoints and the colour at each interval's midpoint.
+    pub(crate) fn from_fn(xs: Vec<f64>, ys: Vec<f64>, colour: impl Fn(f64, f64) -> f64) -> Self {
+        let mut colours = Vec::with_capacity((xs.len() - 1) * (ys.len() - 1));
+        for iy in 0..ys.len() - 1 {
+            for ix in 0..xs.len() - 1 {
+                colours.push(colour(0.5 * (xs[ix] + xs[ix + 1]), 0.5 * (ys[iy] + ys[iy + 1])));
+            }
+        }
+        Self { xs, ys, colours }
+    }
+
     fn new(board: &Chessboard, opts: &RenderOptions) -> Self {
         let m = opts.margin_squares;
         let breaks = |n: usize| {

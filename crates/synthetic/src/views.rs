@@ -209,7 +209,7 @@ fn border_samples(board: &Chessboard, border: f64) -> Vec<DVec3> {
 
 /// True when a point projects inside the image by `margin` pixels, through an invertible part
 /// of the lens model (unprojecting the pixel gives back the same ray).
-fn visible(camera: &Camera, camera_from_board: &Isometry3, p: DVec3, margin: f64) -> bool {
+pub(crate) fn visible(camera: &Camera, camera_from_board: &Isometry3, p: DVec3, margin: f64) -> bool {
     let pc = camera_from_board.transform_point(p);
     if pc.z <= 0.0 {
         return false;

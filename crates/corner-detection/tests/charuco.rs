@@ -1,0 +1,143 @@
+//! ChArUco acceptance (issue 18): 50 synthetic views (blur 0.8 px, noise σ 2 grey levels), a
+//! third of them partial and a quarter with an occluder: zero wrong ids, corner RMS ≤ 0.03 px
+//! against the exact projections, and views with 30–60 % of the board visible detected.
+//! `CHARUCO_DUMP=DIR` writes the rendered views there (for looking at them or running
+//! OpenCV on them).
+
+use glam::{DVec2, DVec3};
+use parallax_camera_model::{Camera, CharucoBoard, Chessboard, Distortion, Intrinsics, Isometry3, MarkerDictionary};
+use parallax_corner_detection::{CharucoConfig, detect_charuco};
+use parallax_synthetic::{Occluder, RenderOptions, ViewSetConfig, calibration_poses, render_charuco, rng};
+use rand::Rng;
+
+fn camera() -> Camera {
+    Camera {
+        intrinsics: Intrinsics::new(760.0, 760.0, 402.0, 297.0),
+        distortion: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0),
+        width: 800,
+        height: 600,
+    }
+}
+
+fn board() -> CharucoBoard {
+    CharucoBoard::new(9, 7, 25.0, 18.0, MarkerDictionary::predefined("DICT_4X4_50").unwrap(), false).unwrap()
+}
+
+/// `camera_from_board` poses: the view generator's chessboard frame (origin at the first
+/// inner corner) moved to the ChArUco frame (origin at the board's outer corner).
+fn poses(cam: &Camera, b: &CharucoBoard, views: usize, seed: u64) -> Vec<Isometry3> {
+    let chess = Chessboard { cols: b.squares_x() - 1, rows: b.squares_y() - 1, square_size: b.square_length() };
+    let cfg = ViewSetConfig {
+        views,
+        seed,
+        allow_partial: true,
+        min_distance: 350.0,
+        max_distance: 650.0,
+        ..Default::default()
+    };
+    let shift = Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(-b.square_length(), -b.square_length(), 0.0));
+    calibration_poses(cam, &chess, &cfg).unwrap().into_iter().map(|p| p * shift).collect()
+}
+
+#[derive(Default, Debug)]
+struct Stats {
+    views: usize,
+    detected_views: usize,
+    visible: usize,
+    found: usize,
+    wrong_ids: usize,
+    sum_sq: f64,
+    worst: f64,
+    mid_views: usize,
+    mid_detected: usize,
+}
+
+#[test]
+fn fifty_views_zero_wrong_ids_and_exact_corners() {
+    let cam = camera();
+    let b = board();
+    let mut s = Stats::default();
+    let mut r = rng(77);
+    for (k, pose) in poses(&cam, &b, 50, 41).iter().enumerate() {
+        let occluders = if k % 4 == 3 {
+            // A quadrilateral "hand" over a random part of the image.
+            let c = DVec2::new(r.random_range(150.0..650.0), r.random_range(100.0..500.0));
+            let (a, l): (f64, f64) = (r.random_range(0.0..3.1), r.random_range(60.0..140.0));
+            let d = DVec2::new(a.cos(), a.sin()) * l;
+            let e = d.perp() * 0.6;
+            vec![Occluder { polygon: vec![c - d - e, c + d - e, c + d + e, c - d + e], grey: 90 }]
+        } else {
+            vec![]
+        };
+        let opts = RenderOptions { blur_sigma: 0.8, noise_sigma: 2.0, seed: 900 + k as u64, ..Default::default() };
+        let view = render_charuco(&cam, &b, pose, &opts, &occluders, 4.0).unwrap();
+        let det = detect_charuco(&view.image, &b, &CharucoConfig::default()).unwrap();
+        if let Ok(dir) = std::env::var("CHARUCO_DUMP") {
+            view.image.save(format!("{dir}/view{k:02}.png")).unwrap();
+            // Truth: `id u v visible` per corner with a projection.
+            let truth: String = view
+                .points
+                .iter()
+                .enumerate()
+                .filter_map(|(id, p)| p.map(|p| format!("{id} {} {} {}\n", p.x, p.y, view.visible[id] as u8)))
+                .collect();
+            std::fs::write(format!("{dir}/view{k:02}.truth.txt"), truth).unwrap();
+        }
+        s.views += 1;
+        let visible = view.visible.iter().filter(|&&v| v).count();
+        s.visible += visible;
+        let frac = view.visible_fraction();
+        let mut found_visible = 0;
+        for (&id, &p) in det.observation.ids().iter().zip(det.observation.points()) {
+            let t = view.points[id as usize].expect("a detected corner has a projection");
+            let e = (p - t).length();
+            if e > 1.0 {
+                s.wrong_ids += 1;
+                println!("view {k}: corner {id} is {e:.2} px from its truth");
+                continue;
+            }
+            s.found += 1;
+            if e > 0.1 {
+                println!("view {k}: corner {id} error {e:.3} px (visible {})", view.visible[id as usize]);
+            }
+            s.sum_sq += e * e;
+            s.worst = s.worst.max(e);
+            if view.visible[id as usize] {
+                found_visible += 1;
+            }
+        }
+        if !det.observation.is_empty() {
+            s.detected_views += 1;
+        }
+        if (0.3..=0.6).contains(&frac) {
+            s.mid_views += 1;
+            if found_visible as f64 >= 0.5 * visible as f64 {
+                s.mid_detected += 1;
+            }
+        }
+        println!(
+            "view {k}: visible {visible} ({:.0} %), found {} ({found_visible} of the visible), markers {}{}",
+            100.0 * frac,
+            det.observation.len(),
+            det.markers.len(),
+            if occluders.is_empty() { "" } else { ", occluded" }
+        );
+    }
+    let rms = (s.sum_sq / s.found.max(1) as f64).sqrt();
+    println!(
+        "ChArUco 50 views: detected in {}/{} views, corners found {} of {} visible ({:.1} %), wrong ids {}, RMS {rms:.4} px, worst {:.4} px; views 30-60 % visible: {}/{} with at least half their corners",
+        s.detected_views,
+        s.views,
+        s.found,
+        s.visible,
+        100.0 * s.found as f64 / s.visible.max(1) as f64,
+        s.wrong_ids,
+        s.worst,
+        s.mid_detected,
+        s.mid_views
+    );
+    assert_eq!(s.wrong_ids, 0);
+    assert!(rms <= 0.03, "RMS {rms}");
+    assert!(s.mid_views >= 3 && s.mid_detected == s.mid_views, "{s:?}");
+    assert!(s.found as f64 >= 0.9 * s.visible as f64, "{s:?}");
+}
