@@ -31,6 +31,7 @@ pub mod chain;
 mod error;
 pub mod fixtures;
 pub mod io;
+pub mod plots;
 pub mod real;
 pub mod report;
 pub mod scene;
