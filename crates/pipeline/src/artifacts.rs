@@ -86,13 +86,22 @@ pub fn pictures(
     let mut sections = Vec::new();
     if let Ok(c) = &out.calibration {
         let names: Vec<String> = out.views.index.iter().map(|&i| name(i)).collect();
-        let [l, r] = plots::calibration::stereo(&input.board, &out.views.left, &out.views.right, &names, c, &input.stereo)?;
+        let [l, r] =
+            plots::calibration::stereo(&input.board, &out.views.left, &out.views.right, &names, c, &input.stereo)?;
         sections.push(l.0);
         sections.push(r.0);
         if let (Ok(rect), Ok((li, ri))) = (&out.rectified, &out.rectified_view) {
             let grids = out.views.left.first().zip(out.views.right.first());
             let view = out.views.index.first().map_or_else(String::new, |&i| name(i));
-            sections.push(plots::rectification::section(&c.rig, &rect.rectification, li, ri, grids, &view, &rect.abs_dv)?);
+            sections.push(plots::rectification::section(
+                &c.rig,
+                &rect.rectification,
+                li,
+                ri,
+                grids,
+                &view,
+                &rect.abs_dv,
+            )?);
         }
     }
     if let Ok(m) = &out.matched {

@@ -101,6 +101,9 @@ pub fn outlier_threshold(per_view: &[f64], factor: f64) -> Option<f64> {
     Some((factor * med).max(med + 4.0 * mad))
 }
 
+/// A test of whether a pixel lies in a region.
+type Inside<'a> = dyn Fn(&DVec2) -> bool + 'a;
+
 /// Regions within [`COVERAGE_EDGE`] of each image edge and corner that hold no corner.
 pub fn empty_regions(width: u32, height: u32, corners: &[DVec2]) -> Vec<String> {
     let (w, h) = (f64::from(width), f64::from(height));
@@ -112,14 +115,14 @@ pub fn empty_regions(width: u32, height: u32, corners: &[DVec2]) -> Vec<String> 
     let bottom = |p: &DVec2| h - 0.5 - p.y < eh;
     let none = |f: &dyn Fn(&DVec2) -> bool| !corners.iter().any(f);
     let mut out = Vec::new();
-    let edges: [(&str, &dyn Fn(&DVec2) -> bool); 4] =
+    let edges: [(&str, &Inside<'_>); 4] =
         [("left edge", &left), ("right edge", &right), ("top edge", &top), ("bottom edge", &bottom)];
     for (name, f) in edges {
         if none(f) {
             out.push(name.to_string());
         }
     }
-    let quads: [(&str, &dyn Fn(&DVec2) -> bool, &str, &str); 4] = [
+    let quads: [(&str, &Inside<'_>, &str, &str); 4] = [
         ("top-left corner", &|p| left(p) && top(p), "left edge", "top edge"),
         ("top-right corner", &|p| right(p) && top(p), "right edge", "top edge"),
         ("bottom-left corner", &|p| left(p) && bottom(p), "left edge", "bottom edge"),
@@ -220,7 +223,11 @@ pub fn camera_section(c: &CameraInputs<'_>) -> Result<(Section, CameraSummary)> 
                 "per-view RMS reprojection error; line: the outlier rule (max of {}×median and median + 4 robust σ) at \
                  {t:.3} px; {}",
                 c.config.outlier_view_factor,
-                if flagged.is_empty() { "no view flagged".to_string() } else { format!("flagged: {}", flagged_names.join(", ")) }
+                if flagged.is_empty() {
+                    "no view flagged".to_string()
+                } else {
+                    format!("flagged: {}", flagged_names.join(", "))
+                }
             ),
             None => "per-view RMS reprojection error (fewer than 3 views: no outlier rule)".into(),
         },
@@ -232,7 +239,11 @@ pub fn camera_section(c: &CameraInputs<'_>) -> Result<(Section, CameraSummary)> 
         section.warnings.push(format!(
             "outlier views (RMS above {:.3} px, median {median:.3} px): {}",
             threshold.unwrap_or(f64::NAN),
-            flagged.iter().map(|&i| format!("{} ({:.3} px)", c.view_names[i], per_view[i])).collect::<Vec<_>>().join(", ")
+            flagged
+                .iter()
+                .map(|&i| format!("{} ({:.3} px)", c.view_names[i], per_view[i]))
+                .collect::<Vec<_>>()
+                .join(", ")
         ));
     }
 
@@ -246,7 +257,11 @@ pub fn camera_section(c: &CameraInputs<'_>) -> Result<(Section, CameraSummary)> 
             "where the {} detected corners fall (count per cell); dashed: the {:.0} % border strips{}",
             all_corners.len(),
             100.0 * COVERAGE_EDGE,
-            if regions.is_empty() { ", every one holds corners".to_string() } else { format!("; empty: {}", join_and(&regions)) }
+            if regions.is_empty() {
+                ", every one holds corners".to_string()
+            } else {
+                format!("; empty: {}", join_and(&regions))
+            }
         ),
         (900, (900.0 * f64::from(h) / f64::from(w)).round() as u32 + 60),
         false,
@@ -257,7 +272,7 @@ pub fn camera_section(c: &CameraInputs<'_>) -> Result<(Section, CameraSummary)> 
     section.figures.push(render(
         &stem("board-poses"),
         format!(
-            "board poses in the {} camera frame (x right, y down drawn up-side, z forward; units of the board){}",
+            "board poses in the {} camera frame (axes: x right, −y up, z forward into the picture; board units){}",
             c.label,
             if c.other_camera.is_some() { "; grey frustum: the rig's second camera" } else { "" }
         ),
@@ -447,7 +462,11 @@ fn distortion_arrow_scale(cam: &Camera, max: f64) -> f64 {
 }
 
 fn arrow<DB: DrawingBackend>(
-    chart: &mut ChartContext<'_, DB, Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>>,
+    chart: &mut ChartContext<
+        '_,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
     from: DVec2,
     to: DVec2,
     colour: RGBColor,
@@ -563,7 +582,12 @@ impl Plot for Scatter<'_> {
                 .label(if k == 1.0 { "1σ" } else { "3σ" })
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
         }
-        chart.configure_series_labels().label_font((FONT, 13)).background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+        chart
+            .configure_series_labels()
+            .label_font((FONT, 13))
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()?;
         Ok(())
     }
 }
@@ -585,7 +609,12 @@ impl Plot for Bars<'_> {
     }
 }
 
-pub(crate) fn bars<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, y_desc: &str, b: &Bars<'_>) -> DrawResult
+pub(crate) fn bars<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    y_desc: &str,
+    b: &Bars<'_>,
+) -> DrawResult
 where
     DB::ErrorType: 'static,
 {
@@ -606,7 +635,11 @@ where
         .x_labels(n.min(40))
         .x_label_formatter(&|x: &f64| {
             let i = x.round();
-            if (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < names.len() { short(&names[i as usize]) } else { String::new() }
+            if (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < names.len() {
+                short(&names[i as usize])
+            } else {
+                String::new()
+            }
         })
         .x_label_style((FONT, 11).into_font().transform(FontTransform::Rotate90))
         .y_desc(y_desc)
@@ -624,7 +657,12 @@ where
             )))?
             .label(format!("outlier line {t:.3}"))
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RGBColor(200, 0, 0).stroke_width(2)));
-        chart.configure_series_labels().label_font((FONT, 13)).background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+        chart
+            .configure_series_labels()
+            .label_font((FONT, 13))
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()?;
     }
     Ok(())
 }
@@ -647,7 +685,7 @@ impl Plot for Coverage<'_> {
         DB::ErrorType: 'static,
     {
         root.fill(&WHITE)?;
-        let (main, bar) = root.split_horizontally(root.dim_in_pixel().0 - 90);
+        let (main, bar) = root.split_horizontally(root.dim_in_pixel().0 - 120);
         let cam = self.camera;
         let (w, h) = (f64::from(cam.width), f64::from(cam.height));
         let (nx, ny) = (32usize, ((32.0 * h / w).round() as usize).max(2));
@@ -714,7 +752,7 @@ impl Plot for Heat<'_> {
         DB::ErrorType: 'static,
     {
         root.fill(&WHITE)?;
-        let (main, bar) = root.split_horizontally(root.dim_in_pixel().0 - 90);
+        let (main, bar) = root.split_horizontally(root.dim_in_pixel().0 - 120);
         let cam = self.camera;
         let (w, h) = (f64::from(cam.width), f64::from(cam.height));
         let finite = self.values.iter().copied().filter(|v| v.is_finite());
@@ -760,7 +798,11 @@ impl Plot for DistortionPlot<'_> {
                     arrow(&mut chart, *q - *d * scale, *q, col)?;
                 }
                 None => {
-                    chart.draw_series(std::iter::once(Cross::new((q.x, q.y), 4, RGBColor(200, 0, 0).stroke_width(2))))?;
+                    chart.draw_series(std::iter::once(Cross::new(
+                        (q.x, q.y),
+                        4,
+                        RGBColor(200, 0, 0).stroke_width(2),
+                    )))?;
                 }
             }
         }
@@ -783,9 +825,9 @@ struct Poses<'a> {
     c: &'a CameraInputs<'a>,
 }
 
-/// Display coordinates of a camera-frame point: x right, up (−y), forward (z).
+/// Display coordinates of a camera-frame point: x right, up (−y) vertical, forward (z) in depth.
 fn disp(p: DVec3) -> (f64, f64, f64) {
-    (p.x, p.z, -p.y)
+    (p.x, -p.y, p.z)
 }
 
 impl Plot for Poses<'_> {
@@ -807,13 +849,14 @@ impl Plot for Poses<'_> {
         let depth = self.c.camera_from_board.iter().map(|t| t.translation.z).fold(0.0, f64::max).max(1e-9);
         let cam = self.c.camera;
         let frustum = |pose: &Isometry3, scale: f64| -> Vec<Vec<DVec3>> {
-            let corners: Vec<DVec3> = [(0.0, 0.0), (cam.width as f64, 0.0), (cam.width as f64, cam.height as f64), (0.0, cam.height as f64)]
-                .iter()
-                .map(|&(u, v)| {
-                    let n = cam.intrinsics.to_normalized(DVec2::new(u - 0.5, v - 0.5));
-                    pose.transform_point(n.extend(1.0) * scale)
-                })
-                .collect();
+            let corners: Vec<DVec3> =
+                [(0.0, 0.0), (cam.width as f64, 0.0), (cam.width as f64, cam.height as f64), (0.0, cam.height as f64)]
+                    .iter()
+                    .map(|&(u, v)| {
+                        let n = cam.intrinsics.to_normalized(DVec2::new(u - 0.5, v - 0.5));
+                        pose.transform_point(n.extend(1.0) * scale)
+                    })
+                    .collect();
             let o = pose.transform_point(DVec3::ZERO);
             let mut lines: Vec<Vec<DVec3>> = corners.iter().map(|c| vec![o, *c]).collect();
             let mut rim = corners.clone();
@@ -833,7 +876,7 @@ impl Plot for Poses<'_> {
         let mut chart = ChartBuilder::on(root)
             .margin(10)
             .caption(format!("board poses, {} camera frame", self.c.label), (FONT, 16))
-            .build_cartesian_3d(lo.x..hi.x, lo.z..hi.z, -hi.y..-lo.y)?;
+            .build_cartesian_3d(lo.x..hi.x, -hi.y..-lo.y, lo.z..hi.z)?;
         chart.with_projection(|mut p| {
             p.pitch = 0.35;
             p.yaw = 0.6;
@@ -843,13 +886,26 @@ impl Plot for Poses<'_> {
         chart.configure_axes().label_style((FONT, 11)).draw()?;
         for (v, poly) in boards.iter().enumerate() {
             let col = view_colour(v);
-            chart.draw_series(std::iter::once(Polygon::new(poly.iter().map(|p| disp(*p)).collect::<Vec<_>>(), col.mix(0.35).filled())))?;
-            chart.draw_series(std::iter::once(PathElement::new(poly.iter().map(|p| disp(*p)).collect::<Vec<_>>(), col.stroke_width(2))))?;
+            chart.draw_series(std::iter::once(Polygon::new(
+                poly.iter().map(|p| disp(*p)).collect::<Vec<_>>(),
+                col.mix(0.35).filled(),
+            )))?;
+            chart.draw_series(std::iter::once(PathElement::new(
+                poly.iter().map(|p| disp(*p)).collect::<Vec<_>>(),
+                col.stroke_width(2),
+            )))?;
             let c = (poly[0] + poly[2]) * 0.5;
-            chart.draw_series(std::iter::once(Text::new(format!("{v}"), disp(c), (FONT, 12).into_font().color(&BLACK))))?;
+            chart.draw_series(std::iter::once(Text::new(
+                format!("{v}"),
+                disp(c),
+                (FONT, 12).into_font().color(&BLACK),
+            )))?;
         }
         for l in frustum(&Isometry3::IDENTITY, 0.15 * depth) {
-            chart.draw_series(std::iter::once(PathElement::new(l.iter().map(|p| disp(*p)).collect::<Vec<_>>(), BLACK.stroke_width(2))))?;
+            chart.draw_series(std::iter::once(PathElement::new(
+                l.iter().map(|p| disp(*p)).collect::<Vec<_>>(),
+                BLACK.stroke_width(2),
+            )))?;
         }
         if let Some(o) = self.c.other_camera {
             for l in frustum(&o, 0.15 * depth) {

@@ -40,7 +40,11 @@ pub fn depth(q: &[[f64; 4]; 4], d: f64) -> f64 {
 }
 
 /// The disparity section: the false-colour map and, with truth, the error image.
-pub fn section(map: &DisparityMap, q: Option<&[[f64; 4]; 4]>, truth: Option<DisparityTruth<'_>>) -> Result<(Section, Option<ErrorCounts>)> {
+pub fn section(
+    map: &DisparityMap,
+    q: Option<&[[f64; 4]; 4]>,
+    truth: Option<DisparityTruth<'_>>,
+) -> Result<(Section, Option<ErrorCounts>)> {
     let mut s = Section { title: "disparity".into(), ..Section::default() };
     let (w, h) = (map.width() as u32, map.height() as u32);
     let valid = map.valid_count();

@@ -36,11 +36,18 @@ pub fn section(
 ) -> Result<Section> {
     let mut s = Section { title: "hand-eye".into(), ..Section::default() };
     let dev = station_deviations(solution);
-    let frame = if matches!(solution.setup, parallax_hand_eye::Setup::EyeInHand) { "base_from_board" } else { "gripper_from_board" };
+    let frame = if matches!(solution.setup, parallax_hand_eye::Setup::EyeInHand) {
+        "base_from_board"
+    } else {
+        "gripper_from_board"
+    };
     let rot: Vec<f64> = dev.iter().map(|d| d.0).collect();
     let trans: Vec<f64> = dev.iter().map(|d| d.1).collect();
-    let names: Vec<String> =
-        if names.len() == dev.len() { names.to_vec() } else { (0..dev.len()).map(|i| format!("station {i}")).collect() };
+    let names: Vec<String> = if names.len() == dev.len() {
+        names.to_vec()
+    } else {
+        (0..dev.len()).map(|i| format!("station {i}")).collect()
+    };
     s.notes.push(format!(
         "{} stations; {frame} spread: {:.3} deg, {:.3} {unit} (mean over stations); AX = XB residual {:.3} deg, {:.3} {unit}",
         dev.len(),
@@ -74,13 +81,27 @@ pub fn section(
     )?);
     let mut table = Table {
         caption: format!("methods side by side: distance of each solution from the refined one ({unit}, deg)"),
-        header: ["method", "rotation from refined (deg)", &format!("translation from refined ({unit})"), "residual (deg)", &format!("residual ({unit})")]
-            .iter()
-            .map(|h| h.to_string())
-            .collect(),
+        header: [
+            "method",
+            "rotation from refined (deg)",
+            &format!("translation from refined ({unit})"),
+            "residual (deg)",
+            &format!("residual ({unit})"),
+        ]
+        .iter()
+        .map(|h| h.to_string())
+        .collect(),
         rows: Vec::new(),
     };
-    for m in [Method::Tsai, Method::Park, Method::Horaud, Method::Andreff, Method::Daniilidis, Method::Rodrigues, Method::Refined] {
+    for m in [
+        Method::Tsai,
+        Method::Park,
+        Method::Horaud,
+        Method::Andreff,
+        Method::Daniilidis,
+        Method::Rodrigues,
+        Method::Refined,
+    ] {
         let sol = if m == solution.method {
             Ok(solution.clone())
         } else {
@@ -118,7 +139,12 @@ impl Plot for StationBars<'_> {
     {
         root.fill(&WHITE)?;
         let (a, b) = root.split_vertically(root.dim_in_pixel().1 / 2);
-        bars(&a, "rotation from the mean", "deg", &Bars { names: self.names, values: self.rot, threshold: None, flagged: &[] })?;
+        bars(
+            &a,
+            "rotation from the mean",
+            "deg",
+            &Bars { names: self.names, values: self.rot, threshold: None, flagged: &[] },
+        )?;
         bars(
             &b,
             "translation from the mean",
@@ -156,7 +182,9 @@ impl Plot for Spread<'_> {
                 .y_desc(format!("{yname} ({})", self.unit))
                 .label_style((FONT, 12))
                 .draw()?;
-            chart.draw_series(self.offsets.iter().enumerate().map(|(i, o)| Circle::new((o.x, pick(o)), 4, view_colour(i).filled())))?;
+            chart.draw_series(
+                self.offsets.iter().enumerate().map(|(i, o)| Circle::new((o.x, pick(o)), 4, view_colour(i).filled())),
+            )?;
             chart.draw_series(std::iter::once(Cross::new((0.0, 0.0), 6, BLACK.stroke_width(2))))?;
         }
         Ok(())

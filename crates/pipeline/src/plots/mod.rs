@@ -357,12 +357,7 @@ pub(crate) fn map_colour(t: f64) -> RGBColor {
 
 /// Draws a vertical colour bar for values `lo..hi` in `area` with `label` (and optional tick
 /// labels mapped through `ticks`).
-pub(crate) fn colour_bar<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    lo: f64,
-    hi: f64,
-    label: &str,
-) -> DrawResult
+pub(crate) fn colour_bar<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, lo: f64, hi: f64, label: &str) -> DrawResult
 where
     DB::ErrorType: 'static,
 {
@@ -370,10 +365,17 @@ where
     let mut chart = ChartBuilder::on(area)
         .margin(8)
         .x_label_area_size(0)
-        .y_label_area_size(48)
+        .y_label_area_size(60)
         .caption(label, (FONT, 14))
         .build_cartesian_2d(0.0..1.0, lo..hi)?;
-    chart.configure_mesh().disable_x_mesh().disable_y_mesh().disable_x_axis().y_labels(6).label_style((FONT, 12)).draw()?;
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .disable_y_mesh()
+        .disable_x_axis()
+        .y_labels(6)
+        .label_style((FONT, 12))
+        .draw()?;
     let n = 64;
     chart.draw_series((0..n).map(|i| {
         let a = lo + (hi - lo) * i as f64 / n as f64;

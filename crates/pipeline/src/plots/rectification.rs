@@ -116,7 +116,11 @@ impl Plot for Overlay<'_> {
         for i in 0..=4 {
             let t = i as f64 / 4.0;
             let y = y1 - (t * (y1 - y0) as f64).round() as i32;
-            root.draw(&Text::new(format!("{:.2}", t * self.bar_max), (x - 38, y - 6), (FONT, 11).into_font().color(&BLACK)))?;
+            root.draw(&Text::new(
+                format!("{:.2}", t * self.bar_max),
+                (x - 38, y - 6),
+                (FONT, 11).into_font().color(&BLACK),
+            ))?;
         }
         Ok(())
     }

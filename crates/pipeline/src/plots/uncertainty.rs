@@ -147,9 +147,7 @@ impl ProjectionUncertainty {
             ))
         })?;
         let cov_ii = (0..k * k).map(|i| cov[(i / k, i % k)]).collect();
-        let s = (0..k)
-            .map(|i| std::array::from_fn(|c| (0..views).map(|v| cov[(i, k + 6 * v + c)]).sum()))
-            .collect();
+        let s = (0..k).map(|i| std::array::from_fn(|c| (0..views).map(|v| cov[(i, k + 6 * v + c)]).sum())).collect();
         let mut p = [[0.0; 6]; 6];
         for v in 0..views {
             for w in 0..views {
@@ -256,7 +254,8 @@ pub fn reprojected(
     distance: f64,
 ) -> Result<DVec2> {
     let p = camera_ref.unproject(q).map_err(|e| PipelineError::Input(e.to_string()))?.normalize() * distance;
-    let mean = ref_poses.iter().zip(poses).map(|(r, t)| t.transform_point(r.inverse().transform_point(p))).sum::<DVec3>()
-        / poses.len() as f64;
+    let mean =
+        ref_poses.iter().zip(poses).map(|(r, t)| t.transform_point(r.inverse().transform_point(p))).sum::<DVec3>()
+            / poses.len() as f64;
     camera.project(mean).map_err(|e| PipelineError::Input(e.to_string()))
 }
