@@ -19,6 +19,15 @@ fn temp(name: &str) -> PathBuf {
     d
 }
 
+/// Removes a test's output, unless `PARALLAX_KEEP_PLOTS` is set (to look at the pictures).
+fn cleanup(out: &Path) {
+    if std::env::var_os("PARALLAX_KEEP_PLOTS").is_none() {
+        let _ = std::fs::remove_dir_all(out);
+    } else {
+        eprintln!("pictures kept in {}", out.display());
+    }
+}
+
 /// Every `<img>` of `html` is a data URI of a PNG that decodes or an SVG that parses (its tags
 /// balance), at least `min` pixels on each side; returns how many.
 fn check_images(html: &str, min: u32) -> usize {
@@ -148,11 +157,7 @@ fn stereo_calibration_pictures_on_the_fixtures() {
     assert_eq!(check_images(&html, 200), 14);
     assert!(files.iter().any(|f| f.ends_with("calibration-left-uncertainty.png")));
     assert!(files.iter().any(|f| f.ends_with("calibration-right-residual-vectors.svg")));
-    if std::env::var_os("PARALLAX_KEEP_PLOTS").is_none() {
-        let _ = std::fs::remove_dir_all(&out);
-    } else {
-        eprintln!("pictures kept in {}", out.display());
-    }
+    cleanup(&out);
 }
 
 /// The projection-uncertainty map against Monte Carlo: a synthetic camera with distortion,
@@ -270,7 +275,7 @@ fn the_synthetic_report_has_the_pictures_of_every_stage() {
     ] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
-    let _ = std::fs::remove_dir_all(&out);
+    cleanup(&out);
 }
 
 /// The real-data report (committed stereo fixtures) embeds its pictures too; the disparity bar
@@ -307,7 +312,7 @@ fn the_real_report_has_the_pictures_of_every_stage() {
     let svg =
         report.sections[0].figures.iter().find(|f| f.name.ends_with("per-view-rms")).unwrap().svg.clone().unwrap();
     assert!(svg.contains("left_03.png"));
-    let _ = std::fs::remove_dir_all(&out);
+    cleanup(&out);
 }
 
 /// The error image counts agree with the Middlebury evaluator: bad + missing = its bad-2.

@@ -918,3 +918,36 @@ impl Plot for Poses<'_> {
         Ok(())
     }
 }
+
+/// Writes the pictures of a mono calibration into `dir` (PNG/SVG files and a self-contained
+/// `report.html`); returns the files written. `view_names` names the views (file names).
+pub fn write_mono_report(
+    dir: &std::path::Path,
+    board: &Chessboard,
+    grids: &[CornerGrid],
+    view_names: &[String],
+    result: &CalibrationResult,
+    config: &CalibrationConfig,
+) -> Result<Vec<std::path::PathBuf>> {
+    let (section, _) = mono(board, grids, view_names, result, config)?;
+    let mut pictures = super::Pictures::new("parallax calibration — mono");
+    pictures.sections.push(section);
+    pictures.write(dir)
+}
+
+/// Writes the pictures of a stereo calibration (both cameras, the rig in the left camera's pose
+/// view) into `dir` (PNG/SVG files and a self-contained `report.html`); returns the files.
+pub fn write_stereo_report(
+    dir: &std::path::Path,
+    board: &Chessboard,
+    left: &[CornerGrid],
+    right: &[CornerGrid],
+    view_names: &[String],
+    result: &StereoCalibrationResult,
+    config: &StereoConfig,
+) -> Result<Vec<std::path::PathBuf>> {
+    let [l, r] = stereo(board, left, right, view_names, result, config)?;
+    let mut pictures = super::Pictures::new("parallax calibration — stereo");
+    pictures.sections = vec![l.0, r.0];
+    pictures.write(dir)
+}
