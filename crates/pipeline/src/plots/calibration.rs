@@ -16,7 +16,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::uncertainty::ProjectionUncertainty;
-use super::{DrawResult, FONT, Plot, Section, colour_bar, map_colour, render, view_colour};
+use super::{DrawResult, FONT, Plot, Section, colour_bar_scaled, map_colour, render, view_colour};
 use crate::{PipelineError, Result, stats};
 
 /// Width of the image border checked for corners, as a fraction of the image size.
@@ -311,7 +311,7 @@ pub fn camera_section(c: &CameraInputs<'_>) -> Result<(Section, CameraSummary)> 
         &stem("uncertainty"),
         format!(
             "projection uncertainty: worst-direction σ (px) of the projection of a point {distance:.1} board units away, \
-             propagated from the covariance of intrinsics and poses (σ {:.3} px per corner coordinate); maximum \
+             propagated from the covariance of intrinsics and poses (σ {:.3} px per corner coordinate), logarithmic colour scale; maximum \
              {max_sigma:.3} px at ({:.0}, {:.0}); dots: detected corners",
             unc.sigma_px, max_at.x, max_at.y
         ),
@@ -727,7 +727,7 @@ impl Plot for Coverage<'_> {
             }
         }
         chart.draw_series(self.corners.iter().map(|p| Circle::new((p.x, p.y), 1, BLACK.filled())))?;
-        colour_bar(&bar, 0.0, max, "corners")?;
+        colour_bar_scaled(&bar, 0.0, max, "corners", false)?;
         Ok(())
     }
 }
@@ -759,6 +759,9 @@ impl Plot for Heat<'_> {
         let lo = finite.clone().fold(f64::INFINITY, f64::min);
         let hi = finite.fold(0.0, f64::max);
         let lo = if lo.is_finite() { lo.min(hi) } else { 0.0 };
+        // A logarithmic scale: σ grows by orders of magnitude away from the corners.
+        let (llo, lhi) = (lo.max(1e-9).ln(), hi.max(1e-9).ln());
+        let t = |v: f64| (v.max(1e-9).ln() - llo) / (lhi - llo).max(1e-12);
         let mut chart = image_chart(&main, cam, &self.title)?;
         let (nx, ny) = (self.nx, self.ny);
         chart.draw_series((0..nx * ny).map(|k| {
@@ -766,11 +769,11 @@ impl Plot for Heat<'_> {
             let x0 = i as f64 * w / nx as f64 - 0.5;
             let y0 = j as f64 * h / ny as f64 - 0.5;
             let v = self.values[k];
-            let col = if v.is_finite() { map_colour((v - lo) / (hi - lo).max(1e-300)) } else { RGBColor(0, 0, 0) };
+            let col = if v.is_finite() { map_colour(t(v)) } else { RGBColor(0, 0, 0) };
             Rectangle::new([(x0, y0), (x0 + w / nx as f64, y0 + h / ny as f64)], col.filled())
         }))?;
         chart.draw_series(self.corners.iter().map(|p| Circle::new((p.x, p.y), 1, WHITE.mix(0.6).filled())))?;
-        colour_bar(&bar, lo, hi, self.label)?;
+        colour_bar_scaled(&bar, lo, hi, self.label, true)?;
         Ok(())
     }
 }

@@ -355,34 +355,73 @@ pub(crate) fn map_colour(t: f64) -> RGBColor {
     RGBColor(r, g, b)
 }
 
-/// Draws a vertical colour bar for values `lo..hi` in `area` with `label` (and optional tick
-/// labels mapped through `ticks`).
-pub(crate) fn colour_bar<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, lo: f64, hi: f64, label: &str) -> DrawResult
+/// Draws a vertical colour bar for values `lo..hi` in `area` with `label` above it and tick
+/// labels to its right; `log`: logarithmic scale (both ends positive).
+pub(crate) fn colour_bar_scaled<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    lo: f64,
+    hi: f64,
+    label: &str,
+    log: bool,
+) -> DrawResult
 where
     DB::ErrorType: 'static,
 {
-    let hi = if hi > lo { hi } else { lo + 1.0 };
-    let mut chart = ChartBuilder::on(area)
-        .margin(8)
-        .x_label_area_size(0)
-        .y_label_area_size(60)
-        .caption(label, (FONT, 14))
-        .build_cartesian_2d(0.0..1.0, lo..hi)?;
-    chart
-        .configure_mesh()
-        .disable_x_mesh()
-        .disable_y_mesh()
-        .disable_x_axis()
-        .y_labels(6)
-        .label_style((FONT, 12))
-        .draw()?;
-    let n = 64;
-    chart.draw_series((0..n).map(|i| {
-        let a = lo + (hi - lo) * i as f64 / n as f64;
-        let b = lo + (hi - lo) * (i + 1) as f64 / n as f64;
-        Rectangle::new([(0.0, a), (1.0, b)], map_colour((i as f64 + 0.5) / n as f64).filled())
-    }))?;
+    let (lo, hi) =
+        if log { (lo.max(1e-12), hi.max(lo.max(1e-12) * 1.001)) } else { (lo, if hi > lo { hi } else { lo + 1.0 }) };
+    let (_, h) = area.dim_in_pixel();
+    let (x, y0, y1) = (10, 30, h as i32 - 30);
+    let n = (y1 - y0).max(1);
+    // Position (0 at the bottom, 1 at the top) of a value.
+    let pos = |v: f64| if log { (v / lo).ln() / (hi / lo).ln() } else { (v - lo) / (hi - lo) };
+    let y_of = |v: f64| y1 - (pos(v) * n as f64).round() as i32;
+    area.draw(&Text::new(label.to_string(), (4, 8), (FONT, 13).into_font().color(&BLACK)))?;
+    for k in 0..n {
+        area.draw(&Rectangle::new(
+            [(x, y1 - k - 1), (x + 20, y1 - k)],
+            map_colour((k as f64 + 0.5) / n as f64).filled(),
+        ))?;
+    }
+    area.draw(&Rectangle::new([(x, y0), (x + 20, y1)], BLACK.stroke_width(1)))?;
+    let mut ticks: Vec<f64> = if log {
+        let (a, b) = (lo.log10().ceil() as i32, hi.log10().floor() as i32);
+        (a..=b).map(|e| 10f64.powi(e)).collect()
+    } else {
+        (0..=5).map(|i| lo + (hi - lo) * i as f64 / 5.0).collect()
+    };
+    if log {
+        ticks.push(lo);
+        ticks.push(hi);
+    }
+    let style = (FONT, 11).into_font().color(&BLACK);
+    let mut last = i32::MAX;
+    ticks.sort_by(f64::total_cmp);
+    for v in ticks {
+        let y = y_of(v);
+        if (last - y).abs() < 12 {
+            continue;
+        }
+        last = y;
+        area.draw(&PathElement::new(vec![(x + 20, y), (x + 25, y)], BLACK))?;
+        area.draw(&Text::new(tick(v), (x + 28, y - 6), style.clone()))?;
+    }
     Ok(())
+}
+
+/// A tick label: 3 significant digits.
+fn tick(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 {
+        "0".into()
+    } else if a >= 100.0 {
+        format!("{v:.0}")
+    } else if a >= 1.0 {
+        format!("{v:.2}")
+    } else if a >= 0.01 {
+        format!("{v:.3}")
+    } else {
+        format!("{v:.1e}")
+    }
 }
 
 #[cfg(test)]
