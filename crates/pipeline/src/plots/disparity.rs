@@ -6,7 +6,7 @@ use parallax_camera_model::DisparityMap;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::{DrawResult, FONT, Figure, Plot, Section, colour_map, map_colour, render_over};
+use super::{DrawResult, FONT, Plot, Section, colour_map, map_colour, render_over};
 use crate::Result;
 
 /// Ground truth for the error image.
@@ -69,7 +69,7 @@ pub fn section(
         q.map_or(String::new(), |q| format!(", depth {:.1}–{:.1} board units", depth(q, hi), depth(q, lo)))
     ));
     s.figures.push(render_over(
-        "disparity",
+        "disparity-colour-bar",
         format!(
             "disparity in false colour, {invalid} invalid pixels black ({:.1} %); colour bar in pixels{}",
             100.0 * invalid as f64 / (w * h).max(1) as f64,
@@ -205,9 +205,4 @@ impl Plot for Legend {
         }
         Ok(())
     }
-}
-
-/// Re-export for tests: the figure of the section by name.
-pub fn figure<'a>(s: &'a Section, name: &str) -> Option<&'a Figure> {
-    s.figures.iter().find(|f| f.name == name)
 }

@@ -56,7 +56,7 @@ pub fn section(
     s.notes.push(format!("valid regions: left {}, right {}", roi(&rect.roi1), roi(&rect.roi2)));
     let bar_max = max_dv.max(0.05);
     s.figures.push(render_over(
-        "rectified-pair",
+        "rectified-pair-epipolar",
         format!(
             "rectified view {view_name}: epipolar lines (green, one per board row through the left corner) must pass through \
              the same corner on the right; corners coloured by |Δv| (0–{bar_max:.2} px); yellow: valid regions (ROI)"
