@@ -155,7 +155,7 @@ pub fn run_scene(name: &str, scene: &SceneDescription, out: &Path, corrupt: Opti
         mask: Some(&truth.visible),
         bad_threshold_px: 2.0,
     };
-    report.sections = artifacts::pictures(&input, &output, None, Some(truth_disparity), &scene.unit)?;
+    report.sections = artifacts::pictures(&input, &output, None, Some(truth_disparity), &scene.unit);
     report.write(out)?;
     Ok(report)
 }

@@ -16,7 +16,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::uncertainty::ProjectionUncertainty;
-use super::{DrawResult, FONT, Plot, Section, colour_bar_scaled, map_colour, render, view_colour};
+use super::{DrawResult, FONT, Figure, Plot, Section, colour_bar_scaled, map_colour, render, view_colour};
 use crate::{PipelineError, Result, stats};
 
 /// Width of the image border checked for corners, as a fraction of the image size.
@@ -57,9 +57,10 @@ pub struct CameraSummary {
     pub flagged_views: Vec<usize>,
     /// Regions of the image with no corner (`"right edge"`, `"top-left corner"`, ...).
     pub empty_regions: Vec<String>,
-    /// Range (board units) of the point whose projection uncertainty is mapped.
+    /// Range (board units) of the point whose projection uncertainty is mapped (NaN when the
+    /// covariance could not be computed: a warning of the section says why).
     pub uncertainty_distance: f64,
-    /// Largest predicted worst-direction σ over the map, pixels, and where.
+    /// Largest predicted worst-direction σ over the map, pixels (NaN as above).
     pub max_sigma_px: f64,
     /// Where the largest σ is.
     pub max_sigma_at: DVec2,
@@ -281,52 +282,22 @@ pub fn camera_section(c: &CameraInputs<'_>) -> Result<(Section, CameraSummary)> 
         &Poses { c },
     )?);
 
-    // Projection uncertainty.
-    let unc = ProjectionUncertainty::new(cam, c.board, c.grids, c.camera_from_board, c.config)?;
-    let distance = unc.mean_distance;
-    let (nx, ny) = (48usize, ((48.0 * f64::from(h) / f64::from(w)).round() as usize).max(2));
-    let mut sigma = vec![f64::NAN; nx * ny];
-    let (mut max_sigma, mut max_at) = (0.0f64, DVec2::ZERO);
-    for j in 0..ny {
-        for i in 0..nx {
-            let q = DVec2::new(
-                (i as f64 + 0.5) * f64::from(w) / nx as f64 - 0.5,
-                (j as f64 + 0.5) * f64::from(h) / ny as f64 - 0.5,
-            );
-            if let Ok(s) = unc.sigma_at(q, distance) {
-                sigma[j * nx + i] = s;
-                if s > max_sigma {
-                    max_sigma = s;
-                    max_at = q;
-                }
-            }
+    // Projection uncertainty (not drawn, with a warning, when the covariance is singular).
+    let (mut distance, mut max_sigma, mut max_at) = (f64::NAN, f64::NAN, DVec2::ZERO);
+    match ProjectionUncertainty::new(cam, c.board, c.grids, c.camera_from_board, c.config) {
+        Ok(unc) => {
+            let fig = uncertainty_figure(c, &unc, &all_corners, &stem("uncertainty"))?;
+            distance = unc.mean_distance;
+            (max_sigma, max_at) = (fig.1, fig.2);
+            section.notes.push(format!(
+                "projection uncertainty of a point {distance:.1} board units away (mean board distance): worst-direction \
+                 σ up to {max_sigma:.3} px at ({:.0}, {:.0}); corner noise σ {:.3} px",
+                max_at.x, max_at.y, unc.sigma_px
+            ));
+            section.figures.push(fig.0);
         }
+        Err(e) => section.warnings.push(format!("projection uncertainty not computed: {e}")),
     }
-    section.notes.push(format!(
-        "projection uncertainty of a point {distance:.1} board units away (mean board distance): worst-direction σ up to \
-         {max_sigma:.3} px at ({:.0}, {:.0}); corner noise σ {:.3} px",
-        max_at.x, max_at.y, unc.sigma_px
-    ));
-    section.figures.push(render(
-        &stem("uncertainty"),
-        format!(
-            "projection uncertainty: worst-direction σ (px) of the projection of a point {distance:.1} board units away, \
-             propagated from the covariance of intrinsics and poses (σ {:.3} px per corner coordinate), logarithmic colour scale; maximum \
-             {max_sigma:.3} px at ({:.0}, {:.0}); dots: detected corners",
-            unc.sigma_px, max_at.x, max_at.y
-        ),
-        (900, (760.0 * f64::from(h) / f64::from(w)).round() as u32 + 70),
-        false,
-        &Heat {
-            camera: cam,
-            nx,
-            ny,
-            values: &sigma,
-            corners: &all_corners,
-            label: "σ (px)",
-            title: format!("max σ {max_sigma:.3} px"),
-        },
-    )?);
 
     // Distortion.
     let fold = parallax_planar_calibration::distortion_fold(cam);
@@ -372,6 +343,57 @@ pub fn camera_section(c: &CameraInputs<'_>) -> Result<(Section, CameraSummary)> 
         fold_radius_px: fold.map(|f| f.radius_px),
     };
     Ok((section, summary))
+}
+
+/// The uncertainty map of one camera: the figure, the largest σ and where.
+fn uncertainty_figure(
+    c: &CameraInputs<'_>,
+    unc: &ProjectionUncertainty,
+    all_corners: &[DVec2],
+    name: &str,
+) -> Result<(Figure, f64, DVec2)> {
+    let cam = c.camera;
+    let (w, h) = (cam.width, cam.height);
+    let distance = unc.mean_distance;
+    let (nx, ny) = (48usize, ((48.0 * f64::from(h) / f64::from(w)).round() as usize).max(2));
+    let mut sigma = vec![f64::NAN; nx * ny];
+    let (mut max_sigma, mut max_at) = (0.0f64, DVec2::ZERO);
+    for j in 0..ny {
+        for i in 0..nx {
+            let q = DVec2::new(
+                (i as f64 + 0.5) * f64::from(w) / nx as f64 - 0.5,
+                (j as f64 + 0.5) * f64::from(h) / ny as f64 - 0.5,
+            );
+            if let Ok(s) = unc.sigma_at(q, distance) {
+                sigma[j * nx + i] = s;
+                if s > max_sigma {
+                    max_sigma = s;
+                    max_at = q;
+                }
+            }
+        }
+    }
+    let figure = render(
+        name,
+        format!(
+            "projection uncertainty: worst-direction σ (px) of the projection of a point {distance:.1} board units away, \
+             propagated from the covariance of intrinsics and poses (σ {:.3} px per corner coordinate), logarithmic colour scale; maximum \
+             {max_sigma:.3} px at ({:.0}, {:.0}); dots: detected corners",
+            unc.sigma_px, max_at.x, max_at.y
+        ),
+        (900, (760.0 * f64::from(h) / f64::from(w)).round() as u32 + 70),
+        false,
+        &Heat {
+            camera: cam,
+            nx,
+            ny,
+            values: &sigma,
+            corners: all_corners,
+            label: "σ (px)",
+            title: format!("max σ {max_sigma:.3} px"),
+        },
+    )?;
+    Ok((figure, max_sigma, max_at))
 }
 
 /// The pictures of a mono calibration.
