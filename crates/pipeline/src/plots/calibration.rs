@@ -428,27 +428,34 @@ pub fn stereo(
 ) -> Result<[(Section, CameraSummary); 2]> {
     let rig = &result.rig;
     let right_poses: Vec<Isometry3> = result.camera_from_board.iter().map(|p| rig.right_from_left * *p).collect();
-    let l = camera_section(&CameraInputs {
-        label: "left",
-        camera: &rig.left,
-        board,
-        grids: left,
-        camera_from_board: &result.camera_from_board,
-        view_names,
-        config: &config.left,
-        other_camera: Some(rig.right_from_left.inverse()),
-    })?;
-    let r = camera_section(&CameraInputs {
-        label: "right",
-        camera: &rig.right,
-        board,
-        grids: right,
-        camera_from_board: &right_poses,
-        view_names,
-        config: &config.right,
-        other_camera: None,
-    })?;
-    Ok([l, r])
+    // The two cameras are drawn in parallel.
+    let (l, r) = rayon::join(
+        || {
+            camera_section(&CameraInputs {
+                label: "left",
+                camera: &rig.left,
+                board,
+                grids: left,
+                camera_from_board: &result.camera_from_board,
+                view_names,
+                config: &config.left,
+                other_camera: Some(rig.right_from_left.inverse()),
+            })
+        },
+        || {
+            camera_section(&CameraInputs {
+                label: "right",
+                camera: &rig.right,
+                board,
+                grids: right,
+                camera_from_board: &right_poses,
+                view_names,
+                config: &config.right,
+                other_camera: None,
+            })
+        },
+    );
+    Ok([l?, r?])
 }
 
 /// Sample covariance (about zero) of 2D residuals.
