@@ -349,3 +349,97 @@ fn disparity_error_counts_match_the_evaluator() {
     let invalid = est.data().iter().filter(|d| !d.is_finite()).count();
     assert!(section.figures[0].caption.contains(&format!("{invalid} invalid pixels")));
 }
+
+/// The covariance rebuilt for the uncertainty map gives the calibration's own standard
+/// deviations of every intrinsic (same free set, same Jacobian, same σ²), for the default flags
+/// and for a fixed aspect ratio, no tangential terms and no k3.
+#[test]
+fn rebuilt_covariance_reproduces_the_calibration_std_devs() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/mono");
+    let board = Chessboard::new(9, 6, 25.0).unwrap();
+    let images: Vec<_> = (0..6).map(|i| io::load_gray(&dir.join(format!("view_{i:02}.png"))).unwrap()).collect();
+    let grids: Vec<CornerGrid> = parallax_composition::detect_boards(&images, &board, &Default::default())
+        .unwrap()
+        .into_iter()
+        .map(|g| g.expect("board in every fixture view"))
+        .collect();
+    let size = images[0].dimensions();
+    for cfg in [
+        CalibrationConfig::default(),
+        CalibrationConfig { fix_aspect_ratio: true, zero_tangential: true, fix_k3: true, ..Default::default() },
+    ] {
+        let r = parallax_composition::calibrate_mono(&board, &grids, size, &cfg).unwrap();
+        let unc = ProjectionUncertainty::new(&r.camera, &board, &grids, &r.camera_from_board, &cfg).unwrap();
+        for (slot, (mine, theirs)) in unc.intrinsic_std_devs().iter().zip(r.std_devs.to_array()).enumerate() {
+            match (mine, theirs) {
+                (Some(a), Some(b)) => assert!((a / b - 1.0).abs() < 1e-3, "slot {slot}: {a} vs {b}"),
+                (None, None) => {}
+                _ => panic!("slot {slot}: free here {mine:?}, in the calibration {theirs:?}"),
+            }
+        }
+        assert!((unc.sigma_px / r.sigma_px - 1.0).abs() < 1e-6, "{} vs {}", unc.sigma_px, r.sigma_px);
+    }
+}
+
+/// A view whose corners were disturbed is above the outlier line, red, and named in the
+/// warning; the line is the calibration's rule computed here by hand; the mono report embeds
+/// its seven pictures.
+#[test]
+fn a_disturbed_view_is_flagged_by_name() {
+    let camera =
+        Camera::new(Intrinsics::new(600.0, 600.0, 322.0, 238.0), Distortion::new(-0.12, 0.05, 0.0, 0.0, 0.0), 640, 480)
+            .unwrap();
+    let board = Chessboard::new(9, 6, 25.0).unwrap();
+    let poses = parallax_synthetic::calibration_poses(
+        &camera,
+        &board,
+        &parallax_synthetic::ViewSetConfig { views: 8, seed: 5, ..Default::default() },
+    )
+    .unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+    let grids: Vec<CornerGrid> = poses
+        .iter()
+        .enumerate()
+        .map(|(v, p)| {
+            let s = if v == 5 { 2.0 } else { 0.2 };
+            let noise = Normal::new(0.0, s).unwrap();
+            let c = parallax_synthetic::project_corners(&camera, &board, p).unwrap();
+            let noisy = c.iter().map(|q| *q + DVec2::new(noise.sample(&mut rng), noise.sample(&mut rng))).collect();
+            CornerGrid::new(9, 6, noisy).unwrap()
+        })
+        .collect();
+    let cfg = CalibrationConfig::default();
+    let r = parallax_composition::calibrate_mono(&board, &grids, (640, 480), &cfg).unwrap();
+    let names: Vec<String> = (0..8).map(|i| format!("img_{i}.png")).collect();
+    let (section, s) = plots::calibration::mono(&board, &grids, &names, &r, &cfg).unwrap();
+    let mut sorted = r.per_view_rms_px.clone();
+    sorted.sort_by(f64::total_cmp);
+    let med = 0.5 * (sorted[3] + sorted[4]);
+    let mut dev: Vec<f64> = r.per_view_rms_px.iter().map(|x| (x - med).abs()).collect();
+    dev.sort_by(f64::total_cmp);
+    let line = (2.0 * med).max(med + 4.0 * 1.4826 * 0.5 * (dev[3] + dev[4]));
+    let t = s.outlier_threshold_px.unwrap();
+    assert!((t - line).abs() < 1e-9 * line, "{t} vs {line}");
+    assert_eq!(s.flagged_views, vec![5]);
+    // The calibration flags the same views.
+    let theirs: Vec<usize> = r
+        .warnings
+        .iter()
+        .filter_map(|w| match w {
+            parallax_planar_calibration::CalibrationWarning::OutlierView { view, .. } => Some(*view),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(theirs, s.flagged_views);
+    let warning = section.warnings.iter().find(|w| w.starts_with("outlier views")).expect("an outlier warning");
+    assert!(warning.contains("img_5.png") && !warning.contains("img_4.png"), "{warning}");
+    let bars = section.figures.iter().find(|f| f.name == "calibration-camera-per-view-rms").unwrap();
+    assert!(bars.caption.contains("flagged: img_5.png"), "{}", bars.caption);
+    // The flagged bar is drawn red in the SVG.
+    assert!(bars.svg.as_ref().unwrap().contains("#D21E1E"), "no red bar");
+    let out = temp("mono");
+    plots::calibration::write_mono_report(&out, &board, &grids, &names, &r, &cfg).unwrap();
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert_eq!(check_images(&html, 200), 7);
+    cleanup(&out);
+}

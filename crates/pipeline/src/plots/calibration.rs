@@ -97,9 +97,17 @@ pub fn outlier_threshold(per_view: &[f64], factor: f64) -> Option<f64> {
     if per_view.len() < 3 {
         return None;
     }
-    let med = stats::median(per_view.to_vec());
-    let mad = 1.4826 * stats::median(per_view.iter().map(|r| (r - med).abs()).collect::<Vec<_>>());
+    let med = midpoint_median(per_view.to_vec());
+    let mad = 1.4826 * midpoint_median(per_view.iter().map(|r| (r - med).abs()).collect());
     Some((factor * med).max(med + 4.0 * mad))
+}
+
+/// The median with the mean of the two middle values for an even count, as the calibration's
+/// outlier rule computes it (`stats::median` takes the upper one).
+fn midpoint_median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
 }
 
 /// A test of whether a pixel lies in a region.
@@ -215,7 +223,7 @@ pub fn camera_section(c: &CameraInputs<'_>) -> Result<(Section, CameraSummary)> 
     )?);
 
     // Per-view RMS bars.
-    let median = stats::median(per_view.clone());
+    let median = midpoint_median(per_view.clone());
     let flagged_names: Vec<String> = flagged.iter().map(|&i| c.view_names[i].clone()).collect();
     section.figures.push(render(
         &stem("per-view-rms"),

@@ -226,6 +226,17 @@ impl ProjectionUncertainty {
         Ok(worst_sigma(&self.covariance_at(q, distance)?))
     }
 
+    /// 1σ of every intrinsic parameter from this covariance, in the slot order `(fx, fy, cx, cy,
+    /// skew, k1, k2, p1, p2, k3, k4, k5, k6)` (`None` = held fixed; a tied `fx` gets the
+    /// propagated value) — what the calibration reports, for comparison.
+    pub fn intrinsic_std_devs(&self) -> [Option<f64>; 13] {
+        let mut out = [None; 13];
+        for &(slot, idx, scale) in &self.free {
+            out[slot] = Some(scale.abs() * self.cov_ii[idx * self.k + idx].max(0.0).sqrt());
+        }
+        out
+    }
+
     /// The camera.
     pub fn camera(&self) -> &Camera {
         &self.camera
