@@ -443,3 +443,55 @@ fn a_disturbed_view_is_flagged_by_name() {
     assert_eq!(check_images(&html, 200), 7);
     cleanup(&out);
 }
+
+/// Hand-eye pictures on a noisy eye-in-hand trajectory: each station's bar is the distance of
+/// `base_from_gripper · X · camera_from_board` (computed here) from the mean board, and each
+/// row of the table is that method's solution against the refined one.
+#[test]
+fn handeye_station_bars_are_the_stations_board_frames() {
+    let cfg = parallax_synthetic::TrajectoryConfig { rot_noise_rad: 0.002, trans_noise: 0.5, ..Default::default() };
+    let traj = parallax_synthetic::hand_eye_trajectory(&cfg).unwrap();
+    let he_cfg = parallax_hand_eye::HandEyeConfig::default();
+    let sol = parallax_composition::hand_eye(
+        &traj.base_from_gripper,
+        &traj.camera_from_board,
+        parallax_hand_eye::Method::Refined,
+        &he_cfg,
+    )
+    .unwrap();
+    let dev = plots::handeye::station_deviations(&sol);
+    assert_eq!(dev.len(), traj.base_from_gripper.len());
+    for ((g, c), (rot, trans)) in traj.base_from_gripper.iter().zip(&traj.camera_from_board).zip(&dev) {
+        let board = *g * sol.transform * *c;
+        let (r, t) = board.distance(&sol.quality.mean_board);
+        assert!((r.to_degrees() - rot).abs() < 1e-9 && (t - trans).abs() < 1e-9 * t.max(1.0));
+    }
+    let names: Vec<String> = (0..dev.len()).map(|i| format!("station {i}")).collect();
+    let section =
+        plots::handeye::section(&sol, &traj.base_from_gripper, &traj.camera_from_board, &he_cfg, &names, "mm").unwrap();
+    let rows = &section.tables[0].rows;
+    assert_eq!(rows.len(), 7);
+    // Each row is that method's own solution against the refined one.
+    for (row, m) in rows.iter().zip([
+        parallax_hand_eye::Method::Tsai,
+        parallax_hand_eye::Method::Park,
+        parallax_hand_eye::Method::Horaud,
+        parallax_hand_eye::Method::Andreff,
+        parallax_hand_eye::Method::Daniilidis,
+        parallax_hand_eye::Method::Rodrigues,
+        parallax_hand_eye::Method::Refined,
+    ]) {
+        assert_eq!(row[0], format!("{m:?}"));
+        let x = parallax_hand_eye::calibrate(&traj.base_from_gripper, &traj.camera_from_board, m, &he_cfg).unwrap();
+        let (r, t) = x.transform.distance(&sol.transform);
+        eprintln!("{row:?}");
+        assert_eq!(row[1], format!("{:.4}", r.to_degrees()));
+        assert_eq!(row[2], format!("{t:.4}"));
+    }
+    let out = temp("handeye");
+    let mut pics = Pictures::new("hand-eye");
+    pics.sections.push(section);
+    pics.write(&out).unwrap();
+    assert_eq!(check_images(&std::fs::read_to_string(out.join("report.html")).unwrap(), 200), 2);
+    cleanup(&out);
+}
