@@ -281,7 +281,7 @@ pub fn camera_section(c: &CameraInputs<'_>) -> Result<(Section, CameraSummary)> 
     section.figures.push(render(
         &stem("board-poses"),
         format!(
-            "board poses in the {} camera frame (axes: x right, −y up, z forward into the picture; board units){}",
+            "board poses in the {} camera frame (x right, y down, z forward; board units; seen from behind and above the camera){}",
             c.label,
             if c.other_camera.is_some() { "; grey frustum: the rig's second camera" } else { "" }
         ),
@@ -865,9 +865,10 @@ struct Poses<'a> {
     c: &'a CameraInputs<'a>,
 }
 
-/// Display coordinates of a camera-frame point: x right, up (−y) vertical, forward (z) in depth.
+/// Display coordinates of a camera-frame point: a half turn about x (a proper rotation, so the
+/// picture is not mirrored): x right, −y up, −z; the axis labels print the camera's y and z.
 fn disp(p: DVec3) -> (f64, f64, f64) {
-    (p.x, -p.y, p.z)
+    (p.x, -p.y, -p.z)
 }
 
 impl Plot for Poses<'_> {
@@ -916,14 +917,15 @@ impl Plot for Poses<'_> {
         let mut chart = ChartBuilder::on(root)
             .margin(10)
             .caption(format!("board poses, {} camera frame", self.c.label), (FONT, 16))
-            .build_cartesian_3d(lo.x..hi.x, -hi.y..-lo.y, lo.z..hi.z)?;
+            .build_cartesian_3d(lo.x..hi.x, -hi.y..-lo.y, -hi.z..-lo.z)?;
         chart.with_projection(|mut p| {
             p.pitch = 0.35;
             p.yaw = 0.6;
             p.scale = 0.8;
             p.into_matrix()
         });
-        chart.configure_axes().label_style((FONT, 11)).draw()?;
+        let neg = |v: &f64| format!("{:.0}", 0.0 - v);
+        chart.configure_axes().y_formatter(&neg).z_formatter(&neg).label_style((FONT, 11)).draw()?;
         for (v, poly) in boards.iter().enumerate() {
             let col = view_colour(v);
             chart.draw_series(std::iter::once(Polygon::new(
