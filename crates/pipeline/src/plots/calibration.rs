@@ -426,6 +426,11 @@ pub fn mono(
 
 /// The pictures of a stereo calibration: the left camera (with the right camera in its pose
 /// view) and the right camera (poses `right_from_left ∘ left_from_board`).
+///
+/// Each camera's projection uncertainty is that of a mono calibration of its own corners and
+/// poses (its flags in `config`): the rig's coupling of the two cameras is left out, which can
+/// only overstate σ slightly; with `fix_intrinsics` it is the uncertainty of the mono
+/// calibrations the rig was built on.
 pub fn stereo(
     board: &Chessboard,
     left: &[CornerGrid],
