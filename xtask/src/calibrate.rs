@@ -48,6 +48,9 @@ pub struct Args {
     /// Stereo: hold both cameras at their mono calibrations and refine only the rig (CALIB_FIX_INTRINSIC).
     #[arg(long)]
     fix_intrinsics: bool,
+    /// Write the calibration pictures (PNG/SVG) and a self-contained report.html into this directory.
+    #[arg(long)]
+    report: Option<PathBuf>,
 }
 
 /// One image: path, size, and the corner grid if a board was found.
@@ -184,6 +187,18 @@ fn run_mono(args: &Args, board: &Chessboard, views: &[Detected], t0: Instant) ->
         parallax_composition::io::write_ron(out, &MonoOutput { images: names(&found), board: *board, result: &r })?;
         println!("wrote {}", out.display());
     }
+    if let Some(dir) = &args.report {
+        let t = Instant::now();
+        parallax_composition::plots::calibration::write_mono_report(
+            dir,
+            board,
+            &grids,
+            &names(&found),
+            &r,
+            &config(args),
+        )?;
+        println!("wrote {} ({:.0} ms)", dir.join("report.html").display(), t.elapsed().as_secs_f64() * 1e3);
+    }
     key_lines("", r.rms_px, &r.camera);
     Ok(ExitCode::SUCCESS)
 }
@@ -255,6 +270,11 @@ fn run_stereo(
             &StereoOutput { left_images: names(&lf), right_images: names(&rf), board: *board, result: &r },
         )?;
         println!("wrote {}", out.display());
+    }
+    if let Some(dir) = &args.report {
+        let t = Instant::now();
+        parallax_composition::plots::calibration::write_stereo_report(dir, board, &lg, &rg, &names(&lf), &r, &cfg)?;
+        println!("wrote {} ({:.0} ms)", dir.join("report.html").display(), t.elapsed().as_secs_f64() * 1e3);
     }
     key_lines("left_", r.left_rms_px, &r.rig.left);
     key_lines("right_", r.right_rms_px, &r.rig.right);

@@ -69,3 +69,59 @@ pub fn write_artifacts(dir: &Path, input: &ChainInput, out: &ChainOutput) -> Res
     }
     Ok(images)
 }
+
+/// The pictures of every stage the chain ran: both cameras' calibration, the rectified first
+/// view, the disparity map (depth bar when the chain rectified the pair itself; error image
+/// with `truth`), and hand-eye. `view_names` names every calibration pair of the session
+/// (`None`: "view i"); `unit` is the length unit. A picture that cannot be drawn never fails the
+/// run: its section says why instead.
+pub fn pictures(
+    input: &ChainInput,
+    out: &ChainOutput,
+    view_names: Option<&[String]>,
+    truth: Option<crate::plots::disparity::DisparityTruth<'_>>,
+    unit: &str,
+) -> Vec<crate::plots::Section> {
+    use crate::plots::{self, Section};
+    let name = |i: usize| view_names.and_then(|n| n.get(i).cloned()).unwrap_or_else(|| format!("view {i}"));
+    let mut sections = Vec::new();
+    let mut push = |title: &str, r: Result<Vec<Section>>| match r {
+        Ok(s) => sections.extend(s),
+        Err(e) => sections.push(Section {
+            title: title.into(),
+            warnings: vec![format!("pictures not drawn: {e}")],
+            ..Section::default()
+        }),
+    };
+    if let Ok(c) = &out.calibration {
+        let names: Vec<String> = out.views.index.iter().map(|&i| name(i)).collect();
+        push(
+            "calibration",
+            plots::calibration::stereo(&input.board, &out.views.left, &out.views.right, &names, c, &input.stereo)
+                .map(|[l, r]| vec![l.0, r.0]),
+        );
+        if let (Ok(rect), Ok((li, ri))) = (&out.rectified, &out.rectified_view) {
+            let grids = out.views.left.first().zip(out.views.right.first());
+            let view = out.views.index.first().map_or_else(String::new, |&i| name(i));
+            push(
+                "rectification",
+                plots::rectification::section(&c.rig, &rect.rectification, li, ri, grids, &view, &rect.abs_dv)
+                    .map(|s| vec![s]),
+            );
+        }
+    }
+    if let Ok(m) = &out.matched {
+        let q = if m.rectified_here { out.rectified.as_ref().ok().map(|r| r.rectification.q) } else { None };
+        push("disparity", plots::disparity::section(&m.disparity, q.as_ref(), truth).map(|s| vec![s.0]));
+    }
+    if let (Ok(he), Ok(poses)) = (&out.hand_eye, &out.station_poses) {
+        let robot: Vec<_> = he.stations.iter().filter_map(|&i| input.stations[i].robot).collect();
+        let camera: Vec<_> = he.stations.iter().filter_map(|&i| poses[i]).collect();
+        let names: Vec<String> = he.stations.iter().map(|&i| format!("station {i}")).collect();
+        push(
+            "hand-eye",
+            plots::handeye::section(&he.solution, &robot, &camera, &input.hand_eye, &names, unit).map(|s| vec![s]),
+        );
+    }
+    sections
+}

@@ -10,8 +10,11 @@
 //!   against the truth and the scene's tolerances ([`run_scene`]).
 //! * [`real`]: the real run — the same chain on the user's images, scored by the checks that need
 //!   no truth ([`run_real`], [`RealChecks`]).
-//! * [`report`]: rows, verdict and the Markdown / HTML / RON report; [`io`]: atomic output,
-//!   RON, images, globs; [`stats`]: mean, RMS, median.
+//! * [`report`]: rows, verdict and the Markdown / HTML / RON report (self-contained HTML: every
+//!   image inline); [`io`]: atomic output, RON, images, globs; [`stats`]: mean, RMS, median.
+//! * [`plots`]: the pictures of each stage — calibration residuals, per-view errors, coverage,
+//!   board poses, projection uncertainty and distortion; the rectified pair; disparity with its
+//!   colour bar and error image; hand-eye residuals and methods.
 //!
 //! ```no_run
 //! use parallax_composition::{ChainInput, run_chain};
@@ -31,6 +34,7 @@ pub mod chain;
 mod error;
 pub mod fixtures;
 pub mod io;
+pub mod plots;
 pub mod real;
 pub mod report;
 pub mod scene;

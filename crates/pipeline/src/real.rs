@@ -103,6 +103,7 @@ pub fn run_real(inputs: RealInputs, out: &Path) -> Result<Report> {
     let output = run_chain(&input)?;
     check(&mut report, &inputs.board, &inputs.checks, &names, &output);
     report.images = artifacts::write_artifacts(out, &input, &output)?;
+    report.sections = artifacts::pictures(&input, &output, Some(&names), None, &inputs.unit);
     report.write(out)?;
     Ok(report)
 }

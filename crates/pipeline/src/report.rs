@@ -7,6 +7,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use base64::Engine as _;
 use serde::Serialize;
 
 use crate::Result;
@@ -60,6 +61,10 @@ pub struct Report {
     pub notes: Vec<(String, String)>,
     /// Images written to the output directory (file name, caption).
     pub images: Vec<(String, String)>,
+    /// The pictures of the stages that ran (calibration, rectification, disparity, hand-eye):
+    /// written as files beside the report and inline in `report.html`; not in `report.ron`.
+    #[serde(skip)]
+    pub sections: Vec<crate::plots::Section>,
 }
 
 impl Report {
@@ -184,25 +189,40 @@ impl Report {
                 let _ = writeln!(s, "### {caption}\n\n![{caption}]({file})\n");
             }
         }
+        s.push_str(&crate::plots::sections_markdown(&self.sections));
         s
     }
 
-    /// Writes `report.md` and `report.html` (the same content, images inline) into `dir`.
+    /// Writes `report.md`, `report.html` (self-contained: every image inline) and `report.ron`
+    /// into `dir`, and the picture files of [`Self::sections`]. The images listed in
+    /// [`Self::images`] must already be in `dir`.
     pub fn write(&self, dir: &Path) -> Result<()> {
+        crate::plots::write_figures(dir, &self.sections)?;
         crate::io::write_atomic(&dir.join("report.md"), self.markdown().as_bytes())?;
-        crate::io::write_atomic(&dir.join("report.html"), self.html().as_bytes())?;
+        let html = self.html_with(|file| {
+            let bytes = std::fs::read(dir.join(file)).map_err(|source| crate::PipelineError::Io {
+                what: "reading image",
+                path: dir.join(file),
+                source,
+            })?;
+            Ok(format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(bytes)))
+        })?;
+        crate::io::write_atomic(&dir.join("report.html"), html.as_bytes())?;
         crate::io::write_ron(&dir.join("report.ron"), self)
     }
 
-    /// A self-contained HTML page (images referenced relative to the report).
+    /// The HTML page with the images of [`Self::images`] referenced by file name (relative to
+    /// the report) and the pictures of [`Self::sections`] inline.
     pub fn html(&self) -> String {
+        self.html_with(|file| Ok(file.to_string())).unwrap_or_default()
+    }
+
+    fn html_with(&self, src: impl Fn(&str) -> Result<String>) -> Result<String> {
         let esc = |t: &str| t.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
         let mut s = format!(
-            "<!doctype html><html><head><meta charset=\"utf-8\"><title>parallax pipeline — {0}</title>\
-             <style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto}}td,th{{padding:2px 10px;text-align:right}}\
-             td:first-child,td:nth-child(2){{text-align:left}}.FAIL{{color:#b00;font-weight:bold}}img{{max-width:100%}}</style>\
-             </head><body><h1>parallax pipeline — scene <code>{0}</code></h1><table><tr><th>stage</th><th>figure</th>\
+            "{}<h1>parallax pipeline — scene <code>{}</code></h1><table><tr><th>stage</th><th>figure</th>\
              <th>value</th><th>tolerance</th><th>unit</th><th>result</th></tr>",
+            crate::plots::html_head(&format!("parallax pipeline — {}", self.scene)),
             esc(&self.scene)
         );
         for r in &self.rows {
@@ -227,10 +247,11 @@ impl Report {
             s.push_str("</ul>");
         }
         for (file, caption) in &self.images {
-            let _ = write!(s, "<h3>{0}</h3><img src=\"{1}\" alt=\"{0}\">", esc(caption), esc(file));
+            let _ = write!(s, "<h3>{0}</h3><img src=\"{1}\" alt=\"{0}\">", esc(caption), esc(&src(file)?));
         }
+        s.push_str(&crate::plots::sections_html(&self.sections));
         s.push_str("</body></html>\n");
-        s
+        Ok(s)
     }
 }
 
