@@ -111,7 +111,7 @@ fn stereo_fixture() -> (Chessboard, StereoViews, Vec<String>, (u32, u32)) {
 fn stereo_calibration_pictures_on_the_fixtures() {
     let (board, views, names, size) = stereo_fixture();
     let cfg = StereoConfig::default();
-    let result = parallax_composition::calibrate_stereo(&board, &views, size, size, &cfg).unwrap();
+    let result = parallax_composition::calibrate_stereo(&board, &views, size, size, &cfg, &Default::default()).unwrap();
     let [(left, ls), (right, rs)] =
         plots::calibration::stereo(&board, &views.left, &views.right, &names, &result, &cfg).unwrap();
     for (k, s) in [&ls, &rs].iter().enumerate() {
