@@ -240,6 +240,18 @@ pub fn read<P: AsRef<Path>>(paths: &[P]) -> Result<(Calibration, Vec<Format>)> {
     }
 }
 
+/// A native result file (RON or JSON, detected from the content) deserialised as `T`: for the
+/// commands' own files that are not calibrations (corner lists, measurements).
+pub fn read_native<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
+    let what = path.display().to_string();
+    let text = read_text(path)?;
+    match detect(&text, &what)? {
+        (Format::Json, _) => serde_json::from_str(&text).map_err(|e| content(&what, format!("JSON: {e}"))),
+        (Format::Ron, _) => ron::from_str(&text).map_err(|e| content(&what, format!("RON: {e}"))),
+        (other, _) => Err(content(&what, format!("a {} file; this input is read from ron or json", other.name()))),
+    }
+}
+
 /// A stereo calibration from [`read`], or an error naming what the files hold instead.
 pub fn read_stereo<P: AsRef<Path>>(paths: &[P]) -> Result<StereoCalibration> {
     let names: Vec<String> = paths.iter().map(|p| p.as_ref().display().to_string()).collect();
