@@ -363,11 +363,6 @@ fn run_stereo(
             println!("wrote {} ({})", p.display(), format.name());
         }
     }
-    key_lines("left_", r.left_rms_px, &r.rig.left);
-    key_lines("right_", r.right_rms_px, &r.rig.right);
-    println!("stereo_rms_px: {:.6}", r.rms_px);
-    println!("baseline: {:.6}", r.rig.baseline());
-    println!("rotation_deg: {:.6}", e.angle().to_degrees());
     // Rectification of the detected corners (point-level, no resampling) and triangulated
     // distances between adjacent corners, both from the calibration just made.
     let views = parallax_composition::StereoViews { index: (0..lg.len()).collect(), left: lg, right: rg };
@@ -384,6 +379,11 @@ fn run_stereo(
         dv.len()
     );
     println!("adjacent corners: {} distances, RMS error {dist_rms:.4} (square units)", distances.len());
+    key_lines("left_", r.left_rms_px, &r.rig.left);
+    key_lines("right_", r.right_rms_px, &r.rig.right);
+    println!("stereo_rms_px: {:.6}", r.rms_px);
+    println!("baseline: {:.6}", r.rig.baseline());
+    println!("rotation_deg: {:.6}", e.angle().to_degrees());
     println!("rectified_mean_abs_dv_px: {mean_dv:.6}");
     println!("adjacent_corner_distance_rms: {dist_rms:.6}");
     Ok(ExitCode::SUCCESS)

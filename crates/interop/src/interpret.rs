@@ -431,7 +431,10 @@ fn hand_eye_at(o: &Map<String, Value>, what: &str) -> Result<Option<HandEyeCalib
         && t.is_object()
     {
         let transform: Isometry3 = from_native(t, "transform", what)?;
-        let setup: Setup = from_native(s, "setup", what)?;
+        let setup = s
+            .as_str()
+            .and_then(crate::model::setup_from_name)
+            .ok_or_else(|| content(what, format!("setup: {s} is not eye_in_hand or eye_to_hand")))?;
         let method = o.get("method").and_then(|m| m.as_str().map(str::to_string));
         return Ok(Some(HandEyeCalibration { setup, transform, method }));
     }

@@ -332,11 +332,30 @@ impl StereoRecord {
     }
 }
 
+/// `"eye_in_hand"` or `"eye_to_hand"` (a string: RON's unit variants do not survive a
+/// format-independent reading).
+pub fn setup_name(setup: Setup) -> &'static str {
+    match setup {
+        Setup::EyeInHand => "eye_in_hand",
+        Setup::EyeToHand => "eye_to_hand",
+    }
+}
+
+/// The setup of a name: `eye_in_hand` / `eye_to_hand` (also `-` for `_`, and serde's
+/// `EyeInHand` / `EyeToHand`).
+pub fn setup_from_name(name: &str) -> Option<Setup> {
+    match name.to_ascii_lowercase().replace(['-', '_'], "").as_str() {
+        "eyeinhand" => Some(Setup::EyeInHand),
+        "eyetohand" => Some(Setup::EyeToHand),
+        _ => None,
+    }
+}
+
 /// The native record of a hand-eye result.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct HandEyeRecord {
-    /// Eye-in-hand or eye-to-hand.
-    pub setup: Setup,
+    /// `eye_in_hand` or `eye_to_hand`.
+    pub setup: &'static str,
     /// `gripper_from_camera` or `base_from_camera`.
     pub name: String,
     /// The method.
@@ -351,7 +370,7 @@ impl HandEyeRecord {
     /// The record of `h`.
     pub fn of(h: &HandEyeCalibration) -> Self {
         Self {
-            setup: h.setup,
+            setup: setup_name(h.setup),
             name: h.transform_name().to_string(),
             method: h.method.clone(),
             transform: h.transform,
