@@ -126,14 +126,8 @@ fn parse_pairs(points: &str, right_points: Option<&str>) -> anyhow::Result<Vec<(
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if let Some(out) = &args.out {
         let csv = out.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
-        if !csv {
-            let format = crate::files::output_format(out, None)?;
-            ensure!(
-                matches!(format, parallax_interop::Format::Ron | parallax_interop::Format::Json),
-                "{}: a measurement is written as .ron, .json or .csv",
-                out.display()
-            );
-        }
+        let native = out.extension().is_some_and(|e| e.eq_ignore_ascii_case("ron") || e.eq_ignore_ascii_case("json"));
+        ensure!(csv || native, "{}: a measurement is written as .ron, .json or .csv", out.display());
     }
     let rig = crate::files::read_calibration(&args.calib)?.into_stereo(&args.calib[0].display().to_string())?.rig;
     let mut images = Vec::new();

@@ -15,9 +15,8 @@ use std::time::Instant;
 use anyhow::Context;
 use image::{DynamicImage, GenericImageView, Luma, Rgb, RgbImage};
 
-use parallax_interop::{Calibration, RectificationMatrices, StereoCalibration, StereoRecord};
-use parallax_stereo_rectify::{Border, ExtentMethod, Image, Rectifier, RectifyConfig, Roi};
-use serde::Serialize;
+use parallax_interop::{Calibration, RectificationMatrices, RectifiedRecord, StereoCalibration};
+use parallax_stereo_rectify::{Border, ExtentMethod, Image, Rectifier, RectifyConfig};
 
 use parallax_composition::io::save_png;
 
@@ -60,29 +59,6 @@ pub struct Args {
 /// OpenCV's extents); `calibrate` writes the same into its result.
 pub fn default_config() -> RectifyConfig {
     RectifyConfig { alpha: Some(0.0), new_size: None, zero_disparity: true, extents: ExtentMethod::OpenCv }
-}
-
-/// The rectification file (RON / JSON): the calibration with `R1 R2 P1 P2 Q` (row-major, under
-/// `calibration.opencv`) and the rectified geometry.
-#[derive(Serialize)]
-struct RectificationOutput {
-    calibration: StereoRecord,
-    /// Size of the rectified images, pixels.
-    width: u32,
-    /// See `width`.
-    height: u32,
-    /// Valid-pixel rectangles.
-    roi_left: Roi,
-    /// See `roi_left`.
-    roi_right: Roi,
-    /// Baseline along `y` (images stacked) instead of `x`.
-    vertical: bool,
-    /// Rectified focal length, pixels.
-    focal_px: f64,
-    /// Baseline in the rectified frame (`Tx`, or `Ty` when vertical), calibration length unit.
-    rectified_baseline: f64,
-    /// The `alpha` used (`None` = OpenCV's -1).
-    alpha: Option<f64>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
@@ -146,17 +122,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let side = side_by_side(&l, &r, rect.vertical, args.line_spacing);
     save_png(&args.out.join("side_by_side.png"), &side)?;
     let calibration = StereoCalibration { rectification: Some(RectificationMatrices::from(&rect)), ..stereo };
-    let native = RectificationOutput {
-        calibration: StereoRecord::of(&calibration),
-        width: rect.width,
-        height: rect.height,
-        roi_left: rect.roi1,
-        roi_right: rect.roi2,
-        vertical: rect.vertical,
-        focal_px: rect.focal(),
-        rectified_baseline: rect.rectified_baseline(),
-        alpha: config.alpha,
-    };
+    let native = RectifiedRecord::of(&calibration, &rect);
     let written = crate::files::write_result(&rect_path, format, &native, Some(&Calibration::Stereo(calibration)))?;
 
     let p2 = rect.p2.rows;

@@ -67,8 +67,8 @@ pub use error::{InteropError, Result};
 pub use interpret::{interpret, rig_from_ros_pair};
 pub use model::{
     Calibration, HandEyeCalibration, HandEyeRecord, MonoCalibration, MonoMatrices, MonoRecord, PoseRecord,
-    RectificationMatrices, Rows3, Side, StereoCalibration, StereoMatrices, StereoRecord, distortion_vector, mat3,
-    rows3, setup_from_name, setup_name,
+    RectificationMatrices, RectifiedRecord, Rows3, Side, StereoCalibration, StereoMatrices, StereoRecord,
+    distortion_vector, mat3, rows3, setup_from_name, setup_name,
 };
 pub use write::{native_string, opencv_entries, record_string, render, ros_pair_paths};
 

@@ -378,3 +378,45 @@ impl HandEyeRecord {
         }
     }
 }
+
+/// The native record of a rectification (what `cargo xtask rectify` writes): the calibration
+/// with `R1 R2 P1 P2 Q` (row-major, under `calibration.opencv`) and the rectified geometry.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RectifiedRecord {
+    /// The rig, its OpenCV matrices and the rectification.
+    pub calibration: StereoRecord,
+    /// Size of the rectified images, pixels.
+    pub width: u32,
+    /// See `width`.
+    pub height: u32,
+    /// Valid-pixel rectangle of the rectified left image.
+    pub roi_left: parallax_stereo_rectify::Roi,
+    /// Valid-pixel rectangle of the rectified right image.
+    pub roi_right: parallax_stereo_rectify::Roi,
+    /// Baseline along `y` (images stacked) instead of `x`.
+    pub vertical: bool,
+    /// Rectified focal length, pixels.
+    pub focal_px: f64,
+    /// Baseline in the rectified frame (`Tx`, or `Ty` when vertical), the rig's length unit.
+    pub rectified_baseline: f64,
+    /// The focal scale `alpha` applied (1 without `alpha`).
+    pub scale: f64,
+}
+
+impl RectifiedRecord {
+    /// The record of `calibration` rectified as `rect` (its `rectification` is replaced by `rect`'s).
+    pub fn of(calibration: &StereoCalibration, rect: &Rectification) -> Self {
+        let c = StereoCalibration { rectification: Some(RectificationMatrices::from(rect)), ..calibration.clone() };
+        Self {
+            calibration: StereoRecord::of(&c),
+            width: rect.width,
+            height: rect.height,
+            roi_left: rect.roi1,
+            roi_right: rect.roi2,
+            vertical: rect.vertical,
+            focal_px: rect.focal(),
+            rectified_baseline: rect.rectified_baseline(),
+            scale: rect.scale,
+        }
+    }
+}
