@@ -58,7 +58,7 @@ pub struct Args {
 /// `rectify`'s default rectification (alpha 0: only valid pixels, zero disparity at infinity,
 /// OpenCV's extents); `calibrate` writes the same into its result.
 pub fn default_config() -> RectifyConfig {
-    RectifyConfig { alpha: Some(0.0), new_size: None, zero_disparity: true, extents: ExtentMethod::OpenCv }
+    parallax_interop::default_rectify_config()
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {

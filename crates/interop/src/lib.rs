@@ -145,6 +145,18 @@ fn ron_value(text: &str, what: &str) -> Result<Value> {
     serde_json::to_value(v).map_err(|e| syntax(what, format!("RON value: {e}")))
 }
 
+/// Kalibr (`cam0`) or ROS (`distortion_model`, `projection_matrix`) by their keys.
+fn yaml_kind(v: &Value) -> Option<Format> {
+    let o = v.as_object()?;
+    if o.contains_key("cam0") {
+        Some(Format::Kalibr)
+    } else if o.contains_key("distortion_model") || o.contains_key("projection_matrix") {
+        Some(Format::Ros)
+    } else {
+        None
+    }
+}
+
 /// The format of `text` (from the content, not the name) and its value tree.
 pub fn detect(text: &str, what: &str) -> Result<(Format, Value)> {
     if opencv::is_opencv_xml(text) {
@@ -158,7 +170,11 @@ pub fn detect(text: &str, what: &str) -> Result<(Format, Value)> {
         ));
     }
     if opencv::is_opencv_yaml(text) {
-        return Ok((Format::OpenCvYaml, opencv::parse_yaml(text, what)?));
+        let v = opencv::parse_yaml(text, what)?;
+        // A `%YAML` directive alone does not make a file OpenCV's: ROS and Kalibr files may
+        // carry one too.
+        let format = yaml_kind(&v).unwrap_or(Format::OpenCvYaml);
+        return Ok((format, v));
     }
     if let Ok(v) = serde_json::from_str::<Value>(text) {
         return Ok((Format::Json, v));
@@ -169,14 +185,7 @@ pub fn detect(text: &str, what: &str) -> Result<(Format, Value)> {
     }
     match opencv::parse_yaml(text, what) {
         Ok(v @ Value::Object(_)) => {
-            let o = v.as_object().expect("matched an object");
-            let format = if o.contains_key("cam0") {
-                Format::Kalibr
-            } else if o.contains_key("distortion_model") || o.contains_key("projection_matrix") {
-                Format::Ros
-            } else {
-                Format::OpenCvYaml
-            };
+            let format = yaml_kind(&v).unwrap_or(Format::OpenCvYaml);
             Ok((format, v))
         }
         _ => Err(syntax(
@@ -258,10 +267,22 @@ pub fn read_stereo<P: AsRef<Path>>(paths: &[P]) -> Result<StereoCalibration> {
     read(paths)?.0.into_stereo(&names.join(" + "))
 }
 
-/// `R1 R2 P1 P2 Q` of `rig` with the default rectification (OpenCV's `stereoRectify` with
-/// `alpha = -1`-like defaults of this project: `RectifyConfig::default()`).
+/// The rectification written into calibration files when none is given, and `cargo xtask
+/// rectify`'s default: OpenCV's `stereoRectify` with `alpha = 0` (only valid pixels) and
+/// `CALIB_ZERO_DISPARITY`, OpenCV's extents — one setting, so that every file's `R1 R2 P1 P2 Q`
+/// matches the images `rectify` produces by default.
+pub fn default_rectify_config() -> parallax_stereo_rectify::RectifyConfig {
+    parallax_stereo_rectify::RectifyConfig {
+        alpha: Some(0.0),
+        new_size: None,
+        zero_disparity: true,
+        extents: parallax_stereo_rectify::ExtentMethod::OpenCv,
+    }
+}
+
+/// `R1 R2 P1 P2 Q` of `rig` with [`default_rectify_config`].
 pub fn rectify_default(rig: &parallax_camera_model::StereoRig) -> Result<RectificationMatrices> {
-    let r = parallax_stereo_rectify::stereo_rectify(rig, &parallax_stereo_rectify::RectifyConfig::default())
+    let r = parallax_stereo_rectify::stereo_rectify(rig, &default_rectify_config())
         .map_err(|e| InteropError::Unsupported(format!("rectifying the rig: {e}")))?;
     Ok(RectificationMatrices::from(&r))
 }

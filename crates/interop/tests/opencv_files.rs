@@ -34,7 +34,9 @@ fn params(s: &StereoCalibration) -> Vec<f64> {
 
 /// `rectify`'s default settings (alpha 0, zero disparity, OpenCV's extents).
 fn config() -> RectifyConfig {
-    RectifyConfig { alpha: Some(0.0), new_size: None, zero_disparity: true, extents: ExtentMethod::OpenCv }
+    let c = parallax_interop::default_rectify_config();
+    assert_eq!((c.alpha, c.zero_disparity, c.extents), (Some(0.0), true, ExtentMethod::OpenCv));
+    c
 }
 
 #[test]
