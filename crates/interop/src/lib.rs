@@ -18,6 +18,9 @@
 //! `extrinsics.yml` given together); hand-eye `R_cam2gripper`/`t_cam2gripper` (eye-to-hand
 //! `R_cam2base`/`t_cam2base`), the names of `calibrateHandEye`'s outputs.
 //!
+//! Lengths (`T`, `P2`'s baseline column, `T_cn_cnm1`, hand-eye translations) are written in the
+//! calibration's own unit (the board square's); ROS and Kalibr expect metres.
+//!
 //! **Reading detects the format from the content** ([`detect`]), whatever the extension, and
 //! finds the calibration wherever it sits in the document ([`read`]): a result file of any
 //! `cargo xtask` command, a bare `StereoRig` or `Camera`, OpenCV, ROS or Kalibr keys. A stereo
