@@ -6,9 +6,11 @@ use std::time::Instant;
 
 use anyhow::Context;
 use parallax_camera_model::{Chessboard, CornerGrid};
+use parallax_interop::{
+    Calibration, MonoCalibration, MonoRecord, PoseRecord, RectificationMatrices, StereoCalibration, StereoRecord,
+};
 use parallax_planar_calibration::{
-    CalibrationConfig, CalibrationResult, IntrinsicStdDevs, StereoCalibrationResult, StereoConfig,
-    calibrate_chessboard, calibrate_stereo_chessboard,
+    CalibrationConfig, IntrinsicStdDevs, StereoConfig, calibrate_chessboard, calibrate_stereo_chessboard,
 };
 use serde::Serialize;
 
@@ -16,20 +18,31 @@ use serde::Serialize;
 #[derive(clap::Args)]
 pub struct Args {
     /// Images of the (left) camera, glob pattern (quote it), e.g. '../shared/data/opencv-stereo-chessboard/left*.jpg'.
-    #[arg(long)]
-    images: String,
+    #[arg(long, required_unless_present = "corners", conflicts_with = "corners")]
+    images: Option<String>,
     /// Images of the right camera for a stereo calibration (paired with --images in sorted order).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "corners")]
     right: Option<String>,
+    /// Corners of the (left) camera as `corners --out` wrote them (RON or JSON), instead of --images.
+    #[arg(long)]
+    corners: Option<PathBuf>,
+    /// Corners of the right camera (`corners --out` on the right images), for a stereo calibration.
+    #[arg(long, requires = "corners")]
+    right_corners: Option<PathBuf>,
     /// Inner corners of the board as COLSxROWS (OpenCV's patternSize), e.g. 9x6.
     #[arg(long, value_parser = crate::util::parse_board_size)]
     board: (usize, usize),
     /// Square size; every length in the result is in this unit (e.g. mm).
     #[arg(long)]
     square: f64,
-    /// Write the calibration result (RON) to this file.
+    /// Write the calibration: `.ron` / `.json` (the whole result, matrices row-major), `.yml` / `.yaml` /
+    /// `.xml` (OpenCV FileStorage, the keys of OpenCV's calibration samples), or `--format ros|kalibr`.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Format of --out: ron, json, opencv, ros (one camera_info per camera) or kalibr (camchain);
+    /// default from the extension.
+    #[arg(long, requires = "out")]
+    format: Option<String>,
     /// Hold p1 = p2 = 0 (CALIB_ZERO_TANGENT_DIST).
     #[arg(long)]
     zero_tangential: bool,
@@ -48,6 +61,10 @@ pub struct Args {
     /// Stereo: hold both cameras at their mono calibrations and refine only the rig (CALIB_FIX_INTRINSIC).
     #[arg(long)]
     fix_intrinsics: bool,
+    /// Accept a rig whose right camera is to the left of the left one (refused by default: the
+    /// images are then almost always swapped).
+    #[arg(long)]
+    allow_swapped: bool,
     /// Write the calibration pictures (PNG/SVG) and a self-contained report.html into this directory.
     #[arg(long)]
     report: Option<PathBuf>,
@@ -66,6 +83,21 @@ fn detect(paths: &[PathBuf], board: &Chessboard) -> anyhow::Result<Vec<Detected>
         }
     }
     Ok(paths.iter().zip(&images).zip(grids).map(|((p, i), g)| (p.clone(), i.dimensions(), g)).collect())
+}
+
+/// The views of a `corners --out` file (checked against `--board`).
+fn from_corners_file(path: &std::path::Path, board: &Chessboard) -> anyhow::Result<Vec<Detected>> {
+    let file: crate::corners::CornersFile = parallax_interop::read_native(path)?;
+    anyhow::ensure!(
+        (file.cols, file.rows) == (board.cols, board.rows),
+        "{} holds {}x{} corners but --board is {}x{}",
+        path.display(),
+        file.cols,
+        file.rows,
+        board.cols,
+        board.rows
+    );
+    Ok(file.images.into_iter().map(|i| (PathBuf::from(i.image), (i.width, i.height), i.grid)).collect())
 }
 
 fn common_size(found: &[&Detected]) -> anyhow::Result<(u32, u32)> {
@@ -119,21 +151,44 @@ fn key_lines(prefix: &str, rms: f64, c: &parallax_camera_model::Camera) {
     }
 }
 
-/// What `--out` holds for a mono calibration.
+/// What a RON / JSON `--out` holds for a mono calibration (matrices row-major, poses in every
+/// convention; `calibration` is what every command reads back).
 #[derive(Serialize)]
 struct MonoOutput<'a> {
     images: Vec<String>,
     board: Chessboard,
-    result: &'a CalibrationResult,
+    calibration: MonoRecord,
+    /// Per-view `camera_from_board`.
+    camera_from_board: Vec<PoseRecord>,
+    std_devs: &'a IntrinsicStdDevs,
+    sigma_px: f64,
+    dof: usize,
+    iterations: usize,
+    converged: bool,
+    warnings: &'a [parallax_planar_calibration::CalibrationWarning],
 }
 
-/// What `--out` holds for a stereo calibration.
+/// What a RON / JSON `--out` holds for a stereo calibration (`calibration` holds the rig, its
+/// OpenCV matrices `M1 D1 M2 D2 R T E F` and the rectification `R1 R2 P1 P2 Q` that `rectify`
+/// computes by default: alpha 0, zero disparity).
 #[derive(Serialize)]
 struct StereoOutput<'a> {
     left_images: Vec<String>,
     right_images: Vec<String>,
     board: Chessboard,
-    result: &'a StereoCalibrationResult,
+    calibration: StereoRecord,
+    left_rms_px: f64,
+    right_rms_px: f64,
+    /// Per-view left `camera_from_board`.
+    left_camera_from_board: Vec<PoseRecord>,
+    left_std_devs: &'a IntrinsicStdDevs,
+    right_std_devs: &'a IntrinsicStdDevs,
+    rig_std_devs: &'a parallax_planar_calibration::RigStdDevs,
+    sigma_px: f64,
+    dof: usize,
+    iterations: usize,
+    converged: bool,
+    warnings: &'a [parallax_planar_calibration::CalibrationWarning],
 }
 
 fn names(v: &[&Detected]) -> Vec<String> {
@@ -143,26 +198,42 @@ fn names(v: &[&Detected]) -> Vec<String> {
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     anyhow::ensure!(args.square.is_finite() && args.square > 0.0, "--square must be positive, got {}", args.square);
     let board = Chessboard::new(args.board.0, args.board.1, args.square)?;
-    let left_paths = parallax_composition::io::expand_glob(&args.images)?;
+    // Refuse an unknown output format before any work.
+    let format = args.out.as_deref().map(|o| crate::files::output_format(o, args.format.as_deref())).transpose()?;
     let t0 = Instant::now();
-    let left = detect(&left_paths, &board)?;
-    match &args.right {
-        None => run_mono(&args, &board, &left, t0),
-        Some(pattern) => {
-            let right_paths = parallax_composition::io::expand_glob(pattern)?;
-            anyhow::ensure!(
-                right_paths.len() == left_paths.len(),
-                "{} left images but {} right images",
-                left_paths.len(),
-                right_paths.len()
-            );
-            let right = detect(&right_paths, &board)?;
-            run_stereo(&args, &board, &left, &right, t0)
+    let (left, right) = match (&args.corners, &args.images) {
+        (Some(file), _) => {
+            let left = from_corners_file(file, &board)?;
+            let right = args.right_corners.as_deref().map(|f| from_corners_file(f, &board)).transpose()?;
+            (left, right)
+        }
+        (None, Some(pattern)) => {
+            let left_paths = parallax_composition::io::expand_glob(pattern)?;
+            let left = detect(&left_paths, &board)?;
+            let right = match &args.right {
+                None => None,
+                Some(pattern) => Some(detect(&parallax_composition::io::expand_glob(pattern)?, &board)?),
+            };
+            (left, right)
+        }
+        (None, None) => anyhow::bail!("give --images or --corners"),
+    };
+    match right {
+        None => run_mono(&args, format, &board, &left, t0),
+        Some(right) => {
+            anyhow::ensure!(right.len() == left.len(), "{} left images but {} right images", left.len(), right.len());
+            run_stereo(&args, format, &board, &left, &right, t0)
         }
     }
 }
 
-fn run_mono(args: &Args, board: &Chessboard, views: &[Detected], t0: Instant) -> anyhow::Result<ExitCode> {
+fn run_mono(
+    args: &Args,
+    format: Option<parallax_interop::Format>,
+    board: &Chessboard,
+    views: &[Detected],
+    t0: Instant,
+) -> anyhow::Result<ExitCode> {
     let found: Vec<_> = views.iter().filter(|v| v.2.is_some()).collect();
     println!("board found in {}/{} images ({:.0} ms)", found.len(), views.len(), t0.elapsed().as_secs_f64() * 1e3);
     let size = common_size(&found)?;
@@ -183,9 +254,24 @@ fn run_mono(args: &Args, board: &Chessboard, views: &[Detected], t0: Instant) ->
     for w in &r.warnings {
         println!("warning: {w}");
     }
-    if let Some(out) = &args.out {
-        parallax_composition::io::write_ron(out, &MonoOutput { images: names(&found), board: *board, result: &r })?;
-        println!("wrote {}", out.display());
+    if let (Some(out), Some(format)) = (&args.out, format) {
+        let calibration =
+            MonoCalibration { camera: r.camera, rms_px: Some(r.rms_px), per_view_rms_px: r.per_view_rms_px.clone() };
+        let native = MonoOutput {
+            images: names(&found),
+            board: *board,
+            calibration: MonoRecord::of(&calibration),
+            camera_from_board: r.camera_from_board.iter().map(PoseRecord::of).collect(),
+            std_devs: &r.std_devs,
+            sigma_px: r.sigma_px,
+            dof: r.dof,
+            iterations: r.iterations,
+            converged: r.converged,
+            warnings: &r.warnings,
+        };
+        for p in crate::files::write_result(out, format, &native, Some(&Calibration::Mono(calibration)))? {
+            println!("wrote {} ({})", p.display(), format.name());
+        }
     }
     if let Some(dir) = &args.report {
         let t = Instant::now();
@@ -205,6 +291,7 @@ fn run_mono(args: &Args, board: &Chessboard, views: &[Detected], t0: Instant) ->
 
 fn run_stereo(
     args: &Args,
+    format: Option<parallax_interop::Format>,
     board: &Chessboard,
     left: &[Detected],
     right: &[Detected],
@@ -236,6 +323,9 @@ fn run_stereo(
     };
     let t1 = Instant::now();
     let r = calibrate_stereo_chessboard(board, &lg, &rg, lsize, rsize, &cfg)?;
+    // Plausibility before anything is written: swapped cameras, pairs out of order.
+    let checks = parallax_composition::StereoChecks { allow_swapped: args.allow_swapped, ..Default::default() };
+    parallax_composition::check_stereo(&r, &checks)?;
     println!(
         "stereo calibration of {} pairs in {:.1} ms, {} iterations",
         lg.len(),
@@ -264,23 +354,42 @@ fn run_stereo(
     for w in &r.warnings {
         println!("warning: {w}");
     }
-    if let Some(out) = &args.out {
-        parallax_composition::io::write_ron(
-            out,
-            &StereoOutput { left_images: names(&lf), right_images: names(&rf), board: *board, result: &r },
-        )?;
-        println!("wrote {}", out.display());
+    if let (Some(out), Some(format)) = (&args.out, format) {
+        // The rectification `rectify` computes by default, so that `disparity --calib` on this
+        // file and on rectify's output agree.
+        let file_rect = parallax_stereo_rectify::stereo_rectify(&r.rig, &crate::rectify::default_config())?;
+        let calibration = StereoCalibration {
+            rig: r.rig,
+            rectification: Some(RectificationMatrices::from(&file_rect)),
+            rms_px: Some(r.rms_px),
+            per_view_rms_px: r.per_view_rms_px.clone(),
+        };
+        let native = StereoOutput {
+            left_images: names(&lf),
+            right_images: names(&rf),
+            board: *board,
+            calibration: StereoRecord::of(&calibration),
+            left_rms_px: r.left_rms_px,
+            right_rms_px: r.right_rms_px,
+            left_camera_from_board: r.camera_from_board.iter().map(PoseRecord::of).collect(),
+            left_std_devs: &r.left_std_devs,
+            right_std_devs: &r.right_std_devs,
+            rig_std_devs: &r.rig_std_devs,
+            sigma_px: r.sigma_px,
+            dof: r.dof,
+            iterations: r.iterations,
+            converged: r.converged,
+            warnings: &r.warnings,
+        };
+        for p in crate::files::write_result(out, format, &native, Some(&Calibration::Stereo(calibration)))? {
+            println!("wrote {} ({})", p.display(), format.name());
+        }
     }
     if let Some(dir) = &args.report {
         let t = Instant::now();
         parallax_composition::plots::calibration::write_stereo_report(dir, board, &lg, &rg, &names(&lf), &r, &cfg)?;
         println!("wrote {} ({:.0} ms)", dir.join("report.html").display(), t.elapsed().as_secs_f64() * 1e3);
     }
-    key_lines("left_", r.left_rms_px, &r.rig.left);
-    key_lines("right_", r.right_rms_px, &r.rig.right);
-    println!("stereo_rms_px: {:.6}", r.rms_px);
-    println!("baseline: {:.6}", r.rig.baseline());
-    println!("rotation_deg: {:.6}", e.angle().to_degrees());
     // Rectification of the detected corners (point-level, no resampling) and triangulated
     // distances between adjacent corners, both from the calibration just made.
     let views = parallax_composition::StereoViews { index: (0..lg.len()).collect(), left: lg, right: rg };
@@ -297,6 +406,11 @@ fn run_stereo(
         dv.len()
     );
     println!("adjacent corners: {} distances, RMS error {dist_rms:.4} (square units)", distances.len());
+    key_lines("left_", r.left_rms_px, &r.rig.left);
+    key_lines("right_", r.right_rms_px, &r.rig.right);
+    println!("stereo_rms_px: {:.6}", r.rms_px);
+    println!("baseline: {:.6}", r.rig.baseline());
+    println!("rotation_deg: {:.6}", e.angle().to_degrees());
     println!("rectified_mean_abs_dv_px: {mean_dv:.6}");
     println!("adjacent_corner_distance_rms: {dist_rms:.6}");
     Ok(ExitCode::SUCCESS)

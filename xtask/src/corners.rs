@@ -9,7 +9,7 @@ use parallax_camera_model::CornerGrid;
 use parallax_corner_detection::{
     ChessboardConfig, CornerRefinement, chessboard_candidates, detect_chessboard, draw_chessboard, draw_points,
 };
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Arguments of `cargo xtask corners`.
 #[derive(clap::Args)]
@@ -20,7 +20,7 @@ pub struct Args {
     /// Inner corners of the board as COLSxROWS (OpenCV's patternSize), e.g. 9x6.
     #[arg(long, value_parser = crate::util::parse_board_size)]
     board: (usize, usize),
-    /// Write the corners of every image (RON) to this file.
+    /// Write the corners of every image to this file (`.ron` or `.json`; `calibrate --corners` reads it).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Write an overlay PNG per image into this directory (the grid in OpenCV's order, or the
@@ -42,35 +42,43 @@ fn parse_refinement(s: &str) -> Result<CornerRefinement, String> {
 }
 
 /// One image's result in the `--out` file.
-#[derive(Serialize)]
-struct ImageCorners {
+#[derive(Serialize, Deserialize)]
+pub struct ImageCorners {
     /// Path of the image as given by the glob.
-    image: String,
+    pub image: String,
     /// Image size in pixels.
-    width: u32,
+    pub width: u32,
     /// Image size in pixels.
-    height: u32,
+    pub height: u32,
     /// The corners in OpenCV's order, or `None` when the board was not found.
-    grid: Option<CornerGrid>,
+    pub grid: Option<CornerGrid>,
     /// Detection + refinement time, milliseconds.
-    time_ms: f64,
+    pub time_ms: f64,
 }
 
-/// The `--out` file.
-#[derive(Serialize)]
-struct CornersFile {
+/// The `--out` file (read back by `calibrate --corners`).
+#[derive(Serialize, Deserialize)]
+pub struct CornersFile {
     /// Inner corners per row.
-    cols: usize,
+    pub cols: usize,
     /// Inner corners per column.
-    rows: usize,
+    pub rows: usize,
     /// Refinement method used.
-    refinement: CornerRefinement,
+    pub refinement: CornerRefinement,
     /// One entry per image, in sorted path order.
-    images: Vec<ImageCorners>,
+    pub images: Vec<ImageCorners>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let (cols, rows) = args.board;
+    let format = args.out.as_deref().map(|o| crate::files::output_format(o, None)).transpose()?;
+    if let (Some(out), Some(f)) = (&args.out, format) {
+        anyhow::ensure!(
+            matches!(f, parallax_interop::Format::Ron | parallax_interop::Format::Json),
+            "{}: corners are written as .ron or .json",
+            out.display()
+        );
+    }
     let paths = parallax_composition::io::expand_glob(&args.images)?;
     let cfg = ChessboardConfig { refinement: args.refine, ..ChessboardConfig::default() };
     let mut entries = Vec::new();
@@ -111,11 +119,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             time_ms: ms,
         });
     }
-    if let Some(out) = &args.out {
-        parallax_composition::io::write_ron(
-            out,
-            &CornersFile { cols, rows, refinement: args.refine, images: entries },
-        )?;
+    if let (Some(out), Some(format)) = (&args.out, format) {
+        let file = CornersFile { cols, rows, refinement: args.refine, images: entries };
+        crate::files::write_result(out, format, &file, None)?;
         println!("corners written to {}", out.display());
     }
     if let Some(dir) = &args.draw {

@@ -64,6 +64,10 @@ pub struct Args {
     /// Output directory (disparity.pfm, disparity16.png at 1/256 px, disparity_colour.png).
     #[arg(long)]
     out: PathBuf,
+    /// The rectification of the pair (`rectify`'s rectification file, any format; two files are
+    /// read together): adds points.ply and the depth figures.
+    #[arg(long, num_args = 1..=2)]
+    calib: Vec<PathBuf>,
 }
 
 enum Pair {
@@ -217,5 +221,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
     println!("seconds: {seconds:.6}");
     println!("mdes: {mdes:.0}");
+    if !args.calib.is_empty() {
+        crate::files::disparity_depth(&args.calib, &map, &args.out)?;
+    }
     Ok(ExitCode::SUCCESS)
 }

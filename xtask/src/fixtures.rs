@@ -149,6 +149,7 @@ mod tests {
             scene_width: 96,
             scene_height: 64,
             scene_max_disparity: 12.0,
+            handeye_stations: 1,
         };
         let files = fixture_files(&plan).unwrap();
         let a = temp("a");

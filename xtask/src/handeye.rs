@@ -5,9 +5,12 @@
 //! cargo xtask handeye --robot POSES --images 'data/franka_image-*.png' --board 9x6 --square 0.0236 --intrinsics franka_camera.xml
 //! ```
 //!
-//! Prints one line per method (`method: NAME tx: … rot_residual_deg: … trans_residual: …`),
-//! translation in the square-size unit (which must be the robot poses' unit), rotation as
-//! axis-angle in degrees; residuals are means over the station pairs of `A X = X B`.
+//! Prints one line per method (`method: NAME tx: ty: tz: qx: qy: qz: qw: rot_residual_deg: …
+//! trans_residual: …`, and `converged:` for the refinement), translation in the square-size unit
+//! (which must be the robot poses' unit), rotation as the unit quaternion `(x, y, z, w)`, `w ≥ 0`;
+//! under it the ROS `tf` line `x y z qx qy qz qw` and the rotation vector in radians; residuals
+//! are means over the station pairs of `A X = X B`. Ends with `key: value` lines of the result
+//! (the refined method, else the first that succeeded).
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -18,6 +21,8 @@ use parallax_hand_eye::io::{PoseFileFormat, parse_pose_file};
 use parallax_hand_eye::{
     ConsistencyConfig, HandEyeConfig, HandEyeSolution, Method, PairSelection, RefineConfig, Setup, calibrate,
 };
+use parallax_interop::{Calibration, HandEyeCalibration, HandEyeRecord, PoseRecord, Side};
+use serde::Serialize;
 
 /// Format of a pose file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -62,10 +67,14 @@ pub struct Args {
     /// Square size, in the robot poses' length unit (with `--images`).
     #[arg(long)]
     square: Option<f64>,
-    /// Camera intrinsics: ViSP XML (`perspectiveProjWithDistortion` when present, its `kud` as
-    /// OpenCV's k1, else the undistorted model) or a RON `Camera` (with `--images`).
+    /// Camera intrinsics (with `--images`): any calibration file in any format (a `calibrate`
+    /// result, mono or stereo, OpenCV YAML/XML, ROS camera_info, Kalibr, a RON `Camera`), or a
+    /// ViSP XML (`perspectiveProjWithDistortion` when present, its `kud` as OpenCV's k1).
     #[arg(long)]
     intrinsics: Option<PathBuf>,
+    /// Which camera of a stereo calibration given as --intrinsics: left or right.
+    #[arg(long, default_value = "left")]
+    camera: String,
     /// Method: all, tsai, park, horaud, andreff, daniilidis, rodrigues, refined, shah, li.
     #[arg(long, default_value = "all")]
     method: String,
@@ -79,9 +88,14 @@ pub struct Args {
     /// reuse with `--camera-poses`.
     #[arg(long)]
     save_camera_poses: Option<PathBuf>,
-    /// Write every solution (with residuals and covariance) to this RON file.
-    #[arg(long)]
-    output: Option<PathBuf>,
+    /// Write the result: `.ron` / `.json` (the chosen solution in every convention and every
+    /// solution with residuals and covariance), or `.yml` / `.yaml` / `.xml` (OpenCV FileStorage:
+    /// `R_cam2gripper`, `t_cam2gripper`, or `R_cam2base`, `t_cam2base` eye-to-hand).
+    #[arg(long, alias = "output")]
+    out: Option<PathBuf>,
+    /// Format of --out: ron, json or opencv (default: from the extension).
+    #[arg(long, requires = "out")]
+    format: Option<String>,
     /// Write `X` of the refined method (else the first that succeeded) as ViSP's `ePc` pose
     /// vector YAML (`eMc` 4x4 matrix when the name contains `eMc`).
     #[arg(long)]
@@ -160,12 +174,23 @@ fn camera_poses_from_images(args: &Args, robot: Vec<Isometry3>) -> anyhow::Resul
     let square = args.square.context("--square is required with --images")?;
     let board = parallax_camera_model::Chessboard::new(cols, rows, square)?;
     let intr = args.intrinsics.as_deref().context("--intrinsics is required with --images")?;
-    let ron_camera: Option<parallax_camera_model::Camera> =
-        if intr.extension().is_some_and(|e| e.eq_ignore_ascii_case("ron")) {
-            Some(parallax_composition::io::read_ron(intr)?)
-        } else {
-            None
-        };
+    let side = match args.camera.to_ascii_lowercase().as_str() {
+        "left" => Side::Left,
+        "right" => Side::Right,
+        other => anyhow::bail!("--camera {other:?}: left or right"),
+    };
+    let text = std::fs::read_to_string(intr).with_context(|| format!("reading {}", intr.display()))?;
+    let is_visp = text.trim_start().starts_with('<') && !parallax_interop::opencv::is_opencv_xml(&text);
+    let ron_camera: Option<parallax_camera_model::Camera> = if is_visp {
+        None
+    } else {
+        let calibration = crate::files::read_calibration(&[intr.to_path_buf()])?;
+        let camera = calibration.camera(side, &intr.display().to_string())?;
+        if matches!(calibration, Calibration::Stereo(_)) {
+            println!("  intrinsics: the {} camera of the stereo calibration", args.camera.to_ascii_lowercase());
+        }
+        Some(camera)
+    };
     let xml_intrinsics = match ron_camera {
         Some(_) => None,
         None => {
@@ -212,13 +237,16 @@ fn camera_poses_from_images(args: &Args, robot: Vec<Isometry3>) -> anyhow::Resul
 
 fn print_solution(s: &HandEyeSolution) {
     let t = s.transform.translation;
-    let r = s.transform.rvec() * (180.0 / std::f64::consts::PI);
-    let [qx, qy, qz, qw] = s.conventions().quaternion_xyzw;
+    let c = s.conventions();
+    let [qx, qy, qz, qw] = c.quaternion_xyzw;
     let converged = s.refinement.as_ref().map(|rf| format!(" converged: {}", rf.converged)).unwrap_or_default();
     println!(
-        "method: {} tx: {:.6} ty: {:.6} tz: {:.6} qx: {:.9} qy: {:.9} qz: {:.9} qw: {:.9} rx_deg: {:.4} ry_deg: {:.4} rz_deg: {:.4} rot_residual_deg: {:.4} trans_residual: {:.6}{converged}",
-        s.method, t.x, t.y, t.z, qx, qy, qz, qw, r.x, r.y, r.z, s.quality.mean_rotation_deg, s.quality.mean_translation
+        "method: {} tx: {:.6} ty: {:.6} tz: {:.6} qx: {:.9} qy: {:.9} qz: {:.9} qw: {:.9} rot_residual_deg: {:.4} trans_residual: {:.6}{converged}",
+        s.method, t.x, t.y, t.z, qx, qy, qz, qw, s.quality.mean_rotation_deg, s.quality.mean_translation
     );
+    let rv = c.rotation_vector;
+    println!("    tf (x y z qx qy qz qw): {}", c.tf_line());
+    println!("    rotation vector [{:.9}, {:.9}, {:.9}] rad", rv[0], rv[1], rv[2]);
     if let Some(rf) = &s.refinement {
         println!(
             "    {}; translation noise robot {:.6} camera {:.6} (data unit)",
@@ -249,7 +277,30 @@ fn print_solution(s: &HandEyeSolution) {
     }
 }
 
+/// What a RON / JSON `--out` holds: the chosen solution (the refined one, else the first that
+/// succeeded) in every convention — what other commands read back — and every solution.
+#[derive(Serialize)]
+struct HandEyeOutput<'a> {
+    result: HandEyeRecord,
+    solutions: Vec<SolutionRecord<'a>>,
+}
+
+/// One method's solution: `X` in every convention, then everything the solver reports.
+#[derive(Serialize)]
+struct SolutionRecord<'a> {
+    pose: PoseRecord,
+    solution: &'a HandEyeSolution,
+}
+
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let format = args.out.as_deref().map(|o| crate::files::output_format(o, args.format.as_deref())).transpose()?;
+    if let (Some(out), Some(f)) = (&args.out, format) {
+        ensure!(
+            !matches!(f, parallax_interop::Format::Ros | parallax_interop::Format::Kalibr),
+            "{}: a hand-eye result is written as ron, json or opencv (ROS camera_info and Kalibr hold cameras)",
+            out.display()
+        );
+    }
     let robot = read_poses(&args.robot, args.robot_format).with_context(|| format!("robot poses {:?}", args.robot))?;
     let (robot, camera) = match &args.camera_poses {
         Some(spec) => {
@@ -309,12 +360,20 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             }
         }
     }
-    if let Some(out) = &args.output {
-        parallax_composition::io::write_ron(out, &ok)?;
-        println!("wrote {}", out.display());
+    let chosen = ok.iter().find(|s| s.method == Method::Refined).or(ok.first());
+    if let (Some(out), Some(format)) = (&args.out, format) {
+        let s = chosen.context("no solution to write")?;
+        let result = HandEyeCalibration { setup: s.setup, transform: s.transform, method: Some(s.method.to_string()) };
+        let native = HandEyeOutput {
+            result: HandEyeRecord::of(&result),
+            solutions: ok.iter().map(|s| SolutionRecord { pose: PoseRecord::of(&s.transform), solution: s }).collect(),
+        };
+        for p in crate::files::write_result(out, format, &native, Some(&Calibration::HandEye(result)))? {
+            println!("wrote {} ({})", p.display(), format.name());
+        }
     }
     if let Some(out) = &args.save_visp {
-        let s = ok.iter().find(|s| s.method == Method::Refined).or(ok.first()).context("no solution to write")?;
+        let s = chosen.context("no solution to write")?;
         let emc = out.file_name().is_some_and(|n| n.to_string_lossy().contains("eMc"));
         let text = if emc {
             parallax_hand_eye::visp::homogeneous_matrix_yaml(&s.transform)
@@ -325,5 +384,15 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         println!("wrote {} ({} of {})", out.display(), if emc { "eMc" } else { "ePc" }, s.method);
     }
     println!("{} of {} methods succeeded", ok.len(), ok.len() + failed);
+    println!("succeeded: {}", ok.len());
+    println!("failed: {failed}");
+    if let Some(s) = chosen {
+        let c = s.conventions();
+        println!("result: {}", s.method);
+        println!("result_transform: {what}");
+        println!("result_tf: {}", c.tf_line());
+        let rv = c.rotation_vector;
+        println!("result_rotation_vector_rad: {} {} {}", rv[0], rv[1], rv[2]);
+    }
     Ok(if ok.is_empty() { ExitCode::FAILURE } else { ExitCode::SUCCESS })
 }

@@ -7,6 +7,7 @@ mod bench;
 mod calibrate;
 mod corners;
 mod disparity;
+mod files;
 mod fixtures;
 mod handeye;
 mod measure;

@@ -35,10 +35,10 @@ impl From<MethodArg> for Method {
 /// Arguments of `cargo xtask measure`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Stereo calibration: a RON file holding a `parallax_camera_model::StereoRig`, alone or as a field
-    /// of a larger result (the first value shaped like a rig is used).
-    #[arg(long)]
-    calib: PathBuf,
+    /// Stereo calibration, any format (detected from the content: `calibrate` or `rectify` output,
+    /// a rig, OpenCV YAML/XML, ROS camera_info left + right, Kalibr); two files are read together.
+    #[arg(long, num_args = 1..=2, required = true)]
+    calib: Vec<PathBuf>,
     /// Left image (optional: checks the image size against the calibration and that every
     /// point lies inside the image).
     #[arg(long)]
@@ -66,7 +66,8 @@ pub struct Args {
     /// Pixel noise per coordinate used for the uncertainties, pixels.
     #[arg(long, default_value_t = 0.1)]
     pixel_sigma: f64,
-    /// Write the measurement to this file (`.ron`, or `.csv` for points plus `<stem>_distances.csv`).
+    /// Write the measurement to this file (`.ron`, `.json`, or `.csv` for points plus
+    /// `<stem>_distances.csv`).
     #[arg(long)]
     out: Option<PathBuf>,
 }
@@ -123,7 +124,12 @@ fn parse_pairs(points: &str, right_points: Option<&str>) -> anyhow::Result<Vec<(
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let rig = parallax_composition::io::load_rig(&args.calib)?;
+    if let Some(out) = &args.out {
+        let csv = out.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+        let native = out.extension().is_some_and(|e| e.eq_ignore_ascii_case("ron") || e.eq_ignore_ascii_case("json"));
+        ensure!(csv || native, "{}: a measurement is written as .ron, .json or .csv", out.display());
+    }
+    let rig = crate::files::read_calibration(&args.calib)?.into_stereo(&args.calib[0].display().to_string())?.rig;
     let mut images = Vec::new();
     for (side, path, cam) in [("left", &args.left, &rig.left), ("right", &args.right, &rig.right)] {
         let Some(path) = path else { continue };
@@ -210,7 +216,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     }
     if let Some(out) = &args.out {
-        m.write(out).with_context(|| format!("writing {}", out.display()))?;
+        if out.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
+            let text = parallax_interop::native_string(&m, parallax_interop::Format::Json)?;
+            parallax_composition::io::write_atomic(out, text.as_bytes())?;
+        } else {
+            m.write(out).with_context(|| format!("writing {}", out.display()))?;
+        }
         println!("wrote {}", out.display());
     }
     let worst = m.points.iter().map(|p| p.reprojection_error).fold(0.0, f64::max);
@@ -221,6 +232,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         worst,
         flagged
     );
+    println!("points: {}", m.points.len());
+    println!("distances: {}", m.distances.len());
+    for d in &m.distances {
+        println!("distance_{}_{}: {:.6}", d.from, d.to, d.distance);
+    }
+    println!("worst_reprojection_px: {worst:.6}");
+    println!("flagged: {flagged}");
     Ok(if flagged == 0 { ExitCode::SUCCESS } else { ExitCode::from(2) })
 }
 

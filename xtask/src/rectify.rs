@@ -1,9 +1,12 @@
-//! `cargo xtask rectify --calib FILE.ron --left L.png --right R.png --out DIR`: Bouguet
-//! rectification of one stereo pair with the `stereo-rectify` crate. Writes the rectified
-//! images (`left_rectified.png`, `right_rectified.png`, same pixel type as the input: 8/16-bit
-//! grey or RGB), `side_by_side.png` with guide lines along the epipolar direction (horizontal
-//! lines for a horizontal rig, the pair stacked with vertical lines for a vertical one) and
-//! `rectification.ron` (`R1`, `R2`, `P1`, `P2`, `Q`, ROIs).
+//! `cargo xtask rectify --calib FILE --left L.png --right R.png --out DIR`: Bouguet
+//! rectification of one stereo pair with the `stereo-rectify` crate. `--calib` is any stereo
+//! calibration in any format (`calibrate`'s result, a rig, OpenCV YAML/XML — also OpenCV's
+//! `intrinsics.yml extrinsics.yml` pair —, two ROS camera_info files, a Kalibr camchain). Writes
+//! the rectified images (`left_rectified.png`, `right_rectified.png`, same pixel type as the
+//! input: 8/16-bit grey or RGB), `side_by_side.png` with guide lines along the epipolar
+//! direction (horizontal lines for a horizontal rig, the pair stacked with vertical lines for a
+//! vertical one) and the rectification (`rectification.ron` by default, `--format` for json /
+//! opencv / ros): the rig with `R1 R2 P1 P2 Q` (row-major), image size and ROIs.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -12,17 +15,18 @@ use std::time::Instant;
 use anyhow::Context;
 use image::{DynamicImage, GenericImageView, Luma, Rgb, RgbImage};
 
+use parallax_interop::{Calibration, RectificationMatrices, RectifiedRecord, StereoCalibration};
 use parallax_stereo_rectify::{Border, ExtentMethod, Image, Rectifier, RectifyConfig};
 
-use parallax_composition::io::{save_png, write_ron};
+use parallax_composition::io::save_png;
 
 /// Arguments of `cargo xtask rectify`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Stereo calibration (RON): a `parallax_camera_model::StereoRig`, or any result holding one in a
-    /// `rig` field (planar-calibration's `StereoCalibrationResult`).
-    #[arg(long)]
-    calib: PathBuf,
+    /// Stereo calibration, any format (detected from the content); two files are read together
+    /// (OpenCV intrinsics.yml + extrinsics.yml, or ROS camera_info left + right).
+    #[arg(long, num_args = 1..=2, required = true)]
+    calib: Vec<PathBuf>,
     /// Left image.
     #[arg(long)]
     left: PathBuf,
@@ -32,6 +36,10 @@ pub struct Args {
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
+    /// Format of the rectification file in --out: ron (rectification.ron, default), json, opencv
+    /// (rectification.yml), ros (rectification_left.yaml, rectification_right.yaml).
+    #[arg(long, default_value = "ron")]
+    format: String,
     /// Free scaling: 0 = only valid pixels, 1 = keep every source pixel; a negative value
     /// selects OpenCV's default (no scaling).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
@@ -47,8 +55,24 @@ pub struct Args {
     line_spacing: u32,
 }
 
+/// `rectify`'s default rectification (alpha 0: only valid pixels, zero disparity at infinity,
+/// OpenCV's extents); `calibrate` writes the same into its result.
+pub fn default_config() -> RectifyConfig {
+    parallax_interop::default_rectify_config()
+}
+
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let rig = parallax_composition::io::load_rig(&args.calib)?;
+    let ext = match args.format.to_ascii_lowercase().as_str() {
+        "ron" => "ron",
+        "json" => "json",
+        "opencv" => "yml",
+        "ros" => "yaml",
+        other => anyhow::bail!("--format {other:?}: the rectification is written as ron, json, opencv or ros"),
+    };
+    let rect_path = args.out.join(format!("rectification.{ext}"));
+    let format = crate::files::output_format(&rect_path, Some(&args.format))?;
+    let stereo = crate::files::read_calibration(&args.calib)?.into_stereo(&args.calib[0].display().to_string())?;
+    let rig = stereo.rig;
     let left = image::open(&args.left).with_context(|| format!("reading image {}", args.left.display()))?;
     let right = image::open(&args.right).with_context(|| format!("reading image {}", args.right.display()))?;
     for (what, img, path) in [("left", &left, &args.left), ("right", &right, &args.right)] {
@@ -66,9 +90,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     anyhow::ensure!(args.line_spacing > 0, "--line-spacing must be positive");
     let config = RectifyConfig {
         alpha: (args.alpha >= 0.0).then_some(args.alpha),
-        new_size: None,
         zero_disparity: !args.no_zero_disparity,
         extents: if args.exact_extents { ExtentMethod::Exact } else { ExtentMethod::OpenCv },
+        ..default_config()
     };
     let t0 = Instant::now();
     let rectifier = Rectifier::new(&rig, &config).context("rectifying the rig")?;
@@ -97,26 +121,36 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let t_remap = t1.elapsed();
     let side = side_by_side(&l, &r, rect.vertical, args.line_spacing);
     save_png(&args.out.join("side_by_side.png"), &side)?;
-    write_ron(&args.out.join("rectification.ron"), &rect)?;
+    let calibration = StereoCalibration { rectification: Some(RectificationMatrices::from(&rect)), ..stereo };
+    let native = RectifiedRecord::of(&calibration, &rect);
+    let written = crate::files::write_result(&rect_path, format, &native, Some(&Calibration::Stereo(calibration)))?;
 
     let p2 = rect.p2.rows;
-    println!("rectify: {} ({} rig)", args.calib.display(), if rect.vertical { "vertical" } else { "horizontal" });
+    println!("rectify: {} rig", if rect.vertical { "vertical" } else { "horizontal" });
     println!("  alpha {:?}, zero disparity {}, extents {:?}", config.alpha, config.zero_disparity, config.extents);
-    println!("  focal_px: {:.4}", rect.focal());
-    println!("  principal_point_left: ({:.4}, {:.4})", rect.p1.rows[0][2], rect.p1.rows[1][2]);
-    println!("  principal_point_right: ({:.4}, {:.4})", p2[0][2], p2[1][2]);
-    println!("  rectified_baseline: {:.4}", rect.rectified_baseline());
-    println!("  roi_left: {:?}", rect.roi1);
-    println!("  roi_right: {:?}", rect.roi2);
     println!(
         "  maps {:.2} ms, remap pair {:.2} ms (first run, includes thread start-up)",
         t_maps.as_secs_f64() * 1e3,
         t_remap.as_secs_f64() * 1e3
     );
-    println!(
-        "  wrote left_rectified.png, right_rectified.png, side_by_side.png, rectification.ron to {}",
-        args.out.display()
-    );
+    println!("wrote left_rectified.png, right_rectified.png, side_by_side.png to {}", args.out.display());
+    for p in &written {
+        println!("wrote {} ({})", p.display(), format.name());
+    }
+    println!("focal_px: {:.6}", rect.focal());
+    println!("principal_point_left_u: {:.6}", rect.p1.rows[0][2]);
+    println!("principal_point_left_v: {:.6}", rect.p1.rows[1][2]);
+    println!("principal_point_right_u: {:.6}", p2[0][2]);
+    println!("principal_point_right_v: {:.6}", p2[1][2]);
+    println!("rectified_baseline: {:.6}", rect.rectified_baseline());
+    println!("vertical: {}", rect.vertical);
+    for (name, roi) in [("roi_left", rect.roi1), ("roi_right", rect.roi2)] {
+        println!("{name}_x: {}", roi.x);
+        println!("{name}_y: {}", roi.y);
+        println!("{name}_width: {}", roi.width);
+        println!("{name}_height: {}", roi.height);
+    }
+    println!("rectification: {}", written[0].display());
     Ok(ExitCode::SUCCESS)
 }
 

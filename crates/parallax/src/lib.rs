@@ -16,6 +16,7 @@
 //! | [`hand_eye`] | `parallax-hand-eye` | `AX = XB` (Tsai, Park, Horaud, Andreff, Daniilidis, refined) |
 //! | [`synthetic`] | `parallax-synthetic` | rendered scenes with exact ground truth |
 //! | [`pipeline`] | `parallax-composition` | one function per stage, the whole chain, reports |
+//! | [`interop`] | `parallax-interop` | calibration files: OpenCV YAML/XML, ROS camera_info, Kalibr, JSON, RON |
 //!
 //! The whole path — detect → calibrate → undistort → save — on six rendered views of a 9x6
 //! board with 25 mm squares (the fixture set `fixtures/mono` of the repository):
@@ -50,11 +51,23 @@
 //! let map = parallax::rectify::init_undistort_map(&result.camera, result.camera.intrinsics.matrix(), w, h)?;
 //! let undistorted = parallax::rectify::remap(&images[0], &map, Interpolation::Bilinear, Border::Constant(image::Luma([0u8])))?;
 //!
-//! // Save: the image and the calibration (RON, the native format).
+//! // Save: the image and the calibration (RON, the native format; and as OpenCV FileStorage
+//! // YAML, which `cv2.FileStorage` reads, through the interop module).
 //! let out = std::env::temp_dir().join(format!("parallax-doc-{}", std::process::id()));
 //! std::fs::create_dir_all(&out)?;
 //! undistorted.save(out.join("undistorted.png"))?;
 //! parallax::pipeline::io::write_ron(&out.join("calibration.ron"), &result)?;
+//! let mono = parallax::interop::MonoCalibration {
+//!     camera: result.camera,
+//!     rms_px: Some(result.rms_px),
+//!     per_view_rms_px: result.per_view_rms_px.clone(),
+//! };
+//! let calibration = parallax::interop::Calibration::Mono(mono);
+//! let yml = out.join("calibration.yml");
+//! for (path, text) in parallax::interop::render(&calibration, parallax::interop::Format::OpenCvYaml, &yml)? {
+//!     std::fs::write(path, text)?;
+//! }
+//! assert_eq!(parallax::interop::read(&[&yml])?.0, calibration);
 //! # std::fs::remove_dir_all(&out)?;
 //! # Ok(())
 //! # }
@@ -68,6 +81,7 @@ pub use parallax_camera_model as camera;
 pub use parallax_composition as pipeline;
 pub use parallax_corner_detection as corners;
 pub use parallax_hand_eye as hand_eye;
+pub use parallax_interop as interop;
 pub use parallax_least_squares as least_squares;
 pub use parallax_planar_calibration as calibration;
 pub use parallax_stereo_rectify as rectify;

@@ -1,5 +1,6 @@
-//! The files a chain run leaves for the user: results in RON, overlays, the rectified pair,
-//! the disparity map, the point cloud. The report lists the images with captions.
+//! The files a chain run leaves for the user: results in RON (the records of `parallax_interop`:
+//! every matrix row-major, rotations also as matrices, readable by every command), overlays, the
+//! rectified pair, the disparity map, the point cloud. The report lists the images with captions.
 
 use std::path::Path;
 
@@ -35,10 +36,17 @@ pub fn write_artifacts(dir: &Path, input: &ChainInput, out: &ChainOutput) -> Res
         images.push((name, format!("detected corners, left view {i}")));
     }
     if let Ok(c) = &out.calibration {
-        io::write_ron(&dir.join("calibration.ron"), c)?;
-    }
-    if let Ok(r) = &out.rectified {
-        io::write_ron(&dir.join("rectification.ron"), &r.rectification)?;
+        let rectified = out.rectified.as_ref().ok().map(|r| &r.rectification);
+        let calibration = parallax_interop::StereoCalibration {
+            rig: c.rig,
+            rectification: rectified.map(parallax_interop::RectificationMatrices::from),
+            rms_px: Some(c.rms_px),
+            per_view_rms_px: c.per_view_rms_px.clone(),
+        };
+        io::write_ron(&dir.join("calibration.ron"), &parallax_interop::StereoRecord::of(&calibration))?;
+        if let Some(r) = rectified {
+            io::write_ron(&dir.join("rectification.ron"), &parallax_interop::RectifiedRecord::of(&calibration, r))?;
+        }
     }
     if let Ok((l, r)) = &out.rectified_view {
         io::save_png(&dir.join("rectified-pair.png"), &side_by_side(l, r))?;
@@ -62,7 +70,21 @@ pub fn write_artifacts(dir: &Path, input: &ChainInput, out: &ChainOutput) -> Res
         io::write_atomic(&dir.join("cloud.ply"), &bytes)?;
     }
     if let Ok(he) = &out.hand_eye {
-        io::write_ron(&dir.join("handeye.ron"), &he.solution)?;
+        let s = &he.solution;
+        let result = parallax_interop::HandEyeCalibration {
+            setup: s.setup,
+            transform: s.transform,
+            method: Some(s.method.to_string()),
+        };
+        #[derive(serde::Serialize)]
+        struct HandEyeArtifact<'a> {
+            result: parallax_interop::HandEyeRecord,
+            solution: &'a parallax_hand_eye::HandEyeSolution,
+        }
+        io::write_ron(
+            &dir.join("handeye.ron"),
+            &HandEyeArtifact { result: parallax_interop::HandEyeRecord::of(&result), solution: s },
+        )?;
     }
     if let Ok(m) = &out.measurement {
         io::write_ron(&dir.join("measurement.ron"), &m.measurement)?;

@@ -11,6 +11,10 @@
 //! stereo/{left,right}_NN.png + truth.ron stereo session (easy scene, first 5 views)
 //! stereo-scene-{easy,hard}/              rectified pair, disparity.pfm, masks, truth.ron
 //! handeye/{eye-in-hand,eye-to-hand}.ron  robot trajectories with true hand-eye
+//! handeye/station_NN.png + robot_poses.ron  the first eye-in-hand stations rendered by the
+//!                                          stereo rig's left camera, and their robot poses
+//!                                          (`base_from_gripper`, a RON list) — the README's
+//!                                          `handeye` example
 //! ```
 
 use std::path::PathBuf;
@@ -38,11 +42,20 @@ pub struct FixturePlan {
     pub scene_height: u32,
     /// Largest disparity of the stereo scenes.
     pub scene_max_disparity: f64,
+    /// Rendered eye-in-hand stations (images + robot poses).
+    pub handeye_stations: usize,
 }
 
 impl Default for FixturePlan {
     fn default() -> Self {
-        Self { mono_views: 6, stereo_views: 5, scene_width: 320, scene_height: 240, scene_max_disparity: 32.0 }
+        Self {
+            mono_views: 6,
+            stereo_views: 5,
+            scene_width: 320,
+            scene_height: 240,
+            scene_max_disparity: 32.0,
+            handeye_stations: 6,
+        }
     }
 }
 
@@ -200,6 +213,19 @@ pub fn fixture_files(plan: &FixturePlan) -> Result<Vec<(PathBuf, Vec<u8>)>> {
     for (scene, name) in [(&easy, "eye-in-hand"), (&eye_to_hand, "eye-to-hand")] {
         let trajectory = hand_eye_trajectory(&scene.trajectory)?;
         let truth = TrajectoryTruth { unit: scene.unit.clone(), config: scene.trajectory.clone(), trajectory };
+        if truth.trajectory.eye_in_hand {
+            // Board images of the first stations, seen by the rig's left camera at the
+            // trajectory's camera poses, with their robot poses.
+            let n = plan.handeye_stations.min(truth.trajectory.base_from_gripper.len());
+            for (i, pose) in truth.trajectory.camera_from_board.iter().take(n).enumerate() {
+                let opts =
+                    RenderOptions { seed: scene.render.seed.wrapping_add(7000 + i as u64), ..scene.render.clone() };
+                let view = parallax_synthetic::render_chessboard(&scene.rig.left, &scene.board, pose, &opts)?;
+                put(&format!("handeye/station_{i:02}.png"), png_bytes(&view.image)?);
+            }
+            let robot: Vec<Isometry3> = truth.trajectory.base_from_gripper.iter().take(n).copied().collect();
+            put("handeye/robot_poses.ron", to_ron(&robot)?.into_bytes());
+        }
         put(&format!("handeye/{name}.ron"), to_ron(&truth)?.into_bytes());
     }
     files.sort_by(|a, b| a.0.cmp(&b.0));
@@ -224,6 +250,7 @@ mod tests {
             scene_width: 96,
             scene_height: 64,
             scene_max_disparity: 12.0,
+            handeye_stations: 1,
         };
         let a = fixture_files(&plan).unwrap();
         let b = fixture_files(&plan).unwrap();

@@ -1,4 +1,5 @@
-//! Files: atomic output, RON, images and globs — the one copy every command uses.
+//! Files: atomic output, RON, images and globs — the one copy every command uses. Calibration
+//! files in every format are read by `parallax_interop` (one reader).
 
 use std::path::{Path, PathBuf};
 
@@ -47,42 +48,6 @@ pub fn write_ron<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
 pub fn read_ron<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
     let text = std::fs::read_to_string(path).map_err(io_err("reading", path))?;
     ron::from_str(&text).map_err(|e| PipelineError::Format { path: path.to_path_buf(), message: e.to_string() })
-}
-
-/// The first value in a RON document that deserialises as a `StereoRig` (depth-first).
-fn find_rig(value: &ron::Value) -> Option<parallax_camera_model::StereoRig> {
-    if let Ok(rig) = value.clone().into_rust::<parallax_camera_model::StereoRig>() {
-        return Some(rig);
-    }
-    match value {
-        ron::Value::Map(m) => m.values().find_map(find_rig),
-        ron::Value::Seq(s) => s.iter().find_map(find_rig),
-        ron::Value::Option(Some(v)) => find_rig(v),
-        _ => None,
-    }
-}
-
-/// Reads a stereo rig from a RON file holding a `StereoRig`, or any result that contains one
-/// (a stereo calibration result, the `calibrate` command's output with its `result.rig`, ...);
-/// the rig is validated (both cameras, a proper rotation, a non-zero baseline).
-pub fn load_rig(path: &Path) -> Result<parallax_camera_model::StereoRig> {
-    let text = std::fs::read_to_string(path).map_err(io_err("reading", path))?;
-    let rig = match ron::from_str::<parallax_camera_model::StereoRig>(&text) {
-        Ok(rig) => rig,
-        Err(direct) => {
-            let value: ron::Value = ron::from_str(&text)
-                .map_err(|e| PipelineError::Format { path: path.to_path_buf(), message: e.to_string() })?;
-            find_rig(&value).ok_or_else(|| PipelineError::Format {
-                path: path.to_path_buf(),
-                message: format!(
-                    "no stereo rig (left, right, right_from_left) found: not a StereoRig ({direct}) and no value \
-                     inside holds one"
-                ),
-            })?
-        }
-    };
-    parallax_camera_model::StereoRig::new(rig.left, rig.right, rig.right_from_left)
-        .map_err(|e| PipelineError::Format { path: path.to_path_buf(), message: format!("invalid stereo rig: {e}") })
 }
 
 /// Largest image accepted by [`load_image`]: 2^28 pixels (e.g. 16384 x 16384), and at most
@@ -228,36 +193,6 @@ mod tests {
         let err = load_gray(Path::new("/nonexistent/x.png")).unwrap_err();
         assert!(err.to_string().contains("/nonexistent/x.png"), "{err}");
         assert!(expand_glob("/nonexistent/*.png").is_err());
-    }
-
-    #[test]
-    fn finds_a_rig_alone_or_nested_in_a_result() {
-        use glam::DVec3;
-        use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
-        let cam = Camera::new(Intrinsics::new(800.0, 800.0, 320.0, 240.0), Distortion::default(), 640, 480).unwrap();
-        let rig =
-            StereoRig::new(cam, cam, Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(-100.0, 0.0, 0.0))).unwrap();
-        let dir = temp("rig");
-        let alone = dir.join("rig.ron");
-        write_ron(&alone, &rig).unwrap();
-        assert_eq!(load_rig(&alone).unwrap(), rig);
-        #[derive(serde::Serialize)]
-        struct Inner {
-            rms: f64,
-            rig: StereoRig,
-        }
-        #[derive(serde::Serialize)]
-        struct Outer {
-            images: Vec<String>,
-            result: Inner,
-        }
-        let nested = dir.join("calib.ron");
-        write_ron(&nested, &Outer { images: vec!["a.png".into()], result: Inner { rms: 0.2, rig } }).unwrap();
-        assert!((load_rig(&nested).unwrap().baseline() - 100.0).abs() < 1e-12);
-        let junk = dir.join("junk.ron");
-        write_atomic(&junk, b"(a: 1)").unwrap();
-        assert!(load_rig(&junk).unwrap_err().to_string().contains("junk.ron"));
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -1,0 +1,551 @@
+//! From a value tree (any format, parsed) to a [`Calibration`]: the shapes every format uses,
+//! found wherever they sit in the document.
+
+use glam::{DMat3, DVec3};
+use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, ProjectionMatrix, StereoRig};
+use parallax_hand_eye::Setup;
+use serde_json::{Map, Value};
+
+use crate::error::{Result, content, model};
+use crate::model::{Calibration, HandEyeCalibration, MonoCalibration, RectificationMatrices, StereoCalibration, mat3};
+
+/// A matrix in any of the written forms: `{rows, cols, data}` (OpenCV, ROS), nested rows
+/// (native files, Kalibr) or a flat list (a vector: `1 x n`). Returns `(rows, cols, row-major)`.
+pub fn matrix(v: &Value, key: &str, what: &str) -> Result<(usize, usize, Vec<f64>)> {
+    let number = |x: &Value| x.as_f64().ok_or_else(|| content(what, format!("{key}: {x} is not a number")));
+    match v {
+        Value::Object(m) if m.contains_key("data") => {
+            let data: Vec<f64> = match &m["data"] {
+                Value::Array(a) => a.iter().map(number).collect::<Result<_>>()?,
+                other => return Err(content(what, format!("{key}: data is {other}, not a list of numbers"))),
+            };
+            let dim = |k: &str| m.get(k).and_then(Value::as_u64).map(|n| n as usize);
+            let (rows, cols) = match (dim("rows"), dim("cols")) {
+                (Some(r), Some(c)) => (r, c),
+                _ => return Err(content(what, format!("{key}: a matrix needs integer `rows` and `cols`"))),
+            };
+            if let Some(dt) = m.get("dt").and_then(Value::as_str).filter(|dt| !matches!(*dt, "d" | "f")) {
+                return Err(content(what, format!("{key}: element type dt: {dt} (expected d or f)")));
+            }
+            if rows * cols != data.len() {
+                return Err(content(
+                    what,
+                    format!("{key}: rows {rows} x cols {cols} = {} but data has {} values", rows * cols, data.len()),
+                ));
+            }
+            Ok((rows, cols, data))
+        }
+        Value::Array(a) if a.iter().all(Value::is_array) && !a.is_empty() => {
+            let rows: Vec<Vec<f64>> = a
+                .iter()
+                .map(|r| r.as_array().into_iter().flatten().map(number).collect::<Result<Vec<f64>>>())
+                .collect::<Result<_>>()?;
+            let cols = rows[0].len();
+            if rows.iter().any(|r| r.len() != cols) {
+                return Err(content(what, format!("{key}: rows of different lengths")));
+            }
+            Ok((rows.len(), cols, rows.concat()))
+        }
+        Value::Array(a) => Ok((1, a.len(), a.iter().map(number).collect::<Result<_>>()?)),
+        other => Err(content(what, format!("{key}: {other} is not a matrix"))),
+    }
+}
+
+fn get<'a>(o: &'a Map<String, Value>, key: &str, what: &str) -> Result<&'a Value> {
+    o.get(key).ok_or_else(|| content(what, format!("no `{key}`")))
+}
+
+/// A 3x3 matrix.
+pub fn mat3_of(v: &Value, key: &str, what: &str) -> Result<DMat3> {
+    match matrix(v, key, what)? {
+        (3, 3, d) => Ok(mat3(&[[d[0], d[1], d[2]], [d[3], d[4], d[5]], [d[6], d[7], d[8]]])),
+        (r, c, _) => Err(content(what, format!("{key} is {r}x{c}, expected 3x3"))),
+    }
+}
+
+fn vector(v: &Value, key: &str, what: &str) -> Result<Vec<f64>> {
+    let (r, c, d) = matrix(v, key, what)?;
+    if r != 1 && c != 1 {
+        return Err(content(what, format!("{key} is {r}x{c}, expected a vector")));
+    }
+    Ok(d)
+}
+
+fn vec3(v: &Value, key: &str, what: &str) -> Result<DVec3> {
+    match vector(v, key, what)?.as_slice() {
+        [x, y, z] => Ok(DVec3::new(*x, *y, *z)),
+        d => Err(content(what, format!("{key} has {} values, expected 3", d.len()))),
+    }
+}
+
+fn rows_n<const C: usize, const R: usize>(v: &Value, key: &str, what: &str) -> Result<[[f64; C]; R]> {
+    match matrix(v, key, what)? {
+        (r, c, d) if r == R && c == C => Ok(std::array::from_fn(|i| std::array::from_fn(|j| d[i * C + j]))),
+        (r, c, _) => Err(content(what, format!("{key} is {r}x{c}, expected {R}x{C}"))),
+    }
+}
+
+/// A rotation given as a 3x3 matrix or a Rodrigues vector (both are accepted by OpenCV).
+fn rotation(v: &Value, key: &str, what: &str) -> Result<DMat3> {
+    match matrix(v, key, what)? {
+        (3, 3, _) => mat3_of(v, key, what),
+        (r, c, d) if r * c == 3 => {
+            Ok(Isometry3::from_rvec_tvec(DVec3::new(d[0], d[1], d[2]), DVec3::ZERO).rotation_matrix())
+        }
+        (r, c, _) => Err(content(what, format!("{key} is {r}x{c}: expected a 3x3 rotation or a 3-vector"))),
+    }
+}
+
+fn size(o: &Map<String, Value>, w: &str, h: &str, what: &str) -> Result<(u32, u32)> {
+    let dim = |k: &str| -> Result<u32> {
+        o.get(k).and_then(Value::as_u64).and_then(|n| u32::try_from(n).ok()).ok_or_else(|| {
+            content(
+                what,
+                format!(
+                    "no image size (`{w}`, `{h}`): the camera model needs the size its parameters belong to; add them"
+                ),
+            )
+        })
+    };
+    Ok((dim(w)?, dim(h)?))
+}
+
+/// A camera from `K`, a distortion vector and a size, with every check.
+pub fn camera(k: DMat3, d: &[f64], width: u32, height: u32, what: &str) -> Result<Camera> {
+    let below = [k.x_axis.y, k.x_axis.z, k.y_axis.z];
+    if below.iter().any(|v| *v != 0.0) {
+        return Err(content(what, format!("camera matrix is not upper triangular ({below:?} below the diagonal)")));
+    }
+    let intrinsics = Intrinsics::from_matrix(k).map_err(model(what))?;
+    let mut c = [0.0; 8];
+    match d.len() {
+        0 => {}
+        4 | 5 | 8 => c[..d.len()].copy_from_slice(d),
+        n if n > 8 && d[8..].iter().all(|v| *v == 0.0) => c.copy_from_slice(&d[..8]),
+        n => {
+            return Err(content(
+                what,
+                format!(
+                    "{n} distortion coefficients: this camera model takes k1 k2 p1 p2 [k3 [k4 k5 k6]] \
+                     (thin-prism and tilt terms must be zero)"
+                ),
+            ));
+        }
+    }
+    Camera::new(intrinsics, Distortion::from_array(c), width, height).map_err(model(what))
+}
+
+fn rms_of(o: &Map<String, Value>) -> Option<f64> {
+    ["avg_reprojection_error", "rms_px", "rms"].iter().find_map(|k| o.get(*k).and_then(Value::as_f64))
+}
+
+fn per_view_mono(o: &Map<String, Value>, what: &str) -> Result<Vec<f64>> {
+    for key in ["per_view_reprojection_errors", "per_view_rms_px"] {
+        if let Some(v) = o.get(key) {
+            return vector(v, key, what);
+        }
+    }
+    Ok(Vec::new())
+}
+
+fn per_view_stereo(o: &Map<String, Value>, what: &str) -> Result<Vec<[f64; 2]>> {
+    for key in ["per_view_reprojection_errors", "per_view_rms_px"] {
+        if let Some(v) = o.get(key) {
+            return match matrix(v, key, what)? {
+                (_, 2, d) => Ok(d.chunks(2).map(|c| [c[0], c[1]]).collect()),
+                (r, c, _) => Err(content(what, format!("{key} is {r}x{c}, expected N x 2 (left, right)"))),
+            };
+        }
+    }
+    Ok(Vec::new())
+}
+
+fn rig(left: Camera, right: Camera, r: DMat3, t: DVec3, what: &str) -> Result<StereoRig> {
+    let right_from_left = Isometry3::from_rotation_translation(r, t).map_err(model(what))?;
+    StereoRig::new(left, right, right_from_left).map_err(model(what))
+}
+
+/// OpenCV's stereo keys (`stereo_calib.cpp`): `M1 D1 M2 D2 R T` and optionally
+/// `R1 R2 P1 P2 Q`; the image size from `image_width`/`image_height` (also `imageSize`).
+fn opencv_stereo(o: &Map<String, Value>, what: &str) -> Result<StereoCalibration> {
+    let (w, h) = if let Some(s) = o.get("imageSize").or_else(|| o.get("image_size")) {
+        match vector(s, "imageSize", what)?.as_slice() {
+            [w, h] if *w >= 1.0 && *h >= 1.0 => (*w as u32, *h as u32),
+            _ => return Err(content(what, "imageSize must be [width, height]")),
+        }
+    } else {
+        size(o, "image_width", "image_height", what)?
+    };
+    let (rw, rh) = match (o.get("right_image_width"), o.get("right_image_height")) {
+        (Some(_), Some(_)) => size(o, "right_image_width", "right_image_height", what)?,
+        _ => (w, h),
+    };
+    let left =
+        camera(mat3_of(get(o, "M1", what)?, "M1", what)?, &vector(get(o, "D1", what)?, "D1", what)?, w, h, what)?;
+    let right =
+        camera(mat3_of(get(o, "M2", what)?, "M2", what)?, &vector(get(o, "D2", what)?, "D2", what)?, rw, rh, what)?;
+    let rig = rig(left, right, rotation(get(o, "R", what)?, "R", what)?, vec3(get(o, "T", what)?, "T", what)?, what)?;
+    let rect_keys = ["R1", "R2", "P1", "P2", "Q"];
+    let present: Vec<_> = rect_keys.iter().filter(|k| o.get(**k).is_some_and(|v| !v.is_null())).collect();
+    let rectification = if present.is_empty() {
+        None
+    } else if present.len() < rect_keys.len() {
+        return Err(content(what, format!("rectification incomplete: has {present:?} of {rect_keys:?}")));
+    } else {
+        Some(RectificationMatrices {
+            r1: mat3_of(&o["R1"], "R1", what)?,
+            r2: mat3_of(&o["R2"], "R2", what)?,
+            p1: ProjectionMatrix { rows: rows_n::<4, 3>(&o["P1"], "P1", what)? },
+            p2: ProjectionMatrix { rows: rows_n::<4, 3>(&o["P2"], "P2", what)? },
+            q: rows_n::<4, 4>(&o["Q"], "Q", what)?,
+        })
+    };
+    for (key, expected) in [("E", rig.essential()), ("F", rig.fundamental())] {
+        if let Some(v) = o.get(key) {
+            let m = mat3_of(v, key, what)?;
+            // E and F are defined up to scale: compare the normalised matrices (sign too).
+            let unit = |m: DMat3| m / m.to_cols_array().iter().map(|x| x * x).sum::<f64>().sqrt();
+            let (a, b) = (unit(m), unit(expected));
+            let largest = |m: DMat3| m.to_cols_array().iter().fold(0.0f64, |acc, x| acc.max(x.abs()));
+            let same = largest(a - b) < 1e-6 || largest(a + b) < 1e-6;
+            if !same {
+                return Err(content(
+                    what,
+                    format!("{key} does not agree with M1 M2 R T (normalised difference {:.3e})", largest(a - b)),
+                ));
+            }
+        }
+    }
+    Ok(StereoCalibration { rig, rectification, rms_px: rms_of(o), per_view_rms_px: per_view_stereo(o, what)? })
+}
+
+/// OpenCV's mono keys (`calibration.cpp`) or ROS `camera_info`: `camera_matrix`,
+/// `distortion_coefficients`, `image_width`, `image_height`.
+fn opencv_mono(o: &Map<String, Value>, what: &str) -> Result<MonoCalibration> {
+    let (w, h) = size(o, "image_width", "image_height", what)?;
+    let d = vector(get(o, "distortion_coefficients", what)?, "distortion_coefficients", what)?;
+    if let Some(model_name) = o.get("distortion_model").and_then(Value::as_str) {
+        let expected = match model_name {
+            "plumb_bob" => 5,
+            "rational_polynomial" => 8,
+            other => {
+                return Err(content(
+                    what,
+                    format!("distortion_model: {other} is not supported (plumb_bob or rational_polynomial)"),
+                ));
+            }
+        };
+        if d.len() != expected && !d.is_empty() {
+            return Err(content(what, format!("{model_name} takes {expected} coefficients, the file has {}", d.len())));
+        }
+    }
+    let camera = camera(mat3_of(get(o, "camera_matrix", what)?, "camera_matrix", what)?, &d, w, h, what)?;
+    Ok(MonoCalibration { camera, rms_px: rms_of(o), per_view_rms_px: per_view_mono(o, what)? })
+}
+
+/// Kalibr's camchain: `cam0` (and `cam1` with `T_cn_cnm1` = `cam1_from_cam0`).
+fn kalibr_camera(o: &Map<String, Value>, name: &str, what: &str) -> Result<Camera> {
+    let cam = get(o, name, what)?.as_object().ok_or_else(|| content(what, format!("{name} is not a map")))?;
+    let model = cam.get("camera_model").and_then(Value::as_str).unwrap_or("pinhole");
+    if model != "pinhole" {
+        return Err(content(what, format!("{name}: camera_model {model} is not supported (pinhole)")));
+    }
+    let dist_model = cam.get("distortion_model").and_then(Value::as_str).unwrap_or("radtan");
+    if dist_model != "radtan" {
+        return Err(content(
+            what,
+            format!("{name}: distortion_model {dist_model} is not supported (radtan = OpenCV's k1 k2 p1 p2)"),
+        ));
+    }
+    let i = vector(get(cam, "intrinsics", what)?, "intrinsics", what)?;
+    let [fu, fv, pu, pv] = i[..] else {
+        return Err(content(what, format!("{name}: intrinsics has {} values, expected [fu, fv, pu, pv]", i.len())));
+    };
+    let d = vector(get(cam, "distortion_coeffs", what)?, "distortion_coeffs", what)?;
+    if d.len() != 4 {
+        return Err(content(what, format!("{name}: radtan takes 4 distortion_coeffs, got {}", d.len())));
+    }
+    let r = vector(get(cam, "resolution", what)?, "resolution", what)?;
+    let [w, h] = r[..] else { return Err(content(what, format!("{name}: resolution must be [width, height]"))) };
+    let k = Intrinsics::new(fu, fv, pu, pv).matrix();
+    camera(k, &d, w as u32, h as u32, what)
+}
+
+fn kalibr(o: &Map<String, Value>, what: &str) -> Result<Calibration> {
+    let left = kalibr_camera(o, "cam0", what)?;
+    if !o.contains_key("cam1") {
+        return Ok(Calibration::Mono(MonoCalibration { camera: left, rms_px: None, per_view_rms_px: Vec::new() }));
+    }
+    if o.contains_key("cam2") {
+        return Err(content(what, "more than two cameras (cam2): give a camchain with cam0 and cam1"));
+    }
+    let right = kalibr_camera(o, "cam1", what)?;
+    let cam1 = o["cam1"].as_object().expect("checked by kalibr_camera");
+    let t = rows_n::<4, 4>(get(cam1, "T_cn_cnm1", what)?, "T_cn_cnm1", what)?;
+    if t[3] != [0.0, 0.0, 0.0, 1.0] {
+        return Err(content(what, format!("cam1.T_cn_cnm1: last row {:?} is not [0, 0, 0, 1]", t[3])));
+    }
+    let r = mat3(&[[t[0][0], t[0][1], t[0][2]], [t[1][0], t[1][1], t[1][2]], [t[2][0], t[2][1], t[2][2]]]);
+    let rig = rig(left, right, r, DVec3::new(t[0][3], t[1][3], t[2][3]), what)?;
+    Ok(Calibration::Stereo(StereoCalibration { rig, rectification: None, rms_px: None, per_view_rms_px: Vec::new() }))
+}
+
+/// Hand-eye keys: OpenCV's `calibrateHandEye` outputs (`R_cam2gripper`, `t_cam2gripper`; eye-to-hand
+/// `R_cam2base`, `t_cam2base`).
+fn opencv_hand_eye(o: &Map<String, Value>, what: &str) -> Result<Option<HandEyeCalibration>> {
+    for (r, t, setup) in
+        [("R_cam2gripper", "t_cam2gripper", Setup::EyeInHand), ("R_cam2base", "t_cam2base", Setup::EyeToHand)]
+    {
+        if let (Some(rv), Some(tv)) = (o.get(r), o.get(t)) {
+            let transform = Isometry3::from_rotation_translation(rotation(rv, r, what)?, vec3(tv, t, what)?)
+                .map_err(model(what))?;
+            let method = o.get("method").and_then(Value::as_str).map(str::to_string);
+            return Ok(Some(HandEyeCalibration { setup, transform, method }));
+        }
+    }
+    Ok(None)
+}
+
+fn is_camera_shape(o: &Map<String, Value>) -> bool {
+    ["intrinsics", "distortion", "width", "height"].iter().all(|k| o.contains_key(*k))
+}
+
+fn is_rig_shape(o: &Map<String, Value>) -> bool {
+    ["left", "right", "right_from_left"].iter().all(|k| o.contains_key(*k))
+}
+
+fn from_native<T: serde::de::DeserializeOwned>(v: &Value, key: &str, what: &str) -> Result<T> {
+    serde_json::from_value(v.clone()).map_err(|e| content(what, format!("{key}: {e}")))
+}
+
+/// Largest relative difference between two rigs' parameters (for the consistency check of a
+/// native file's `rig` against its `opencv` matrices).
+fn rig_difference(a: &StereoRig, b: &StereoRig) -> f64 {
+    let cam = |c: &Camera| {
+        let k = c.intrinsics;
+        let mut v = vec![k.fx, k.fy, k.cx, k.cy, k.skew];
+        v.extend(c.distortion.to_array());
+        v
+    };
+    let mut worst: f64 = 0.0;
+    for (x, y) in cam(&a.left).iter().chain(&cam(&a.right)).zip(cam(&b.left).iter().chain(&cam(&b.right))) {
+        worst = worst.max((x - y).abs() / x.abs().max(1.0));
+    }
+    let ra = a.right_from_left.rotation_matrix().to_cols_array();
+    let rb = b.right_from_left.rotation_matrix().to_cols_array();
+    for (x, y) in ra.iter().zip(&rb) {
+        worst = worst.max((x - y).abs());
+    }
+    let (ta, tb) = (a.right_from_left.translation, b.right_from_left.translation);
+    worst.max((ta - tb).length() / ta.length().max(1e-300))
+}
+
+/// Stereo shapes at one node: `{rig: StereoRig, ...}`, a bare `StereoRig`, OpenCV's `M1 … T`,
+/// Kalibr's `cam0` + `cam1`.
+fn stereo_at(o: &Map<String, Value>, what: &str) -> Result<Option<StereoCalibration>> {
+    if let Some(Value::Object(r)) = o.get("rig")
+        && is_rig_shape(r)
+    {
+        let rig: StereoRig = from_native(&o["rig"], "rig", what)?;
+        let rig = StereoRig::new(rig.left, rig.right, rig.right_from_left).map_err(model(what))?;
+        let mut rectification = None;
+        if let Some(Value::Object(m)) = o.get("opencv")
+            && m.contains_key("M1")
+        {
+            let cv = opencv_stereo(m, what)?;
+            let diff = rig_difference(&rig, &cv.rig);
+            if diff > 1e-9 {
+                return Err(content(
+                    what,
+                    format!(
+                        "`rig` and the `opencv` matrices disagree (largest relative difference {diff:.3e}): the file \
+                         was edited in one place only; edit `rig` (what is read) and delete `opencv`, or fix both"
+                    ),
+                ));
+            }
+            rectification = cv.rectification;
+        }
+        let rms_px = o.get("rms_px").and_then(Value::as_f64);
+        let per_view_rms_px = per_view_stereo(o, what)?;
+        return Ok(Some(StereoCalibration { rig, rectification, rms_px, per_view_rms_px }));
+    }
+    if is_rig_shape(o) {
+        let rig: StereoRig = from_native(&Value::Object(o.clone()), "rig", what)?;
+        let rig = StereoRig::new(rig.left, rig.right, rig.right_from_left).map_err(model(what))?;
+        return Ok(Some(StereoCalibration { rig, rectification: None, rms_px: None, per_view_rms_px: Vec::new() }));
+    }
+    if ["M1", "D1", "M2", "D2", "R", "T"].iter().all(|k| o.contains_key(*k)) {
+        return opencv_stereo(o, what).map(Some);
+    }
+    if o.contains_key("cam0") && o.contains_key("cam1") {
+        return match kalibr(o, what)? {
+            Calibration::Stereo(s) => Ok(Some(s)),
+            _ => Ok(None),
+        };
+    }
+    Ok(None)
+}
+
+fn mono_at(o: &Map<String, Value>, what: &str) -> Result<Option<MonoCalibration>> {
+    if let Some(Value::Object(c)) = o.get("camera")
+        && is_camera_shape(c)
+    {
+        let camera: Camera = from_native(&o["camera"], "camera", what)?;
+        camera.validate().map_err(model(what))?;
+        if let Some(Value::Object(m)) = o.get("opencv")
+            && m.contains_key("camera_matrix")
+        {
+            let cv = opencv_mono(m, what)?;
+            let same = StereoRig { left: camera, right: camera, right_from_left: Isometry3::IDENTITY };
+            let other = StereoRig { left: cv.camera, right: cv.camera, right_from_left: Isometry3::IDENTITY };
+            let diff = rig_difference(&same, &other);
+            if diff > 1e-9 || (camera.width, camera.height) != (cv.camera.width, cv.camera.height) {
+                return Err(content(
+                    what,
+                    format!("`camera` and the `opencv` matrices disagree (relative difference {diff:.3e})"),
+                ));
+            }
+        }
+        let rms_px = o.get("rms_px").and_then(Value::as_f64);
+        return Ok(Some(MonoCalibration { camera, rms_px, per_view_rms_px: per_view_mono(o, what)? }));
+    }
+    if is_camera_shape(o) {
+        let camera: Camera = from_native(&Value::Object(o.clone()), "camera", what)?;
+        camera.validate().map_err(model(what))?;
+        return Ok(Some(MonoCalibration { camera, rms_px: None, per_view_rms_px: Vec::new() }));
+    }
+    if o.contains_key("camera_matrix") && o.contains_key("distortion_coefficients") {
+        return opencv_mono(o, what).map(Some);
+    }
+    if o.contains_key("cam0") {
+        return match kalibr(o, what)? {
+            Calibration::Mono(m) => Ok(Some(m)),
+            _ => Ok(None),
+        };
+    }
+    Ok(None)
+}
+
+fn hand_eye_at(o: &Map<String, Value>, what: &str) -> Result<Option<HandEyeCalibration>> {
+    if let (Some(t), Some(s)) = (o.get("transform"), o.get("setup"))
+        && t.is_object()
+    {
+        let transform: Isometry3 = from_native(t, "transform", what)?;
+        let setup = s
+            .as_str()
+            .and_then(crate::model::setup_from_name)
+            .ok_or_else(|| content(what, format!("setup: {s} is not eye_in_hand or eye_to_hand")))?;
+        let method = o.get("method").and_then(|m| m.as_str().map(str::to_string));
+        return Ok(Some(HandEyeCalibration { setup, transform, method }));
+    }
+    opencv_hand_eye(o, what)
+}
+
+/// Every object of the tree, breadth-first (the shallowest match wins).
+fn objects(root: &Value) -> Vec<&Map<String, Value>> {
+    let mut out = Vec::new();
+    let mut queue = std::collections::VecDeque::from([root]);
+    while let Some(v) = queue.pop_front() {
+        match v {
+            Value::Object(m) => {
+                out.push(m);
+                queue.extend(m.values());
+            }
+            Value::Array(a) => queue.extend(a.iter()),
+            _ => {}
+        }
+    }
+    out
+}
+
+/// The calibration a document holds: a stereo rig first (a stereo result also holds cameras),
+/// then a camera, then a hand-eye transform; the shallowest one of each kind.
+pub fn interpret(root: &Value, what: &str) -> Result<Calibration> {
+    let nodes = objects(root);
+    for o in &nodes {
+        if let Some(s) = stereo_at(o, what)? {
+            return Ok(Calibration::Stereo(s));
+        }
+    }
+    for o in &nodes {
+        if let Some(m) = mono_at(o, what)? {
+            return Ok(Calibration::Mono(m));
+        }
+    }
+    for o in &nodes {
+        if let Some(h) = hand_eye_at(o, what)? {
+            return Ok(Calibration::HandEye(h));
+        }
+    }
+    let keys: Vec<&String> = match root {
+        Value::Object(m) => m.keys().take(12).collect(),
+        _ => Vec::new(),
+    };
+    Err(content(
+        what,
+        format!(
+            "no calibration found (top-level keys {keys:?}): expected a result of `calibrate` or `handeye`, a \
+             parallax StereoRig or Camera, OpenCV FileStorage keys (camera_matrix/distortion_coefficients or \
+             M1 D1 M2 D2 R T), a ROS camera_info or a Kalibr camchain"
+        ),
+    ))
+}
+
+/// A rig from two ROS `camera_info` documents (left, then right): `R = R2ᵀ R1`,
+/// `T = R2ᵀ (t2 − t1)` with `tᵢ = K'⁻¹ Pᵢ[:, 3]` (the rectified right camera sits at `t2 − t1` in
+/// the rectified left frame).
+pub fn rig_from_ros_pair(left: &Value, right: &Value, what: &str) -> Result<StereoCalibration> {
+    let part = |v: &Value, side: &str| -> Result<(Camera, DMat3, [[f64; 4]; 3])> {
+        let o = v.as_object().ok_or_else(|| content(what, format!("{side}: not a camera_info map")))?;
+        let m = opencv_mono(o, what)?;
+        let r = mat3_of(get(o, "rectification_matrix", what)?, "rectification_matrix", what)?;
+        let p = rows_n::<4, 3>(get(o, "projection_matrix", what)?, "projection_matrix", what)?;
+        Ok((m.camera, r, p))
+    };
+    let (lc, r1, p1) = part(left, "left")?;
+    let (rc, r2, p2) = part(right, "right")?;
+    let t = |p: &[[f64; 4]; 3]| -> Result<DVec3> {
+        let k = mat3(&[[p[0][0], p[0][1], p[0][2]], [p[1][0], p[1][1], p[1][2]], [p[2][0], p[2][1], p[2][2]]]);
+        if k.determinant().abs() < 1e-12 {
+            return Err(content(what, "projection_matrix: singular left 3x3 block"));
+        }
+        Ok(k.inverse() * DVec3::new(p[0][3], p[1][3], p[2][3]))
+    };
+    let (t1, t2) = (t(&p1)?, t(&p2)?);
+    if t2.length() == 0.0 && t1.length() > 0.0 {
+        return Err(content(
+            what,
+            "the first camera_info has the baseline in its projection matrix and the second none: give the left \
+             camera's file first",
+        ));
+    }
+    if (t2 - t1).length() == 0.0 {
+        return Err(content(
+            what,
+            "both projection matrices have zero baseline: these are not a rectified stereo pair",
+        ));
+    }
+    let r = r2.transpose() * r1;
+    let rig = rig(lc, rc, r, r2.transpose() * (t2 - t1), what)?;
+    let q = q_from(&p1, &p2);
+    Ok(StereoCalibration {
+        rig,
+        rectification: Some(RectificationMatrices {
+            r1,
+            r2,
+            p1: ProjectionMatrix { rows: p1 },
+            p2: ProjectionMatrix { rows: p2 },
+            q,
+        }),
+        rms_px: None,
+        per_view_rms_px: Vec::new(),
+    })
+}
+
+/// OpenCV's `Q` of a horizontal rectified pair from `P1`, `P2` (`stereoRectify`'s formula).
+fn q_from(p1: &[[f64; 4]; 3], p2: &[[f64; 4]; 3]) -> [[f64; 4]; 4] {
+    let f = p1[0][0];
+    let (cx1, cy, cx2) = (p1[0][2], p1[1][2], p2[0][2]);
+    let tx = p2[0][3] / p2[0][0];
+    [[1.0, 0.0, 0.0, -cx1], [0.0, 1.0, 0.0, -cy], [0.0, 0.0, 0.0, f], [0.0, 0.0, -1.0 / tx, (cx1 - cx2) / tx]]
+}

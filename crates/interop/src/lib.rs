@@ -1,0 +1,291 @@
+//! Calibration files that other tools read and write.
+//!
+//! One model ([`Calibration`]: a mono camera, a stereo rig with its rectification, or a hand-eye
+//! transform) and six formats, each read and written:
+//!
+//! | [`Format`] | files | holds |
+//! |---|---|---|
+//! | `Ron` | `.ron` | the project's native records (a `rig`/`camera`/`transform` in the project's own form, plus the same values under OpenCV's names, row-major) |
+//! | `Json` | `.json` | the same records as JSON (serde) |
+//! | `OpenCvYaml` | `.yml`, `.yaml` | OpenCV `FileStorage` YAML: `%YAML:1.0`, `!!opencv-matrix` (`rows cols dt data`) |
+//! | `OpenCvXml` | `.xml` | OpenCV `FileStorage` XML: `<opencv_storage>`, `type_id="opencv-matrix"` |
+//! | `Ros` | `--format ros` | ROS `camera_info` YAML, one file per camera (`<stem>_left.yaml`, `<stem>_right.yaml`) |
+//! | `Kalibr` | `--format kalibr` | Kalibr camchain YAML (`cam0`, `cam1`, pinhole-radtan, `T_cn_cnm1`) |
+//!
+//! Key names are OpenCV's calibration samples': mono `camera_matrix`, `distortion_coefficients`,
+//! `image_width`, `image_height`, `avg_reprojection_error`, `per_view_reprojection_errors`; stereo
+//! `M1 D1 M2 D2 R T E F R1 R2 P1 P2 Q` (one file, or `stereo_calib.cpp`'s `intrinsics.yml` and
+//! `extrinsics.yml` given together); hand-eye `R_cam2gripper`/`t_cam2gripper` (eye-to-hand
+//! `R_cam2base`/`t_cam2base`), the names of `calibrateHandEye`'s outputs.
+//!
+//! Lengths (`T`, `P2`'s baseline column, `T_cn_cnm1`, hand-eye translations) are written in the
+//! calibration's own unit (the board square's); ROS and Kalibr expect metres.
+//!
+//! **Reading detects the format from the content** ([`detect`]), whatever the extension, and
+//! finds the calibration wherever it sits in the document ([`read`]): a result file of any
+//! `cargo xtask` command, a bare `StereoRig` or `Camera`, OpenCV, ROS or Kalibr keys. A stereo
+//! rig is preferred over a camera (a stereo result holds two), the shallowest match wins, and a
+//! native file whose `rig` and `opencv` matrices disagree is refused (it was edited in one place).
+//!
+//! **One matrix layout**: every matrix in the native records is row-major nested arrays,
+//! `m[row][col]` (numpy's `np.array(m)`); rotations are also given as 3x3 matrices
+//! ([`PoseRecord`]: translation, quaternion `(x, y, z, w)`, rotation matrix, rotation vector in
+//! radians and the ROS `tf` line `x y z qx qy qz qw`).
+//!
+//! ```
+//! use parallax_interop::{Calibration, Format, MonoCalibration, parse, render};
+//! use parallax_interop::parallax_camera_model::{Camera, Distortion, Intrinsics};
+//!
+//! let camera = Camera::new(
+//!     Intrinsics::new(600.0, 601.0, 320.5, 240.25),
+//!     Distortion::new(-0.12, 0.05, 5e-4, -3e-4, 0.0),
+//!     640,
+//!     480,
+//! )
+//! .unwrap();
+//! let mono = Calibration::Mono(MonoCalibration { camera, rms_px: Some(0.12), per_view_rms_px: vec![] });
+//! for format in [Format::OpenCvYaml, Format::OpenCvXml, Format::Json, Format::Ron, Format::Ros, Format::Kalibr] {
+//!     let files = render(&mono, format, "camera.yml".as_ref()).unwrap();
+//!     let (back, detected) = parse(&files[0].1, "camera").unwrap();
+//!     assert_eq!(detected, format);
+//!     // Every format holds the camera exactly (Kalibr and ROS drop the RMS).
+//!     assert_eq!(back.camera(Default::default(), "camera").unwrap(), camera);
+//! }
+//! let yaml = &render(&mono, Format::OpenCvYaml, "camera.yml".as_ref()).unwrap()[0].1;
+//! assert!(yaml.starts_with("%YAML:1.0\n---\n") && yaml.contains("camera_matrix: !!opencv-matrix"));
+//! ```
+
+mod error;
+mod interpret;
+mod model;
+pub mod opencv;
+mod write;
+
+use std::path::Path;
+
+pub use glam;
+pub use parallax_camera_model;
+
+pub use error::{InteropError, Result};
+pub use interpret::{interpret, rig_from_ros_pair};
+pub use model::{
+    Calibration, HandEyeCalibration, HandEyeRecord, MonoCalibration, MonoMatrices, MonoRecord, PoseRecord,
+    RectificationMatrices, RectifiedRecord, Rows3, Side, StereoCalibration, StereoMatrices, StereoRecord,
+    distortion_vector, mat3, rows3, setup_from_name, setup_name,
+};
+pub use write::{native_string, opencv_entries, record_string, render, ros_pair_paths};
+
+use error::{content, syntax};
+use serde_json::Value;
+
+/// A file format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// RON, the native format.
+    Ron,
+    /// JSON.
+    Json,
+    /// OpenCV `FileStorage` YAML.
+    OpenCvYaml,
+    /// OpenCV `FileStorage` XML.
+    OpenCvXml,
+    /// ROS `camera_info` YAML.
+    Ros,
+    /// Kalibr camchain YAML.
+    Kalibr,
+}
+
+/// The `--format` names and extensions, for messages.
+pub const FORMATS: &str =
+    "ron (.ron), json (.json), opencv (.yml, .yaml, .xml), ros (camera_info .yaml), kalibr (camchain .yaml)";
+
+impl Format {
+    /// The `--format` name (`opencv` for both OpenCV forms).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Ron => "ron",
+            Self::Json => "json",
+            Self::OpenCvYaml => "opencv",
+            Self::OpenCvXml => "opencv (xml)",
+            Self::Ros => "ros",
+            Self::Kalibr => "kalibr",
+        }
+    }
+
+    /// The output format of `path`: `explicit` (`ron`, `json`, `opencv`, `ros`, `kalibr`; `opencv`
+    /// is XML for a `.xml` path, YAML otherwise) or the extension (`.ron`, `.json`,
+    /// `.yml`/`.yaml`/`.xml` = OpenCV). Anything else is refused with the list of formats.
+    pub fn for_output(path: &Path, explicit: Option<&str>) -> Result<Self> {
+        let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+        let refuse = |what: String| {
+            InteropError::Unsupported(format!(
+                "{what}: the formats are {FORMATS}; choose with the extension or --format"
+            ))
+        };
+        match explicit.map(str::to_ascii_lowercase).as_deref() {
+            Some("ron") => Ok(Self::Ron),
+            Some("json") => Ok(Self::Json),
+            Some("opencv") if ext.as_deref() == Some("xml") => Ok(Self::OpenCvXml),
+            Some("opencv") => Ok(Self::OpenCvYaml),
+            Some("ros") => Ok(Self::Ros),
+            Some("kalibr") => Ok(Self::Kalibr),
+            Some(other) => Err(refuse(format!("unknown format {other:?}"))),
+            None => match ext.as_deref() {
+                Some("ron") => Ok(Self::Ron),
+                Some("json") => Ok(Self::Json),
+                Some("yml" | "yaml") => Ok(Self::OpenCvYaml),
+                Some("xml") => Ok(Self::OpenCvXml),
+                Some(e) => Err(refuse(format!("{}: unknown extension .{e}", path.display()))),
+                None => Err(refuse(format!("{}: no extension", path.display()))),
+            },
+        }
+    }
+}
+
+/// RON as a value tree (struct names dropped, fields as map keys).
+fn ron_value(text: &str, what: &str) -> Result<Value> {
+    let v: ron::Value = ron::from_str(text).map_err(|e| syntax(what, format!("RON: {e}")))?;
+    serde_json::to_value(v).map_err(|e| syntax(what, format!("RON value: {e}")))
+}
+
+/// Kalibr (`cam0`) or ROS (`distortion_model`, `projection_matrix`) by their keys.
+fn yaml_kind(v: &Value) -> Option<Format> {
+    let o = v.as_object()?;
+    if o.contains_key("cam0") {
+        Some(Format::Kalibr)
+    } else if o.contains_key("distortion_model") || o.contains_key("projection_matrix") {
+        Some(Format::Ros)
+    } else {
+        None
+    }
+}
+
+/// The format of `text` (from the content, not the name) and its value tree.
+pub fn detect(text: &str, what: &str) -> Result<(Format, Value)> {
+    if opencv::is_opencv_xml(text) {
+        return Ok((Format::OpenCvXml, opencv::parse_xml(text, what)?));
+    }
+    if text.trim_start().starts_with('<') {
+        return Err(syntax(
+            what,
+            "XML without <opencv_storage>: not an OpenCV FileStorage file (a ViSP camera file is read by \
+             `handeye --intrinsics` only)",
+        ));
+    }
+    if opencv::is_opencv_yaml(text) {
+        let v = opencv::parse_yaml(text, what)?;
+        // A `%YAML` directive alone does not make a file OpenCV's: ROS and Kalibr files may
+        // carry one too.
+        let format = yaml_kind(&v).unwrap_or(Format::OpenCvYaml);
+        return Ok((format, v));
+    }
+    if let Ok(v) = serde_json::from_str::<Value>(text) {
+        return Ok((Format::Json, v));
+    }
+    let ron_result = ron_value(text, what);
+    if let Ok(v) = ron_result {
+        return Ok((Format::Ron, v));
+    }
+    match opencv::parse_yaml(text, what) {
+        Ok(v @ Value::Object(_)) => {
+            let format = yaml_kind(&v).unwrap_or(Format::OpenCvYaml);
+            Ok((format, v))
+        }
+        _ => Err(syntax(
+            what,
+            format!(
+                "not a calibration file in any known format ({FORMATS}); as RON: {}",
+                ron_result.err().map(|e| e.to_string()).unwrap_or_default()
+            ),
+        )),
+    }
+}
+
+/// The calibration in `text` and the detected format (`what` names it in errors).
+pub fn parse(text: &str, what: &str) -> Result<(Calibration, Format)> {
+    let (format, value) = detect(text, what)?;
+    Ok((interpret(&value, what)?, format))
+}
+
+fn read_text(path: &Path) -> Result<String> {
+    std::fs::read_to_string(path).map_err(|source| InteropError::Io { path: path.to_path_buf(), source })
+}
+
+/// The calibration in one file, or in two read together: OpenCV's `intrinsics.yml` +
+/// `extrinsics.yml` (their keys merged), or two ROS `camera_info` files, left then right
+/// (the rig from their rectification and projection matrices). Returns the formats found.
+pub fn read<P: AsRef<Path>>(paths: &[P]) -> Result<(Calibration, Vec<Format>)> {
+    match paths {
+        [one] => {
+            let p = one.as_ref();
+            let (c, f) = parse(&read_text(p)?, &p.display().to_string())?;
+            Ok((c, vec![f]))
+        }
+        [a, b] => {
+            let (a, b) = (a.as_ref(), b.as_ref());
+            let what = format!("{} + {}", a.display(), b.display());
+            let (fa, va) = detect(&read_text(a)?, &a.display().to_string())?;
+            let (fb, vb) = detect(&read_text(b)?, &b.display().to_string())?;
+            if fa == Format::Ros && fb == Format::Ros {
+                return Ok((Calibration::Stereo(rig_from_ros_pair(&va, &vb, &what)?), vec![fa, fb]));
+            }
+            let (Value::Object(mut merged), Value::Object(second)) = (va, vb) else {
+                return Err(content(&what, "two files are read together only when both are key-value maps"));
+            };
+            for (k, v) in second {
+                match merged.get(&k) {
+                    Some(old) if *old != v => {
+                        return Err(content(&what, format!("both files define `{k}`, with different values")));
+                    }
+                    _ => {
+                        merged.insert(k, v);
+                    }
+                }
+            }
+            Ok((interpret(&Value::Object(merged), &what)?, vec![fa, fb]))
+        }
+        _ => Err(InteropError::Unsupported(format!(
+            "{} calibration files given: give one, or two read together (OpenCV intrinsics + extrinsics, or ROS \
+             camera_info left + right)",
+            paths.len()
+        ))),
+    }
+}
+
+/// A native result file (RON or JSON, detected from the content) deserialised as `T`: for the
+/// commands' own files that are not calibrations (corner lists, measurements).
+pub fn read_native<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
+    let what = path.display().to_string();
+    let text = read_text(path)?;
+    match detect(&text, &what)? {
+        (Format::Json, _) => serde_json::from_str(&text).map_err(|e| content(&what, format!("JSON: {e}"))),
+        (Format::Ron, _) => ron::from_str(&text).map_err(|e| content(&what, format!("RON: {e}"))),
+        (other, _) => Err(content(&what, format!("a {} file; this input is read from ron or json", other.name()))),
+    }
+}
+
+/// A stereo calibration from [`read`], or an error naming what the files hold instead.
+pub fn read_stereo<P: AsRef<Path>>(paths: &[P]) -> Result<StereoCalibration> {
+    let names: Vec<String> = paths.iter().map(|p| p.as_ref().display().to_string()).collect();
+    read(paths)?.0.into_stereo(&names.join(" + "))
+}
+
+/// The rectification written into calibration files when none is given, and `cargo xtask
+/// rectify`'s default: OpenCV's `stereoRectify` with `alpha = 0` (only valid pixels) and
+/// `CALIB_ZERO_DISPARITY`, OpenCV's extents — one setting, so that every file's `R1 R2 P1 P2 Q`
+/// matches the images `rectify` produces by default.
+pub fn default_rectify_config() -> parallax_stereo_rectify::RectifyConfig {
+    parallax_stereo_rectify::RectifyConfig {
+        alpha: Some(0.0),
+        new_size: None,
+        zero_disparity: true,
+        extents: parallax_stereo_rectify::ExtentMethod::OpenCv,
+    }
+}
+
+/// `R1 R2 P1 P2 Q` of `rig` with [`default_rectify_config`].
+pub fn rectify_default(rig: &parallax_camera_model::StereoRig) -> Result<RectificationMatrices> {
+    let r = parallax_stereo_rectify::stereo_rectify(rig, &default_rectify_config())
+        .map_err(|e| InteropError::Unsupported(format!("rectifying the rig: {e}")))?;
+    Ok(RectificationMatrices::from(&r))
+}

@@ -1,0 +1,422 @@
+//! What a calibration file holds, and the row-major records the native (RON / JSON) files use.
+
+use glam::{DMat3, DVec3};
+use parallax_camera_model::{Camera, Isometry3, ProjectionMatrix, StereoRig};
+use parallax_hand_eye::{PoseConventions, Setup};
+use parallax_stereo_rectify::Rectification;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Result, content};
+
+/// A 3x3 matrix as row-major nested arrays, `m[row][col]` (numpy's `np.array(m)`).
+pub type Rows3 = [[f64; 3]; 3];
+
+/// The rows of `m`.
+pub fn rows3(m: &DMat3) -> Rows3 {
+    std::array::from_fn(|r| std::array::from_fn(|c| m.col(c)[r]))
+}
+
+/// The matrix of row-major `rows`.
+pub fn mat3(rows: &Rows3) -> DMat3 {
+    DMat3::from_cols(
+        DVec3::new(rows[0][0], rows[1][0], rows[2][0]),
+        DVec3::new(rows[0][1], rows[1][1], rows[2][1]),
+        DVec3::new(rows[0][2], rows[1][2], rows[2][2]),
+    )
+}
+
+/// A mono camera calibration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MonoCalibration {
+    /// The camera (intrinsics, distortion, image size).
+    pub camera: Camera,
+    /// RMS reprojection error over all corners, pixels (OpenCV's `avg_reprojection_error`).
+    pub rms_px: Option<f64>,
+    /// RMS reprojection error per view, pixels.
+    pub per_view_rms_px: Vec<f64>,
+}
+
+/// The rectification matrices of a stereo rig, as OpenCV's `stereoRectify` returns them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RectificationMatrices {
+    /// `rectified_from_left` rotation.
+    pub r1: DMat3,
+    /// `rectified_from_right` rotation.
+    pub r2: DMat3,
+    /// Left rectified projection, 3x4.
+    pub p1: ProjectionMatrix,
+    /// Right rectified projection, 3x4.
+    pub p2: ProjectionMatrix,
+    /// Disparity-to-depth matrix, rows.
+    pub q: [[f64; 4]; 4],
+}
+
+impl From<&Rectification> for RectificationMatrices {
+    fn from(r: &Rectification) -> Self {
+        Self { r1: r.r1, r2: r.r2, p1: r.p1, p2: r.p2, q: r.q }
+    }
+}
+
+/// A stereo calibration: the rig, optionally its rectification and the fit's errors.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StereoCalibration {
+    /// Both cameras and `right_from_left` (OpenCV's `R`, `T`).
+    pub rig: StereoRig,
+    /// `R1 R2 P1 P2 Q`, when the file holds them.
+    pub rectification: Option<RectificationMatrices>,
+    /// RMS reprojection error over both cameras, pixels.
+    pub rms_px: Option<f64>,
+    /// Per view `[left, right]` RMS, pixels.
+    pub per_view_rms_px: Vec<[f64; 2]>,
+}
+
+/// A hand-eye calibration result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HandEyeCalibration {
+    /// Eye-in-hand (`transform` = `gripper_from_camera`) or eye-to-hand (`base_from_camera`).
+    pub setup: Setup,
+    /// `gripper_from_camera` (eye-in-hand) or `base_from_camera` (eye-to-hand).
+    pub transform: Isometry3,
+    /// The method that produced it, when known.
+    pub method: Option<String>,
+}
+
+impl HandEyeCalibration {
+    /// The name of `transform` for this setup.
+    pub fn transform_name(&self) -> &'static str {
+        match self.setup {
+            Setup::EyeInHand => "gripper_from_camera",
+            Setup::EyeToHand => "base_from_camera",
+        }
+    }
+}
+
+/// Any calibration-like result a file can hold.
+// One value per file read: the size difference between the variants costs nothing.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, PartialEq)]
+pub enum Calibration {
+    /// One camera.
+    Mono(MonoCalibration),
+    /// A stereo rig.
+    Stereo(StereoCalibration),
+    /// A hand-eye transform.
+    HandEye(HandEyeCalibration),
+}
+
+/// Which camera of a stereo calibration to take where one camera is needed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Side {
+    /// The left (reference) camera: OpenCV's `M1 D1`, Kalibr's `cam0`.
+    #[default]
+    Left,
+    /// The right camera: `M2 D2`, `cam1`.
+    Right,
+}
+
+impl Calibration {
+    /// `"mono camera"`, `"stereo rig"` or `"hand-eye transform"` (for messages).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Self::Mono(_) => "mono camera calibration",
+            Self::Stereo(_) => "stereo calibration",
+            Self::HandEye(_) => "hand-eye transform",
+        }
+    }
+
+    /// The stereo calibration, or an error naming what the file holds instead.
+    pub fn into_stereo(self, what: &str) -> Result<StereoCalibration> {
+        match self {
+            Self::Stereo(s) => Ok(s),
+            other => Err(content(
+                what,
+                format!(
+                    "holds a {}, not a stereo rig: give the output of `calibrate --right ...` (or two ROS \
+                     camera_info files, left then right, or OpenCV's intrinsics.yml and extrinsics.yml)",
+                    other.kind()
+                ),
+            )),
+        }
+    }
+
+    /// One camera: the mono calibration's, or the chosen side of a stereo rig.
+    pub fn camera(&self, side: Side, what: &str) -> Result<Camera> {
+        match (self, side) {
+            (Self::Mono(m), _) => Ok(m.camera),
+            (Self::Stereo(s), Side::Left) => Ok(s.rig.left),
+            (Self::Stereo(s), Side::Right) => Ok(s.rig.right),
+            (Self::HandEye(_), _) => {
+                Err(content(what, "holds a hand-eye transform, not camera intrinsics: give a calibrate result"))
+            }
+        }
+    }
+}
+
+/// A rigid transform in every common convention, for the native files: translation,
+/// quaternion `(x, y, z, w)` with `w ≥ 0`, row-major rotation matrix, rotation vector in radians
+/// (OpenCV's `rvec`) and the ROS `tf` order `x y z qx qy qz qw`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PoseRecord {
+    /// `[x, y, z]`, the data's length unit.
+    pub translation: [f64; 3],
+    /// Unit quaternion `[x, y, z, w]`, `w ≥ 0`.
+    pub quaternion_xyzw: [f64; 4],
+    /// Rotation matrix, row-major.
+    pub rotation_matrix: Rows3,
+    /// Rotation vector (axis × angle), radians.
+    pub rotation_vector_rad: [f64; 3],
+    /// ROS `tf` order: `x y z qx qy qz qw` (what `static_transform_publisher` takes).
+    pub tf: String,
+}
+
+impl PoseRecord {
+    /// Every form of `t`.
+    pub fn of(t: &Isometry3) -> Self {
+        let c = PoseConventions::of(t);
+        Self {
+            translation: c.translation,
+            quaternion_xyzw: c.quaternion_xyzw,
+            rotation_matrix: c.matrix_row_major,
+            rotation_vector_rad: c.rotation_vector,
+            tf: c.tf_line(),
+        }
+    }
+}
+
+/// The OpenCV-named matrices of one camera, row-major, in the native files.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MonoMatrices {
+    /// `K`, 3x3.
+    pub camera_matrix: Rows3,
+    /// `k1 k2 p1 p2 k3` (plus `k4 k5 k6` for the rational model).
+    pub distortion_coefficients: Vec<f64>,
+    /// Image width, pixels.
+    pub image_width: u32,
+    /// Image height, pixels.
+    pub image_height: u32,
+}
+
+/// OpenCV's distortion vector of `camera`: 5 values, or 8 with the rational model.
+pub fn distortion_vector(camera: &Camera) -> Vec<f64> {
+    let d = camera.distortion.to_array();
+    if camera.distortion.is_rational() { d.to_vec() } else { d[..5].to_vec() }
+}
+
+impl MonoMatrices {
+    /// The matrices of `camera`.
+    pub fn of(camera: &Camera) -> Self {
+        Self {
+            camera_matrix: rows3(&camera.intrinsics.matrix()),
+            distortion_coefficients: distortion_vector(camera),
+            image_width: camera.width,
+            image_height: camera.height,
+        }
+    }
+}
+
+/// A stereo rig and its rectification under OpenCV's names, row-major (`stereo_calib.cpp`'s
+/// `M1 D1 M2 D2` and `R T E F R1 R2 P1 P2 Q`), in the native files.
+#[allow(non_snake_case)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StereoMatrices {
+    /// Image width, pixels (both cameras).
+    pub image_width: u32,
+    /// Image height, pixels.
+    pub image_height: u32,
+    /// Left `K`.
+    pub M1: Rows3,
+    /// Left distortion.
+    pub D1: Vec<f64>,
+    /// Right `K`.
+    pub M2: Rows3,
+    /// Right distortion.
+    pub D2: Vec<f64>,
+    /// `right_from_left` rotation.
+    pub R: Rows3,
+    /// `right_from_left` translation.
+    pub T: [f64; 3],
+    /// Essential matrix `[T]× R`.
+    pub E: Rows3,
+    /// Fundamental matrix `M2⁻ᵀ E M1⁻¹`.
+    pub F: Rows3,
+    /// `rectified_from_left`.
+    pub R1: Option<Rows3>,
+    /// `rectified_from_right`.
+    pub R2: Option<Rows3>,
+    /// Left rectified projection.
+    pub P1: Option<[[f64; 4]; 3]>,
+    /// Right rectified projection.
+    pub P2: Option<[[f64; 4]; 3]>,
+    /// Disparity-to-depth.
+    pub Q: Option<[[f64; 4]; 4]>,
+}
+
+impl StereoMatrices {
+    /// The matrices of `s`.
+    pub fn of(s: &StereoCalibration) -> Self {
+        let rig = &s.rig;
+        let r = s.rectification.as_ref();
+        Self {
+            image_width: rig.left.width,
+            image_height: rig.left.height,
+            M1: rows3(&rig.left.intrinsics.matrix()),
+            D1: distortion_vector(&rig.left),
+            M2: rows3(&rig.right.intrinsics.matrix()),
+            D2: distortion_vector(&rig.right),
+            R: rows3(&rig.right_from_left.rotation_matrix()),
+            T: rig.right_from_left.translation.to_array(),
+            E: rows3(&rig.essential()),
+            F: rows3(&rig.fundamental()),
+            R1: r.map(|r| rows3(&r.r1)),
+            R2: r.map(|r| rows3(&r.r2)),
+            P1: r.map(|r| r.p1.rows),
+            P2: r.map(|r| r.p2.rows),
+            Q: r.map(|r| r.q),
+        }
+    }
+}
+
+/// The native (RON / JSON) record of a mono calibration: the camera in the project's own form
+/// (what is read back) and its OpenCV-named matrices, row-major (checked against it on reading).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MonoRecord {
+    /// The camera.
+    pub camera: Camera,
+    /// The same camera as OpenCV's matrices.
+    pub opencv: MonoMatrices,
+    /// RMS reprojection error, pixels.
+    pub rms_px: Option<f64>,
+    /// Per-view RMS, pixels.
+    pub per_view_rms_px: Vec<f64>,
+}
+
+impl MonoRecord {
+    /// The record of `m`.
+    pub fn of(m: &MonoCalibration) -> Self {
+        Self {
+            camera: m.camera,
+            opencv: MonoMatrices::of(&m.camera),
+            rms_px: m.rms_px,
+            per_view_rms_px: m.per_view_rms_px.clone(),
+        }
+    }
+}
+
+/// The native record of a stereo calibration: the rig in the project's own form (what is read
+/// back; rotation as a quaternion), `right_from_left` in every convention, and the OpenCV-named
+/// matrices, row-major (checked against the rig on reading).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StereoRecord {
+    /// The rig.
+    pub rig: StereoRig,
+    /// `right_from_left` as translation, quaternion, matrix, rotation vector and tf line.
+    pub right_from_left: PoseRecord,
+    /// The rig and rectification under OpenCV's names.
+    pub opencv: StereoMatrices,
+    /// RMS reprojection error over both cameras, pixels.
+    pub rms_px: Option<f64>,
+    /// Per view `[left, right]` RMS, pixels.
+    pub per_view_rms_px: Vec<[f64; 2]>,
+}
+
+impl StereoRecord {
+    /// The record of `s`.
+    pub fn of(s: &StereoCalibration) -> Self {
+        Self {
+            rig: s.rig,
+            right_from_left: PoseRecord::of(&s.rig.right_from_left),
+            opencv: StereoMatrices::of(s),
+            rms_px: s.rms_px,
+            per_view_rms_px: s.per_view_rms_px.clone(),
+        }
+    }
+}
+
+/// `"eye_in_hand"` or `"eye_to_hand"` (a string: RON's unit variants do not survive a
+/// format-independent reading).
+pub fn setup_name(setup: Setup) -> &'static str {
+    match setup {
+        Setup::EyeInHand => "eye_in_hand",
+        Setup::EyeToHand => "eye_to_hand",
+    }
+}
+
+/// The setup of a name: `eye_in_hand` / `eye_to_hand` (also `-` for `_`, and serde's
+/// `EyeInHand` / `EyeToHand`).
+pub fn setup_from_name(name: &str) -> Option<Setup> {
+    match name.to_ascii_lowercase().replace(['-', '_'], "").as_str() {
+        "eyeinhand" => Some(Setup::EyeInHand),
+        "eyetohand" => Some(Setup::EyeToHand),
+        _ => None,
+    }
+}
+
+/// The native record of a hand-eye result.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HandEyeRecord {
+    /// `eye_in_hand` or `eye_to_hand`.
+    pub setup: &'static str,
+    /// `gripper_from_camera` or `base_from_camera`.
+    pub name: String,
+    /// The method.
+    pub method: Option<String>,
+    /// The transform in the project's own form (what is read back).
+    pub transform: Isometry3,
+    /// The transform in every convention.
+    pub pose: PoseRecord,
+}
+
+impl HandEyeRecord {
+    /// The record of `h`.
+    pub fn of(h: &HandEyeCalibration) -> Self {
+        Self {
+            setup: setup_name(h.setup),
+            name: h.transform_name().to_string(),
+            method: h.method.clone(),
+            transform: h.transform,
+            pose: PoseRecord::of(&h.transform),
+        }
+    }
+}
+
+/// The native record of a rectification (what `cargo xtask rectify` writes): the calibration
+/// with `R1 R2 P1 P2 Q` (row-major, under `calibration.opencv`) and the rectified geometry.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RectifiedRecord {
+    /// The rig, its OpenCV matrices and the rectification.
+    pub calibration: StereoRecord,
+    /// Size of the rectified images, pixels.
+    pub width: u32,
+    /// See `width`.
+    pub height: u32,
+    /// Valid-pixel rectangle of the rectified left image.
+    pub roi_left: parallax_stereo_rectify::Roi,
+    /// Valid-pixel rectangle of the rectified right image.
+    pub roi_right: parallax_stereo_rectify::Roi,
+    /// Baseline along `y` (images stacked) instead of `x`.
+    pub vertical: bool,
+    /// Rectified focal length, pixels.
+    pub focal_px: f64,
+    /// Baseline in the rectified frame (`Tx`, or `Ty` when vertical), the rig's length unit.
+    pub rectified_baseline: f64,
+    /// The focal scale `alpha` applied (1 without `alpha`).
+    pub scale: f64,
+}
+
+impl RectifiedRecord {
+    /// The record of `calibration` rectified as `rect` (its `rectification` is replaced by `rect`'s).
+    pub fn of(calibration: &StereoCalibration, rect: &Rectification) -> Self {
+        let c = StereoCalibration { rectification: Some(RectificationMatrices::from(rect)), ..calibration.clone() };
+        Self {
+            calibration: StereoRecord::of(&c),
+            width: rect.width,
+            height: rect.height,
+            roi_left: rect.roi1,
+            roi_right: rect.roi2,
+            vertical: rect.vertical,
+            focal_px: rect.focal(),
+            rectified_baseline: rect.rectified_baseline(),
+            scale: rect.scale,
+        }
+    }
+}

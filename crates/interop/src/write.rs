@@ -1,0 +1,273 @@
+//! Writers: each format's text of a [`Calibration`].
+
+use std::path::{Path, PathBuf};
+
+use parallax_camera_model::{Camera, Isometry3};
+use serde::Serialize;
+
+use crate::error::{InteropError, Result};
+use crate::model::{
+    Calibration, HandEyeRecord, MonoCalibration, MonoRecord, StereoCalibration, StereoRecord, distortion_vector, rows3,
+};
+use crate::opencv::Entry;
+use crate::{Format, rectify_default};
+
+fn entries_mono(m: &MonoCalibration) -> Vec<(String, Entry)> {
+    let c = &m.camera;
+    let mut e = vec![
+        ("image_width".to_string(), Entry::Int(i64::from(c.width))),
+        ("image_height".to_string(), Entry::Int(i64::from(c.height))),
+        ("camera_matrix".to_string(), Entry::matrix(&rows3(&c.intrinsics.matrix()))),
+        ("distortion_coefficients".to_string(), Entry::col_vector(&distortion_vector(c))),
+    ];
+    if let Some(rms) = m.rms_px {
+        e.push(("avg_reprojection_error".to_string(), Entry::Real(rms)));
+    }
+    if !m.per_view_rms_px.is_empty() {
+        e.push(("per_view_reprojection_errors".to_string(), Entry::col_vector(&m.per_view_rms_px)));
+    }
+    e
+}
+
+fn entries_stereo(s: &StereoCalibration) -> Vec<(String, Entry)> {
+    let rig = &s.rig;
+    let mut e = vec![
+        ("image_width".to_string(), Entry::Int(i64::from(rig.left.width))),
+        ("image_height".to_string(), Entry::Int(i64::from(rig.left.height))),
+    ];
+    if (rig.right.width, rig.right.height) != (rig.left.width, rig.left.height) {
+        e.push(("right_image_width".to_string(), Entry::Int(i64::from(rig.right.width))));
+        e.push(("right_image_height".to_string(), Entry::Int(i64::from(rig.right.height))));
+    }
+    e.extend([
+        ("M1".to_string(), Entry::matrix(&rows3(&rig.left.intrinsics.matrix()))),
+        ("D1".to_string(), Entry::row_vector(&distortion_vector(&rig.left))),
+        ("M2".to_string(), Entry::matrix(&rows3(&rig.right.intrinsics.matrix()))),
+        ("D2".to_string(), Entry::row_vector(&distortion_vector(&rig.right))),
+        ("R".to_string(), Entry::matrix(&rows3(&rig.right_from_left.rotation_matrix()))),
+        ("T".to_string(), Entry::col_vector(&rig.right_from_left.translation.to_array())),
+        ("E".to_string(), Entry::matrix(&rows3(&rig.essential()))),
+        ("F".to_string(), Entry::matrix(&rows3(&rig.fundamental()))),
+    ]);
+    if let Some(r) = &s.rectification {
+        e.extend([
+            ("R1".to_string(), Entry::matrix(&rows3(&r.r1))),
+            ("R2".to_string(), Entry::matrix(&rows3(&r.r2))),
+            ("P1".to_string(), Entry::matrix(&r.p1.rows)),
+            ("P2".to_string(), Entry::matrix(&r.p2.rows)),
+            ("Q".to_string(), Entry::matrix(&r.q)),
+        ]);
+    }
+    if let Some(rms) = s.rms_px {
+        e.push(("avg_reprojection_error".to_string(), Entry::Real(rms)));
+    }
+    if !s.per_view_rms_px.is_empty() {
+        e.push(("per_view_reprojection_errors".to_string(), Entry::matrix(&s.per_view_rms_px)));
+    }
+    e
+}
+
+fn entries_hand_eye(h: &crate::HandEyeCalibration) -> Vec<(String, Entry)> {
+    let (r, t) = match h.setup {
+        parallax_hand_eye::Setup::EyeInHand => ("R_cam2gripper", "t_cam2gripper"),
+        parallax_hand_eye::Setup::EyeToHand => ("R_cam2base", "t_cam2base"),
+    };
+    let mut e = vec![
+        (r.to_string(), Entry::matrix(&rows3(&h.transform.rotation_matrix()))),
+        (t.to_string(), Entry::col_vector(&h.transform.translation.to_array())),
+    ];
+    if let Some(m) = &h.method {
+        e.push(("method".to_string(), Entry::Text(m.clone())));
+    }
+    e
+}
+
+/// OpenCV FileStorage entries of `c` (the key names of OpenCV's calibration samples).
+pub fn opencv_entries(c: &Calibration) -> Vec<(String, Entry)> {
+    match c {
+        Calibration::Mono(m) => entries_mono(m),
+        Calibration::Stereo(s) => entries_stereo(s),
+        Calibration::HandEye(h) => entries_hand_eye(h),
+    }
+}
+
+#[derive(Serialize)]
+struct RosMatrix {
+    rows: usize,
+    cols: usize,
+    data: Vec<f64>,
+}
+
+impl RosMatrix {
+    fn of<const C: usize>(rows: &[[f64; C]]) -> Self {
+        Self { rows: rows.len(), cols: C, data: rows.iter().flatten().copied().collect() }
+    }
+}
+
+/// ROS `sensor_msgs/CameraInfo` calibration YAML (`camera_calibration_parsers`' layout).
+#[derive(Serialize)]
+struct RosCameraInfo {
+    image_width: u32,
+    image_height: u32,
+    camera_name: String,
+    camera_matrix: RosMatrix,
+    distortion_model: &'static str,
+    distortion_coefficients: RosMatrix,
+    rectification_matrix: RosMatrix,
+    projection_matrix: RosMatrix,
+}
+
+fn ros_camera(name: &str, camera: &Camera, r: glam::DMat3, p: [[f64; 4]; 3]) -> Result<String> {
+    let d = distortion_vector(camera);
+    let info = RosCameraInfo {
+        image_width: camera.width,
+        image_height: camera.height,
+        camera_name: name.to_string(),
+        camera_matrix: RosMatrix::of(&rows3(&camera.intrinsics.matrix())),
+        distortion_model: if d.len() == 8 { "rational_polynomial" } else { "plumb_bob" },
+        distortion_coefficients: RosMatrix { rows: 1, cols: d.len(), data: d },
+        rectification_matrix: RosMatrix::of(&rows3(&r)),
+        projection_matrix: RosMatrix::of(&p),
+    };
+    serde_yaml_ng::to_string(&info).map_err(|e| InteropError::Unsupported(format!("ROS camera_info: {e}")))
+}
+
+/// The ROS file names of a stereo pair written to `path`: `<stem>_left.yaml`, `<stem>_right.yaml`.
+pub fn ros_pair_paths(path: &Path) -> [PathBuf; 2] {
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "camera".into());
+    let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_else(|| "yaml".into());
+    [path.with_file_name(format!("{stem}_left.{ext}")), path.with_file_name(format!("{stem}_right.{ext}"))]
+}
+
+fn ros(c: &Calibration, path: &Path) -> Result<Vec<(PathBuf, String)>> {
+    match c {
+        Calibration::Mono(m) => {
+            let k = m.camera.intrinsics.matrix();
+            let kr = rows3(&k);
+            let p = [
+                [kr[0][0], kr[0][1], kr[0][2], 0.0],
+                [kr[1][0], kr[1][1], kr[1][2], 0.0],
+                [kr[2][0], kr[2][1], kr[2][2], 0.0],
+            ];
+            Ok(vec![(path.to_path_buf(), ros_camera("camera", &m.camera, glam::DMat3::IDENTITY, p)?)])
+        }
+        Calibration::Stereo(s) => {
+            let r = match s.rectification {
+                Some(r) => r,
+                None => rectify_default(&s.rig)?,
+            };
+            let [lp, rp] = ros_pair_paths(path);
+            Ok(vec![
+                (lp, ros_camera("left", &s.rig.left, r.r1, r.p1.rows)?),
+                (rp, ros_camera("right", &s.rig.right, r.r2, r.p2.rows)?),
+            ])
+        }
+        Calibration::HandEye(_) => Err(InteropError::Unsupported(
+            "ROS camera_info holds camera intrinsics, not a hand-eye transform: write it as ron, json or opencv \
+             (the tf line is printed and in the ron/json record)"
+                .into(),
+        )),
+    }
+}
+
+#[derive(Serialize)]
+#[allow(non_snake_case)]
+struct KalibrCamera {
+    camera_model: &'static str,
+    intrinsics: [f64; 4],
+    distortion_model: &'static str,
+    distortion_coeffs: [f64; 4],
+    resolution: [u32; 2],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    T_cn_cnm1: Option<[[f64; 4]; 4]>,
+}
+
+fn kalibr_camera(c: &Camera, name: &str, t: Option<&Isometry3>) -> Result<KalibrCamera> {
+    let k = c.intrinsics;
+    let d = c.distortion;
+    if k.skew != 0.0 || d.k3 != 0.0 || d.is_rational() {
+        return Err(InteropError::Unsupported(format!(
+            "{name}: Kalibr's pinhole-radtan model has no skew, k3 or k4..k6 (this camera has skew {}, k3 {}, k4..k6 \
+             {:?}); calibrate with --fix-k3 (and without --rational) to write Kalibr",
+            k.skew,
+            d.k3,
+            [d.k4, d.k5, d.k6]
+        )));
+    }
+    Ok(KalibrCamera {
+        camera_model: "pinhole",
+        intrinsics: [k.fx, k.fy, k.cx, k.cy],
+        distortion_model: "radtan",
+        distortion_coeffs: [d.k1, d.k2, d.p1, d.p2],
+        resolution: [c.width, c.height],
+        T_cn_cnm1: t.map(|t| {
+            let m = rows3(&t.rotation_matrix());
+            let p = t.translation;
+            [
+                [m[0][0], m[0][1], m[0][2], p.x],
+                [m[1][0], m[1][1], m[1][2], p.y],
+                [m[2][0], m[2][1], m[2][2], p.z],
+                [0.0, 0.0, 0.0, 1.0],
+            ]
+        }),
+    })
+}
+
+fn kalibr(c: &Calibration) -> Result<String> {
+    let mut chain = std::collections::BTreeMap::new();
+    match c {
+        Calibration::Mono(m) => {
+            chain.insert("cam0", kalibr_camera(&m.camera, "cam0", None)?);
+        }
+        Calibration::Stereo(s) => {
+            chain.insert("cam0", kalibr_camera(&s.rig.left, "cam0", None)?);
+            chain.insert("cam1", kalibr_camera(&s.rig.right, "cam1", Some(&s.rig.right_from_left))?);
+        }
+        Calibration::HandEye(_) => {
+            return Err(InteropError::Unsupported(
+                "a Kalibr camchain holds cameras, not a hand-eye transform: write it as ron, json or opencv".into(),
+            ));
+        }
+    }
+    serde_yaml_ng::to_string(&chain).map_err(|e| InteropError::Unsupported(format!("Kalibr camchain: {e}")))
+}
+
+/// Pretty RON or JSON of any serialisable record (the commands' own result files).
+pub fn native_string<T: Serialize>(value: &T, format: Format) -> Result<String> {
+    match format {
+        Format::Ron => ron::ser::to_string_pretty(value, ron::ser::PrettyConfig::default())
+            .map_err(|e| InteropError::Unsupported(format!("RON: {e}"))),
+        Format::Json => serde_json::to_string_pretty(value)
+            .map(|mut s| {
+                s.push('\n');
+                s
+            })
+            .map_err(|e| InteropError::Unsupported(format!("JSON: {e}"))),
+        other => Err(InteropError::Unsupported(format!(
+            "{} is a calibration format; this result is written as ron or json",
+            other.name()
+        ))),
+    }
+}
+
+/// The native record of a calibration (what [`native_string`] writes for it).
+pub fn record_string(c: &Calibration, format: Format) -> Result<String> {
+    match c {
+        Calibration::Mono(m) => native_string(&MonoRecord::of(m), format),
+        Calibration::Stereo(s) => native_string(&StereoRecord::of(s), format),
+        Calibration::HandEye(h) => native_string(&HandEyeRecord::of(h), format),
+    }
+}
+
+/// The files (path, text) that hold `c` in `format` at `path`: one file, except ROS for a
+/// stereo rig (one `camera_info` per camera: `<stem>_left.yaml`, `<stem>_right.yaml`).
+pub fn render(c: &Calibration, format: Format, path: &Path) -> Result<Vec<(PathBuf, String)>> {
+    let one = |text: String| Ok(vec![(path.to_path_buf(), text)]);
+    match format {
+        Format::Ron | Format::Json => one(record_string(c, format)?),
+        Format::OpenCvYaml => one(crate::opencv::to_yaml(&opencv_entries(c))?),
+        Format::OpenCvXml => one(crate::opencv::to_xml(&opencv_entries(c))?),
+        Format::Ros => ros(c, path),
+        Format::Kalibr => one(kalibr(c)?),
+    }
+}

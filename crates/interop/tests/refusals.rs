@@ -1,0 +1,67 @@
+//! Wrong files are refused with a message that names the mistake, never read as something else.
+
+use parallax_interop::parse;
+
+/// OpenCV's mono keys with `body` appended (a 640x480 camera unless `body` overrides keys).
+fn mono(k: &str, d: &str, extra: &str) -> String {
+    format!(
+        "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ {k} ]\ndistortion_coefficients: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ {d} ]\n{extra}"
+    )
+}
+
+fn refused(text: &str, needle: &str) {
+    let err = parse(text, "f.yml").unwrap_err().to_string();
+    assert!(err.contains("f.yml") && err.contains(needle), "expected {needle:?} in: {err}");
+}
+
+#[test]
+fn a_valid_file_is_read_and_each_mistake_is_named() {
+    let k = "600., 0., 320., 0., 600., 240., 0., 0., 1.";
+    let d = "-0.1, 0.05, 0., 0., 0.";
+    let (c, _) = parse(&mono(k, d, ""), "f.yml").unwrap();
+    let cam = c.camera(Default::default(), "f").unwrap();
+    assert_eq!((cam.intrinsics.fx, cam.intrinsics.cx, cam.distortion.k1, cam.width), (600.0, 320.0, -0.1, 640));
+
+    refused(&mono("600., 0., 320., 0., 600., 240., 0., 0.", d, ""), "rows 3 x cols 3 = 9 but data has 8");
+    refused(&mono("600., 0., 320., 0., 600., 240., 1e-3, 0., 1.", d, ""), "upper triangular");
+    refused(&mono("-600., 0., 320., 0., 600., 240., 0., 0., 1.", d, ""), "f.yml");
+    refused(&mono(k, "-0.1, 0.05, 0., 0., 0., 0.1", "").replace("cols: 5", "cols: 6"), "6 distortion coefficients");
+    refused(&mono(k, d, "").replace("dt: d", "dt: u"), "dt: u");
+    refused(&mono(k, d, "").replace("image_width: 640\n", ""), "no image size");
+    refused("%YAML:1.0\n---\nfoo: 1\n", "no calibration found");
+    refused("<?xml version=\"1.0\"?>\n<root><camera/></root>\n", "not an OpenCV FileStorage");
+    refused("image_width: [\n", "f.yml");
+}
+
+#[test]
+fn stereo_files_with_missing_or_inconsistent_parts_are_refused() {
+    let m = "   rows: 3\n   cols: 3\n   dt: d\n   data: [ 600., 0., 320., 0., 600., 240., 0., 0., 1. ]\n";
+    let d = "   rows: 1\n   cols: 5\n   dt: d\n   data: [ 0., 0., 0., 0., 0. ]\n";
+    let r = "   rows: 3\n   cols: 3\n   dt: d\n   data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]\n";
+    let t = "   rows: 3\n   cols: 1\n   dt: d\n   data: [ -100., 0., 0. ]\n";
+    let base = format!(
+        "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\nM1: !!opencv-matrix\n{m}D1: !!opencv-matrix\n{d}M2: !!opencv-matrix\n{m}D2: !!opencv-matrix\n{d}R: !!opencv-matrix\n{r}T: !!opencv-matrix\n{t}"
+    );
+    let s = parse(&base, "f.yml").unwrap().0.into_stereo("f").unwrap();
+    assert_eq!(s.rig.baseline(), 100.0);
+    // E of another rig (a vertical baseline): refused.
+    let e = "E: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 0., 0., 1., 0., 0., 0., -1., 0., 0. ]\n";
+    refused(&format!("{base}{e}"), "E does not agree");
+    // The same E up to scale and sign is accepted ([T]x R for T = (-100, 0, 0)).
+    let e_ok =
+        "E: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 0., 0., 0., 0., 0., 1., 0., -1., 0. ]\n";
+    assert!(parse(&format!("{base}{e_ok}"), "f.yml").is_ok());
+    // Half a rectification.
+    refused(&format!("{base}R1: !!opencv-matrix\n{r}"), "rectification incomplete");
+    // Not a rotation.
+    let bad_r = "   rows: 3\n   cols: 3\n   dt: d\n   data: [ 2., 0., 0., 0., 1., 0., 0., 0., 1. ]\n";
+    refused(&base.replace(&format!("R: !!opencv-matrix\n{r}"), &format!("R: !!opencv-matrix\n{bad_r}")), "f.yml");
+    // A rotation vector is accepted for R (OpenCV allows both).
+    let rvec = "   rows: 3\n   cols: 1\n   dt: d\n   data: [ 0., 0., 0. ]\n";
+    let s = parse(&base.replace(&format!("R: !!opencv-matrix\n{r}"), &format!("R: !!opencv-matrix\n{rvec}")), "f.yml")
+        .unwrap()
+        .0
+        .into_stereo("f")
+        .unwrap();
+    assert_eq!(s.rig.right_from_left.angle(), 0.0);
+}
