@@ -1,5 +1,11 @@
 //! `cargo xtask disparity`: dense disparity of a rectified pair with the block-matching crate,
-//! optional evaluation against a ground truth (Middlebury style), timing in Mde/s.
+//! optional evaluation against a ground truth (Middlebury style, both conventions), rejection
+//! counts by reason, a swapped-pair check, timing in Mde/s.
+//!
+//! Output contract (one `key: value` per line, scripts read it): `bad1`, `bad2` (missing =
+//! bad), `bad2_returned`, `density` (with `--gt`; over the mask), `rejected_texture`,
+//! `rejected_uniqueness`, `rejected_lr`, `rejected_confidence`, `rejected_speckle`, `filled`
+//! (percent of the image), `seconds`, `mdes`.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -32,10 +38,10 @@ pub struct Args {
     /// Smallest disparity searched.
     #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     min_disparity: i32,
-    /// Prefilter: xsobel (default, cap 31), norm (9x9, cap 31), rank (9x9 rank transform; rank:N
-    /// for N x N) or none.
-    #[arg(long, default_value = "xsobel")]
-    prefilter: String,
+    /// Prefilter: xsobel (cap 31), norm (9x9, cap 31), rank (9x9 rank transform; rank:N for
+    /// N x N) or none (default: the crate's default, rank; xsobel with --fill).
+    #[arg(long)]
+    prefilter: Option<String>,
     /// Uniqueness ratio in percent (default: the crate's default).
     #[arg(long)]
     uniqueness: Option<u32>,
@@ -48,6 +54,22 @@ pub struct Args {
     /// Speckle filter region size in px, 0 disables (default: the crate's default).
     #[arg(long)]
     speckle_window: Option<usize>,
+    /// Reject pixels whose confidence (0..1: best against second-best non-adjacent cost, times
+    /// the left–right agreement) is below this (default: the crate's default, off).
+    #[arg(long)]
+    min_confidence: Option<f32>,
+    /// Also write the confidence map (confidence.pfm, 0 where invalid).
+    #[arg(long)]
+    confidence: bool,
+    /// Fill left–right and confidence rejects from the background neighbour, with the dense
+    /// benchmark preset (x-Sobel, uniqueness 0, no speckle filter; explicit options still
+    /// apply): for benchmarks that count a missing pixel as bad. Filled pixels are guesses.
+    #[arg(long)]
+    fill: bool,
+    /// Go on when the pair looks swapped (left and right exchanged); otherwise that is an error
+    /// (exit code 2).
+    #[arg(long)]
+    allow_swapped: bool,
     /// Ground-truth disparity (PFM, or PNG of disparity x --gt-scale with 0 = unknown).
     #[arg(long)]
     gt: Option<PathBuf>,
@@ -104,15 +126,8 @@ fn load_truth(path: &Path, scale: f32) -> anyhow::Result<DisparityMap> {
         .with_context(|| format!("ground truth {}", path.display()))
 }
 
-pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let cost = match args.cost.to_ascii_lowercase().as_str() {
-        "sad" => CostFunction::Sad,
-        "ssd" => CostFunction::Ssd,
-        "ncc" => CostFunction::Ncc,
-        other => anyhow::bail!("--cost must be sad, ssd or ncc (got {other:?})"),
-    };
-    let lower = args.prefilter.to_ascii_lowercase();
-    let prefilter = match lower.as_str() {
+fn parse_prefilter(p: &str) -> anyhow::Result<Prefilter> {
+    Ok(match p {
         p if p.starts_with("rank:") => {
             let size = p["rank:".len()..]
                 .parse()
@@ -124,9 +139,22 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         "rank" => Prefilter::Rank { size: 9 },
         "none" => Prefilter::None,
         other => anyhow::bail!("--prefilter must be xsobel, norm, rank, rank:N or none (got {other:?})"),
+    })
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let cost = match args.cost.to_ascii_lowercase().as_str() {
+        "sad" => CostFunction::Sad,
+        "ssd" => CostFunction::Ssd,
+        "ncc" => CostFunction::Ncc,
+        other => anyhow::bail!("--cost must be sad, ssd or ncc (got {other:?})"),
+    };
+    let d = if args.fill { MatcherConfig::dense() } else { MatcherConfig::default() };
+    let prefilter = match args.prefilter.as_deref().map(str::to_ascii_lowercase) {
+        None => d.prefilter,
+        Some(p) => parse_prefilter(&p)?,
     };
     anyhow::ensure!(args.runs >= 1, "--runs must be at least 1");
-    let d = MatcherConfig::default();
     let cfg = MatcherConfig {
         cost,
         block_size: args.block,
@@ -141,6 +169,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             None => d.lr_max_diff,
         },
         speckle_window_size: args.speckle_window.unwrap_or(d.speckle_window_size),
+        min_confidence: args.min_confidence.unwrap_or(d.min_confidence),
+        confidence_map: args.confidence,
+        fill: args.fill,
         threads: args.threads,
         ..d
     };
@@ -151,6 +182,23 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         Some(p) => Some(util::load_gray(p)?.into_raw().into_iter().map(|v| v > 128).collect::<Vec<bool>>()),
         None => None,
     };
+    // a swapped pair gives a confident-looking wrong map: refuse it unless told otherwise
+    let swap = match &pair {
+        Pair::U8(l, r) => matcher.check_swap(l, r)?,
+        Pair::U16(l, r) => matcher.check_swap_u16(l, r)?,
+    };
+    if swap.looks_swapped {
+        eprintln!(
+            "warning: the pair looks swapped (left and right exchanged): {:.1} % of the pixels pass the checks \
+             as given, {:.1} % with the images exchanged (half resolution)",
+            100.0 * swap.forward_density,
+            100.0 * swap.reverse_density
+        );
+        if !args.allow_swapped {
+            eprintln!("error: refusing a swapped-looking pair; exchange --left and --right, or pass --allow-swapped");
+            return Ok(ExitCode::from(2));
+        }
+    }
     // the output map is reused across runs, as a video loop would
     let mut map = DisparityMap::new_invalid(0, 0);
     let mut compute = |map: &mut DisparityMap| -> anyhow::Result<()> {
@@ -189,15 +237,31 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         matcher.simd(),
         args.runs
     );
+    if let Some(conf) = matcher.confidence() {
+        let cmap = DisparityMap::from_data(map.width, map.height, conf.to_vec())
+            .context("confidence map of the matcher's size")?;
+        util::write_atomic(&args.out.join("confidence.pfm"), &parallax_block_matching::to_pfm(&cmap))?;
+    }
     println!(
-        "invalid: {} no candidate, {} low texture, {} not unique, {} left-right, {} speckle; map density {:.2} %",
+        "rejected: {} no candidate, {} low texture, {} not unique, {} left-right, {} low confidence, {} speckle; \
+         {} filled; returned map density {:.2} %{}",
         stats.no_candidate,
         stats.low_texture,
         stats.not_unique,
         stats.lr_inconsistent,
+        stats.low_confidence,
         stats.speckle,
-        100.0 * stats.density
+        stats.filled,
+        100.0 * stats.density,
+        if stats.filled > 0 { " (filled pixels are guesses)" } else { "" }
     );
+    if stats.density < 0.5 {
+        eprintln!(
+            "warning: most of the map was rejected ({:.1} % returned): check the disparity range, the image \
+             order and the texture",
+            100.0 * stats.density
+        );
+    }
     println!("wrote {}/disparity.pfm, disparity16.png, disparity_colour.png", args.out.display());
     if let Some(truth) = &truth {
         let e = parallax_block_matching::evaluate(&map, truth, mask.as_deref(), &[1.0, 2.0])
@@ -205,10 +269,17 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         println!("evaluated {} px, rms {:.3} px", e.evaluated, e.rms);
         println!("bad1: {:.2}", e.bad_at(1.0).unwrap_or(f64::NAN));
         println!("bad2: {:.2}", e.bad_at(2.0).unwrap_or(f64::NAN));
+        println!("bad2_returned: {:.2}", e.bad_returned_at(2.0).unwrap_or(f64::NAN));
         println!("density: {:.2}", e.density);
     } else {
         println!("density: {:.2}", 100.0 * stats.density);
     }
+    println!("rejected_texture: {:.2}", stats.percent(stats.low_texture));
+    println!("rejected_uniqueness: {:.2}", stats.percent(stats.not_unique));
+    println!("rejected_lr: {:.2}", stats.percent(stats.lr_inconsistent));
+    println!("rejected_confidence: {:.2}", stats.percent(stats.low_confidence));
+    println!("rejected_speckle: {:.2}", stats.percent(stats.speckle));
+    println!("filled: {:.2}", stats.percent(stats.filled));
     println!("seconds: {seconds:.6}");
     println!("mdes: {mdes:.0}");
     Ok(ExitCode::SUCCESS)

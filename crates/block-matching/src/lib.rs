@@ -2,8 +2,17 @@
 //! square windows (3..=31), on 8- or 16-bit images, with OpenCV-style prefilters or a rank
 //! transform (gain- and offset-invariant matching at SAD's speed), winner-take-all
 //! over `[min_disparity, min_disparity + num_disparities)`, sub-pixel refinement (equiangular for
-//! SAD, parabola otherwise), texture threshold, uniqueness ratio, left–right check and speckle
-//! filter. Invalid pixels are NaN in the [`parallax_camera_model::DisparityMap`] (never a silent 0).
+//! SAD, parabola otherwise), texture threshold, uniqueness ratio, left–right check, confidence
+//! threshold and speckle filter. Invalid pixels are NaN in the
+//! [`parallax_camera_model::DisparityMap`] (never a silent 0).
+//!
+//! Validity: by default a pixel any check rejects stays invalid; filling the left–right and
+//! confidence rejects from the background neighbour is an explicit option
+//! ([`MatcherConfig::fill`], preset [`MatcherConfig::dense`] for benchmarks that count missing
+//! pixels as bad). [`MatchStats`] counts the rejections by reason, [`BlockMatcher::confidence`]
+//! gives a per-pixel confidence (best against second-best non-adjacent cost, times the
+//! left–right agreement), [`BlockMatcher::check_swap`] says whether the pair looks swapped, and
+//! [`evaluate`] reports bad-N both with missing = bad and among the returned pixels.
 //!
 //! Speed: window sums are running box sums over disparity-major column sums kept per row band in
 //! cache (the cost volume is never materialised), exact integer arithmetic, row bands in parallel
@@ -31,7 +40,11 @@
 //! assert!((disparity.get(50, 20).unwrap() - 7.0).abs() < 0.05);
 //! let truth = DisparityMap::from_data(96, 48, vec![7.0; 96 * 48]).unwrap();
 //! let e = evaluate(&disparity, &truth, None, &[0.5])?;
+//! // missing = bad, then among the returned pixels
 //! assert!(e.bad_at(0.5).unwrap() < 15.0 && e.density > 85.0);
+//! assert!(e.bad_returned_at(0.5).unwrap() < 1.0);
+//! // the pair as given matches; the other way round it would not
+//! assert!(!matcher.check_swap(&left, &right)?.looks_swapped);
 //! # Ok::<(), parallax_block_matching::BlockMatchingError>(())
 //! ```
 
@@ -44,10 +57,12 @@ pub mod prefilter;
 #[cfg(target_arch = "x86_64")]
 mod simd;
 mod speckle;
+mod swap;
 
-pub use config::{CostFunction, MatcherConfig, Prefilter, Subpixel};
+pub use config::{CostFunction, MatcherConfig, Method, Prefilter, SgmConfig, SgmPaths, Subpixel};
 pub use engine::{BlockMatcher, Gray16Image, MatchStats, SimdLevel};
 pub use error::{BlockMatchingError, Result};
 pub use eval::{Evaluation, evaluate};
 pub use io::{false_colour, from_pfm, from_scaled, to_pfm, to_png16};
 pub use speckle::filter_speckles;
+pub use swap::SwapCheck;
