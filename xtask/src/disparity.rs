@@ -12,7 +12,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
-use parallax_block_matching::{BlockMatcher, CostFunction, Gray16Image, MatcherConfig, Prefilter};
+use parallax_block_matching::{BlockMatcher, CostFunction, Gray16Image, MatcherConfig, Prefilter, SgmConfig, SgmPaths};
 use parallax_camera_model::DisparityMap;
 
 use crate::util;
@@ -26,6 +26,13 @@ pub struct Args {
     /// Right rectified image.
     #[arg(long)]
     right: PathBuf,
+    /// Method: bm (block matching) or sgm (semi-global matching, SAD on the prefilter with a
+    /// 5x5 window; see --sgm-paths).
+    #[arg(long, default_value = "bm")]
+    method: String,
+    /// Semi-global matching paths: 5 (one pass, default) or 8.
+    #[arg(long, default_value_t = 5)]
+    sgm_paths: u32,
     /// Matching cost: sad, ssd or ncc.
     #[arg(long, default_value = "sad")]
     cost: String,
@@ -149,7 +156,22 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         "ncc" => CostFunction::Ncc,
         other => anyhow::bail!("--cost must be sad, ssd or ncc (got {other:?})"),
     };
-    let d = if args.fill { MatcherConfig::dense() } else { MatcherConfig::default() };
+    let sgm = match args.method.to_ascii_lowercase().as_str() {
+        "bm" => false,
+        "sgm" => true,
+        other => anyhow::bail!("--method must be bm or sgm (got {other:?})"),
+    };
+    let d = match (sgm, args.fill) {
+        (false, false) => MatcherConfig::default(),
+        (false, true) => MatcherConfig::dense(),
+        (true, false) => MatcherConfig::sgm(),
+        (true, true) => MatcherConfig::sgm_dense(),
+    };
+    let paths = match args.sgm_paths {
+        5 => SgmPaths::Five,
+        8 => SgmPaths::Eight,
+        n => anyhow::bail!("--sgm-paths must be 5 or 8 (got {n})"),
+    };
     let prefilter = match args.prefilter.as_deref().map(str::to_ascii_lowercase) {
         None => d.prefilter,
         Some(p) => parse_prefilter(&p)?,
@@ -173,6 +195,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         confidence_map: args.confidence,
         fill: args.fill,
         threads: args.threads,
+        sgm: SgmConfig { paths, ..d.sgm },
         ..d
     };
     let mut matcher = BlockMatcher::new(cfg.clone()).context("block-matching configuration")?;
@@ -227,9 +250,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     util::save_png(&args.out.join("disparity_colour.png"), &parallax_block_matching::false_colour(&map, Some(range)))?;
 
     println!(
-        "{}x{} cost {:?} block {} disparities [{}, {}) simd {:?}, median of {} runs",
+        "{}x{} {:?} cost {:?} block {} disparities [{}, {}) simd {:?}, median of {} runs",
         map.width,
         map.height,
+        cfg.method,
         cfg.cost,
         cfg.block_size,
         cfg.min_disparity,

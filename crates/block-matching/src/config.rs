@@ -96,23 +96,28 @@ pub enum SgmPaths {
 pub struct SgmConfig {
     /// Aggregation paths (default five, one pass).
     pub paths: SgmPaths,
-    /// Penalty of a one-pixel disparity change between neighbours along a path, in units of the
-    /// per-pixel cost (default 8; the window cost of `sgm_block` pixels scales it, see
-    /// [`SgmConfig::block`]).
+    /// Penalty of a one-pixel disparity change between neighbours along a path, per pixel of
+    /// the cost window: the penalty applied is `p1 · block²` (default 8).
     pub p1: u32,
-    /// Penalty of a larger disparity jump (default 32; must be ≥ `p1`).
+    /// Penalty of a larger disparity jump, per pixel of the window (default 64; ≥ `p1`).
     pub p2: u32,
     /// Intensity-adaptive P2: across an intensity edge of the left image the jump penalty drops
     /// to `max(p1, p2 / (1 + |ΔI| / p2_gamma))` (depth edges follow intensity edges);
     /// `0` keeps P2 constant (default 16 grey levels).
     pub p2_gamma: u32,
-    /// Side of the window summed into the per-pixel matching cost (odd, 1..=11; default 3).
+    /// Side of the window summed into the per-pixel matching cost (odd, 1..=11; default 5).
     pub block: usize,
+    /// Rows of one strip (a parallel task with its own buffers); 0 chooses: one strip per
+    /// thread for five paths, and for eight paths strips whose stored sums stay under 48 MiB.
+    pub strip_rows: usize,
+    /// Rows above (and, with eight paths, below) a strip where its vertical and diagonal paths
+    /// start (default 16).
+    pub overlap: usize,
 }
 
 impl Default for SgmConfig {
     fn default() -> Self {
-        Self { paths: SgmPaths::Five, p1: 8, p2: 32, p2_gamma: 16, block: 3 }
+        Self { paths: SgmPaths::Five, p1: 8, p2: 64, p2_gamma: 16, block: 5, strip_rows: 0, overlap: 16 }
     }
 }
 
@@ -227,6 +232,31 @@ impl MatcherConfig {
         }
     }
 
+    /// Semi-global matching for measurement (nothing filled): five paths, 5x5 SAD on the
+    /// x-Sobel prefilter, P1 = 8, P2 = 64 per window pixel with the intensity-adaptive P2
+    /// (γ = 16), uniqueness 10 %, left–right check 1 px, speckle filter 100 px. Middlebury
+    /// nonocc, bad-2 among the returned pixels / density: tsukuba 2.33 % / 96.9 %, venus
+    /// 0.54 % / 98.3 %, teddy 3.62 % / 93.0 % (OpenCV SGBM 3-way: 2.40 / 98.5, 0.74 / 94.9,
+    /// 5.46 / 89.9). Eight paths ([`SgmPaths::Eight`]): 1.80 / 97.3, 0.68 / 98.5, 3.93 / 92.4.
+    pub fn sgm() -> Self {
+        Self {
+            method: Method::Sgm,
+            prefilter: Prefilter::XSobel { cap: 31 },
+            uniqueness_ratio: 10,
+            speckle_window_size: 100,
+            sgm: SgmConfig::default(),
+            ..Self::default()
+        }
+    }
+
+    /// [`MatcherConfig::sgm`] as a benchmark preset for evaluations that count a missing pixel
+    /// as bad: no uniqueness margin, no speckle filter, left–right rejects filled. Middlebury
+    /// nonocc bad-2 (missing = bad) tsukuba / venus / teddy 3.40 / 1.32 / 7.42 with five paths,
+    /// 2.75 / 1.36 / 7.86 with eight (OpenCV SGBM 3-way: 3.85 / 5.81 / 14.99).
+    pub fn sgm_dense() -> Self {
+        Self { uniqueness_ratio: 0, speckle_window_size: 0, fill: true, ..Self::sgm() }
+    }
+
     /// Whether the matcher needs the second-best non-adjacent cost of every pixel.
     pub(crate) fn needs_confidence(&self) -> bool {
         self.confidence_map || self.min_confidence > 0.0
@@ -283,6 +313,9 @@ impl MatcherConfig {
             }
             if g.p1 == 0 || g.p2 < g.p1 || g.p2 > 4096 {
                 return Err(invalid("sgm.p2", format!("p1 {} p2 {}", g.p1, g.p2), "need 1 ≤ p1 ≤ p2 ≤ 4096"));
+            }
+            if g.overlap > 4096 {
+                return Err(invalid("sgm.overlap", g.overlap, "must be 0..=4096"));
             }
             if g.p2_gamma > 4096 {
                 return Err(invalid("sgm.p2_gamma", g.p2_gamma, "must be 0..=4096"));

@@ -6,7 +6,7 @@ use parallax_camera_model::DisparityMap;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::config::{CostFunction, MatcherConfig, Prefilter, Subpixel};
+use crate::config::{CostFunction, MatcherConfig, Method, Prefilter, Subpixel};
 use crate::error::{BlockMatchingError, Result};
 use crate::prefilter::{box_sum, normalized_response, rank_transform_into, texture_mask_into, x_sobel_into};
 use crate::speckle::filter_speckles;
@@ -313,6 +313,7 @@ pub struct BlockMatcher {
     simd16: Vec<crate::simd::Scratch<u16>>,
     #[cfg(target_arch = "x86_64")]
     simd32: Vec<crate::simd::Scratch<u32>>,
+    sgm: Vec<crate::sgm::Scratch>,
     stats: MatchStats,
 }
 
@@ -349,6 +350,7 @@ impl BlockMatcher {
             simd16: Vec::new(),
             #[cfg(target_arch = "x86_64")]
             simd32: Vec::new(),
+            sgm: Vec::new(),
             stats: MatchStats::default(),
         })
     }
@@ -500,13 +502,20 @@ impl BlockMatcher {
             *out = DisparityMap::new_invalid(w, h);
         }
         let threads = rayon::current_num_threads();
-        let nbands = if threads <= 1 { 1 } else { (threads * 2).min(h.div_ceil((4 * cfg.block_size).max(16))).max(1) };
-        let band_rows = h.div_ceil(nbands);
+        let sgm = cfg.method == Method::Sgm;
+        let band_rows = if sgm {
+            crate::sgm::strip_rows(&cfg.sgm, w, h, cfg.num_disparities, threads)
+        } else {
+            let nbands =
+                if threads <= 1 { 1 } else { (threads * 2).min(h.div_ceil((4 * cfg.block_size).max(16))).max(1) };
+            h.div_ceil(nbands)
+        };
         let nbands = h.div_ceil(band_rows);
         let shared = Shared {
             w,
             h,
-            r,
+            // semi-global matching sums its pixel cost over its own (small) window
+            r: if sgm { cfg.sgm.block / 2 } else { r },
             nd: cfg.num_disparities,
             dmin: cfg.min_disparity as i64,
             left,
@@ -519,7 +528,11 @@ impl BlockMatcher {
             fill: cfg.fill,
             conf: cfg.needs_confidence(),
             min_conf: cfg.min_confidence,
-            subpixel: cfg.effective_subpixel(),
+            subpixel: match (sgm, cfg.subpixel) {
+                // aggregated costs are smooth: a parabola fits them (as OpenCV's SGBM)
+                (true, Subpixel::Auto) => Subpixel::Parabola,
+                _ => cfg.effective_subpixel(),
+            },
         };
         let conf_plane: &mut [f32] = if shared.conf {
             self.confidence.resize(w * h, 0.0);
@@ -530,6 +543,20 @@ impl BlockMatcher {
         let simd = self.simd;
         let data = &mut out.data;
         let mut stats = MatchStats::default();
+        if sgm {
+            let (intensity, iscale) = (raw_left, scale);
+            let pp = crate::sgm::SgmParams::new(&cfg.sgm, maxv, intensity, iscale)?;
+            let avx2 = simd >= SimdLevel::Avx2;
+            let per_band =
+                for_each_band(&shared, &mut self.sgm, nbands, band_rows, data, conf_plane, |sc, rows, conf, y0, y1| {
+                    crate::sgm::run_strip(&shared, &pp, sc, rows, conf, y0, y1, avx2)
+                });
+            for s in &per_band {
+                stats.add(s);
+            }
+            self.finish_stats(out, stats);
+            return Ok(());
+        }
         // the vectorised kernels: 16-bit lanes when every SAD window sum is ≤ 65534, 32-bit lanes
         // when every SAD / SSD window sum is ≤ 2^32 − 2 (the lane maximum is the "no candidate"
         // sentinel)
@@ -593,6 +620,14 @@ impl BlockMatcher {
         for s in &per_band {
             stats.add(s);
         }
+        self.finish_stats(out, stats);
+        Ok(())
+    }
+
+    /// Speckle filter, confidence of the removed speckles, density.
+    fn finish_stats(&mut self, out: &mut DisparityMap, mut stats: MatchStats) {
+        let cfg = &self.config;
+        let (w, h) = (out.width, out.height);
         if cfg.speckle_window_size > 0 {
             stats.speckle = filter_speckles(out, cfg.speckle_window_size, cfg.speckle_range);
             if cfg.needs_confidence() {
@@ -609,7 +644,6 @@ impl BlockMatcher {
         stats.valid = out.data.par_chunks(1 << 14).map(|c| c.iter().filter(|d| d.is_finite()).count()).sum();
         stats.density = if w * h == 0 { 0.0 } else { stats.valid as f64 / (w * h) as f64 };
         self.stats = stats;
-        Ok(())
     }
 }
 
@@ -829,7 +863,7 @@ fn vert_add<A: Acc, const K: u8>(cs: &mut [A], ri: &[u16], li: u16) {
 
 /// Left winner of one pixel from its candidate costs `c[lo..=hi]`: disparity index, sub-pixel
 /// offset and cost-curve confidence (0 unless asked for).
-enum Decision {
+pub(crate) enum Decision {
     Best(i32, f32, f32),
     NotUnique,
 }
@@ -843,7 +877,7 @@ pub(crate) fn second_cost<C: Cost>(c: &[C], lo: usize, hi: usize, kb: usize) -> 
 }
 
 #[inline(always)]
-fn decide<C: Cost>(c: &[C], lo: usize, hi: usize, uniq: u32, subpixel: Subpixel, conf: bool) -> Decision {
+pub(crate) fn decide<C: Cost>(c: &[C], lo: usize, hi: usize, uniq: u32, subpixel: Subpixel, conf: bool) -> Decision {
     let s = &c[lo..=hi];
     // minimum over 8 interleaved accumulators: the order does not change a minimum of non-NaN
     // costs, and it breaks the sequential dependency (which bound NCC's f64 costs to one
@@ -898,7 +932,7 @@ pub(crate) fn subpixel_offset<C: Cost>(c: &[C], lo: usize, hi: usize, kb: usize,
 
 /// Keeps, per right pixel (reversed index `j`), the smallest cost and its candidate (first wins).
 #[inline(always)]
-fn right_update<C: Cost>(c: &[C], rc: &mut [C], rk: &mut [u32], lo: usize) {
+pub(crate) fn right_update<C: Cost>(c: &[C], rc: &mut [C], rk: &mut [u32], lo: usize) {
     for (t, ((&v, rcv), rkv)) in c.iter().zip(rc.iter_mut()).zip(rk.iter_mut()).enumerate() {
         let better = v < *rcv;
         *rcv = if better { v } else { *rcv };

@@ -54,6 +54,7 @@ mod error;
 mod eval;
 mod io;
 pub mod prefilter;
+mod sgm;
 #[cfg(target_arch = "x86_64")]
 mod simd;
 mod speckle;

@@ -130,3 +130,34 @@ fn a_swapped_pair_is_detected_and_a_right_one_is_not() {
         assert!(ms.last_stats().density < 0.5, "{:?}", ms.last_stats());
     }
 }
+
+#[test]
+fn sgm_matches_synthetic_scenes_with_few_errors_and_fills_low_texture_better_than_bm() {
+    use parallax_block_matching::{SgmConfig, SgmPaths};
+    for seed in [7, 8] {
+        let s = scene(seed);
+        let visible: Vec<bool> = s.occluded.iter().map(|o| !o).collect();
+        let patch: Vec<bool> = (0..visible.len()).map(|i| visible[i] && s.low_texture[i]).collect();
+        let textured: Vec<bool> = (0..visible.len()).map(|i| visible[i] && !s.low_texture[i]).collect();
+        let bm = BlockMatcher::new(cfg(MatcherConfig::default())).unwrap().compute(&s.left, &s.right).unwrap();
+        let eb = evaluate(&bm, &s.disparity, Some(&patch), &[2.0]).unwrap();
+        for paths in [SgmPaths::Five, SgmPaths::Eight] {
+            let c = cfg(MatcherConfig { sgm: SgmConfig { paths, ..SgmConfig::default() }, ..MatcherConfig::sgm() });
+            let d = BlockMatcher::new(c).unwrap().compute(&s.left, &s.right).unwrap();
+            let e = evaluate(&d, &s.disparity, Some(&textured), &[1.0, 2.0]).unwrap();
+            let ep = evaluate(&d, &s.disparity, Some(&patch), &[2.0]).unwrap();
+            println!(
+                "seed {seed} {paths:?}: visible textured bad-1 returned {:.2} %, bad-2 returned {:.2} %, density {:.1} %, rms {:.3}; \
+                 low-texture patch bad-2 (missing = bad) SGM {:.1} % vs BM {:.1} %",
+                e.bad_returned_at(1.0).unwrap(),
+                e.bad_returned_at(2.0).unwrap(),
+                e.density,
+                e.rms,
+                ep.bad_at(2.0).unwrap(),
+                eb.bad_at(2.0).unwrap()
+            );
+            assert!(e.bad_returned_at(2.0).unwrap() < 2.0 && e.density > 90.0);
+            assert!(ep.bad_at(2.0).unwrap() < eb.bad_at(2.0).unwrap());
+        }
+    }
+}
