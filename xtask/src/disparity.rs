@@ -20,12 +20,16 @@ use crate::util;
 /// Arguments of `cargo xtask disparity`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Left rectified image (8- or 16-bit grayscale; colour is converted).
+    /// Left rectified image (8- or 16-bit grayscale; colour is converted), or a folder or glob
+    /// pattern of left images (an image sequence: paired with the right ones in sorted order).
     #[arg(long)]
     left: PathBuf,
-    /// Right rectified image.
+    /// Right rectified image, or a folder or glob pattern as --left.
     #[arg(long)]
     right: PathBuf,
+    /// Sequences: pairs decoded ahead of the matcher (default 2).
+    #[arg(long, default_value_t = 2)]
+    prefetch: usize,
     /// Method: bm (block matching) or sgm (semi-global matching, SAD on the prefilter with a
     /// 5x5 window; see --sgm-paths).
     #[arg(long, default_value = "bm")]
@@ -133,6 +137,141 @@ fn load_truth(path: &Path, scale: f32) -> anyhow::Result<DisparityMap> {
         .with_context(|| format!("ground truth {}", path.display()))
 }
 
+impl parallax_block_matching::StereoPair for Pair {
+    fn match_into(&self, m: &mut BlockMatcher, out: &mut DisparityMap) -> parallax_block_matching::Result<()> {
+        match self {
+            Pair::U8(l, r) => m.compute_into(l, r, out),
+            Pair::U16(l, r) => m.compute_u16_into(l, r, out),
+        }
+    }
+}
+
+/// The paired left and right files when `--left` / `--right` name folders or glob patterns
+/// (`None`: a single pair).
+fn sequence(left: &Path, right: &Path) -> anyhow::Result<Option<(Vec<PathBuf>, Vec<PathBuf>)>> {
+    let is_pattern = |p: &Path| p.to_string_lossy().contains(['*', '?', '[']);
+    let list = |p: &Path| -> anyhow::Result<Vec<PathBuf>> {
+        if p.is_dir() {
+            let mut v: Vec<PathBuf> = std::fs::read_dir(p)
+                .with_context(|| format!("listing {}", p.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|f| {
+                    f.is_file()
+                        && f.extension().is_some_and(|e| {
+                            ["png", "jpg", "jpeg", "pgm", "ppm", "pnm"]
+                                .contains(&e.to_ascii_lowercase().to_str().unwrap_or(""))
+                        })
+                })
+                .collect();
+            v.sort();
+            anyhow::ensure!(!v.is_empty(), "no image in folder {}", p.display());
+            Ok(v)
+        } else {
+            util::expand_glob(&p.to_string_lossy())
+        }
+    };
+    let (ls, rs) = (left.is_dir() || is_pattern(left), right.is_dir() || is_pattern(right));
+    if !ls && !rs {
+        return Ok(None);
+    }
+    anyhow::ensure!(ls && rs, "--left and --right must both be single images or both folders / glob patterns");
+    let (l, r) = (list(left)?, list(right)?);
+    anyhow::ensure!(
+        l.len() == r.len(),
+        "{} left images but {} right images: the sequences must pair up one to one",
+        l.len(),
+        r.len()
+    );
+    Ok(Some((l, r)))
+}
+
+/// `disparity` over an image sequence: decode (prefetch thread), match (this thread) and write
+/// (writer thread) overlapped, a progress bar, and the throughput.
+fn run_sequence(
+    args: &Args,
+    matcher: BlockMatcher,
+    lefts: Vec<PathBuf>,
+    rights: Vec<PathBuf>,
+) -> anyhow::Result<ExitCode> {
+    let n = lefts.len();
+    // the first pair decides whether the sequence looks swapped
+    let first = load_pair(&lefts[0], &rights[0])?;
+    let swap = match &first {
+        Pair::U8(l, r) => matcher.check_swap(l, r)?,
+        Pair::U16(l, r) => matcher.check_swap_u16(l, r)?,
+    };
+    if swap.looks_swapped {
+        eprintln!(
+            "warning: the pairs look swapped (left and right exchanged): {:.1} % of the pixels pass the checks as \
+             given, {:.1} % with the images exchanged (first pair, half resolution)",
+            100.0 * swap.forward_density,
+            100.0 * swap.reverse_density
+        );
+        if !args.allow_swapped {
+            eprintln!("error: refusing swapped-looking pairs; exchange --left and --right, or pass --allow-swapped");
+            return Ok(ExitCode::from(2));
+        }
+    }
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let names: Vec<String> = lefts
+        .iter()
+        .map(|p| p.file_stem().map_or_else(|| "frame".into(), |s| s.to_string_lossy().into_owned()))
+        .collect();
+    let source = lefts.into_iter().zip(rights).map(|(l, r)| load_pair(&l, &r).map_err(|e| format!("{e:#}")));
+    let bar = indicatif::ProgressBar::new(n as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} frames {per_sec} eta {eta} {msg}")
+            .context("progress bar template")?,
+    );
+    // the writer thread: PFM and 16-bit PNG (1/256 px) per frame, atomically
+    let (tx, rx) = std::sync::mpsc::sync_channel::<(String, DisparityMap)>(2);
+    let out_dir = args.out.clone();
+    let writer = std::thread::spawn(move || -> anyhow::Result<()> {
+        for (name, map) in rx {
+            util::write_atomic(&out_dir.join(format!("{name}.pfm")), &parallax_block_matching::to_pfm(&map))?;
+            util::save_png(&out_dir.join(format!("{name}.png")), &parallax_block_matching::to_png16(&map, 256.0))?;
+        }
+        Ok(())
+    });
+    let t0 = Instant::now();
+    let (mut failed, mut density, mut done) = (0usize, 0.0f64, 0usize);
+    for frame in matcher.frames(source, args.prefetch) {
+        match frame {
+            Ok(f) => {
+                density += f.stats.density;
+                done += 1;
+                if f.stats.density < 0.5 {
+                    bar.println(format!(
+                        "warning: {}: most of the map was rejected ({:.1} % returned)",
+                        names[f.index],
+                        100.0 * f.stats.density
+                    ));
+                }
+                if tx.send((names[f.index].clone(), f.disparity)).is_err() {
+                    break; // the writer failed: its error is reported below
+                }
+            }
+            Err(e) => {
+                failed += 1;
+                bar.println(format!("error: frame {}: {e}", done + failed - 1));
+            }
+        }
+        bar.inc(1);
+    }
+    drop(tx);
+    let written = writer.join().map_err(|_| anyhow::anyhow!("the writer thread panicked"))?;
+    let seconds = t0.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    written.context("writing the disparity maps")?;
+    println!("wrote {done} maps to {} (<name>.pfm, <name>.png at 1/256 px)", args.out.display());
+    println!("frames: {done}");
+    println!("failed: {failed}");
+    println!("density: {:.2}", if done > 0 { 100.0 * density / done as f64 } else { 0.0 });
+    println!("seconds: {seconds:.3}");
+    println!("fps: {:.2}", (done + failed) as f64 / seconds);
+    Ok(if failed > 0 { ExitCode::FAILURE } else { ExitCode::SUCCESS })
+}
+
 fn parse_prefilter(p: &str) -> anyhow::Result<Prefilter> {
     Ok(match p {
         p if p.starts_with("rank:") => {
@@ -199,6 +338,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         ..d
     };
     let mut matcher = BlockMatcher::new(cfg.clone()).context("block-matching configuration")?;
+    if let Some((lefts, rights)) = sequence(&args.left, &args.right)? {
+        return run_sequence(&args, matcher, lefts, rights);
+    }
     let pair = load_pair(&args.left, &args.right)?;
     let truth = args.gt.as_deref().map(|p| load_truth(p, args.gt_scale)).transpose()?;
     let mask = match &args.mask {

@@ -58,6 +58,7 @@ mod sgm;
 #[cfg(target_arch = "x86_64")]
 mod simd;
 mod speckle;
+mod stream;
 mod swap;
 
 pub use config::{CostFunction, MatcherConfig, Method, Prefilter, SgmConfig, SgmPaths, Subpixel};
@@ -66,4 +67,5 @@ pub use error::{BlockMatchingError, Result};
 pub use eval::{Evaluation, evaluate};
 pub use io::{false_colour, from_pfm, from_scaled, to_pfm, to_png16};
 pub use speckle::filter_speckles;
+pub use stream::{Frame, Frames, StereoPair};
 pub use swap::SwapCheck;
