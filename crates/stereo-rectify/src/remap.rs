@@ -358,10 +358,13 @@ pub(crate) struct FastBilinear {
 impl FastBilinear {
     pub(crate) fn new(table: &RemapTable, source_width: u32, source_height: u32) -> Self {
         let (last_x, last_y) = (source_width as f32 - 1.0, source_height as f32 - 1.0);
-        let mut index = vec![u32::MAX; table.map_x.len()];
+        let usable = (source_width as u64) * (source_height as u64) < u32::MAX as u64 && table.width > 0;
+        // zeroed allocations are fresh pages mapped on first write: the rows below fault them in
+        // in parallel (a `u32::MAX` fill would touch every page on this thread first, which was
+        // most of the build time); every entry is written there
+        let mut index = if usable { vec![0u32; table.map_x.len()] } else { vec![u32::MAX; table.map_x.len()] };
         let mut frac = vec![0u16; table.map_x.len()];
-        let usable = (source_width as u64) * (source_height as u64) < u32::MAX as u64;
-        if usable && table.width > 0 {
+        if usable {
             let w = table.width as usize;
             index.par_chunks_mut(w).zip(frac.par_chunks_mut(w)).enumerate().for_each(|(v, (k, f))| {
                 let (mx, my) = (&table.map_x[v * w..(v + 1) * w], &table.map_y[v * w..(v + 1) * w]);
