@@ -17,13 +17,15 @@ fn clampi(v: i64, hi: usize) -> usize {
 }
 
 /// The naive SGM: returns the disparity map (NaN invalid) and the confidence (0 where invalid).
-fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig) -> (Vec<f32>, Vec<f32>) {
+/// `scale`: 1 for 8-bit input, 257 for 16-bit (prefilter caps and intensity differences).
+fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, scale: i64) -> (Vec<f32>, Vec<f32>) {
     let g = &cfg.sgm;
     let nd = cfg.num_disparities;
     let dmin = cfg.min_disparity as i64;
     let (l, rt, maxv): (Vec<u16>, Vec<u16>, i64) = match cfg.prefilter {
         Prefilter::XSobel { cap } => {
-            (x_sobel(left, w, h, cap as u32), x_sobel(right, w, h, cap as u32), 2 * cap as i64)
+            let c = cap as u32 * scale as u32;
+            (x_sobel(left, w, h, c), x_sobel(right, w, h, c), 2 * c as i64)
         }
         Prefilter::Rank { size } => {
             (rank_transform(left, w, h, size), rank_transform(right, w, h, size), (size * size - 1) as i64)
@@ -31,6 +33,7 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig) -
         _ => unreachable!("the test uses x-Sobel and rank"),
     };
     let texture_ok: Vec<bool> = if cfg.texture_threshold > 0 {
+        assert_eq!(scale, 1, "the 16-bit cases run without the texture check");
         let s = x_sobel(left, w, h, 31);
         let mut t = Vec::new();
         texture_mask_into(&s, w, h, cfg.block_size / 2, 31, cfg.texture_threshold, &mut t);
@@ -69,7 +72,7 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig) -
         if g.p2_gamma == 0 {
             return p2;
         }
-        let di = (a as i64 - b as i64).abs();
+        let di = (a as i64 - b as i64).abs() / scale;
         (p2 * g.p2_gamma as i64 / (g.p2_gamma as i64 + di)).max(p1)
     };
     // one path (dx, dy) over rows [ya, yb): predecessor (x − dx, y − dy)
@@ -252,7 +255,7 @@ fn make_pair(seed: u64, w: usize, h: usize) -> (Vec<u16>, Vec<u16>) {
 
 fn run_case(seed: u64, w: usize, h: usize, cfg: MatcherConfig) {
     let (l, r) = make_pair(seed, w, h);
-    let (expect, expect_conf) = naive(&l, &r, w, h, &cfg);
+    let (expect, expect_conf) = naive(&l, &r, w, h, &cfg, 1);
     let li = GrayImage::from_fn(w as u32, h as u32, |x, y| Luma([l[y as usize * w + x as usize] as u8]));
     let ri = GrayImage::from_fn(w as u32, h as u32, |x, y| Luma([r[y as usize * w + x as usize] as u8]));
     for level in [SimdLevel::Scalar, SimdLevel::Avx2] {
@@ -343,5 +346,47 @@ fn sgm_fast_equals_naive_with_the_defaults_and_eight_paths() {
             ..MatcherConfig::default()
         };
         run_case(11, 48, 40, cfg);
+    }
+}
+
+#[test]
+fn sgm_fast_equals_naive_on_16_bit_images() {
+    use parallax_block_matching::Gray16Image;
+    // 8-bit structure times 256 plus low bits: the adaptive P2 in 16-bit units (rank prefilter;
+    // x-Sobel is refused there, its sums do not fit 16 bits)
+    for (seed, paths, gamma) in [(21, SgmPaths::Five, 16), (22, SgmPaths::Eight, 4), (23, SgmPaths::Five, 0)] {
+        let (w, h) = (26, 15);
+        let (l8, r8) = make_pair(seed, w, h);
+        let widen = |v: &[u16]| {
+            v.iter().enumerate().map(|(i, &p)| p * 256 + (i as u16).wrapping_mul(37) % 256).collect::<Vec<u16>>()
+        };
+        let (l, r) = (widen(&l8), widen(&r8));
+        let cfg = MatcherConfig {
+            method: Method::Sgm,
+            prefilter: Prefilter::Rank { size: 5 },
+            num_disparities: 12,
+            texture_threshold: 0,
+            speckle_window_size: 0,
+            confidence_map: true,
+            sgm: SgmConfig { paths, p2_gamma: gamma, strip_rows: 6, overlap: 3, ..SgmConfig::default() },
+            ..MatcherConfig::default()
+        };
+        let (expect, expect_conf) = naive(&l, &r, w, h, &cfg, 257);
+        let li = Gray16Image::from_raw(w as u32, h as u32, l.clone()).unwrap();
+        let ri = Gray16Image::from_raw(w as u32, h as u32, r.clone()).unwrap();
+        for level in [SimdLevel::Scalar, SimdLevel::Avx2] {
+            let mut m = BlockMatcher::new(MatcherConfig { threads: 2, ..cfg.clone() }).unwrap();
+            if m.set_simd(level) != level {
+                continue;
+            }
+            let got = m.compute_u16(&li, &ri).unwrap();
+            for (i, (a, b)) in got.data.iter().zip(&expect).enumerate() {
+                assert!((a.is_nan() && b.is_nan()) || a == b, "{level:?} seed {seed}: pixel {i} fast {a} naive {b}");
+            }
+            assert_eq!(m.confidence().unwrap(), &expect_conf[..]);
+        }
+        // the x-Sobel prefilter on 16-bit input would overflow the 16-bit sums: refused
+        let xs = MatcherConfig { prefilter: Prefilter::XSobel { cap: 31 }, ..cfg.clone() };
+        assert!(BlockMatcher::new(xs).unwrap().compute_u16(&li, &ri).is_err());
     }
 }
