@@ -303,15 +303,22 @@ macro_rules! kernel {
             conf: &mut [f32],
             stats: &mut MatchStats,
         ) {
-            // SAFETY: forwarded.
+            // SAFETY: forwarded. Without the left–right check the right image's minima are not
+            // tracked at all (`LR = false`: a third fewer vector operations per chunk).
             unsafe {
-                match sc.ndp / L {
-                    1 => row::<VERT, SQ, 1>(sh, sc, y, out, conf, stats),
-                    2 => row::<VERT, SQ, 2>(sh, sc, y, out, conf, stats),
-                    4 => row::<VERT, SQ, 4>(sh, sc, y, out, conf, stats),
-                    8 => row::<VERT, SQ, 8>(sh, sc, y, out, conf, stats),
-                    16 => row::<VERT, SQ, 16>(sh, sc, y, out, conf, stats),
-                    _ => row::<VERT, SQ, 0>(sh, sc, y, out, conf, stats),
+                match (sc.ndp / L, sh.lr.is_some()) {
+                    (1, true) => row::<VERT, SQ, 1, true>(sh, sc, y, out, conf, stats),
+                    (2, true) => row::<VERT, SQ, 2, true>(sh, sc, y, out, conf, stats),
+                    (4, true) => row::<VERT, SQ, 4, true>(sh, sc, y, out, conf, stats),
+                    (8, true) => row::<VERT, SQ, 8, true>(sh, sc, y, out, conf, stats),
+                    (16, true) => row::<VERT, SQ, 16, true>(sh, sc, y, out, conf, stats),
+                    (_, true) => row::<VERT, SQ, 0, true>(sh, sc, y, out, conf, stats),
+                    (1, false) => row::<VERT, SQ, 1, false>(sh, sc, y, out, conf, stats),
+                    (2, false) => row::<VERT, SQ, 2, false>(sh, sc, y, out, conf, stats),
+                    (4, false) => row::<VERT, SQ, 4, false>(sh, sc, y, out, conf, stats),
+                    (8, false) => row::<VERT, SQ, 8, false>(sh, sc, y, out, conf, stats),
+                    (16, false) => row::<VERT, SQ, 16, false>(sh, sc, y, out, conf, stats),
+                    (_, false) => row::<VERT, SQ, 0, false>(sh, sc, y, out, conf, stats),
                 }
             }
         }
@@ -338,7 +345,7 @@ macro_rules! kernel {
 
         /// One row: column-sum update (when `VERT`), box sums, both winners, decisions.
         #[target_feature(enable = $feat)]
-        unsafe fn row<const VERT: bool, const SQ: bool, const NCH: usize>(
+        unsafe fn row<const VERT: bool, const SQ: bool, const NCH: usize, const LR: bool>(
             sh: &Shared,
             sc: &mut Scratch<E>,
             y: usize,
@@ -435,17 +442,17 @@ macro_rules! kernel {
             // SAFETY (all `step` calls): `p` holds this band's buffers, sized by
             // `Scratch16::resize`; x < w.
             let (lo, hi) = range(0);
-            record!(0, unsafe { step::<VERT, SQ, false, true, NCH>(&p, 0, lo, hi) });
+            record!(0, unsafe { step::<VERT, SQ, false, true, NCH, LR>(&p, 0, lo, hi) });
             for x in 1..xa.max(1).min(w) {
                 let (lo, hi) = range(x);
-                record!(x, unsafe { step::<VERT, SQ, true, true, NCH>(&p, x, lo, hi) });
+                record!(x, unsafe { step::<VERT, SQ, true, true, NCH, LR>(&p, x, lo, hi) });
             }
             for x in xa.max(1)..xb {
-                record!(x, unsafe { step::<VERT, SQ, true, false, NCH>(&p, x, 0, nd as i64 - 1) });
+                record!(x, unsafe { step::<VERT, SQ, true, false, NCH, LR>(&p, x, 0, nd as i64 - 1) });
             }
             for x in xb.max(xa).max(1)..w {
                 let (lo, hi) = range(x);
-                record!(x, unsafe { step::<VERT, SQ, true, true, NCH>(&p, x, lo, hi) });
+                record!(x, unsafe { step::<VERT, SQ, true, true, NCH, LR>(&p, x, lo, hi) });
             }
             decide_row(sh, sc, y, stats);
             // the lanes still held are final: lane k is the pixel u = w − 1 − dmin − k
@@ -495,7 +502,14 @@ macro_rules! kernel {
         /// key (cost `E::MAX`, the sentinel, when no lane is searchable).
         #[inline]
         #[target_feature(enable = $feat)]
-        unsafe fn step<const VERT: bool, const SQ: bool, const UPD: bool, const BORDER: bool, const NCH: usize>(
+        unsafe fn step<
+            const VERT: bool,
+            const SQ: bool,
+            const UPD: bool,
+            const BORDER: bool,
+            const NCH: usize,
+            const LR: bool,
+        >(
             p: &Ptrs<E>,
             x: usize,
             lo: i64,
@@ -546,20 +560,22 @@ macro_rules! kernel {
                     };
                     let bm = or(b, m);
                     min_update(&mut minv, &mut idxv, bm, dv);
-                    // move the right state up one lane (a new pixel enters at lane 0), then
-                    // take this column's costs; loads and stores hit the same addresses, so
-                    // they forward (an in-memory shift by one lane would not)
-                    let (oc, ok) = (ld(p.rc.add(c)), ld(p.rk.add(c)));
-                    let (mut rcv, mut rkv) = (up1(oc, prev_c), up1(ok, prev_k));
-                    (prev_c, prev_k) = (oc, ok);
-                    min_update(&mut rcv, &mut rkv, bm, dv);
-                    st(p.rc.add(c), rcv);
-                    st(p.rk.add(c), rkv);
+                    if LR {
+                        // move the right state up one lane (a new pixel enters at lane 0), then
+                        // take this column's costs; loads and stores hit the same addresses, so
+                        // they forward (an in-memory shift by one lane would not)
+                        let (oc, ok) = (ld(p.rc.add(c)), ld(p.rk.add(c)));
+                        let (mut rcv, mut rkv) = (up1(oc, prev_c), up1(ok, prev_k));
+                        (prev_c, prev_k) = (oc, ok);
+                        min_update(&mut rcv, &mut rkv, bm, dv);
+                        st(p.rc.add(c), rcv);
+                        st(p.rk.add(c), rkv);
+                    }
                 }
             }
             // the lane shifted out of the top is final: pixel u = (x − 1) − dmin − (ndp − 1)
             let u = x as i64 - 1 - p.dmin - (ndp as i64 - 1);
-            if (0..p.w as i64).contains(&u) {
+            if LR && (0..p.w as i64).contains(&u) {
                 // SAFETY: u < w = rkf.len().
                 unsafe { *p.rkf.add(u as usize) = top(prev_k) };
             }
