@@ -23,10 +23,10 @@
 //! pass, as OpenCV's 3-way mode) or eight (two passes), P1/P2 with an intensity-adaptive P2, on
 //! the SAD of the prefiltered images (x-Sobel or rank) over a small window, with the same
 //! decisions and sub-pixel step as block matching. Memory is bounded: strips of rows run as
-//! parallel tasks with `9 · W · (D + 2) · 2` bytes each (five paths) or `(strip + 9) · W ·
-//! (D + 2) · 2` bytes (eight paths, strips capped at 48 MiB), paths starting `overlap` rows
-//! outside the strip. Exact 16-bit integer aggregation in AVX2 intrinsics, checked against a
-//! naive reference. Middlebury nonocc: bad-2 with missing = bad (dense preset) 3.40 / 1.32 /
+//! parallel tasks with `≈ 9 · W · Dq · 2` bytes each (five paths; `Dq`: `D` rounded up to
+//! 16) or `≈ (strip + 9) · W · Dq · 2` bytes (eight paths, strips capped at 48 MiB), paths
+//! starting `overlap` rows outside the strip. Exact 16-bit integer aggregation in AVX2
+//! intrinsics, checked against a naive reference. Middlebury nonocc: bad-2 with missing = bad (dense preset) 3.40 / 1.32 /
 //! 7.42 (five paths) against OpenCV SGBM 3-way's 3.85 / 5.81 / 14.99; among the returned pixels
 //! (measurement preset) 2.33 % at 96.9 % / 0.54 % at 98.3 % / 3.62 % at 93.0 % against SGBM's
 //! 2.40 % at 98.5 % / 0.74 % at 94.9 % / 5.46 % at 89.9 %.

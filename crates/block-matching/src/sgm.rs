@@ -18,14 +18,16 @@
 //! by one rayon task with its own buffers. Paths from above start `overlap` rows above the
 //! strip; with eight paths, the three paths from below start `overlap` rows below it. Five
 //! paths (left→right, right→left, and from the top, top-left and top-right) need one pass and
-//! `9 · W · (D + 2) · 2` bytes per task; eight paths add a backward pass (bottom, bottom-left,
-//! bottom-right) over the strip's stored forward sums: `(strip + 9) · W · (D + 2) · 2` bytes
-//! per task, where the strip height is capped so this stays under 48 MiB.
+//! `≈ 9 · W · Dq · 2` bytes per task (`Dq`: `D` rounded up to 16 lanes); eight paths add a
+//! backward pass (bottom, bottom-left, bottom-right) over the strip's stored forward sums:
+//! `≈ (strip + 9) · W · Dq · 2` bytes per task, where the strip height is capped so this stays
+//! under 48 MiB. Never the `W · H · D` volume.
 //!
 //! Every step is exact 16-bit integer arithmetic (the run refuses costs whose sums could
-//! exceed 16 bits), written as plain loops over the disparities that the compiler vectorises;
-//! the band is compiled for AVX2 too and chosen at run time. The naive reference in
-//! `tests/sgm_vs_naive.rs` implements the same definition directly on a full cost volume.
+//! exceed 16 bits). The path steps, column sums, box sums, winner search and right-image
+//! minima run in AVX2 intrinsics when the CPU has AVX2 (module `avx2`), plain loops otherwise;
+//! the naive reference in `tests/sgm_vs_naive.rs` implements the same definition directly on a
+//! full cost volume and both levels must match it exactly.
 
 use crate::config::{SgmConfig, SgmPaths};
 use crate::engine::{MatchStats, Shared, conf_row, curve_ratio, decide, finish_row, load_rows, subpixel_offset};
