@@ -107,8 +107,10 @@ pub struct SgmConfig {
     pub p2_gamma: u32,
     /// Side of the window summed into the per-pixel matching cost (odd, 1..=11; default 5).
     pub block: usize,
-    /// Rows of one strip (a parallel task with its own buffers); 0 chooses: one strip per
-    /// thread for five paths, and for eight paths strips whose stored sums stay under 48 MiB.
+    /// Rows of one strip (a parallel task with its own buffers; paths restart at strip
+    /// boundaries, `overlap` rows outside); 0 chooses `max(128, ⌈height / 8⌉)` rows, lowered for
+    /// eight paths until the strip's stored sums stay under 48 MiB. Never the thread count: the
+    /// map is the same on every machine.
     pub strip_rows: usize,
     /// Rows above (and, with eight paths, below) a strip where its vertical and diagonal paths
     /// start (default 16).
@@ -237,7 +239,7 @@ impl MatcherConfig {
     /// (γ = 16), uniqueness 10 %, left–right check 1 px, speckle filter 100 px. Middlebury
     /// nonocc, bad-2 among the returned pixels / density: tsukuba 2.33 % / 96.9 %, venus
     /// 0.54 % / 98.3 %, teddy 3.62 % / 93.0 % (OpenCV SGBM 3-way: 2.40 / 98.5, 0.74 / 94.9,
-    /// 5.46 / 89.9). Eight paths ([`SgmPaths::Eight`]): 1.80 / 97.3, 0.68 / 98.5, 3.93 / 92.4.
+    /// 5.46 / 89.9). Eight paths ([`SgmPaths::Eight`]): 1.81 / 97.3, 0.67 / 98.5, 3.93 / 92.4.
     pub fn sgm() -> Self {
         Self {
             method: Method::Sgm,

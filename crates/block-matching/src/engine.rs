@@ -504,7 +504,7 @@ impl BlockMatcher {
         let threads = rayon::current_num_threads();
         let sgm = cfg.method == Method::Sgm;
         let band_rows = if sgm {
-            crate::sgm::strip_rows(&cfg.sgm, w, h, cfg.num_disparities, threads)
+            crate::sgm::strip_rows(&cfg.sgm, w, h, cfg.num_disparities)
         } else {
             let nbands =
                 if threads <= 1 { 1 } else { (threads * 2).min(h.div_ceil((4 * cfg.block_size).max(16))).max(1) };

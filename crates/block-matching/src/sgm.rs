@@ -114,13 +114,14 @@ impl<'a> SgmParams<'a> {
     }
 }
 
-/// The strip height: at least two strips per thread for balance, and (eight paths) the strip's
+/// The strip height: independent of the thread count, so a map does not depend on the machine
+/// (paths restart at strip boundaries): `max(128, ⌈h / 8⌉)` rows, and (eight paths) the strip's
 /// stored sums under [`STRIP_BYTES`].
-pub(crate) fn strip_rows(cfg: &SgmConfig, w: usize, h: usize, nd: usize, threads: usize) -> usize {
+pub(crate) fn strip_rows(cfg: &SgmConfig, w: usize, h: usize, nd: usize) -> usize {
     if cfg.strip_rows > 0 {
         return cfg.strip_rows.min(h);
     }
-    let mut rows = h.div_ceil(threads.max(1)).max(1);
+    let mut rows = h.div_ceil(8).max(128);
     if cfg.paths == SgmPaths::Eight {
         let per_row = w * (nd + 2) * 2;
         rows = rows.min((STRIP_BYTES / per_row).saturating_sub(9).max(16));

@@ -113,8 +113,9 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
         }
     };
     // strips
-    let threads = 1;
-    let strip = if g.strip_rows > 0 { g.strip_rows.min(h) } else { h.div_ceil(threads) };
+    // the automatic layout: max(128, ⌈h / 8⌉) rows (the memory cap of eight paths does not bind
+    // at these sizes), whatever the thread count
+    let strip = if g.strip_rows > 0 { g.strip_rows.min(h) } else { h.div_ceil(8).max(128).min(h) };
     let mut s = vec![0i64; w * h * nd];
     let mut y0 = 0;
     while y0 < h {
@@ -259,8 +260,8 @@ fn run_case(seed: u64, w: usize, h: usize, cfg: MatcherConfig) {
     let li = GrayImage::from_fn(w as u32, h as u32, |x, y| Luma([l[y as usize * w + x as usize] as u8]));
     let ri = GrayImage::from_fn(w as u32, h as u32, |x, y| Luma([r[y as usize * w + x as usize] as u8]));
     for level in [SimdLevel::Scalar, SimdLevel::Avx2] {
-        // one thread: the automatic strip layout of the naive reference (explicit strips too)
-        let mut m = BlockMatcher::new(MatcherConfig { threads: 1, ..cfg.clone() }).unwrap();
+        // two threads: the strip layout does not depend on them
+        let mut m = BlockMatcher::new(MatcherConfig { threads: 2, ..cfg.clone() }).unwrap();
         if m.set_simd(level) != level {
             continue;
         }
