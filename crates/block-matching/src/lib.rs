@@ -44,8 +44,8 @@
 //! time. All paths give identical results (tested against a naive reference).
 //! Speed against OpenCV 5 on this project's loaded 2-core machine (interleaved runs, same
 //! images, same options; ARCHITECTURE.md has the figures): block matching 9x9 about 2x
-//! `StereoBM`'s speed from 450x375x64 to 1282x1110x224 (medians 1.8–2.6), semi-global matching
-//! (five paths) 1.0–1.4x `StereoSGBM` 3-way's.
+//! `StereoBM`'s speed on 626x555x96 and 1282x1110x224 (medians 2.0–2.4), 0.6–2.6 on teddy
+//! 450x375x64 (noise-bound), semi-global matching (five paths) 1.0–1.4x `StereoSGBM` 3-way's.
 //!
 //! ```
 //! use parallax_block_matching::{BlockMatcher, MatcherConfig, evaluate};
