@@ -5,13 +5,14 @@
 //! elements = width x height x disparities, so criterion's "elem/s" reads as disparity
 //! evaluations per second. `BM_QUICK=1` keeps only SAD at 450x375 (for side-by-side runs with
 //! OpenCV's peer/stereo_bm.py). `BM_SIMD=scalar|avx2|avx512` caps the instruction set (to measure
-//! what the explicit SIMD paths buy).
+//! what the explicit SIMD paths buy). `disparity-sgm/…` benches semi-global matching (the
+//! measurement preset, five and eight paths) on the same inputs.
 
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use image::{GrayImage, Luma};
-use parallax_block_matching::{BlockMatcher, CostFunction, MatcherConfig, SimdLevel};
+use parallax_block_matching::{BlockMatcher, CostFunction, MatcherConfig, SgmConfig, SgmPaths, SimdLevel};
 use rand::{Rng, SeedableRng};
 
 const TEDDY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/middlebury/teddy");
@@ -75,6 +76,19 @@ fn bench(c: &mut Criterion) {
                     group.bench_function(id, |b| b.iter(|| m.compute_into(left, right, &mut out).expect("same size")));
                 }
             }
+        }
+        group.finish();
+        let mut group = c.benchmark_group(format!("disparity-sgm/{name}x{nd}"));
+        group.sample_size(10).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(3));
+        group.throughput(Throughput::Elements(left.width() as u64 * left.height() as u64 * *nd as u64));
+        for paths in [SgmPaths::Five, SgmPaths::Eight] {
+            let sgm = SgmConfig { paths, ..SgmConfig::default() };
+            let cfg = MatcherConfig { num_disparities: *nd, sgm, ..MatcherConfig::sgm() };
+            let mut m = BlockMatcher::new(cfg).expect("valid config");
+            let mut out = m.compute(left, right).expect("same size");
+            group.bench_function(format!("{paths:?}"), |b| {
+                b.iter(|| m.compute_into(left, right, &mut out).expect("same size"))
+            });
         }
         group.finish();
     }

@@ -1,17 +1,14 @@
-//! Sweeps the decision options on the Middlebury pairs (../shared/data/middlebury) and prints
-//! bad-1 / bad-2 / density for each setting: how the defaults were chosen.
-//! `cargo run --release -p block-matching --example middlebury_sweep [sad|ssd|ncc]`
+//! Sweeps the decision options on the Middlebury pairs (../shared/data/middlebury) and prints,
+//! per pair, bad-2 with missing = bad, bad-2 among the returned pixels and the density (nonocc
+//! mask): how the defaults were chosen.
+//! `cargo run --release -p parallax-block-matching --example middlebury_sweep [bm|sgm]`
 
-use parallax_block_matching::{BlockMatcher, CostFunction, MatcherConfig, Prefilter, evaluate, from_scaled};
+use parallax_block_matching::{BlockMatcher, MatcherConfig, Method, Prefilter, evaluate, from_scaled};
 
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/middlebury");
 
 fn main() {
-    let cost = match std::env::args().nth(1).as_deref() {
-        Some("ssd") => CostFunction::Ssd,
-        Some("ncc") => CostFunction::Ncc,
-        _ => CostFunction::Sad,
-    };
+    let sgm = std::env::args().nth(1).as_deref() == Some("sgm");
     let pairs = [("tsukuba", 16.0, 16), ("venus", 8.0, 32), ("teddy", 4.0, 64)];
     let mut data = Vec::new();
     for (name, scale, nd) in pairs {
@@ -28,54 +25,35 @@ fn main() {
             image::open(dir.join("nonocc.png")).unwrap().into_luma8().as_raw().iter().map(|&v| v > 128).collect();
         data.push((name, nd, l.into_luma8(), r, truth, mask));
     }
-    let prefilters = [
-        Prefilter::XSobel { cap: 31 },
-        Prefilter::XSobel { cap: 15 },
-        Prefilter::XSobel { cap: 63 },
-        Prefilter::NormalizedResponse { size: 9, cap: 31 },
-        Prefilter::NormalizedResponse { size: 15, cap: 63 },
-        Prefilter::None,
-    ];
-    let extra: Vec<String> = std::env::args().skip(2).collect();
-    let pf_list: Vec<Prefilter> =
-        if extra.iter().any(|a| a == "pf") { prefilters.to_vec() } else { vec![Prefilter::XSobel { cap: 31 }] };
-    for pf in pf_list {
-        let pf_only = extra.iter().any(|a| a == "pf");
-        let uniqs: &[u32] = if pf_only { &[0] } else { &[0, 5, 10, 15] };
-        for &uniq in uniqs {
-            let lrs: &[Option<u32>] =
-                if pf_only { &[None, Some(0), Some(1)] } else { &[None, Some(0), Some(1), Some(2)] };
-            for &lr in lrs {
-                let speckles: &[usize] = if pf_only { &[0] } else { &[0, 50, 100, 200] };
-                for &speckle in speckles {
-                    let texs: &[u32] = if pf_only { &[10] } else { &[0, 10] };
-                    for &tex in texs {
-                        for fill in [false, true] {
-                            let mut line = format!("{pf:?} fill{fill} u{uniq:2} lr{lr:?} sp{speckle:3} tex{tex:2} |");
-                            let mut worst = f64::NEG_INFINITY;
-                            for (_, nd, l, r, truth, mask) in &data {
-                                let cfg = MatcherConfig {
-                                    cost,
-                                    num_disparities: *nd,
-                                    prefilter: pf,
-                                    uniqueness_ratio: uniq,
-                                    lr_max_diff: lr,
-                                    lr_fill: fill,
-                                    speckle_window_size: speckle,
-                                    texture_threshold: tex,
-                                    ..MatcherConfig::default()
-                                };
-                                let d = BlockMatcher::new(cfg).unwrap().compute(l, r).unwrap();
-                                let e = evaluate(&d, truth, Some(mask), &[1.0, 2.0]).unwrap();
-                                let b2 = e.bad_at(2.0).unwrap();
-                                line += &format!(" {:6.2} {:6.2} {:5.1} |", e.bad_at(1.0).unwrap(), b2, e.density);
-                                worst = worst.max(b2);
-                            }
-                            println!("{line}");
-                        }
-                    }
+    let mut configs: Vec<(String, MatcherConfig)> = vec![("dense".into(), MatcherConfig::dense())];
+    let prefilters = [Prefilter::XSobel { cap: 31 }, Prefilter::Rank { size: 9 }, Prefilter::Rank { size: 7 }];
+    for pf in prefilters {
+        for uniq in [0, 10, 15, 25] {
+            for speckle in [0, 100, 200] {
+                for conf in [0.0f32, 0.1, 0.2] {
+                    let cfg = MatcherConfig {
+                        prefilter: pf,
+                        uniqueness_ratio: uniq,
+                        speckle_window_size: speckle,
+                        min_confidence: conf,
+                        method: if sgm { Method::Sgm } else { Method::BlockMatching },
+                        ..MatcherConfig::default()
+                    };
+                    configs.push((format!("{pf:?} u{uniq} sp{speckle} c{conf}"), cfg));
                 }
             }
         }
+    }
+    println!("{:44} | per pair: bad2 (missing = bad) / bad2 returned / density", "config");
+    for (label, base) in configs {
+        let mut line = format!("{label:44} |");
+        for (_, nd, l, r, truth, mask) in &data {
+            let cfg = MatcherConfig { num_disparities: *nd, ..base.clone() };
+            let d = BlockMatcher::new(cfg).unwrap().compute(l, r).unwrap();
+            let e = evaluate(&d, truth, Some(mask), &[2.0]).unwrap();
+            line +=
+                &format!(" {:6.2} {:5.2} {:5.1} |", e.bad_at(2.0).unwrap(), e.bad_returned_at(2.0).unwrap(), e.density);
+        }
+        println!("{line}");
     }
 }

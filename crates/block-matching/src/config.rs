@@ -66,17 +66,78 @@ pub enum Subpixel {
     Equiangular,
 }
 
-/// Configuration of a [`crate::BlockMatcher`]. Defaults follow OpenCV's `StereoBM` (x-Sobel cap
-/// 31, texture threshold 10, no speckle filter) with its most accurate uniqueness setting (0),
-/// plus a left–right check (1 px) whose rejects are filled from the background neighbour: on
-/// Middlebury (`examples/middlebury_sweep.rs`) every pure rejection raised bad-2 (missing counts
-/// as bad) while check + fill lowered it on all pairs. The defaults give a dense map; for
-/// downstream geometry where a wrong disparity is worse than none, start from
-/// [`MatcherConfig::filtered`].
+/// The matching method: local block matching or semi-global matching.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum Method {
+    /// Winner-take-all over window costs (`BlockMatcher`'s fused kernels).
+    #[default]
+    BlockMatching,
+    /// Semi-global matching (Hirschmüller 2008) over the pixel-wise cost of the prefiltered
+    /// images summed over a small window (`sgm_block`), aggregated along several paths (see
+    /// [`SgmConfig`]).
+    Sgm,
+}
+
+/// Number of aggregation paths of semi-global matching.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum SgmPaths {
+    /// Eight paths (horizontal, vertical, both diagonals, both directions): two passes over the
+    /// image, the most accurate.
+    Eight,
+    /// Five paths in one top-to-bottom pass (left-to-right, right-to-left, down, down-left,
+    /// down-right), as OpenCV's `MODE_SGBM_3WAY` / `MODE_HH4` compromise: about 40 % less work.
+    #[default]
+    Five,
+}
+
+/// Parameters of semi-global matching ([`Method::Sgm`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SgmConfig {
+    /// Aggregation paths (default five, one pass).
+    pub paths: SgmPaths,
+    /// Penalty of a one-pixel disparity change between neighbours along a path, per pixel of
+    /// the cost window: the penalty applied is `p1 · block²` (default 8).
+    pub p1: u32,
+    /// Penalty of a larger disparity jump, per pixel of the window (default 64; ≥ `p1`).
+    pub p2: u32,
+    /// Intensity-adaptive P2: across an intensity edge of the left image the jump penalty drops
+    /// to `max(p1, p2 / (1 + |ΔI| / p2_gamma))` (depth edges follow intensity edges);
+    /// `0` keeps P2 constant (default 16 grey levels).
+    pub p2_gamma: u32,
+    /// Side of the window summed into the per-pixel matching cost (odd, 1..=11; default 5).
+    pub block: usize,
+    /// Rows of one strip (a parallel task with its own buffers; paths restart at strip
+    /// boundaries, `overlap` rows outside); 0 chooses `max(128, ⌈height / 8⌉)` rows, lowered for
+    /// eight paths until the strip's stored sums stay under 48 MiB. Never the thread count: the
+    /// map is the same on every machine.
+    pub strip_rows: usize,
+    /// Rows above (and, with eight paths, below) a strip where its vertical and diagonal paths
+    /// start (default 16).
+    pub overlap: usize,
+}
+
+impl Default for SgmConfig {
+    fn default() -> Self {
+        Self { paths: SgmPaths::Five, p1: 8, p2: 64, p2_gamma: 16, block: 5, strip_rows: 0, overlap: 16 }
+    }
+}
+
+/// Configuration of a [`crate::BlockMatcher`]. The defaults are chosen for measurement: a
+/// rejected pixel is invalid (NaN), never filled unless `fill` asks for it. 9x9 SAD on the 9x9
+/// rank transform, OpenCV's texture threshold 10, uniqueness margin 15 %, left–right check
+/// (1 px) and speckle filter (100 px, 2 px). Middlebury nonocc, bad-2 among the returned pixels
+/// / density (`examples/middlebury_sweep.rs`): tsukuba 2.08 % / 73.4 %, venus 0.83 % / 82.3 %,
+/// teddy 2.47 % / 83.8 % (the x-Sobel prefilter with the same checks: 1.98 / 88.2, 1.19 / 84.8,
+/// 3.87 / 82.5). [`MatcherConfig::dense`] is the benchmark preset for evaluations that count a
+/// missing pixel as bad.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct MatcherConfig {
-    /// Cost function (default SAD).
+    /// Matching method (default block matching).
+    pub method: Method,
+    /// Cost function (default SAD). Semi-global matching supports SAD only (on any prefilter;
+    /// with [`Prefilter::Rank`] it is the rank / census-like cost).
     pub cost: CostFunction,
     /// Window side in pixels: odd, 3..=31 (default 9).
     pub block_size: usize,
@@ -85,34 +146,45 @@ pub struct MatcherConfig {
     /// Number of disparities searched: `[min_disparity, min_disparity + num_disparities)`,
     /// 1..=1024 (default 64; unlike OpenCV any count is allowed, not only multiples of 16).
     pub num_disparities: usize,
-    /// Prefilter of both images (default clipped x-Sobel, cap 31, as OpenCV).
+    /// Prefilter of both images (default the 9x9 rank transform; OpenCV's is the clipped
+    /// x-Sobel, cap 31).
     pub prefilter: Prefilter,
     /// A pixel is invalid when the window sum of its clipped x-Sobel magnitude (cap 31, 8-bit
     /// units; times 257 for 16-bit input) is below this (OpenCV `textureThreshold`, default 10;
     /// 0 disables).
     pub texture_threshold: u32,
     /// Uniqueness margin in percent: the best cost `c*` wins only if every disparity further than
-    /// one pixel from it costs more than `c* + c*·ratio/100` (OpenCV `uniquenessRatio`; default 0 =
-    /// off, OpenCV's most accurate StereoBM setting; [`MatcherConfig::filtered`] uses 10).
+    /// one pixel from it costs more than `c* + c*·ratio/100` (OpenCV `uniquenessRatio`; default
+    /// 15; 0 = off).
     pub uniqueness_ratio: u32,
     /// Left–right consistency: a pixel is kept only if the right image's own winner at the
     /// matched pixel is within this many pixels (integer disparities). `None` disables
-    /// (default `Some(1)`, as SGBM's `disp12MaxDiff = 1`; rejected pixels are then filled, see
-    /// `lr_fill`).
+    /// (default `Some(1)`, as SGBM's `disp12MaxDiff = 1`).
     pub lr_max_diff: Option<u32>,
-    /// Fill pixels rejected by the left–right check (occlusions, the fattened side of depth
-    /// edges) with the smaller of the nearest valid disparities left and right on the row (the
-    /// background side). Filled pixels are counted in [`crate::MatchStats::lr_filled`]. Default
-    /// `true`; no effect without `lr_max_diff`.
-    pub lr_fill: bool,
+    /// Fill pixels rejected by the left–right check or the confidence threshold (occlusions,
+    /// the fattened side of depth edges) with the smaller of the nearest valid disparities left
+    /// and right on the row (the background side). Filled pixels are guesses: they are counted
+    /// in [`crate::MatchStats::filled`] and get confidence 0. Default `false`.
+    pub fill: bool,
+    /// Pixels whose confidence ([`crate::BlockMatcher::confidence`]) is below this are rejected
+    /// (`0..=1`; default 0 = off). The confidence is `(1 − c*/c₂) / (1 + |d_lr − d|)`: `c*` the
+    /// best cost, `c₂` the best cost further than one disparity from it, `d_lr − d` the
+    /// left–right disagreement (0 or 1 with the default tolerance; the factor is 1 without the
+    /// check).
+    pub min_confidence: f32,
+    /// Keep the per-pixel confidence map of the last frame (computed whenever
+    /// `min_confidence > 0` too). Default `false` (it costs a pass over the costs per pixel).
+    pub confidence_map: bool,
     /// Speckle filter: 4-connected regions of at most this many pixels are invalidated (OpenCV
-    /// `speckleWindowSize`; default 0 = off as OpenCV; [`MatcherConfig::filtered`] uses 100).
+    /// `speckleWindowSize`; default 100, 0 = off).
     pub speckle_window_size: usize,
     /// Two neighbours belong to one region when their disparities differ by at most this many
     /// pixels (OpenCV `speckleRange`, here in pixels, not 1/16 px; default 2.0).
     pub speckle_range: f32,
     /// Sub-pixel refinement (default `Auto`: equiangular for SAD, parabola otherwise).
     pub subpixel: Subpixel,
+    /// Semi-global matching parameters (used with [`Method::Sgm`]).
+    pub sgm: SgmConfig,
     /// Worker threads: 0 uses rayon's global pool, `n` builds a private pool of `n` threads once.
     pub threads: usize,
 }
@@ -120,18 +192,22 @@ pub struct MatcherConfig {
 impl Default for MatcherConfig {
     fn default() -> Self {
         Self {
+            method: Method::BlockMatching,
             cost: CostFunction::Sad,
             block_size: 9,
             min_disparity: 0,
             num_disparities: 64,
-            prefilter: Prefilter::default(),
+            prefilter: Prefilter::Rank { size: 9 },
             texture_threshold: 10,
-            uniqueness_ratio: 0,
+            uniqueness_ratio: 15,
             lr_max_diff: Some(1),
-            lr_fill: true,
-            speckle_window_size: 0,
+            fill: false,
+            min_confidence: 0.0,
+            confidence_map: false,
+            speckle_window_size: 100,
             speckle_range: 2.0,
             subpixel: Subpixel::Auto,
+            sgm: SgmConfig::default(),
             threads: 0,
         }
     }
@@ -142,12 +218,50 @@ fn invalid(field: &'static str, value: impl ToString, reason: &'static str) -> B
 }
 
 impl MatcherConfig {
-    /// Defaults plus the reliability filters and no filling: uniqueness 10 %, left–right
-    /// tolerance 1 px without fill, speckle filter of 100 px (range 2 px). Fewer pixels, fewer
-    /// gross errors (Middlebury teddy, SAD 9x9: density 84.5 %, bad-2 18.96 % counting missing
-    /// pixels as bad, i.e. about 5 % of the kept pixels off by more than 2 px).
-    pub fn filtered() -> Self {
-        Self { uniqueness_ratio: 10, lr_max_diff: Some(1), lr_fill: false, speckle_window_size: 100, ..Self::default() }
+    /// The benchmark preset for evaluations that count a missing pixel as bad: OpenCV
+    /// `StereoBM`'s prefilter (x-Sobel, cap 31) and most accurate setting (uniqueness 0, no
+    /// speckle filter) plus the left–right check whose rejects are filled from the background
+    /// neighbour. Dense (~95–100 %), but the filled pixels are guesses: do not measure with it.
+    /// Middlebury SAD 9x9 bad-2 (missing = bad) tsukuba / venus / teddy 5.90 / 5.06 / 11.08.
+    pub fn dense() -> Self {
+        Self {
+            prefilter: Prefilter::XSobel { cap: 31 },
+            uniqueness_ratio: 0,
+            fill: true,
+            speckle_window_size: 0,
+            min_confidence: 0.0,
+            ..Self::default()
+        }
+    }
+
+    /// Semi-global matching for measurement (nothing filled): five paths, 5x5 SAD on the
+    /// x-Sobel prefilter, P1 = 8, P2 = 64 per window pixel with the intensity-adaptive P2
+    /// (γ = 16), uniqueness 10 %, left–right check 1 px, speckle filter 100 px. Middlebury
+    /// nonocc, bad-2 among the returned pixels / density: tsukuba 2.33 % / 96.9 %, venus
+    /// 0.54 % / 98.3 %, teddy 3.62 % / 93.0 % (OpenCV SGBM 3-way: 2.40 / 98.5, 0.74 / 94.9,
+    /// 5.46 / 89.9). Eight paths ([`SgmPaths::Eight`]): 1.81 / 97.3, 0.67 / 98.5, 3.93 / 92.4.
+    pub fn sgm() -> Self {
+        Self {
+            method: Method::Sgm,
+            prefilter: Prefilter::XSobel { cap: 31 },
+            uniqueness_ratio: 10,
+            speckle_window_size: 100,
+            sgm: SgmConfig::default(),
+            ..Self::default()
+        }
+    }
+
+    /// [`MatcherConfig::sgm`] as a benchmark preset for evaluations that count a missing pixel
+    /// as bad: no uniqueness margin, no speckle filter, left–right rejects filled. Middlebury
+    /// nonocc bad-2 (missing = bad) tsukuba / venus / teddy 3.40 / 1.32 / 7.42 with five paths,
+    /// 2.75 / 1.36 / 7.86 with eight (OpenCV SGBM 3-way: 3.85 / 5.81 / 14.99).
+    pub fn sgm_dense() -> Self {
+        Self { uniqueness_ratio: 0, speckle_window_size: 0, fill: true, ..Self::sgm() }
+    }
+
+    /// Whether the matcher needs the second-best non-adjacent cost of every pixel.
+    pub(crate) fn needs_confidence(&self) -> bool {
+        self.confidence_map || self.min_confidence > 0.0
     }
 
     /// Checks every field against its documented range.
@@ -187,6 +301,27 @@ impl MatcherConfig {
         }
         if !(self.speckle_range.is_finite() && self.speckle_range >= 0.0) {
             return Err(invalid("speckle_range", self.speckle_range, "must be finite and ≥ 0"));
+        }
+        if !(0.0..=1.0).contains(&self.min_confidence) {
+            return Err(invalid("min_confidence", self.min_confidence, "must be in 0..=1"));
+        }
+        if self.method == Method::Sgm {
+            if self.cost != CostFunction::Sad {
+                return Err(invalid("cost", format!("{:?}", self.cost), "semi-global matching supports SAD only"));
+            }
+            let g = &self.sgm;
+            if g.block.is_multiple_of(2) || !(1..=11).contains(&g.block) {
+                return Err(invalid("sgm.block", g.block, "must be odd, 1..=11"));
+            }
+            if g.p1 == 0 || g.p2 < g.p1 || g.p2 > 4096 {
+                return Err(invalid("sgm.p2", format!("p1 {} p2 {}", g.p1, g.p2), "need 1 ≤ p1 ≤ p2 ≤ 4096"));
+            }
+            if g.overlap > 4096 {
+                return Err(invalid("sgm.overlap", g.overlap, "must be 0..=4096"));
+            }
+            if g.p2_gamma > 4096 {
+                return Err(invalid("sgm.p2_gamma", g.p2_gamma, "must be 0..=4096"));
+            }
         }
         if self.threads > 1024 {
             return Err(invalid("threads", self.threads, "must be 0..=1024"));

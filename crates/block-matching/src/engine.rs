@@ -6,7 +6,7 @@ use parallax_camera_model::DisparityMap;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::config::{CostFunction, MatcherConfig, Prefilter, Subpixel};
+use crate::config::{CostFunction, MatcherConfig, Method, Prefilter, Subpixel};
 use crate::error::{BlockMatchingError, Result};
 use crate::prefilter::{box_sum, normalized_response, rank_transform_into, texture_mask_into, x_sobel_into};
 use crate::speckle::filter_speckles;
@@ -61,8 +61,12 @@ pub struct MatchStats {
     pub not_unique: usize,
     /// Rejected by the left–right check (including those filled afterwards).
     pub lr_inconsistent: usize,
-    /// Left–right rejects filled from their background neighbour (`lr_fill`); counted as valid.
-    pub lr_filled: usize,
+    /// Rejected by the confidence threshold (`min_confidence`; including those filled
+    /// afterwards).
+    pub low_confidence: usize,
+    /// Left–right and confidence rejects filled from their background neighbour (`fill`);
+    /// counted as valid.
+    pub filled: usize,
     /// Removed by the speckle filter.
     pub speckle: usize,
     /// `valid / pixels` in `[0, 1]`.
@@ -75,7 +79,25 @@ impl MatchStats {
         self.low_texture += o.low_texture;
         self.not_unique += o.not_unique;
         self.lr_inconsistent += o.lr_inconsistent;
-        self.lr_filled += o.lr_filled;
+        self.low_confidence += o.low_confidence;
+        self.filled += o.filled;
+    }
+
+    /// `n` pixels in percent of the map.
+    pub fn percent(&self, n: usize) -> f64 {
+        if self.pixels == 0 { 0.0 } else { 100.0 * n as f64 / self.pixels as f64 }
+    }
+}
+
+/// The cost-curve part of the confidence: `1 − c*/c₂` in `[0, 1]` from the best cost `c*` and
+/// the best cost `c₂` further than one disparity from the winner (`None` when no such
+/// candidate exists, which gives 0: nothing to compare with). One f64 division, rounded once
+/// to f32 (the naive reference in the tests uses the same expression).
+#[inline(always)]
+pub(crate) fn curve_ratio(c1: f64, c2: Option<f64>) -> f32 {
+    match c2 {
+        Some(c2) if c2 > 0.0 => (1.0 - c1 / c2).clamp(0.0, 1.0) as f32,
+        _ => 0.0,
     }
 }
 
@@ -218,7 +240,10 @@ pub(crate) struct Shared<'a> {
     n: f64,
     pub(crate) uniq: u32,
     pub(crate) lr: Option<u32>,
-    pub(crate) lr_fill: bool,
+    pub(crate) fill: bool,
+    /// Compute the confidence (second-best non-adjacent cost) of every pixel.
+    pub(crate) conf: bool,
+    pub(crate) min_conf: f32,
     pub(crate) subpixel: Subpixel,
 }
 
@@ -237,6 +262,7 @@ struct Scratch<A> {
     rk: Vec<u32>,
     best: Vec<i32>,
     sub: Vec<f32>,
+    ratio: Vec<f32>,
     sr_rev: Vec<f64>,
     ir_rev: Vec<f64>,
 }
@@ -256,6 +282,7 @@ impl<A: Acc> Scratch<A> {
         self.rk.resize(w, u32::MAX);
         self.best.resize(w, -1);
         self.sub.resize(w, 0.0);
+        self.ratio.resize(w, 0.0);
         self.sr_rev.resize(w, 0.0);
         self.ir_rev.resize(w, 0.0);
     }
@@ -278,6 +305,7 @@ pub struct BlockMatcher {
     pre_right: Vec<u16>,
     sobel: Vec<u16>,
     texture_ok: Vec<bool>,
+    confidence: Vec<f32>,
     ncc: NccPlanes,
     scratch32: Vec<Scratch<u32>>,
     scratch64: Vec<Scratch<u64>>,
@@ -285,6 +313,7 @@ pub struct BlockMatcher {
     simd16: Vec<crate::simd::Scratch<u16>>,
     #[cfg(target_arch = "x86_64")]
     simd32: Vec<crate::simd::Scratch<u32>>,
+    sgm: Vec<crate::sgm::Scratch>,
     stats: MatchStats,
 }
 
@@ -313,6 +342,7 @@ impl BlockMatcher {
             pre_right: Vec::new(),
             sobel: Vec::new(),
             texture_ok: Vec::new(),
+            confidence: Vec::new(),
             ncc: NccPlanes::default(),
             scratch32: Vec::new(),
             scratch64: Vec::new(),
@@ -320,6 +350,7 @@ impl BlockMatcher {
             simd16: Vec::new(),
             #[cfg(target_arch = "x86_64")]
             simd32: Vec::new(),
+            sgm: Vec::new(),
             stats: MatchStats::default(),
         })
     }
@@ -344,6 +375,13 @@ impl BlockMatcher {
     /// Rejection counts and density of the last computed frame.
     pub fn last_stats(&self) -> MatchStats {
         self.stats
+    }
+
+    /// The per-pixel confidence of the last frame (row-major, `0..=1`, 0 where the map is
+    /// invalid or filled), when `confidence_map` or `min_confidence` is set; `None` otherwise.
+    /// See [`MatcherConfig::min_confidence`] for the formula.
+    pub fn confidence(&self) -> Option<&[f32]> {
+        self.config.needs_confidence().then_some(&self.confidence[..])
     }
 
     /// Disparity of the left image of a rectified 8-bit pair.
@@ -464,13 +502,20 @@ impl BlockMatcher {
             *out = DisparityMap::new_invalid(w, h);
         }
         let threads = rayon::current_num_threads();
-        let nbands = if threads <= 1 { 1 } else { (threads * 2).min(h.div_ceil((4 * cfg.block_size).max(16))).max(1) };
-        let band_rows = h.div_ceil(nbands);
+        let sgm = cfg.method == Method::Sgm;
+        let band_rows = if sgm {
+            crate::sgm::strip_rows(&cfg.sgm, w, h, cfg.num_disparities)
+        } else {
+            let nbands =
+                if threads <= 1 { 1 } else { (threads * 2).min(h.div_ceil((4 * cfg.block_size).max(16))).max(1) };
+            h.div_ceil(nbands)
+        };
         let nbands = h.div_ceil(band_rows);
         let shared = Shared {
             w,
             h,
-            r,
+            // semi-global matching sums its pixel cost over its own (small) window
+            r: if sgm { cfg.sgm.block / 2 } else { r },
             nd: cfg.num_disparities,
             dmin: cfg.min_disparity as i64,
             left,
@@ -480,12 +525,38 @@ impl BlockMatcher {
             n: n as f64,
             uniq: cfg.uniqueness_ratio,
             lr: cfg.lr_max_diff,
-            lr_fill: cfg.lr_fill,
-            subpixel: cfg.effective_subpixel(),
+            fill: cfg.fill,
+            conf: cfg.needs_confidence(),
+            min_conf: cfg.min_confidence,
+            subpixel: match (sgm, cfg.subpixel) {
+                // aggregated costs are smooth: a parabola fits them (as OpenCV's SGBM)
+                (true, Subpixel::Auto) => Subpixel::Parabola,
+                _ => cfg.effective_subpixel(),
+            },
+        };
+        let conf_plane: &mut [f32] = if shared.conf {
+            self.confidence.resize(w * h, 0.0);
+            &mut self.confidence
+        } else {
+            &mut []
         };
         let simd = self.simd;
         let data = out.data_mut();
         let mut stats = MatchStats::default();
+        if sgm {
+            let (intensity, iscale) = (raw_left, scale);
+            let pp = crate::sgm::SgmParams::new(&cfg.sgm, maxv, intensity, iscale)?;
+            let avx2 = simd >= SimdLevel::Avx2;
+            let per_band =
+                for_each_band(&shared, &mut self.sgm, nbands, band_rows, data, conf_plane, |sc, rows, conf, y0, y1| {
+                    crate::sgm::run_strip(&shared, &pp, sc, rows, conf, y0, y1, avx2)
+                });
+            for s in &per_band {
+                stats.add(s);
+            }
+            self.finish_stats(out, stats);
+            return Ok(());
+        }
         // the vectorised kernels: 16-bit lanes when every SAD window sum is ≤ 65534, 32-bit lanes
         // when every SAD / SSD window sum is ≤ 2^32 − 2 (the lane maximum is the "no candidate"
         // sentinel)
@@ -520,7 +591,8 @@ impl BlockMatcher {
                         nbands,
                         band_rows,
                         data,
-                        |sc, rows, y0, y1| unsafe { crate::simd::band16(isa, &shared, sc, rows, y0, y1) },
+                        conf_plane,
+                        |sc, rows, conf, y0, y1| unsafe { crate::simd::band16(isa, &shared, sc, rows, conf, y0, y1) },
                     );
                 }
                 Some((isa, SimdKernel::Lanes32 { squared })) => {
@@ -530,30 +602,48 @@ impl BlockMatcher {
                         nbands,
                         band_rows,
                         data,
-                        |sc, rows, y0, y1| unsafe { crate::simd::band32(isa, squared, &shared, sc, rows, y0, y1) },
+                        conf_plane,
+                        |sc, rows, conf, y0, y1| unsafe {
+                            crate::simd::band32(isa, squared, &shared, sc, rows, conf, y0, y1)
+                        },
                     );
                 }
                 None => {}
             }
             if wide {
-                run_bands::<u64>(&shared, &mut self.scratch64, nbands, band_rows, data, cfg.cost, simd)
+                run_bands::<u64>(&shared, &mut self.scratch64, nbands, band_rows, data, conf_plane, cfg.cost, simd)
             } else {
-                run_bands::<u32>(&shared, &mut self.scratch32, nbands, band_rows, data, cfg.cost, simd)
+                run_bands::<u32>(&shared, &mut self.scratch32, nbands, band_rows, data, conf_plane, cfg.cost, simd)
             }
         };
         let per_band = job();
         for s in &per_band {
             stats.add(s);
         }
+        self.finish_stats(out, stats);
+        Ok(())
+    }
+
+    /// Speckle filter, confidence of the removed speckles, density.
+    fn finish_stats(&mut self, out: &mut DisparityMap, mut stats: MatchStats) {
+        let cfg = &self.config;
+        let (w, h) = (out.width(), out.height());
         if cfg.speckle_window_size > 0 {
             stats.speckle = filter_speckles(out, cfg.speckle_window_size, cfg.speckle_range);
+            if cfg.needs_confidence() {
+                // the speckles' confidence goes with their disparity
+                for (c, d) in self.confidence.iter_mut().zip(out.data()) {
+                    if !d.is_finite() {
+                        *c = 0.0;
+                    }
+                }
+            }
         }
         stats.pixels = w * h;
         // as `DisparityMap::valid_count`, in parallel
         stats.valid = out.data().par_chunks(1 << 14).map(|c| c.iter().filter(|d| d.is_finite()).count()).sum();
         stats.density = if w * h == 0 { 0.0 } else { stats.valid as f64 / (w * h) as f64 };
         self.stats = stats;
-        Ok(())
     }
 }
 
@@ -574,7 +664,7 @@ fn to_u16(src: &[u8], dst: &mut Vec<u16>) {
     });
 }
 
-fn check_pair(lw: u32, lh: u32, rw: u32, rh: u32) -> Result<(usize, usize)> {
+pub(crate) fn check_pair(lw: u32, lh: u32, rw: u32, rh: u32) -> Result<(usize, usize)> {
     if lw == 0 || lh == 0 {
         return Err(BlockMatchingError::EmptyImage { what: "left image", width: lw as usize, height: lh as usize });
     }
@@ -590,27 +680,41 @@ fn check_pair(lw: u32, lh: u32, rw: u32, rh: u32) -> Result<(usize, usize)> {
     Ok((lw as usize, lh as usize))
 }
 
-/// Runs `band(scratch, rows, y0, y1)` on every row band in parallel, each with its own scratch
-/// (grown to `nbands` entries and kept for the next frame); returns the per-band statistics.
-fn for_each_band<S: Default + Send>(
+/// Runs `band(scratch, rows, conf_rows, y0, y1)` on every row band in parallel, each with its
+/// own scratch (grown to `nbands` entries and kept for the next frame); returns the per-band
+/// statistics. `conf` is the confidence plane (`w · h`) or empty, and so are its band rows.
+pub(crate) fn for_each_band<S: Default + Send>(
     sh: &Shared,
     scratch: &mut Vec<S>,
     nbands: usize,
     band_rows: usize,
     data: &mut [f32],
-    band: impl Fn(&mut S, &mut [f32], usize, usize) -> MatchStats + Sync,
+    conf: &mut [f32],
+    band: impl Fn(&mut S, &mut [f32], &mut [f32], usize, usize) -> MatchStats + Sync,
 ) -> Vec<MatchStats> {
     if scratch.len() < nbands {
         scratch.resize_with(nbands, S::default);
     }
+    let conf_rows: Vec<&mut [f32]> = if conf.is_empty() {
+        (0..nbands).map(|_| <&mut [f32]>::default()).collect()
+    } else {
+        conf.chunks_mut(band_rows * sh.w).collect()
+    };
     data.par_chunks_mut(band_rows * sh.w)
         .zip(scratch.par_iter_mut())
+        .zip(conf_rows.into_par_iter())
         .enumerate()
-        .map(|(b, (rows, sc))| {
+        .map(|(b, ((rows, sc), conf))| {
             let y0 = b * band_rows;
-            band(sc, rows, y0, (y0 + band_rows).min(sh.h))
+            band(sc, rows, conf, y0, (y0 + band_rows).min(sh.h))
         })
         .collect()
+}
+
+/// The confidence row of `y` inside a band's confidence rows (empty when off).
+#[inline(always)]
+pub(crate) fn conf_row<'a>(sh: &Shared, conf: &'a mut [f32], y: usize, y0: usize) -> &'a mut [f32] {
+    if sh.conf { &mut conf[(y - y0) * sh.w..][..sh.w] } else { &mut [] }
 }
 
 /// Which vectorised kernel runs a frame.
@@ -627,15 +731,16 @@ fn run_bands<A: Acc>(
     nbands: usize,
     band_rows: usize,
     data: &mut [f32],
+    conf: &mut [f32],
     cost: CostFunction,
     simd: SimdLevel,
 ) -> Vec<MatchStats> {
-    for_each_band(sh, scratch, nbands, band_rows, data, |sc, rows, y0, y1| {
+    for_each_band(sh, scratch, nbands, band_rows, data, conf, |sc, rows, conf, y0, y1| {
         sc.resize(sh.w, sh.r, sh.nd);
         match cost {
-            CostFunction::Sad => dispatch::<A, K_SAD>(sh, sc, rows, y0, y1, simd),
-            CostFunction::Ssd => dispatch::<A, K_SSD>(sh, sc, rows, y0, y1, simd),
-            CostFunction::Ncc => dispatch::<A, K_NCC>(sh, sc, rows, y0, y1, simd),
+            CostFunction::Sad => dispatch::<A, K_SAD>(sh, sc, rows, conf, y0, y1, simd),
+            CostFunction::Ssd => dispatch::<A, K_SSD>(sh, sc, rows, conf, y0, y1, simd),
+            CostFunction::Ncc => dispatch::<A, K_NCC>(sh, sc, rows, conf, y0, y1, simd),
         }
     })
 }
@@ -644,6 +749,7 @@ fn dispatch<A: Acc, const K: u8>(
     sh: &Shared,
     sc: &mut Scratch<A>,
     out: &mut [f32],
+    conf: &mut [f32],
     y0: usize,
     y1: usize,
     simd: SimdLevel,
@@ -652,13 +758,13 @@ fn dispatch<A: Acc, const K: u8>(
     {
         // SAFETY: `simd` never exceeds `SimdLevel::detect()`, which checked these features.
         match simd {
-            SimdLevel::Avx512 => return unsafe { band_avx512::<A, K>(sh, sc, out, y0, y1) },
-            SimdLevel::Avx2 => return unsafe { band_avx2::<A, K>(sh, sc, out, y0, y1) },
+            SimdLevel::Avx512 => return unsafe { band_avx512::<A, K>(sh, sc, out, conf, y0, y1) },
+            SimdLevel::Avx2 => return unsafe { band_avx2::<A, K>(sh, sc, out, conf, y0, y1) },
             SimdLevel::Scalar => {}
         }
     }
     let _ = simd;
-    band::<A, K>(sh, sc, out, y0, y1)
+    band::<A, K>(sh, sc, out, conf, y0, y1)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -667,10 +773,11 @@ unsafe fn band_avx2<A: Acc, const K: u8>(
     sh: &Shared,
     sc: &mut Scratch<A>,
     out: &mut [f32],
+    conf: &mut [f32],
     y0: usize,
     y1: usize,
 ) -> MatchStats {
-    band::<A, K>(sh, sc, out, y0, y1)
+    band::<A, K>(sh, sc, out, conf, y0, y1)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -679,10 +786,11 @@ unsafe fn band_avx512<A: Acc, const K: u8>(
     sh: &Shared,
     sc: &mut Scratch<A>,
     out: &mut [f32],
+    conf: &mut [f32],
     y0: usize,
     y1: usize,
 ) -> MatchStats {
-    band::<A, K>(sh, sc, out, y0, y1)
+    band::<A, K>(sh, sc, out, conf, y0, y1)
 }
 
 /// Fills `l` with left row `y` extended by `r` clamped columns each side, and `rrev` with the
@@ -753,14 +861,23 @@ fn vert_add<A: Acc, const K: u8>(cs: &mut [A], ri: &[u16], li: u16) {
     }
 }
 
-/// Left winner of one pixel from its candidate costs `c[lo..=hi]`.
-enum Decision {
-    Best(i32, f32),
+/// Left winner of one pixel from its candidate costs `c[lo..=hi]`: disparity index, sub-pixel
+/// offset and cost-curve confidence (0 unless asked for).
+pub(crate) enum Decision {
+    Best(i32, f32, f32),
     NotUnique,
 }
 
+/// The smallest cost of `c[lo..=hi]` further than one index from `kb` (`None` if there is none).
 #[inline(always)]
-fn decide<C: Cost>(c: &[C], lo: usize, hi: usize, uniq: u32, subpixel: Subpixel) -> Decision {
+pub(crate) fn second_cost<C: Cost>(c: &[C], lo: usize, hi: usize, kb: usize) -> Option<f64> {
+    let a = c[lo..kb.saturating_sub(1).max(lo)].iter();
+    let b = c.get((kb + 2).max(lo)..=hi).unwrap_or(&[]).iter();
+    a.chain(b).fold(None, |m: Option<C>, &v| Some(m.map_or(v, |m| m.min2(v)))).map(C::to_f64)
+}
+
+#[inline(always)]
+pub(crate) fn decide<C: Cost>(c: &[C], lo: usize, hi: usize, uniq: u32, subpixel: Subpixel, conf: bool) -> Decision {
     let s = &c[lo..=hi];
     // minimum over 8 interleaved accumulators: the order does not change a minimum of non-NaN
     // costs, and it breaks the sequential dependency (which bound NCC's f64 costs to one
@@ -778,7 +895,8 @@ fn decide<C: Cost>(c: &[C], lo: usize, hi: usize, uniq: u32, subpixel: Subpixel)
     if uniq > 0 && !unique(c, lo, hi, kb, uniq) {
         return Decision::NotUnique;
     }
-    Decision::Best(kb as i32, subpixel_offset(c, lo, hi, kb, subpixel))
+    let ratio = if conf { curve_ratio(c[kb].to_f64(), second_cost(c, lo, hi, kb)) } else { 0.0 };
+    Decision::Best(kb as i32, subpixel_offset(c, lo, hi, kb, subpixel), ratio)
 }
 
 /// OpenCV's uniqueness rule for the winner `kb` of `c[lo..=hi]`: no candidate further than one
@@ -814,7 +932,7 @@ pub(crate) fn subpixel_offset<C: Cost>(c: &[C], lo: usize, hi: usize, kb: usize,
 
 /// Keeps, per right pixel (reversed index `j`), the smallest cost and its candidate (first wins).
 #[inline(always)]
-fn right_update<C: Cost>(c: &[C], rc: &mut [C], rk: &mut [u32], lo: usize) {
+pub(crate) fn right_update<C: Cost>(c: &[C], rc: &mut [C], rk: &mut [u32], lo: usize) {
     for (t, ((&v, rcv), rkv)) in c.iter().zip(rc.iter_mut()).zip(rk.iter_mut()).enumerate() {
         let better = v < *rcv;
         *rcv = if better { v } else { *rcv };
@@ -823,7 +941,14 @@ fn right_update<C: Cost>(c: &[C], rc: &mut [C], rk: &mut [u32], lo: usize) {
 }
 
 #[inline(always)]
-fn band<A: Acc, const K: u8>(sh: &Shared, sc: &mut Scratch<A>, out: &mut [f32], y0: usize, y1: usize) -> MatchStats {
+fn band<A: Acc, const K: u8>(
+    sh: &Shared,
+    sc: &mut Scratch<A>,
+    out: &mut [f32],
+    conf: &mut [f32],
+    y0: usize,
+    y1: usize,
+) -> MatchStats {
     let (w, h, r, nd) = (sh.w, sh.h, sh.r, sh.nd);
     let clamp_y = |y: i64| y.clamp(0, h as i64 - 1) as usize;
     let mut st = MatchStats::default();
@@ -843,7 +968,7 @@ fn band<A: Acc, const K: u8>(sh: &Shared, sc: &mut Scratch<A>, out: &mut [f32], 
                 vertical::<A, K>(sc, nd, true);
             }
         }
-        row_decisions::<A, K>(sh, sc, y, &mut out[(y - y0) * w..][..w], &mut st);
+        row_decisions::<A, K>(sh, sc, y, &mut out[(y - y0) * w..][..w], conf_row(sh, conf, y, y0), &mut st);
     }
     st
 }
@@ -854,6 +979,7 @@ fn row_decisions<A: Acc, const K: u8>(
     sc: &mut Scratch<A>,
     y: usize,
     out: &mut [f32],
+    conf: &mut [f32],
     st: &mut MatchStats,
 ) {
     let (w, r, nd, dmin) = (sh.w, sh.r, sh.nd, sh.dmin);
@@ -906,10 +1032,10 @@ fn row_decisions<A: Acc, const K: u8>(
                 *cf = ncc_cost(n, b.to_f64(), sl, sr, il, ir);
             }
             right_update(&sc.costf[lo..=hi], &mut sc.rcf[j0..][..len], &mut sc.rk[j0..][..len], lo);
-            decide(&sc.costf, lo, hi, sh.uniq, sh.subpixel)
+            decide(&sc.costf, lo, hi, sh.uniq, sh.subpixel, sh.conf)
         } else {
             right_update::<A>(&sc.boxs[lo..=hi], &mut sc.rc[j0..][..len], &mut sc.rk[j0..][..len], lo);
-            decide::<A>(&sc.boxs, lo, hi, sh.uniq, sh.subpixel)
+            decide::<A>(&sc.boxs, lo, hi, sh.uniq, sh.subpixel, sh.conf)
         };
         if sh.texture_ok.is_some_and(|t| !t[y * w + x]) {
             sc.best[x] = -1;
@@ -917,9 +1043,10 @@ fn row_decisions<A: Acc, const K: u8>(
             continue;
         }
         match dec {
-            Decision::Best(k, off) => {
+            Decision::Best(k, off, ratio) => {
                 sc.best[x] = k;
                 sc.sub[x] = off;
+                sc.ratio[x] = ratio;
             }
             Decision::NotUnique => {
                 sc.best[x] = -1;
@@ -928,42 +1055,62 @@ fn row_decisions<A: Acc, const K: u8>(
         }
     }
     let rk = &sc.rk;
-    finish_row(sh, &sc.best, &mut sc.sub, out, st, |x, k| rk[w - 1 - (x as i64 - dmin - k as i64) as usize]);
+    finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, |x, k| {
+        rk[w - 1 - (x as i64 - dmin - k as i64) as usize]
+    });
 }
 
 /// Writes the row's disparities from the winners `best` (−1 = none) and sub-pixel offsets `sub`,
 /// applying the left–right check (`right_winner(x, k)` is the right image's own winner at the
-/// pixel matched with `x` at candidate `k`) and the fill of its rejects. `sub` is reused as
-/// scratch by the fill.
+/// pixel matched with `x` at candidate `k`), the confidence (from the cost-curve `ratio`, when
+/// `sh.conf`; written to `conf`, else empty) and its threshold, and the fill of the rejects.
+/// `sub` is reused as scratch by the fill.
 #[inline(always)]
 pub(crate) fn finish_row(
     sh: &Shared,
     best: &[i32],
     sub: &mut [f32],
+    ratio: &[f32],
     out: &mut [f32],
+    conf: &mut [f32],
     st: &mut MatchStats,
     right_winner: impl Fn(usize, usize) -> u32,
 ) {
     let dmin = sh.dmin;
-    // a left–right reject is marked +inf until it is filled or invalidated
+    if sh.conf {
+        conf.fill(0.0);
+    }
+    // a left–right or confidence reject is marked +inf until it is filled or invalidated
     for x in 0..sh.w {
         let k = best[x];
         if k < 0 {
             out[x] = DisparityMap::INVALID;
             continue;
         }
+        let mut lr_factor = 1.0f32;
         if let Some(tol) = sh.lr {
             let kr = right_winner(x, k as usize);
-            if (kr as i64 - k as i64).unsigned_abs() > tol as u64 {
+            let diff = (kr as i64 - k as i64).unsigned_abs();
+            if diff > tol as u64 {
                 out[x] = f32::INFINITY;
                 st.lr_inconsistent += 1;
                 continue;
             }
+            lr_factor = 1.0 / (1.0 + diff as f32);
+        }
+        if sh.conf {
+            let c = ratio[x] * lr_factor;
+            if c < sh.min_conf {
+                out[x] = f32::INFINITY;
+                st.low_confidence += 1;
+                continue;
+            }
+            conf[x] = c;
         }
         out[x] = ((dmin + k as i64) as f64 + sub[x] as f64) as f32;
     }
-    if sh.lr.is_some() && sh.lr_fill {
-        fill_lr_rejected(out, sub, st);
+    if sh.fill {
+        fill_rejected(out, sub, st);
     } else {
         for v in out.iter_mut() {
             if *v == f32::INFINITY {
@@ -973,12 +1120,11 @@ pub(crate) fn finish_row(
     }
 }
 
-/// Fills pixels rejected by the left–right check (marked `+inf`; occlusions and the fattened
-/// side of depth edges) with the smaller — background — of the nearest valid disparities to the
-/// left and right on the same row, or invalidates them when the row has none. `tmp` is scratch
-/// of the row's length.
+/// Fills rejected pixels (marked `+inf`; occlusions and the fattened side of depth edges) with
+/// the smaller — background — of the nearest valid disparities to the left and right on the
+/// same row, or invalidates them when the row has none. `tmp` is scratch of the row's length.
 #[inline(always)]
-fn fill_lr_rejected(out: &mut [f32], tmp: &mut [f32], st: &mut MatchStats) {
+pub(crate) fn fill_rejected(out: &mut [f32], tmp: &mut [f32], st: &mut MatchStats) {
     let w = out.len();
     // nearest valid value to the left of each pixel (NaN if none)
     let mut last = f32::NAN;
@@ -1001,7 +1147,7 @@ fn fill_lr_rejected(out: &mut [f32], tmp: &mut [f32], st: &mut MatchStats) {
             };
             out[x] = v;
             if v.is_finite() {
-                st.lr_filled += 1;
+                st.filled += 1;
             }
         } else if out[x].is_finite() {
             next = out[x];

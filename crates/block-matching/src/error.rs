@@ -53,6 +53,9 @@ pub enum BlockMatchingError {
         /// The error of rayon.
         reason: String,
     },
+    /// The source of a frame failed (e.g. an image could not be decoded).
+    #[error("frame source: {0}")]
+    Source(String),
     /// Nothing to evaluate (empty mask or no known ground truth).
     #[error("nothing to evaluate: {0}")]
     NothingToEvaluate(String),

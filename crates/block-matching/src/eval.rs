@@ -1,4 +1,5 @@
-//! Middlebury-style evaluation: bad-N over a mask with missing pixels counted as bad, and density.
+//! Middlebury-style evaluation in both conventions: bad-N over a mask with missing pixels
+//! counted as bad, and bad-N among the pixels the matcher returned, with the density.
 
 use parallax_camera_model::DisparityMap;
 use serde::{Deserialize, Serialize};
@@ -14,6 +15,9 @@ pub struct Evaluation {
     /// `(threshold px, percent bad)`: `|d − truth| > threshold` or no disparity, in percent of
     /// the evaluated pixels.
     pub bad: Vec<(f32, f64)>,
+    /// `(threshold px, percent bad)` among the evaluated pixels that have a disparity
+    /// (`NaN` when none has).
+    pub bad_returned: Vec<(f32, f64)>,
     /// Percent of the evaluated pixels that have a disparity.
     pub density: f64,
     /// RMS error in px over the evaluated pixels that have a disparity.
@@ -24,6 +28,11 @@ impl Evaluation {
     /// Percent bad at `threshold` (`None` if it was not evaluated).
     pub fn bad_at(&self, threshold: f32) -> Option<f64> {
         self.bad.iter().find(|(t, _)| *t == threshold).map(|&(_, b)| b)
+    }
+
+    /// Percent bad at `threshold` among the returned pixels (`None` if it was not evaluated).
+    pub fn bad_returned_at(&self, threshold: f32) -> Option<f64> {
+        self.bad_returned.iter().find(|(t, _)| *t == threshold).map(|&(_, b)| b)
     }
 }
 
@@ -57,6 +66,7 @@ pub fn evaluate(
     let mut evaluated = 0usize;
     let mut valid = 0usize;
     let mut bad = vec![0usize; thresholds.len()];
+    let mut bad_valid = vec![0usize; thresholds.len()];
     let mut sq = 0.0f64;
     for i in 0..w * h {
         let t = truth.data()[i];
@@ -69,8 +79,9 @@ pub fn evaluate(
             valid += 1;
             let e = (d - t).abs();
             sq += (e as f64) * (e as f64);
-            for (b, &th) in bad.iter_mut().zip(thresholds) {
+            for ((b, bv), &th) in bad.iter_mut().zip(bad_valid.iter_mut()).zip(thresholds) {
                 *b += (e > th) as usize;
+                *bv += (e > th) as usize;
             }
         } else {
             bad.iter_mut().for_each(|b| *b += 1);
@@ -83,6 +94,11 @@ pub fn evaluate(
     Ok(Evaluation {
         evaluated,
         bad: thresholds.iter().zip(&bad).map(|(&t, &b)| (t, pct(b))).collect(),
+        bad_returned: thresholds
+            .iter()
+            .zip(&bad_valid)
+            .map(|(&t, &b)| (t, if valid > 0 { 100.0 * b as f64 / valid as f64 } else { f64::NAN }))
+            .collect(),
         density: pct(valid),
         rms: if valid > 0 { (sq / valid as f64).sqrt() } else { f64::NAN },
     })
@@ -101,6 +117,9 @@ mod tests {
         assert!((e.bad_at(1.0).unwrap() - 200.0 / 3.0).abs() < 1e-9);
         assert!((e.bad_at(2.0).unwrap() - 200.0 / 3.0).abs() < 1e-9);
         assert!((e.density - 200.0 / 3.0).abs() < 1e-9);
+        // among the two returned pixels only 13.0 is off by more than 2 (and by more than 1)
+        assert!((e.bad_returned_at(1.0).unwrap() - 50.0).abs() < 1e-9);
+        assert!((e.bad_returned_at(2.0).unwrap() - 50.0).abs() < 1e-9);
         assert!((e.rms - ((0.25 + 9.0) / 2.0f64).sqrt()).abs() < 1e-9);
         let mask = [true, false, true, false];
         let e = evaluate(&d, &truth, Some(&mask), &[1.0]).unwrap();

@@ -2,8 +2,37 @@
 //! square windows (3..=31), on 8- or 16-bit images, with OpenCV-style prefilters or a rank
 //! transform (gain- and offset-invariant matching at SAD's speed), winner-take-all
 //! over `[min_disparity, min_disparity + num_disparities)`, sub-pixel refinement (equiangular for
-//! SAD, parabola otherwise), texture threshold, uniqueness ratio, left–right check and speckle
-//! filter. Invalid pixels are NaN in the [`parallax_camera_model::DisparityMap`] (never a silent 0).
+//! SAD, parabola otherwise), texture threshold, uniqueness ratio, left–right check, confidence
+//! threshold and speckle filter. Invalid pixels are NaN in the
+//! [`parallax_camera_model::DisparityMap`] (never a silent 0).
+//!
+//! Validity: by default a pixel any check rejects stays invalid; filling the left–right and
+//! confidence rejects from the background neighbour is an explicit option
+//! ([`MatcherConfig::fill`], preset [`MatcherConfig::dense`] for benchmarks that count missing
+//! pixels as bad). [`MatchStats`] counts the rejections by reason, [`BlockMatcher::confidence`]
+//! gives a per-pixel confidence (best against second-best non-adjacent cost, times the
+//! left–right agreement), [`BlockMatcher::check_swap`] says whether the pair looks swapped, and
+//! [`evaluate`] reports bad-N both with missing = bad and among the returned pixels.
+//! Defaults (9x9 SAD on the 9x9 rank transform, uniqueness 15 %, left–right 1 px, speckle
+//! 100 px), Middlebury nonocc bad-2 among the returned pixels / density: tsukuba 2.08 % /
+//! 73.4 %, venus 0.83 % / 82.3 %, teddy 2.47 % / 83.8 %; the dense preset (x-Sobel, fill)
+//! 5.90 / 5.06 / 11.08 % with missing = bad.
+//!
+//! Semi-global matching ([`Method::Sgm`], presets [`MatcherConfig::sgm`] and
+//! [`MatcherConfig::sgm_dense`]): Hirschmüller's path-wise aggregation over five paths (one
+//! pass, as OpenCV's 3-way mode) or eight (two passes), P1/P2 with an intensity-adaptive P2, on
+//! the SAD of the prefiltered images (x-Sobel or rank) over a small window, with the same
+//! decisions and sub-pixel step as block matching. Memory is bounded: strips of rows run as
+//! parallel tasks with `≈ 9 · W · Dq · 2` bytes each (five paths; `Dq`: `D` rounded up to
+//! 16) or `≈ (strip + 9) · W · Dq · 2` bytes (eight paths, strips capped at 48 MiB), paths
+//! starting `overlap` rows outside the strip. Exact 16-bit integer aggregation in AVX2
+//! intrinsics, checked against a naive reference. Middlebury nonocc: bad-2 with missing = bad (dense preset) 3.40 / 1.32 /
+//! 7.42 (five paths) against OpenCV SGBM 3-way's 3.85 / 5.81 / 14.99; among the returned pixels
+//! (measurement preset) 2.33 % at 96.9 % / 0.54 % at 98.3 % / 3.62 % at 93.0 % against SGBM's
+//! 2.40 % at 98.5 % / 0.74 % at 94.9 % / 5.46 % at 89.9 %.
+//!
+//! Many frames: [`BlockMatcher::frames`] matches an iterator of pairs (any source; no file I/O
+//! here) with the next pair pulled on a prefetch thread.
 //!
 //! Speed: window sums are running box sums over disparity-major column sums kept per row band in
 //! cache (the cost volume is never materialised), exact integer arithmetic, row bands in parallel
@@ -13,9 +42,10 @@
 //! prefilter, any window) and in 32-bit lanes otherwise; NCC (and sums beyond 32 bits) runs
 //! generic `u32`/`u64`/`f64` loops compiled for the baseline, AVX2 and AVX-512 and chosen at run
 //! time. All paths give identical results (tested against a naive reference).
-//! On Middlebury teddy (450x375, 64 disparities, 9x9, two threads) the default matcher takes
-//! about 1.4–1.5 ms on the project's 2-core machine, against OpenCV 5 `StereoBM`'s 1.8 ms side by
-//! side (`benches/benches/disparity.rs`, `../shared/reference/peer/stereo_bm.py`).
+//! Speed against OpenCV 5 on this project's loaded 2-core machine (interleaved runs, same
+//! images, same options; ARCHITECTURE.md has the figures): block matching 9x9 about 2x
+//! `StereoBM`'s speed on 626x555x96 and 1282x1110x224 (medians 2.0–2.4), 0.6–2.6 on teddy
+//! 450x375x64 (noise-bound), semi-global matching (five paths) 1.0–1.4x `StereoSGBM` 3-way's.
 //!
 //! ```
 //! use parallax_block_matching::{BlockMatcher, MatcherConfig, evaluate};
@@ -31,7 +61,11 @@
 //! assert!((disparity.get(50, 20).unwrap() - 7.0).abs() < 0.05);
 //! let truth = DisparityMap::from_data(96, 48, vec![7.0; 96 * 48]).unwrap();
 //! let e = evaluate(&disparity, &truth, None, &[0.5])?;
+//! // missing = bad, then among the returned pixels
 //! assert!(e.bad_at(0.5).unwrap() < 15.0 && e.density > 85.0);
+//! assert!(e.bad_returned_at(0.5).unwrap() < 1.0);
+//! // the pair as given matches; the other way round it would not
+//! assert!(!matcher.check_swap(&left, &right)?.looks_swapped);
 //! # Ok::<(), parallax_block_matching::BlockMatchingError>(())
 //! ```
 
@@ -41,9 +75,12 @@ mod error;
 mod eval;
 mod io;
 pub mod prefilter;
+mod sgm;
 #[cfg(target_arch = "x86_64")]
 mod simd;
 mod speckle;
+mod stream;
+mod swap;
 
 // The crates whose types this crate's public API uses, re-exported so that a caller needs no
 // version match with them (`parallax_x::glam::DVec3` is the `DVec3` this crate takes).
@@ -52,9 +89,11 @@ pub use image;
 pub use parallax_camera_model;
 pub use parallax_least_squares;
 
-pub use config::{CostFunction, MatcherConfig, Prefilter, Subpixel};
+pub use config::{CostFunction, MatcherConfig, Method, Prefilter, SgmConfig, SgmPaths, Subpixel};
 pub use engine::{BlockMatcher, Gray16Image, MatchStats, SimdLevel};
 pub use error::{BlockMatchingError, Result};
 pub use eval::{Evaluation, evaluate};
 pub use io::{false_colour, from_pfm, from_scaled, to_pfm, to_png16};
 pub use speckle::filter_speckles;
+pub use stream::{Frame, Frames, StereoPair};
+pub use swap::SwapCheck;

@@ -28,7 +28,7 @@
 //! `SimdLevel::Avx512` runs the 256-bit kernels with AVX-512VL's masked moves for the arg-mins.
 
 use crate::config::Subpixel;
-use crate::engine::{MatchStats, Shared};
+use crate::engine::{MatchStats, Shared, curve_ratio};
 
 /// A lane type of the kernels: window sums, costs and disparity indices.
 pub(crate) trait Lane: Copy + Default + PartialEq + Send + Sync + 'static {
@@ -149,7 +149,12 @@ pub(crate) struct Scratch<E: Lane> {
     keys: Vec<E::Key>,
     cm: Vec<E>,
     cp: Vec<E>,
-    unique: Vec<bool>,
+    /// The best cost further than one disparity from the winner (`E::MAX`: none), when the
+    /// uniqueness rule or the confidence needs it.
+    c2: Vec<E>,
+    ratio: Vec<f32>,
+    /// `w` times `true`: the texture mask when the texture check is off.
+    all_true: Vec<bool>,
     best: Vec<i32>,
     sub: Vec<f32>,
 }
@@ -176,7 +181,9 @@ impl<E: Lane> Scratch<E> {
         self.keys.resize(w, E::Key::default());
         self.cm.resize(w, E::ZERO);
         self.cp.resize(w, E::ZERO);
-        self.unique.resize(w, true);
+        self.c2.resize(w, E::MAX);
+        self.ratio.resize(w, 0.0);
+        self.all_true.resize(w, true);
         self.best.resize(w, -1);
         self.sub.resize(w, 0.0);
     }
@@ -199,6 +206,7 @@ pub(crate) unsafe fn band16(
     sh: &Shared,
     sc: &mut Scratch<u16>,
     out: &mut [f32],
+    conf: &mut [f32],
     y0: usize,
     y1: usize,
 ) -> MatchStats {
@@ -206,8 +214,8 @@ pub(crate) unsafe fn band16(
     // SAFETY: forwarded from the caller; `sc` has just been sized for 16 lanes.
     unsafe {
         match isa {
-            Isa::Avx2 => avx2_16::band::<false>(sh, sc, out, y0, y1),
-            Isa::Avx512Vl => vl_16::band::<false>(sh, sc, out, y0, y1),
+            Isa::Avx2 => avx2_16::band::<false>(sh, sc, out, conf, y0, y1),
+            Isa::Avx512Vl => vl_16::band::<false>(sh, sc, out, conf, y0, y1),
         }
     }
 }
@@ -223,6 +231,7 @@ pub(crate) unsafe fn band32(
     sh: &Shared,
     sc: &mut Scratch<u32>,
     out: &mut [f32],
+    conf: &mut [f32],
     y0: usize,
     y1: usize,
 ) -> MatchStats {
@@ -230,10 +239,10 @@ pub(crate) unsafe fn band32(
     // SAFETY: forwarded from the caller; `sc` has just been sized for 8 lanes.
     unsafe {
         match (isa, squared) {
-            (Isa::Avx2, false) => avx2_32::band::<false>(sh, sc, out, y0, y1),
-            (Isa::Avx2, true) => avx2_32::band::<true>(sh, sc, out, y0, y1),
-            (Isa::Avx512Vl, false) => vl_32::band::<false>(sh, sc, out, y0, y1),
-            (Isa::Avx512Vl, true) => vl_32::band::<true>(sh, sc, out, y0, y1),
+            (Isa::Avx2, false) => avx2_32::band::<false>(sh, sc, out, conf, y0, y1),
+            (Isa::Avx2, true) => avx2_32::band::<true>(sh, sc, out, conf, y0, y1),
+            (Isa::Avx512Vl, false) => vl_32::band::<false>(sh, sc, out, conf, y0, y1),
+            (Isa::Avx512Vl, true) => vl_32::band::<true>(sh, sc, out, conf, y0, y1),
         }
     }
 }
@@ -247,6 +256,7 @@ macro_rules! kernel {
             sh: &Shared,
             sc: &mut Scratch<E>,
             out: &mut [f32],
+            conf: &mut [f32],
             y0: usize,
             y1: usize,
         ) -> MatchStats {
@@ -255,6 +265,7 @@ macro_rules! kernel {
             let mut st = MatchStats::default();
             for y in y0..y1 {
                 let orow = &mut out[(y - y0) * w..][..w];
+                let crow = conf_row(sh, conf, y, y0);
                 if y == y0 {
                     sc.colsum.fill(0);
                     for j in (y0 as i64 - r as i64)..=(y0 + r) as i64 {
@@ -263,7 +274,7 @@ macro_rules! kernel {
                         unsafe { add_row::<SQ>(sh, sc) };
                     }
                     // SAFETY: as above.
-                    unsafe { row_n::<false, SQ>(sh, sc, y, orow, &mut st) };
+                    unsafe { row_n::<false, SQ>(sh, sc, y, orow, crow, &mut st) };
                 } else {
                     let yi = clamp_y(y as i64 + r as i64);
                     let yo = clamp_y(y as i64 - r as i64 - 1);
@@ -271,10 +282,10 @@ macro_rules! kernel {
                         load_rows(sh, yi, &mut sc.l_in, &mut sc.r_in);
                         load_rows(sh, yo, &mut sc.l_out, &mut sc.r_out);
                         // SAFETY: as above.
-                        unsafe { row_n::<true, SQ>(sh, sc, y, orow, &mut st) };
+                        unsafe { row_n::<true, SQ>(sh, sc, y, orow, crow, &mut st) };
                     } else {
                         // SAFETY: as above.
-                        unsafe { row_n::<false, SQ>(sh, sc, y, orow, &mut st) };
+                        unsafe { row_n::<false, SQ>(sh, sc, y, orow, crow, &mut st) };
                     }
                 }
             }
@@ -289,17 +300,25 @@ macro_rules! kernel {
             sc: &mut Scratch<E>,
             y: usize,
             out: &mut [f32],
+            conf: &mut [f32],
             stats: &mut MatchStats,
         ) {
-            // SAFETY: forwarded.
+            // SAFETY: forwarded. Without the left–right check the right image's minima are not
+            // tracked at all (`LR = false`: a third fewer vector operations per chunk).
             unsafe {
-                match sc.ndp / L {
-                    1 => row::<VERT, SQ, 1>(sh, sc, y, out, stats),
-                    2 => row::<VERT, SQ, 2>(sh, sc, y, out, stats),
-                    4 => row::<VERT, SQ, 4>(sh, sc, y, out, stats),
-                    8 => row::<VERT, SQ, 8>(sh, sc, y, out, stats),
-                    16 => row::<VERT, SQ, 16>(sh, sc, y, out, stats),
-                    _ => row::<VERT, SQ, 0>(sh, sc, y, out, stats),
+                match (sc.ndp / L, sh.lr.is_some()) {
+                    (1, true) => row::<VERT, SQ, 1, true>(sh, sc, y, out, conf, stats),
+                    (2, true) => row::<VERT, SQ, 2, true>(sh, sc, y, out, conf, stats),
+                    (4, true) => row::<VERT, SQ, 4, true>(sh, sc, y, out, conf, stats),
+                    (8, true) => row::<VERT, SQ, 8, true>(sh, sc, y, out, conf, stats),
+                    (16, true) => row::<VERT, SQ, 16, true>(sh, sc, y, out, conf, stats),
+                    (_, true) => row::<VERT, SQ, 0, true>(sh, sc, y, out, conf, stats),
+                    (1, false) => row::<VERT, SQ, 1, false>(sh, sc, y, out, conf, stats),
+                    (2, false) => row::<VERT, SQ, 2, false>(sh, sc, y, out, conf, stats),
+                    (4, false) => row::<VERT, SQ, 4, false>(sh, sc, y, out, conf, stats),
+                    (8, false) => row::<VERT, SQ, 8, false>(sh, sc, y, out, conf, stats),
+                    (16, false) => row::<VERT, SQ, 16, false>(sh, sc, y, out, conf, stats),
+                    (_, false) => row::<VERT, SQ, 0, false>(sh, sc, y, out, conf, stats),
                 }
             }
         }
@@ -326,11 +345,12 @@ macro_rules! kernel {
 
         /// One row: column-sum update (when `VERT`), box sums, both winners, decisions.
         #[target_feature(enable = $feat)]
-        unsafe fn row<const VERT: bool, const SQ: bool, const NCH: usize>(
+        unsafe fn row<const VERT: bool, const SQ: bool, const NCH: usize, const LR: bool>(
             sh: &Shared,
             sc: &mut Scratch<E>,
             y: usize,
             out: &mut [f32],
+            conf: &mut [f32],
             stats: &mut MatchStats,
         ) {
             let (w, r, nd, dmin) = (sh.w, sh.r, sh.nd, sh.dmin);
@@ -389,11 +409,12 @@ macro_rules! kernel {
             let xa = (dmin + nd as i64 - 1).max(1);
             let xb = (w as i64 - 1 + dmin).min(w as i64 - 1);
             let (xa, xb) = if xa <= xb { (xa as usize, xb as usize + 1) } else { (w, w) };
-            let uniq = sh.uniq;
+            let need_c2 = sh.uniq > 0 || sh.conf;
             let bxp = p.bx as *const E;
-            let (keys, cm, cp) = (sc.keys.as_mut_ptr(), sc.cm.as_mut_ptr(), sc.cp.as_mut_ptr());
+            let (keys, cm, cp, c2) = (sc.keys.as_mut_ptr(), sc.cm.as_mut_ptr(), sc.cp.as_mut_ptr(), sc.c2.as_mut_ptr());
             // the winner's key and the costs beside it for the sub-pixel fit (clamped reads; used
-            // only when the winner is inside the range); the uniqueness rule needs every cost
+            // only when the winner is inside the range); the uniqueness rule and the confidence
+            // need the best non-adjacent cost, one more pass over the box sums
             macro_rules! record {
                 ($x:expr, $key:expr) => {{
                     let (x, key) = ($x, $key);
@@ -404,31 +425,34 @@ macro_rules! kernel {
                         *cm.add(x) = *bxp.add(kb.wrapping_sub(1).min(ndp - 1));
                         *cp.add(x) = *bxp.add((kb + 1).min(ndp - 1));
                     }
-                    if uniq > 0 {
+                    if need_c2 {
                         let (lo, hi) = range(x);
-                        // SAFETY: the box sums are written only inside `step`, not while this
-                        // view is alive.
-                        let bxs = unsafe { std::slice::from_raw_parts(bxp, ndp) };
-                        sc.unique[x] = E::key_cost(key) == E::MAX.to_u64()
-                            || lo > hi
-                            || unique(bxs, lo as usize, hi as usize, kb, uniq);
+                        let v = if E::key_cost(key) == E::MAX.to_u64() || lo > hi {
+                            E::MAX
+                        } else {
+                            // SAFETY: `p` holds this band's buffers; the box sums of x are in
+                            // place until the next `step`.
+                            unsafe { second(&p, kb, lo, hi) }
+                        };
+                        // SAFETY: x < w = c2.len().
+                        unsafe { *c2.add(x) = v };
                     }
                 }};
             }
             // SAFETY (all `step` calls): `p` holds this band's buffers, sized by
             // `Scratch16::resize`; x < w.
             let (lo, hi) = range(0);
-            record!(0, unsafe { step::<VERT, SQ, false, true, NCH>(&p, 0, lo, hi) });
+            record!(0, unsafe { step::<VERT, SQ, false, true, NCH, LR>(&p, 0, lo, hi) });
             for x in 1..xa.max(1).min(w) {
                 let (lo, hi) = range(x);
-                record!(x, unsafe { step::<VERT, SQ, true, true, NCH>(&p, x, lo, hi) });
+                record!(x, unsafe { step::<VERT, SQ, true, true, NCH, LR>(&p, x, lo, hi) });
             }
             for x in xa.max(1)..xb {
-                record!(x, unsafe { step::<VERT, SQ, true, false, NCH>(&p, x, 0, nd as i64 - 1) });
+                record!(x, unsafe { step::<VERT, SQ, true, false, NCH, LR>(&p, x, 0, nd as i64 - 1) });
             }
             for x in xb.max(xa).max(1)..w {
                 let (lo, hi) = range(x);
-                record!(x, unsafe { step::<VERT, SQ, true, true, NCH>(&p, x, lo, hi) });
+                record!(x, unsafe { step::<VERT, SQ, true, true, NCH, LR>(&p, x, lo, hi) });
             }
             decide_row(sh, sc, y, stats);
             // the lanes still held are final: lane k is the pixel u = w − 1 − dmin − k
@@ -439,10 +463,38 @@ macro_rules! kernel {
                 }
             }
             let rkf = &sc.rkf;
-            finish_row(sh, &sc.best, &mut sc.sub, out, stats, |x, k| {
+            finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, stats, |x, k| {
                 let v = rkf[(x as i64 - dmin - k as i64) as usize];
                 if v == E::MAX { u32::MAX } else { v.to_u64() as u32 }
             });
+        }
+
+        /// The smallest box sum of the current column over the searchable range `[lo, hi]`
+        /// minus the winner `kb` and its two neighbours (`E::MAX` when none is left).
+        ///
+        /// # Safety
+        /// `p` holds the band's buffers sized by `Scratch::resize`.
+        #[inline]
+        #[target_feature(enable = $feat)]
+        unsafe fn second(p: &Ptrs<E>, kb: usize, lo: i64, hi: i64) -> E {
+            let (lov, hiv) = (splat_i(lo), splat_i(hi));
+            let (nlo, nhi) = (splat_i(kb as i64 - 1), splat_i(kb as i64 + 1));
+            let ones = splat(E::MAX);
+            let mut acc = ones;
+            for c in (0..p.ndp).step_by(L) {
+                // SAFETY: c + L ≤ ndp, the length of the box-sum, index and tail buffers.
+                unsafe {
+                    let dv = ld(p.dv.add(c));
+                    let mut m = outside(dv, lov, hiv);
+                    if c + L > p.nd {
+                        m = or(m, ld(p.tail.add(c)));
+                    }
+                    // lanes kb − 1 ..= kb + 1 are not candidates
+                    m = or(m, _mm256_andnot_si256(outside(dv, nlo, nhi), ones));
+                    acc = umin(acc, or(ld(p.bx.add(c)), m));
+                }
+            }
+            hmin_lane(acc)
         }
 
         /// Column `x`: (when `UPD`) the vertical update of the entering column and the box-sum
@@ -450,7 +502,14 @@ macro_rules! kernel {
         /// key (cost `E::MAX`, the sentinel, when no lane is searchable).
         #[inline]
         #[target_feature(enable = $feat)]
-        unsafe fn step<const VERT: bool, const SQ: bool, const UPD: bool, const BORDER: bool, const NCH: usize>(
+        unsafe fn step<
+            const VERT: bool,
+            const SQ: bool,
+            const UPD: bool,
+            const BORDER: bool,
+            const NCH: usize,
+            const LR: bool,
+        >(
             p: &Ptrs<E>,
             x: usize,
             lo: i64,
@@ -501,20 +560,22 @@ macro_rules! kernel {
                     };
                     let bm = or(b, m);
                     min_update(&mut minv, &mut idxv, bm, dv);
-                    // move the right state up one lane (a new pixel enters at lane 0), then
-                    // take this column's costs; loads and stores hit the same addresses, so
-                    // they forward (an in-memory shift by one lane would not)
-                    let (oc, ok) = (ld(p.rc.add(c)), ld(p.rk.add(c)));
-                    let (mut rcv, mut rkv) = (up1(oc, prev_c), up1(ok, prev_k));
-                    (prev_c, prev_k) = (oc, ok);
-                    min_update(&mut rcv, &mut rkv, bm, dv);
-                    st(p.rc.add(c), rcv);
-                    st(p.rk.add(c), rkv);
+                    if LR {
+                        // move the right state up one lane (a new pixel enters at lane 0), then
+                        // take this column's costs; loads and stores hit the same addresses, so
+                        // they forward (an in-memory shift by one lane would not)
+                        let (oc, ok) = (ld(p.rc.add(c)), ld(p.rk.add(c)));
+                        let (mut rcv, mut rkv) = (up1(oc, prev_c), up1(ok, prev_k));
+                        (prev_c, prev_k) = (oc, ok);
+                        min_update(&mut rcv, &mut rkv, bm, dv);
+                        st(p.rc.add(c), rcv);
+                        st(p.rk.add(c), rkv);
+                    }
                 }
             }
             // the lane shifted out of the top is final: pixel u = (x − 1) − dmin − (ndp − 1)
             let u = x as i64 - 1 - p.dmin - (ndp as i64 - 1);
-            if (0..p.w as i64).contains(&u) {
+            if LR && (0..p.w as i64).contains(&u) {
                 // SAFETY: u < w = rkf.len().
                 unsafe { *p.rkf.add(u as usize) = top(prev_k) };
             }
@@ -555,13 +616,13 @@ fn decide_row<E: Lane>(sh: &Shared, sc: &mut Scratch<E>, y: usize, stats: &mut M
     let (nd, dmin, wm1) = (sh.nd as i32, sh.dmin as i32, w as i32 - 1);
     let (check_tex, tex) = match sh.texture_ok {
         Some(t) => (true, &t[y * w..][..w]),
-        None => (false, &sc.unique[..w]),
+        None => (false, &sc.all_true[..w]),
     };
-    let check_uniq = sh.uniq > 0;
+    let (check_uniq, uniq) = (sh.uniq > 0, sh.uniq as u64);
     let (equi, fit_on) = (sh.subpixel == Subpixel::Equiangular, sh.subpixel != Subpixel::None);
     let sentinel = E::MAX.to_u64();
     let (mut none, mut low, mut not_unique) = (0u32, 0u32, 0u32);
-    let (keys, cm, cp, uq, tex) = (&sc.keys[..w], &sc.cm[..w], &sc.cp[..w], &sc.unique[..w], &tex[..w]);
+    let (keys, cm, cp, c2v, tex) = (&sc.keys[..w], &sc.cm[..w], &sc.cp[..w], &sc.c2[..w], &tex[..w]);
     let (bestv, subv) = (&mut sc.best[..w], &mut sc.sub[..w]);
     for x in 0..w {
         let xd = x as i32 - dmin;
@@ -571,7 +632,11 @@ fn decide_row<E: Lane>(sh: &Shared, sc: &mut Scratch<E>, y: usize, stats: &mut M
         let kb = E::key_d(key) as i32;
         let is_none = c0 == sentinel || lo > hi;
         let is_low = !is_none & check_tex & !tex[x];
-        let is_nu = !is_none & !is_low & check_uniq & !uq[x];
+        // OpenCV's rule: no candidate further than one disparity from the winner costs at most
+        // c0 + c0·uniq/100 (integer division, saturated at the lane maximum)
+        let c2 = c2v[x].to_u64();
+        let t = (c0 + c0 * uniq / 100).min(sentinel);
+        let is_nu = !is_none & !is_low & check_uniq & (c2 != sentinel) & (c2 <= t);
         none += is_none as u32;
         low += is_low as u32;
         not_unique += is_nu as u32;
@@ -593,6 +658,13 @@ fn decide_row<E: Lane>(sh: &Shared, sc: &mut Scratch<E>, y: usize, stats: &mut M
     stats.no_candidate += none as usize;
     stats.low_texture += low as usize;
     stats.not_unique += not_unique as usize;
+    if sh.conf {
+        for x in 0..w {
+            let c2 = c2v[x].to_u64();
+            let c1 = E::key_cost(keys[x]);
+            sc.ratio[x] = curve_ratio(c1 as f64, (c2 != sentinel).then_some(c2 as f64));
+        }
+    }
 }
 
 /// Helpers shared by both instruction sets, 16-bit lanes.
@@ -675,6 +747,18 @@ macro_rules! lanes16 {
         #[target_feature(enable = $feat)]
         fn top(v: V) -> E {
             _mm256_extract_epi16::<15>(v) as E
+        }
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn umin(a: V, b: V) -> V {
+            _mm256_min_epu16(a, b)
+        }
+        /// The smallest lane.
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn hmin_lane(v: V) -> E {
+            let m = _mm_min_epu16(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
+            (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as E
         }
         /// The smallest `(min << 16) | idx` over the lanes.
         #[inline]
@@ -780,6 +864,17 @@ macro_rules! lanes32 {
             let v = _mm256_min_epu32(v, _mm256_shuffle_epi32::<0b01_00_11_10>(v));
             _mm256_min_epu32(v, _mm256_shuffle_epi32::<0b10_11_00_01>(v))
         }
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn umin(a: V, b: V) -> V {
+            _mm256_min_epu32(a, b)
+        }
+        /// The smallest lane.
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn hmin_lane(v: V) -> E {
+            _mm256_extract_epi32::<0>(hmin(v)) as E
+        }
         /// `(min << 32) | idx` of the smallest cost, the smallest index among equal costs.
         #[inline]
         #[target_feature(enable = $feat)]
@@ -802,7 +897,7 @@ macro_rules! kernel_module {
             use std::arch::x86_64::*;
 
             use super::{Lane, Ptrs, Scratch, decide_row};
-            use crate::engine::{MatchStats, Shared, finish_row, load_rows, unique};
+            use crate::engine::{MatchStats, Shared, conf_row, finish_row, load_rows};
 
             $lanes!($feat);
 

@@ -1,6 +1,8 @@
 //! The fast matcher against a naive reference written from the definitions: direct window sums
 //! with clamp-to-edge borders, the full cost volume, first-minimum winner-take-all, OpenCV's
-//! uniqueness rule, sub-pixel fits and the left–right check. Property test with a fixed seed.
+//! uniqueness rule, sub-pixel fits, the left–right check, the confidence (ratio of the best to
+//! the best non-adjacent cost, times the left–right agreement) with its threshold, and the fill.
+//! Property test with a fixed seed.
 
 use image::{GrayImage, Luma};
 use parallax_block_matching::{BlockMatcher, CostFunction, Gray16Image, MatcherConfig, Prefilter, SimdLevel, Subpixel};
@@ -65,8 +67,9 @@ fn rank_naive(src: &[u16], w: usize, h: usize, size: usize) -> Vec<u16> {
     out
 }
 
-/// Naive matcher: returns the disparity map (NaN invalid), without speckle filtering.
-fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, scale: i64) -> Vec<f32> {
+/// Naive matcher: returns the disparity map (NaN invalid) and the confidence map (0 where
+/// invalid or filled), without speckle filtering.
+fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, scale: i64) -> (Vec<f32>, Vec<f32>) {
     let r = (cfg.block_size / 2) as i64;
     let nd = cfg.num_disparities;
     let dmin = cfg.min_disparity as i64;
@@ -145,8 +148,9 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
         (s, _) => s,
     };
     let mut out = vec![f32::NAN; w * h];
+    let mut confidence = vec![0.0f32; w * h];
     for y in 0..h {
-        let mut lr_rejected = vec![false; w];
+        let mut rejected = vec![false; w];
         // right winners
         let mut rbest = vec![usize::MAX; w];
         for u in 0..w {
@@ -186,12 +190,29 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
                     continue;
                 }
             }
+            let mut lr_factor = 1.0f32;
             if let Some(tol) = cfg.lr_max_diff {
                 let u = (x as i64 - dmin - kb as i64) as usize;
-                if (rbest[u] as i64 - kb as i64).abs() > tol as i64 {
-                    lr_rejected[x] = true;
+                let diff = (rbest[u] as i64 - kb as i64).abs();
+                if diff > tol as i64 {
+                    rejected[x] = true;
                     continue;
                 }
+                lr_factor = 1.0 / (1.0 + diff as f32);
+            }
+            if cfg.confidence_map || cfg.min_confidence > 0.0 {
+                // best cost further than one disparity from the winner
+                let c2 = ks.iter().filter(|&&k| (k as i64 - kb as i64).abs() > 1).map(|&k| cs[k]).reduce(f64::min);
+                let ratio = match c2 {
+                    Some(c2) if c2 > 0.0 => (1.0 - m / c2).clamp(0.0, 1.0) as f32,
+                    _ => 0.0,
+                };
+                let c = ratio * lr_factor;
+                if c < cfg.min_confidence {
+                    rejected[x] = true;
+                    continue;
+                }
+                confidence[y * w + x] = c;
             }
             let mut off = 0.0;
             if kb > lo && kb < hi && sub != Subpixel::None {
@@ -203,10 +224,10 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
             }
             out[y * w + x] = (dmin + kb as i64) as f32 + off as f32;
         }
-        if cfg.lr_max_diff.is_some() && cfg.lr_fill {
+        if cfg.fill {
             let row: Vec<f32> = out[y * w..][..w].to_vec();
             for x in 0..w {
-                if !lr_rejected[x] {
+                if !rejected[x] {
                     continue;
                 }
                 let left = (0..x).rev().map(|i| row[i]).find(|v| !v.is_nan());
@@ -220,7 +241,7 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
             }
         }
     }
-    out
+    (out, confidence)
 }
 
 fn compare(fast: &[f32], slow: &[f32], w: usize, tol: f32, what: &str) {
@@ -260,7 +281,7 @@ fn make_pair(seed: u64, w: usize, h: usize, maxv: u32) -> (Vec<u16>, Vec<u16>) {
 fn run_case(seed: u64, w: usize, h: usize, maxv: u32, sixteen: bool, cfg: MatcherConfig, threads: usize) {
     let (l, r) = make_pair(seed, w, h, maxv);
     let scale = if sixteen { 257 } else { 1 };
-    let expect = naive(&l, &r, w, h, &cfg, scale);
+    let (expect, expect_conf) = naive(&l, &r, w, h, &cfg, scale);
     let tol = if cfg.cost == CostFunction::Ncc { 1e-5 } else { 1e-6 };
     for level in [SimdLevel::Scalar, SimdLevel::Avx2, SimdLevel::Avx512] {
         let mut m = BlockMatcher::new(MatcherConfig { threads, ..cfg.clone() }).unwrap();
@@ -279,7 +300,12 @@ fn run_case(seed: u64, w: usize, h: usize, maxv: u32, sixteen: bool, cfg: Matche
             m.compute(&li, &ri).unwrap();
             m.compute(&li, &ri).unwrap()
         };
-        compare(&got.data(), &expect, w, tol, &format!("{level:?} seed {seed} {w}x{h} maxv {maxv} {cfg:?}"));
+        let what = format!("{level:?} seed {seed} {w}x{h} maxv {maxv} {cfg:?}");
+        compare(got.data(), &expect, w, tol, &what);
+        match m.confidence() {
+            Some(c) => compare(c, &expect_conf, w, tol, &format!("confidence, {what}")),
+            None => assert!(!cfg.confidence_map && cfg.min_confidence == 0.0, "no confidence map: {what}"),
+        }
     }
 }
 
@@ -300,9 +326,22 @@ fn config_strategy() -> impl Strategy<Value = MatcherConfig> {
         prop_oneof![Just(None), Just(Some(0u32)), Just(Some(1))],
         any::<bool>(),
         prop_oneof![Just(Subpixel::None), Just(Subpixel::Auto), Just(Subpixel::Parabola), Just(Subpixel::Equiangular)],
+        prop_oneof![Just((false, 0.0f32)), Just((true, 0.0)), Just((false, 0.05)), Just((true, 0.2))],
     )
         .prop_map(
-            |(cost, block_size, min_disparity, num_disparities, prefilter, tex, uniq, lr, lr_fill, subpixel)| {
+            |(
+                cost,
+                block_size,
+                min_disparity,
+                num_disparities,
+                prefilter,
+                tex,
+                uniq,
+                lr,
+                fill,
+                subpixel,
+                (confidence_map, min_confidence),
+            )| {
                 MatcherConfig {
                     cost,
                     block_size,
@@ -312,11 +351,13 @@ fn config_strategy() -> impl Strategy<Value = MatcherConfig> {
                     texture_threshold: tex,
                     uniqueness_ratio: uniq,
                     lr_max_diff: lr,
-                    lr_fill,
+                    fill,
+                    min_confidence,
+                    confidence_map,
                     speckle_window_size: 0,
                     speckle_range: 1.0,
                     subpixel,
-                    threads: 0,
+                    ..MatcherConfig::default()
                 }
             },
         )
@@ -351,18 +392,21 @@ proptest! {
 
 #[test]
 fn fast_equals_naive_on_a_larger_image_with_many_bands() {
-    // enough rows for several bands with 2 threads, the full default option set minus speckle,
+    // enough rows for several bands with 2 threads, the full default option set minus speckle
+    // (with the confidence map), the dense preset (fill) and a confidence threshold with fill,
     // and the rank prefilter
+    let presets = [
+        MatcherConfig { confidence_map: true, ..MatcherConfig::default() },
+        MatcherConfig::dense(),
+        MatcherConfig { min_confidence: 0.1, fill: true, ..MatcherConfig::default() },
+    ];
     for cost in [CostFunction::Sad, CostFunction::Ssd, CostFunction::Ncc] {
         for prefilter in [Prefilter::default(), Prefilter::Rank { size: 5 }] {
-            let cfg = MatcherConfig {
-                cost,
-                prefilter,
-                num_disparities: 24,
-                speckle_window_size: 0,
-                ..MatcherConfig::default()
-            };
-            run_case(7, 64, 160, 255, false, cfg, 2);
+            for preset in &presets {
+                let cfg =
+                    MatcherConfig { cost, prefilter, num_disparities: 24, speckle_window_size: 0, ..preset.clone() };
+                run_case(7, 64, 160, 255, false, cfg, 2);
+            }
         }
     }
 }
@@ -376,9 +420,12 @@ fn fast_equals_naive_with_several_disparity_chunks() {
     for (nd, dmin, block) in
         [(16, 0, 9), (33, -3, 5), (64, 5, 9), (47, 0, 15), (70, -20, 3), (40, -130, 5), (20, 105, 3)]
     {
-        for (uniq, lr, subpixel) in
-            [(0, Some(1), Subpixel::Auto), (10, None, Subpixel::Parabola), (0, Some(0), Subpixel::None)]
-        {
+        for (uniq, lr, subpixel, min_confidence) in [
+            (0, Some(1), Subpixel::Auto, 0.0),
+            (10, None, Subpixel::Parabola, 0.0),
+            (0, Some(0), Subpixel::None, 0.0),
+            (5, Some(1), Subpixel::Auto, 0.15),
+        ] {
             for cost in [CostFunction::Sad, CostFunction::Ssd] {
                 let cfg = MatcherConfig {
                     cost,
@@ -388,6 +435,8 @@ fn fast_equals_naive_with_several_disparity_chunks() {
                     uniqueness_ratio: uniq,
                     lr_max_diff: lr,
                     subpixel,
+                    min_confidence,
+                    fill: case % 3 == 0,
                     speckle_window_size: 0,
                     ..MatcherConfig::default()
                 };

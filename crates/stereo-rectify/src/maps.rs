@@ -78,6 +78,57 @@ pub fn init_undistort_rectify_map(
     width: u32,
     height: u32,
 ) -> Result<RemapTable> {
+    let params = map_params(camera, r, new_camera_matrix, width, height)?;
+    let n = width as usize * height as usize;
+    let mut map_x = vec![0f32; n];
+    let mut map_y = vec![0f32; n];
+    map_x
+        .par_chunks_mut(width as usize)
+        .zip(map_y.par_chunks_mut(width as usize))
+        .enumerate()
+        .for_each(|(v, (mx, my))| params.row(v, mx, my));
+    Ok(RemapTable { width, height, map_x, map_y })
+}
+
+/// [`init_undistort_rectify_map`] and the fixed-point table of the map for a source of
+/// `source_width x source_height` in one parallel pass: each row's table is built while the
+/// row is still in cache, and every page of the four arrays is first touched by the row tasks
+/// (zeroed allocations are mapped lazily), not by a serial fill.
+pub(crate) fn rectify_map_and_fast_table(
+    camera: &Camera,
+    r: DMat3,
+    new_camera_matrix: DMat3,
+    width: u32,
+    height: u32,
+    (sw, sh): (u32, u32),
+) -> Result<(RemapTable, crate::remap::FastBilinear)> {
+    let params = map_params(camera, r, new_camera_matrix, width, height)?;
+    let n = width as usize * height as usize;
+    let w = width as usize;
+    let mut map_x = vec![0f32; n];
+    let mut map_y = vec![0f32; n];
+    // as `FastBilinear::new`: sides below 2^24 for the unsaturated conversions of the table rows
+    let usable = (sw as u64) * (sh as u64) < u32::MAX as u64 && sw < 1 << 24 && sh < 1 << 24 && width > 0;
+    let mut index = if usable { vec![0u32; n] } else { vec![u32::MAX; n] };
+    let mut frac = vec![0u16; n];
+    let (last_x, last_y) = (sw as f32 - 1.0, sh as f32 - 1.0);
+    map_x
+        .par_chunks_mut(w)
+        .zip(map_y.par_chunks_mut(w))
+        .zip(index.par_chunks_mut(w).zip(frac.par_chunks_mut(w)))
+        .enumerate()
+        .for_each(|(v, ((mx, my), (k, f)))| {
+            params.row(v, mx, my);
+            if usable {
+                crate::remap::fast_table_row(mx, my, k, f, sw, last_x, last_y);
+            }
+        });
+    let fast = crate::remap::FastBilinear { source_size: (sw, sh), index, frac, nearest: None };
+    Ok((RemapTable { width, height, map_x, map_y }, fast))
+}
+
+/// Checks the inputs of a map and precomputes its per-row parameters.
+fn map_params(camera: &Camera, r: DMat3, new_camera_matrix: DMat3, width: u32, height: u32) -> Result<MapRow> {
     camera.validate().map_err(|source| RectifyError::Camera { what: "camera of the map", source })?;
     if !r.is_finite() {
         return Err(RectifyError::NonFinite("rectifying rotation"));
@@ -95,11 +146,8 @@ pub fn init_undistort_rectify_map(
     let k = camera.intrinsics;
     let [k1, k2, p1, p2, k3, k4, k5, k6] = camera.distortion.to_array();
     let rational = camera.distortion.is_rational();
-    let n = width as usize * height as usize;
-    let mut map_x = vec![0f32; n];
-    let mut map_y = vec![0f32; n];
     let step = ir.x_axis; // d(ray)/du
-    let params = MapRow {
+    Ok(MapRow {
         ir,
         step,
         fx: k.fx,
@@ -109,13 +157,7 @@ pub fn init_undistort_rectify_map(
         cy: k.cy,
         dist: [k1, k2, p1, p2, k3, k4, k5, k6],
         rational,
-    };
-    map_x
-        .par_chunks_mut(width as usize)
-        .zip(map_y.par_chunks_mut(width as usize))
-        .enumerate()
-        .for_each(|(v, (mx, my))| params.row(v, mx, my));
-    Ok(RemapTable { width, height, map_x, map_y })
+    })
 }
 
 /// The undistort-only map of one camera (OpenCV's `initUndistortRectifyMap` with `R = I`), for
@@ -195,5 +237,31 @@ impl MapRow {
             return unsafe { avx2(self, v, mx, my) };
         }
         imp(self, v, mx, my)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fused_map_and_table_equal_the_two_pass_build() {
+        use parallax_camera_model::{Distortion, Intrinsics};
+        let cam = Camera::new(
+            Intrinsics::new(536.32, 536.32, 341.84, 235.60),
+            Distortion::new(-0.2714, 0.0128, 0.00171, -0.00045, 0.1330),
+            640,
+            480,
+        )
+        .unwrap();
+        let r = DMat3::from_rotation_y(0.01) * DMat3::from_rotation_x(-0.004);
+        let k =
+            DMat3::from_cols(DVec3::new(520.0, 0.0, 0.0), DVec3::new(0.0, 520.0, 0.0), DVec3::new(330.0, 245.0, 1.0));
+        for (w, h, src) in [(640, 480, (640, 480)), (700, 420, (640, 480)), (97, 61, (50, 40))] {
+            let (map, fast) = rectify_map_and_fast_table(&cam, r, k, w, h, src).unwrap();
+            let reference = init_undistort_rectify_map(&cam, r, k, w, h).unwrap();
+            assert_eq!(map, reference);
+            assert_eq!(fast, crate::remap::FastBilinear::new(&reference, src.0, src.1));
+        }
     }
 }

@@ -2,11 +2,9 @@
 
 use parallax_camera_model::StereoRig;
 
+use crate::maps::rectify_map_and_fast_table;
 use crate::remap::{FastBilinear, Image, Sample, remap_impl};
-use crate::{
-    Border, Interpolation, Rectification, RectifyConfig, RectifyError, RemapTable, Result, init_undistort_rectify_map,
-    stereo_rectify,
-};
+use crate::{Border, Interpolation, Rectification, RectifyConfig, RectifyError, RemapTable, Result, stereo_rectify};
 
 /// Rectifies image pairs of one rig: built once (rectification + both undistort/rectify maps),
 /// then applied to every frame with [`Rectifier::rectify_pair`].
@@ -31,14 +29,14 @@ impl Rectifier {
     /// Builds the maps of an existing rectification of `rig`.
     pub fn from_rectification(rig: &StereoRig, rectification: Rectification) -> Result<Self> {
         let (w, h) = (rectification.width, rectification.height);
-        let (left_map, right_map) = rayon::join(
-            || init_undistort_rectify_map(&rig.left, rectification.r1, rectification.left_camera_matrix(), w, h),
-            || init_undistort_rectify_map(&rig.right, rectification.r2, rectification.right_camera_matrix(), w, h),
+        // each map and its fixed-point table in one pass (the table of a row is built while the
+        // row is in cache), for sources of the calibrated size
+        let src = (rig.left.width, rig.left.height);
+        let (left, right) = rayon::join(
+            || rectify_map_and_fast_table(&rig.left, rectification.r1, rectification.left_camera_matrix(), w, h, src),
+            || rectify_map_and_fast_table(&rig.right, rectification.r2, rectification.right_camera_matrix(), w, h, src),
         );
-        let (left_map, right_map) = (left_map?, right_map?);
-        let (iw, ih) = (rig.left.width, rig.left.height);
-        let (left_fast, right_fast) =
-            rayon::join(|| FastBilinear::new(&left_map, iw, ih), || FastBilinear::new(&right_map, iw, ih));
+        let ((left_map, left_fast), (right_map, right_fast)) = (left?, right?);
         Ok(Self {
             rectification,
             left_map,

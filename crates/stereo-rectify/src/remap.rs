@@ -356,12 +356,22 @@ pub(crate) struct FastBilinear {
 }
 
 impl FastBilinear {
+    /// The table of an existing map (the reference of the fused build in
+    /// `maps::rectify_map_and_fast_table`, compared in its test).
+    #[cfg(test)]
     pub(crate) fn new(table: &RemapTable, source_width: u32, source_height: u32) -> Self {
         let (last_x, last_y) = (source_width as f32 - 1.0, source_height as f32 - 1.0);
-        let mut index = vec![u32::MAX; table.map_x.len()];
+        // (sides below 2^24: `fast_table_row` converts positions to integers without saturation)
+        let usable = (source_width as u64) * (source_height as u64) < u32::MAX as u64
+            && source_width < 1 << 24
+            && source_height < 1 << 24
+            && table.width > 0;
+        // zeroed allocations are fresh pages mapped on first write: the rows below fault them in
+        // in parallel (a `u32::MAX` fill would touch every page on this thread first, which was
+        // most of the build time); every entry is written there
+        let mut index = if usable { vec![0u32; table.map_x.len()] } else { vec![u32::MAX; table.map_x.len()] };
         let mut frac = vec![0u16; table.map_x.len()];
-        let usable = (source_width as u64) * (source_height as u64) < u32::MAX as u64;
-        if usable && table.width > 0 {
+        if usable {
             let w = table.width as usize;
             index.par_chunks_mut(w).zip(frac.par_chunks_mut(w)).enumerate().for_each(|(v, (k, f))| {
                 let (mx, my) = (&table.map_x[v * w..(v + 1) * w], &table.map_y[v * w..(v + 1) * w]);
@@ -392,17 +402,35 @@ impl FastBilinear {
 }
 
 /// One row of [`FastBilinear`]: branch-free (selects) so it vectorises, through an AVX2 copy
-/// when the CPU has it.
-fn fast_table_row(mx: &[f32], my: &[f32], index: &mut [u32], frac: &mut [u16], sw: u32, last_x: f32, last_y: f32) {
+/// when the CPU has it. The source sides must be below 2^24 (see the conversions).
+pub(crate) fn fast_table_row(
+    mx: &[f32],
+    my: &[f32],
+    index: &mut [u32],
+    frac: &mut [u16],
+    sw: u32,
+    last_x: f32,
+    last_y: f32,
+) {
     #[inline(always)]
     fn imp(mx: &[f32], my: &[f32], index: &mut [u32], frac: &mut [u16], sw: u32, last_x: f32, last_y: f32) {
         for (((&x, &y), k), f) in mx.iter().zip(my).zip(index.iter_mut()).zip(frac.iter_mut()) {
             // false for NaN
             let inside = x >= 0.0 && y >= 0.0 && x < last_x && y < last_y;
-            // truncation = floor for x ≥ 0 (NaN → 0); i32 conversions vectorise, u32 ones do not
-            let (xi, yi) = (x as i32, y as i32);
-            let fx = (((x - xi as f32) * 256.0 + 0.5) as i32).min(255) as u32;
-            let fy = (((y - yi as f32) * 256.0 + 0.5) as i32).min(255) as u32;
+            // outside pixels get no index: convert 0 instead, so every conversion below is of a
+            // value in [0, 2^24) and needs no saturation (Rust's saturating `as` casts compiled
+            // to scalar code here: measured, the whole row ran scalar)
+            let (x, y) = if inside { (x, y) } else { (0.0, 0.0) };
+            // SAFETY: x, y are finite and in [0, last) with last < 2^24 (callers build tables
+            // only for source sides below 2^24), so truncation to i32 is in range.
+            let (xi, yi) = unsafe { (x.to_int_unchecked::<i32>(), y.to_int_unchecked::<i32>()) };
+            // SAFETY: the fractional parts are in [0, 1): the values are in [0.5, 256.5).
+            let (fx, fy) = unsafe {
+                (
+                    ((x - xi as f32) * 256.0 + 0.5).to_int_unchecked::<i32>().min(255) as u32,
+                    ((y - yi as f32) * 256.0 + 0.5).to_int_unchecked::<i32>().min(255) as u32,
+                )
+            };
             *k = if inside { (yi as u32).wrapping_mul(sw).wrapping_add(xi as u32) } else { u32::MAX };
             *f = if inside { (fx | (fy << 8)) as u16 } else { 0 };
         }

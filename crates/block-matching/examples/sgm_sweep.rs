@@ -1,0 +1,95 @@
+//! Sweeps the semi-global matching parameters on the Middlebury pairs
+//! (../shared/data/middlebury, nonocc mask) and prints, per pair, bad-2 with missing = bad,
+//! bad-2 among the returned pixels and the density: how the SGM defaults were chosen.
+//! `cargo run --release -p parallax-block-matching --example sgm_sweep [stage]`
+
+use parallax_block_matching::{
+    BlockMatcher, MatcherConfig, Method, Prefilter, SgmConfig, SgmPaths, evaluate, from_scaled,
+};
+
+const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/middlebury");
+
+fn main() {
+    let stage: u32 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(1);
+    let pairs = [("tsukuba", 16.0, 16), ("venus", 8.0, 32), ("teddy", 4.0, 64)];
+    let mut data = Vec::new();
+    for (name, scale, nd) in pairs {
+        let dir = std::path::Path::new(DATA).join(name);
+        let Ok(l) = image::open(dir.join("imL.png")) else {
+            eprintln!("skipped: ../shared not found");
+            return;
+        };
+        let r = image::open(dir.join("imR.png")).unwrap().into_luma8();
+        let g = image::open(dir.join("groundtruth.png")).unwrap().into_luma8();
+        let gv: Vec<u16> = g.as_raw().iter().map(|&v| v as u16).collect();
+        let truth = from_scaled(&gv, g.width() as usize, g.height() as usize, scale).unwrap();
+        let mask: Vec<bool> =
+            image::open(dir.join("nonocc.png")).unwrap().into_luma8().as_raw().iter().map(|&v| v > 128).collect();
+        data.push((nd, l.into_luma8(), r, truth, mask));
+    }
+    let base =
+        MatcherConfig { method: Method::Sgm, speckle_window_size: 0, uniqueness_ratio: 10, ..Default::default() };
+    let mut configs: Vec<(String, MatcherConfig)> = Vec::new();
+    if stage == 1 {
+        for pf in [Prefilter::XSobel { cap: 31 }, Prefilter::Rank { size: 5 }] {
+            for block in [5, 7] {
+                for p1 in [4, 8, 16] {
+                    for k in [4, 8] {
+                        for gamma in [16, 48] {
+                            let sgm = SgmConfig { block, p1, p2: p1 * k, p2_gamma: gamma, ..SgmConfig::default() };
+                            configs.push((
+                                format!("{pf:?} b{block} p1 {p1} p2 {} g{gamma}", p1 * k),
+                                MatcherConfig { prefilter: pf, sgm, ..base.clone() },
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+    } else {
+        let pf: Prefilter = match std::env::var("PF").as_deref() {
+            Ok("xsobel") => Prefilter::XSobel { cap: 31 },
+            Ok("rank7") => Prefilter::Rank { size: 7 },
+            _ => Prefilter::Rank { size: 5 },
+        };
+        let get = |k: &str, d: u32| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
+        let sgm = SgmConfig {
+            block: get("B", 3) as usize,
+            p1: get("P1", 2),
+            p2: get("P2", 16),
+            p2_gamma: get("G", 16),
+            ..SgmConfig::default()
+        };
+        for paths in [SgmPaths::Five, SgmPaths::Eight] {
+            for uniq in [0, 5, 10, 15] {
+                for speckle in [0, 100] {
+                    for fill in [false, true] {
+                        configs.push((
+                            format!("{paths:?} u{uniq} sp{speckle} fill {fill}"),
+                            MatcherConfig {
+                                prefilter: pf,
+                                sgm: SgmConfig { paths, ..sgm },
+                                uniqueness_ratio: uniq,
+                                speckle_window_size: speckle,
+                                fill,
+                                ..base.clone()
+                            },
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    println!("{:44} | per pair: bad2 (missing = bad) / bad2 returned / density", "config");
+    for (label, base) in configs {
+        let mut line = format!("{label:44} |");
+        for (nd, l, r, truth, mask) in &data {
+            let cfg = MatcherConfig { num_disparities: *nd, ..base.clone() };
+            let d = BlockMatcher::new(cfg).unwrap().compute(l, r).unwrap();
+            let e = evaluate(&d, truth, Some(mask), &[2.0]).unwrap();
+            line +=
+                &format!(" {:6.2} {:5.2} {:5.1} |", e.bad_at(2.0).unwrap(), e.bad_returned_at(2.0).unwrap(), e.density);
+        }
+        println!("{line}");
+    }
+}

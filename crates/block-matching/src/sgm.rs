@@ -1,0 +1,915 @@
+//! Semi-global matching (Hirschmüller 2008) on the matcher's prefiltered planes, with the block
+//! matcher's decisions (texture, uniqueness, left–right check, confidence, fill, sub-pixel).
+//!
+//! Cost: `C(x, y, d)`, the SAD of the prefiltered images over a `block x block` window
+//! (clamp-to-edge, as the block matcher), for every `d` of the range; a candidate whose matching
+//! pixel lies outside the right image costs `block² · max pixel` (the largest possible cost).
+//! Aggregation along each path direction `r`:
+//!
+//! `L(p, d) = C(p, d) + min(L(p−r, d), L(p−r, d±1) + P1, min_k L(p−r, k) + P2') − min_k L(p−r, k)`
+//!
+//! with `P1 = p1 · block²`, `P2 = p2 · block²` and the intensity-adaptive
+//! `P2' = max(P1, P2 · γ / (γ + |I(p) − I(p−r)|))` on the raw left image (`γ = p2_gamma`,
+//! 8-bit grey levels; `γ = 0` keeps `P2`). A path starts (`L = C`) where its predecessor
+//! leaves the image or the strip's domain. `S(p, d) = Σ_r L_r(p, d)` is the aggregated cost the
+//! decisions run on.
+//!
+//! Scheduling (bounded memory, parallel): the image is cut into strips of `strip` rows, each run
+//! by one rayon task with its own buffers. Paths from above start `overlap` rows above the
+//! strip; with eight paths, the three paths from below start `overlap` rows below it. Five
+//! paths (left→right, right→left, and from the top, top-left and top-right) need one pass and
+//! `≈ 9 · W · Dq · 2` bytes per task (`Dq`: `D` rounded up to 16 lanes); eight paths add a
+//! backward pass (bottom, bottom-left, bottom-right) over the strip's stored forward sums:
+//! `≈ (strip + 9) · W · Dq · 2` bytes per task, where the strip height is capped so this stays
+//! under 48 MiB. Never the `W · H · D` volume.
+//!
+//! Every step is exact 16-bit integer arithmetic (the run refuses costs whose sums could
+//! exceed 16 bits). The path steps, column sums, box sums, winner search and right-image
+//! minima run in AVX2 intrinsics when the CPU has AVX2 (module `avx2`), plain loops otherwise;
+//! the naive reference in `tests/sgm_vs_naive.rs` implements the same definition directly on a
+//! full cost volume and both levels must match it exactly.
+
+use crate::config::{SgmConfig, SgmPaths};
+use crate::engine::{MatchStats, Shared, conf_row, curve_ratio, decide, finish_row, load_rows, subpixel_offset};
+use crate::error::{BlockMatchingError, Result};
+
+/// Largest task memory of the eight-path strips, bytes.
+const STRIP_BYTES: usize = 48 << 20;
+
+/// Sentinel of the padding lanes `d = −1` and `d ≥ D` (never a minimum).
+const PAD: u16 = u16::MAX;
+
+/// `D` rounded up to whole 16-lane chunks.
+fn lanes(nd: usize) -> usize {
+    nd.div_ceil(16) * 16
+}
+
+/// Parameters of one run, derived from the configuration and the image.
+pub(crate) struct SgmParams<'a> {
+    pub(crate) paths: SgmPaths,
+    pub(crate) p1: u16,
+    pub(crate) p2: u16,
+    pub(crate) gamma: u32,
+    /// Raw left intensities for the adaptive P2, and the divisor to 8-bit grey levels.
+    pub(crate) intensity: &'a [u16],
+    pub(crate) intensity_scale: u32,
+    /// Cost of a candidate outside the right image (`block² · max pixel`).
+    pub(crate) cmax: u16,
+    pub(crate) overlap: usize,
+    /// `P2'` by intensity difference in 8-bit grey levels, `0..=255` (no division per pixel).
+    p2_table: [u16; 256],
+}
+
+impl<'a> SgmParams<'a> {
+    /// Checks that every sum fits in 16 bits and derives the penalties.
+    pub(crate) fn new(cfg: &SgmConfig, max_pixel: u64, intensity: &'a [u16], intensity_scale: u32) -> Result<Self> {
+        let n = (cfg.block * cfg.block) as u64;
+        let cmax = n * max_pixel;
+        let (p1, p2) = (cfg.p1 as u64 * n, cfg.p2 as u64 * n);
+        let npaths = match cfg.paths {
+            SgmPaths::Five => 5,
+            SgmPaths::Eight => 8,
+        };
+        // L ≤ C + P2, S ≤ paths · (C + P2); 65535 is the padding sentinel
+        if npaths * (cmax + p2) >= PAD as u64 {
+            return Err(BlockMatchingError::InvalidConfig {
+                field: "sgm",
+                value: format!("block {} · max pixel {max_pixel} with p2 {} over {npaths} paths", cfg.block, cfg.p2),
+                reason: "aggregated costs must fit in 16 bits: use the rank or x-Sobel prefilter (small pixel \
+                         values), a smaller sgm.block or smaller penalties",
+            });
+        }
+        let gamma = cfg.p2_gamma;
+        let p2_table = std::array::from_fn(|di| {
+            if gamma == 0 { p2 as u16 } else { (p2 as u32 * gamma / (gamma + di as u32)).max(p1 as u32) as u16 }
+        });
+        Ok(Self {
+            paths: cfg.paths,
+            p1: p1 as u16,
+            p2: p2 as u16,
+            gamma,
+            intensity,
+            intensity_scale,
+            cmax: cmax as u16,
+            overlap: cfg.overlap,
+            p2_table,
+        })
+    }
+
+    /// `P2'` between the left pixels `a` and `b`: `max(P1, P2·γ / (γ + |a − b|))`, the
+    /// difference in 8-bit grey levels (16-bit input divided by 257, rounded down).
+    #[inline(always)]
+    fn p2_between(&self, a: u16, b: u16) -> u16 {
+        if self.gamma == 0 {
+            return self.p2;
+        }
+        let di = a.abs_diff(b) as u32;
+        let di = if self.intensity_scale == 1 { di } else { di / self.intensity_scale };
+        if di < 256 {
+            self.p2_table[di as usize]
+        } else {
+            // only 8-bit input scaled wrongly could get here; keep the formula
+            (self.p2 as u32 * self.gamma / (self.gamma + di)).max(self.p1 as u32) as u16
+        }
+    }
+}
+
+/// The strip height: independent of the thread count, so a map does not depend on the machine
+/// (paths restart at strip boundaries): `max(128, ⌈h / 8⌉)` rows, and (eight paths) the strip's
+/// stored sums under [`STRIP_BYTES`].
+pub(crate) fn strip_rows(cfg: &SgmConfig, w: usize, h: usize, nd: usize) -> usize {
+    if cfg.strip_rows > 0 {
+        return cfg.strip_rows.min(h);
+    }
+    let mut rows = h.div_ceil(8).max(128);
+    if cfg.paths == SgmPaths::Eight {
+        let per_row = w * (nd + 2) * 2;
+        rows = rows.min((STRIP_BYTES / per_row).saturating_sub(9).max(16));
+    }
+    rows.min(h)
+}
+
+/// Buffers of one strip task, reused across frames.
+#[derive(Default)]
+pub(crate) struct Scratch {
+    colsum: Vec<u16>,
+    l_a: Vec<u16>,
+    r_a: Vec<u16>,
+    l_b: Vec<u16>,
+    r_b: Vec<u16>,
+    /// `C` of the current row, `W · Dq` (`Dq`: `D` rounded up to 16 lanes).
+    cost: Vec<u16>,
+    /// `S` of the current row, `W · Dq`.
+    acc: Vec<u16>,
+    /// Forward sums of the strip's rows (eight paths), `strip · W · Dq`.
+    vol: Vec<u16>,
+    /// Lanes `d ≥ D` of the last 16-lane chunk: all ones there, zero below (`Dq` entries).
+    tail: Vec<u16>,
+    /// The horizontal path's previous vector and the new one, `Dq + 2`: slot 0 (`d = −1`) and
+    /// slots `D + 1..` are [`PAD`].
+    hprev: Vec<u16>,
+    hcur: Vec<u16>,
+    /// Start of a path: zeros with padded ends.
+    zero: Vec<u16>,
+    /// The three vertical/diagonal paths, previous and current row, `W · (Dq + 2)` each.
+    vp: [Vec<u16>; 3],
+    vc: [Vec<u16>; 3],
+    /// Their per-pixel minima.
+    mp: [Vec<u16>; 3],
+    mc: [Vec<u16>; 3],
+    rc: Vec<u16>,
+    rk: Vec<u16>,
+    best: Vec<i32>,
+    sub: Vec<f32>,
+    ratio: Vec<f32>,
+}
+
+impl Scratch {
+    fn resize(&mut self, sh: &Shared, strip: usize, eight: bool) {
+        let (w, r, nd) = (sh.w, sh.r, sh.nd);
+        let ndq = lanes(nd);
+        let (wp, ndp) = (w + 2 * r, ndq + 2);
+        self.colsum.resize(wp * ndq, 0);
+        for v in [&mut self.l_a, &mut self.l_b] {
+            v.resize(wp, 0);
+        }
+        // the reversed right rows are read at (wp − 1 − xp) + d for d < Dq
+        for v in [&mut self.r_a, &mut self.r_b] {
+            v.resize(wp + ndq - 1, 0);
+        }
+        self.cost.resize(w * ndq, 0);
+        self.acc.resize(w * ndq, 0);
+        if eight {
+            self.vol.resize(strip * w * ndq, 0);
+        }
+        self.tail.clear();
+        self.tail.extend((0..ndq).map(|d| if d < nd { 0 } else { u16::MAX }));
+        // the padding slots must hold PAD: refilled every frame (the layout may have changed)
+        for v in [&mut self.hprev, &mut self.hcur] {
+            v.clear();
+            v.resize(ndp, PAD);
+        }
+        self.zero.clear();
+        self.zero.resize(ndp, PAD);
+        self.zero[1..=nd].fill(0);
+        for v in self.vp.iter_mut().chain(self.vc.iter_mut()) {
+            v.clear();
+            v.resize(w * ndp, PAD);
+        }
+        for v in self.mp.iter_mut().chain(self.mc.iter_mut()) {
+            v.resize(w, 0);
+        }
+        self.rc.resize(w, u16::MAX);
+        self.rk.resize(w, u16::MAX);
+        self.best.resize(w, -1);
+        self.sub.resize(w, 0.0);
+        self.ratio.resize(w, 0.0);
+    }
+}
+
+/// One path step for one pixel: `out[1..=D]` (padded) from the predecessor `prev` (padded,
+/// minimum `pmin`) and the cost `c`, added into `acc`; returns the new minimum.
+#[inline(always)]
+fn step(c: &[u16], prev: &[u16], pmin: u16, p1: u16, p2: u16, out: &mut [u16], acc: &mut [u16]) -> u16 {
+    let nd = c.len();
+    let (prev, out, acc) = (&prev[..nd + 2], &mut out[1..nd + 1], &mut acc[..nd]);
+    let jump = pmin.saturating_add(p2);
+    let mut m = u16::MAX;
+    for d in 0..nd {
+        let best = prev[d + 1].min(prev[d].saturating_add(p1)).min(prev[d + 2].saturating_add(p1)).min(jump);
+        let v = c[d] + (best - pmin);
+        out[d] = v;
+        acc[d] += v;
+        m = m.min(v);
+    }
+    m
+}
+
+/// As [`step`] without accumulating (the first path of a row writes `acc` with it).
+#[inline(always)]
+fn step_set(c: &[u16], prev: &[u16], pmin: u16, p1: u16, p2: u16, out: &mut [u16], acc: &mut [u16]) -> u16 {
+    let nd = c.len();
+    let (prev, out, acc) = (&prev[..nd + 2], &mut out[1..nd + 1], &mut acc[..nd]);
+    let jump = pmin.saturating_add(p2);
+    let mut m = u16::MAX;
+    for d in 0..nd {
+        let best = prev[d + 1].min(prev[d].saturating_add(p1)).min(prev[d + 2].saturating_add(p1)).min(jump);
+        let v = c[d] + (best - pmin);
+        out[d] = v;
+        acc[d] = v;
+        m = m.min(v);
+    }
+    m
+}
+
+/// Adds (or, with `sub`, replaces row `b` by row `a` in) the column sums: `|L − R|` of the rows
+/// loaded in `l_a/r_a` (and `l_b/r_b`).
+#[inline(always)]
+fn vertical(sc: &mut Scratch, nd: usize, sub: bool, avx2: bool) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` only when the CPU has AVX2; lengths asserted inside.
+        unsafe { avx2::vertical(&mut sc.colsum, &sc.l_a, &sc.r_a, &sc.l_b, &sc.r_b, lanes(nd), sub) };
+        return;
+    }
+    let _ = avx2;
+    // whole 16-lane chunks (`Dq` per column; the lanes past `D` carry ignored values, hence the
+    // wrapping arithmetic): fixed-size chunks the compiler vectorises
+    let ndq = lanes(nd);
+    let wp = sc.l_a.len();
+    for (xp, cs) in sc.colsum.chunks_exact_mut(ndq).enumerate().take(wp) {
+        let base = wp - 1 - xp;
+        let (ra, la) = (&sc.r_a[base..base + ndq], sc.l_a[xp]);
+        if sub {
+            let (rb, lb) = (&sc.r_b[base..base + ndq], sc.l_b[xp]);
+            for ((c, a), b) in cs.chunks_exact_mut(16).zip(ra.chunks_exact(16)).zip(rb.chunks_exact(16)) {
+                for k in 0..16 {
+                    c[k] = c[k].wrapping_add(la.abs_diff(a[k])).wrapping_sub(lb.abs_diff(b[k]));
+                }
+            }
+        } else {
+            for (c, a) in cs.chunks_exact_mut(16).zip(ra.chunks_exact(16)) {
+                for k in 0..16 {
+                    c[k] = c[k].wrapping_add(la.abs_diff(a[k]));
+                }
+            }
+        }
+    }
+}
+
+/// The column sums of row `y` from scratch.
+#[inline(always)]
+fn colsum_init(sh: &Shared, sc: &mut Scratch, y: usize, avx2: bool) {
+    let (h, r) = (sh.h as i64, sh.r as i64);
+    sc.colsum.fill(0);
+    for j in y as i64 - r..=y as i64 + r {
+        load_rows(sh, j.clamp(0, h - 1) as usize, &mut sc.l_a, &mut sc.r_a);
+        vertical(sc, sh.nd, false, avx2);
+    }
+}
+
+/// Moves the column sums from row `y` to row `y + 1` (`down`) or `y − 1`.
+#[inline(always)]
+fn colsum_move(sh: &Shared, sc: &mut Scratch, y: usize, down: bool, avx2: bool) {
+    let (h, r) = (sh.h as i64, sh.r as i64);
+    let clamp = |v: i64| v.clamp(0, h - 1) as usize;
+    let (yi, yo) = if down {
+        (clamp(y as i64 + 1 + r), clamp(y as i64 - r))
+    } else {
+        (clamp(y as i64 - 1 - r), clamp(y as i64 + r))
+    };
+    if yi != yo {
+        load_rows(sh, yi, &mut sc.l_a, &mut sc.r_a);
+        load_rows(sh, yo, &mut sc.l_b, &mut sc.r_b);
+        vertical(sc, sh.nd, true, avx2);
+    }
+}
+
+/// `C` of the current row from the column sums: running box sums along the row, then the
+/// out-of-image candidates set to `cmax`.
+#[inline(always)]
+fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, avx2: bool) {
+    let (w, r, nd, dmin) = (sh.w, sh.r, sh.nd, sh.dmin);
+    let ndq = lanes(nd);
+    let (cost, colsum) = (&mut sc.cost, &sc.colsum);
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` only when the CPU has AVX2; lengths asserted inside.
+        unsafe { avx2::box_row(cost, colsum, w, r, ndq) };
+    }
+    if !avx2 {
+        let c0 = &mut cost[..ndq];
+        c0.fill(0);
+        for xp in 0..=2 * r {
+            for (c, &s) in c0.iter_mut().zip(&colsum[xp * ndq..][..ndq]) {
+                *c = c.wrapping_add(s);
+            }
+        }
+        for x in 1..w {
+            let (prev, cur) = cost[(x - 1) * ndq..(x + 1) * ndq].split_at_mut(ndq);
+            let (a, s) = (&colsum[(x + 2 * r) * ndq..][..ndq], &colsum[(x - 1) * ndq..][..ndq]);
+            let chunks =
+                cur.chunks_exact_mut(16).zip(prev.chunks_exact(16)).zip(a.chunks_exact(16).zip(s.chunks_exact(16)));
+            for ((c, p), (a, s)) in chunks {
+                for k in 0..16 {
+                    c[k] = p[k].wrapping_add(a[k]).wrapping_sub(s[k]);
+                }
+            }
+        }
+    }
+    for x in 0..w {
+        let xd = x as i64 - dmin;
+        let lo = (xd - (w as i64 - 1)).clamp(0, nd as i64) as usize;
+        let hi = (xd + 1).clamp(0, nd as i64) as usize;
+        let c = &mut cost[x * ndq..][..nd];
+        c[..lo].fill(cmax);
+        c[hi.max(lo)..].fill(cmax);
+    }
+}
+
+/// The paths of one pixel: for each path `i`, its predecessor vector `prev[i]` (padded),
+/// minimum `pmin[i]` and jump penalty `p2[i]`; writes the new vectors to `out[i]` (padded) and
+/// returns their minima. `acc` (`Dq` lanes) receives their sum (`set`: replaces it).
+#[inline(always)]
+fn paths<const N: usize>(
+    avx2: bool,
+    c: &[u16],
+    prev: [&[u16]; N],
+    pmin: [u16; N],
+    p2: [u16; N],
+    p1: u16,
+    out: [&mut [u16]; N],
+    acc: &mut [u16],
+    tail: &[u16],
+    nd: usize,
+    set: bool,
+) -> [u16; N] {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` is set only when the CPU has AVX2; slice lengths are checked inside.
+        return unsafe { avx2::paths(c, prev, pmin, p2, p1, out, acc, tail) };
+    }
+    let _ = (avx2, tail);
+    let mut m = [0u16; N];
+    for (i, o) in out.into_iter().enumerate() {
+        m[i] = if set && i == 0 {
+            step_set(&c[..nd], prev[i], pmin[i], p1, p2[i], o, acc)
+        } else {
+            step(&c[..nd], prev[i], pmin[i], p1, p2[i], o, acc)
+        };
+    }
+    m
+}
+
+/// The forward paths of row `y`: right→left, left→right and, from the row above (unless
+/// `first`), top, top-left and top-right. Writes `S` of these paths to `acc`.
+#[inline(always)]
+fn forward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, avx2: bool) {
+    let (w, nd) = (sh.w, sh.nd);
+    let ndq = lanes(nd);
+    let ndp = ndq + 2;
+    let row = &pp.intensity[y * w..][..w];
+    let above = if first { row } else { &pp.intensity[(y - 1) * w..][..w] };
+    // right → left (writes acc)
+    let mut pmin = 0;
+    for x in (0..w).rev() {
+        let (prev, m, p2) =
+            if x + 1 < w { (&sc.hprev[..], pmin, pp.p2_between(row[x], row[x + 1])) } else { (&sc.zero[..], 0, pp.p2) };
+        let c = &sc.cost[x * ndq..][..ndq];
+        let acc = &mut sc.acc[x * ndq..][..ndq];
+        [pmin] = paths::<1>(avx2, c, [prev], [m], [p2], pp.p1, [&mut sc.hcur[..]], acc, &sc.tail, nd, true);
+        std::mem::swap(&mut sc.hprev, &mut sc.hcur);
+    }
+    // left → right, top, top-left, top-right
+    let (vp, vc, mp, mc) = (&sc.vp, &mut sc.vc, &sc.mp, &mut sc.mc);
+    let [vc0, vc1, vc2] = vc;
+    let [mc0, mc1, mc2] = mc;
+    let zero = &sc.zero[..];
+    for x in 0..w {
+        let c = &sc.cost[x * ndq..][..ndq];
+        let acc = &mut sc.acc[x * ndq..][..ndq];
+        let (h, hm, hp2) =
+            if x > 0 { (&sc.hprev[..], pmin, pp.p2_between(row[x], row[x - 1])) } else { (zero, 0, pp.p2) };
+        let (t, tm, tp2) = if first {
+            (zero, 0, pp.p2)
+        } else {
+            (&vp[0][x * ndp..][..ndp], mp[0][x], pp.p2_between(row[x], above[x]))
+        };
+        let (l, lm, lp2) = if first || x == 0 {
+            (zero, 0, pp.p2)
+        } else {
+            (&vp[1][(x - 1) * ndp..][..ndp], mp[1][x - 1], pp.p2_between(row[x], above[x - 1]))
+        };
+        let (r, rm, rp2) = if first || x + 1 == w {
+            (zero, 0, pp.p2)
+        } else {
+            (&vp[2][(x + 1) * ndp..][..ndp], mp[2][x + 1], pp.p2_between(row[x], above[x + 1]))
+        };
+        let outs =
+            [&mut sc.hcur[..], &mut vc0[x * ndp..][..ndp], &mut vc1[x * ndp..][..ndp], &mut vc2[x * ndp..][..ndp]];
+        let m = paths::<4>(
+            avx2,
+            c,
+            [h, t, l, r],
+            [hm, tm, lm, rm],
+            [hp2, tp2, lp2, rp2],
+            pp.p1,
+            outs,
+            acc,
+            &sc.tail,
+            nd,
+            false,
+        );
+        pmin = m[0];
+        (mc0[x], mc1[x], mc2[x]) = (m[1], m[2], m[3]);
+        std::mem::swap(&mut sc.hprev, &mut sc.hcur);
+    }
+    std::mem::swap(&mut sc.vp, &mut sc.vc);
+    std::mem::swap(&mut sc.mp, &mut sc.mc);
+}
+
+/// The backward paths of row `y` (from the row below unless `first`): bottom, bottom-left,
+/// bottom-right, added to `acc`.
+#[inline(always)]
+fn backward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, avx2: bool) {
+    let (w, nd) = (sh.w, sh.nd);
+    let ndq = lanes(nd);
+    let ndp = ndq + 2;
+    let row = &pp.intensity[y * w..][..w];
+    let below = if first { row } else { &pp.intensity[(y + 1) * w..][..w] };
+    let (vp, vc, mp, mc) = (&sc.vp, &mut sc.vc, &sc.mp, &mut sc.mc);
+    let [vc0, vc1, vc2] = vc;
+    let [mc0, mc1, mc2] = mc;
+    let zero = &sc.zero[..];
+    for x in 0..w {
+        let c = &sc.cost[x * ndq..][..ndq];
+        let acc = &mut sc.acc[x * ndq..][..ndq];
+        let (t, tm, tp2) = if first {
+            (zero, 0, pp.p2)
+        } else {
+            (&vp[0][x * ndp..][..ndp], mp[0][x], pp.p2_between(row[x], below[x]))
+        };
+        let (l, lm, lp2) = if first || x == 0 {
+            (zero, 0, pp.p2)
+        } else {
+            (&vp[1][(x - 1) * ndp..][..ndp], mp[1][x - 1], pp.p2_between(row[x], below[x - 1]))
+        };
+        let (r, rm, rp2) = if first || x + 1 == w {
+            (zero, 0, pp.p2)
+        } else {
+            (&vp[2][(x + 1) * ndp..][..ndp], mp[2][x + 1], pp.p2_between(row[x], below[x + 1]))
+        };
+        let outs = [&mut vc0[x * ndp..][..ndp], &mut vc1[x * ndp..][..ndp], &mut vc2[x * ndp..][..ndp]];
+        let m = paths::<3>(avx2, c, [t, l, r], [tm, lm, rm], [tp2, lp2, rp2], pp.p1, outs, acc, &sc.tail, nd, false);
+        (mc0[x], mc1[x], mc2[x]) = (m[0], m[1], m[2]);
+    }
+    std::mem::swap(&mut sc.vp, &mut sc.vc);
+    std::mem::swap(&mut sc.mp, &mut sc.mc);
+}
+
+/// Keeps, per right pixel (reversed index), the smallest `S` and its candidate (first wins).
+#[inline(always)]
+fn right_update16(c: &[u16], rc: &mut [u16], rk: &mut [u16], lo: usize) {
+    for (t, ((&v, rcv), rkv)) in c.iter().zip(rc.iter_mut()).zip(rk.iter_mut()).enumerate() {
+        if v < *rcv {
+            *rcv = v;
+            *rkv = (lo + t) as u16;
+        }
+    }
+}
+
+/// The decisions of row `y` on `S` (in `acc`), as the block matcher's generic path.
+#[inline(always)]
+fn decide_row(
+    sh: &Shared,
+    sc: &mut Scratch,
+    y: usize,
+    out: &mut [f32],
+    conf: &mut [f32],
+    st: &mut MatchStats,
+    avx2: bool,
+) {
+    let (w, nd, dmin) = (sh.w, sh.nd, sh.dmin);
+    let ndq = lanes(nd);
+    let need2 = sh.uniq > 0 || sh.conf;
+    sc.rc.fill(u16::MAX);
+    sc.rk.fill(u16::MAX);
+    for x in 0..w {
+        let xd = x as i64 - dmin;
+        let lo = (xd - (w as i64 - 1)).max(0);
+        let hi = xd.min(nd as i64 - 1);
+        if lo > hi {
+            sc.best[x] = -1;
+            st.no_candidate += 1;
+            continue;
+        }
+        let (lo, hi) = (lo as usize, hi as usize);
+        let s = &sc.acc[x * ndq..][..ndq];
+        let j0 = (w as i64 - 1 - xd + lo as i64) as usize;
+        let len = hi - lo + 1;
+        #[cfg(target_arch = "x86_64")]
+        if avx2 {
+            // SAFETY: `avx2` only when the CPU has AVX2; the slices have equal lengths.
+            unsafe { avx2::right_update(&s[lo..=hi], &mut sc.rc[j0..][..len], &mut sc.rk[j0..][..len], lo) };
+        }
+        if !avx2 {
+            right_update16(&s[lo..=hi], &mut sc.rc[j0..][..len], &mut sc.rk[j0..][..len], lo);
+        }
+        if sh.texture_ok.is_some_and(|t| !t[y * w + x]) {
+            sc.best[x] = -1;
+            st.low_texture += 1;
+            continue;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if avx2 {
+            // SAFETY: as above; `s` has Dq lanes, lo ≤ hi < D.
+            let (m, kb, c2) = unsafe { avx2::wta(s, lo, hi, need2) };
+            let t = (m as u32 + m as u32 * sh.uniq / 100).min(u16::MAX as u32) as u16;
+            if sh.uniq > 0 && c2 != u16::MAX && c2 <= t {
+                sc.best[x] = -1;
+                st.not_unique += 1;
+                continue;
+            }
+            sc.best[x] = kb as i32;
+            sc.sub[x] = subpixel_offset(&s[..nd], lo, hi, kb, sh.subpixel);
+            sc.ratio[x] = if sh.conf { curve_ratio(m as f64, (c2 != u16::MAX).then_some(c2 as f64)) } else { 0.0 };
+            continue;
+        }
+        match decide(&s[..nd], lo, hi, sh.uniq, sh.subpixel, sh.conf) {
+            crate::engine::Decision::Best(k, off, ratio) => {
+                sc.best[x] = k;
+                sc.sub[x] = off;
+                sc.ratio[x] = ratio;
+            }
+            crate::engine::Decision::NotUnique => {
+                sc.best[x] = -1;
+                st.not_unique += 1;
+            }
+        }
+    }
+    let rk = &sc.rk;
+    finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, |x, k| {
+        rk[w - 1 - (x as i64 - dmin - k as i64) as usize] as u32
+    });
+}
+
+/// Rows `y0..y1` of one strip.
+#[inline(always)]
+fn strip(
+    sh: &Shared,
+    pp: &SgmParams,
+    sc: &mut Scratch,
+    out: &mut [f32],
+    conf: &mut [f32],
+    y0: usize,
+    y1: usize,
+    avx2: bool,
+) -> MatchStats {
+    let (w, h) = (sh.w, sh.h);
+    let nd = lanes(sh.nd);
+    let eight = pp.paths == SgmPaths::Eight;
+    sc.resize(sh, y1 - y0, eight);
+    let mut st = MatchStats::default();
+    let ys = y0.saturating_sub(pp.overlap);
+    colsum_init(sh, sc, ys, avx2);
+    for y in ys..y1 {
+        if y > ys {
+            colsum_move(sh, sc, y - 1, true, avx2);
+        }
+        cost_row(sh, sc, pp.cmax, avx2);
+        forward_row(sh, sc, pp, y, y == ys, avx2);
+        if y < y0 {
+            continue;
+        }
+        if eight {
+            sc.vol[(y - y0) * w * nd..][..w * nd].copy_from_slice(&sc.acc);
+        } else {
+            decide_row(sh, sc, y, &mut out[(y - y0) * w..][..w], conf_row(sh, conf, y, y0), &mut st, avx2);
+        }
+    }
+    if eight {
+        let ye = (y1 + pp.overlap).min(h);
+        colsum_init(sh, sc, ye - 1, avx2);
+        for y in (y0..ye).rev() {
+            if y + 1 < ye {
+                colsum_move(sh, sc, y + 1, false, avx2);
+            }
+            cost_row(sh, sc, pp.cmax, avx2);
+            if y < y1 {
+                sc.acc.copy_from_slice(&sc.vol[(y - y0) * w * nd..][..w * nd]);
+            } else {
+                sc.acc.fill(0);
+            }
+            backward_row(sh, sc, pp, y, y + 1 == ye, avx2);
+            if y < y1 {
+                decide_row(sh, sc, y, &mut out[(y - y0) * w..][..w], conf_row(sh, conf, y, y0), &mut st, avx2);
+            }
+        }
+    }
+    st
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn strip_avx2(
+    sh: &Shared,
+    pp: &SgmParams,
+    sc: &mut Scratch,
+    out: &mut [f32],
+    conf: &mut [f32],
+    y0: usize,
+    y1: usize,
+) -> MatchStats {
+    strip(sh, pp, sc, out, conf, y0, y1, true)
+}
+
+/// Rows `y0..y1` of one strip, compiled for AVX2 when `avx2` (the same code).
+pub(crate) fn run_strip(
+    sh: &Shared,
+    pp: &SgmParams,
+    sc: &mut Scratch,
+    out: &mut [f32],
+    conf: &mut [f32],
+    y0: usize,
+    y1: usize,
+    avx2: bool,
+) -> MatchStats {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: the caller passes `avx2` only when `SimdLevel::detect()` found AVX2.
+        return unsafe { strip_avx2(sh, pp, sc, out, conf, y0, y1) };
+    }
+    strip(sh, pp, sc, out, conf, y0, y1, false)
+}
+
+/// The path steps in AVX2 intrinsics, 16 disparities per vector: the compiler did not vectorise
+/// the scalar `step` (measured: teddy 450x375x64, five paths, ~150 ms, the inner loop scalar).
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    /// [`super::paths`] with 256-bit vectors: per 16-lane chunk of every path, the minimum of
+    /// `L(d)`, `L(d ± 1) + P1` (saturating) and `min L + P2'`, minus `min L`, plus `C`; lanes
+    /// `d ≥ D` forced to `PAD` through `tail`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2. Lengths: `c`, `acc`, `tail` have `Dq` (a multiple of 16)
+    /// entries, every `prev[i]` and `out[i]` `Dq + 2` (checked by assertions).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn paths<const N: usize>(
+        c: &[u16],
+        prev: [&[u16]; N],
+        pmin: [u16; N],
+        p2: [u16; N],
+        p1: u16,
+        out: [&mut [u16]; N],
+        acc: &mut [u16],
+        tail: &[u16],
+    ) -> [u16; N] {
+        let ndq = c.len();
+        assert!(ndq.is_multiple_of(16) && acc.len() == ndq && tail.len() == ndq);
+        for i in 0..N {
+            assert!(prev[i].len() == ndq + 2 && out[i].len() == ndq + 2);
+        }
+        let p1v = _mm256_set1_epi16(p1 as i16);
+        let mut mv = [_mm256_set1_epi16(-1); N];
+        let mut jump = [_mm256_setzero_si256(); N];
+        let mut pm = [_mm256_setzero_si256(); N];
+        for i in 0..N {
+            jump[i] = _mm256_set1_epi16(pmin[i].saturating_add(p2[i]) as i16);
+            pm[i] = _mm256_set1_epi16(pmin[i] as i16);
+        }
+        let outp: [*mut u16; N] = std::array::from_fn(|i| out[i].as_ptr() as *mut u16);
+        let _ = out;
+        for d in (0..ndq).step_by(16) {
+            // SAFETY (all loads and stores): d + 16 ≤ ndq, and the padded vectors have ndq + 2
+            // entries, so offsets d .. d + 2 + 16 are inside (asserted above).
+            unsafe {
+                let cv = _mm256_loadu_si256(c.as_ptr().add(d) as *const __m256i);
+                let tv = _mm256_loadu_si256(tail.as_ptr().add(d) as *const __m256i);
+                let mut sum = if N == 1 {
+                    _mm256_setzero_si256()
+                } else {
+                    _mm256_loadu_si256(acc.as_ptr().add(d) as *const __m256i)
+                };
+                for i in 0..N {
+                    let p = prev[i].as_ptr().add(d);
+                    let a = _mm256_loadu_si256(p as *const __m256i);
+                    let b = _mm256_loadu_si256(p.add(1) as *const __m256i);
+                    let e = _mm256_loadu_si256(p.add(2) as *const __m256i);
+                    let best = _mm256_min_epu16(
+                        _mm256_min_epu16(b, jump[i]),
+                        _mm256_min_epu16(_mm256_adds_epu16(a, p1v), _mm256_adds_epu16(e, p1v)),
+                    );
+                    let v = _mm256_or_si256(_mm256_add_epi16(cv, _mm256_sub_epi16(best, pm[i])), tv);
+                    _mm256_storeu_si256(outp[i].add(d + 1) as *mut __m256i, v);
+                    mv[i] = _mm256_min_epu16(mv[i], v);
+                    sum = _mm256_add_epi16(sum, v);
+                }
+                _mm256_storeu_si256(acc.as_mut_ptr().add(d) as *mut __m256i, sum);
+            }
+        }
+        std::array::from_fn(|i| {
+            let m = _mm_min_epu16(_mm256_castsi256_si128(mv[i]), _mm256_extracti128_si256::<1>(mv[i]));
+            (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as u16
+        })
+    }
+
+    #[inline(always)]
+    unsafe fn ld(p: *const u16) -> __m256i {
+        // SAFETY: the caller guarantees 16 readable lanes at p.
+        unsafe { _mm256_loadu_si256(p as *const __m256i) }
+    }
+
+    #[inline(always)]
+    unsafe fn st(p: *mut u16, v: __m256i) {
+        // SAFETY: the caller guarantees 16 writable lanes at p.
+        unsafe { _mm256_storeu_si256(p as *mut __m256i, v) }
+    }
+
+    #[inline(always)]
+    fn absdiff(a: __m256i, b: __m256i) -> __m256i {
+        // SAFETY: only called from AVX2 functions (register operations).
+        unsafe { _mm256_or_si256(_mm256_subs_epu16(a, b), _mm256_subs_epu16(b, a)) }
+    }
+
+    /// [`super::vertical`]: `colsum[xp] += |l_a[xp] − r_a[base + d]|` (and, with `sub`,
+    /// `−= |l_b[xp] − r_b[base + d]|`), wrapping 16-bit lanes, `Dq` lanes per column.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 (lengths are asserted).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn vertical(
+        colsum: &mut [u16],
+        la: &[u16],
+        ra: &[u16],
+        lb: &[u16],
+        rb: &[u16],
+        ndq: usize,
+        sub: bool,
+    ) {
+        let wp = la.len();
+        assert!(ndq.is_multiple_of(16) && colsum.len() >= wp * ndq && ra.len() + 1 >= wp + ndq);
+        assert!(!sub || (lb.len() >= wp && rb.len() + 1 >= wp + ndq));
+        for xp in 0..wp {
+            let base = wp - 1 - xp;
+            let lav = _mm256_set1_epi16(la[xp] as i16);
+            let lbv = if sub { _mm256_set1_epi16(lb[xp] as i16) } else { _mm256_setzero_si256() };
+            for d in (0..ndq).step_by(16) {
+                // SAFETY: xp·ndq + d + 16 ≤ wp·ndq; base + d + 16 ≤ wp − 1 + ndq (asserted).
+                unsafe {
+                    let p = colsum.as_mut_ptr().add(xp * ndq + d);
+                    let mut v = _mm256_add_epi16(ld(p), absdiff(lav, ld(ra.as_ptr().add(base + d))));
+                    if sub {
+                        v = _mm256_sub_epi16(v, absdiff(lbv, ld(rb.as_ptr().add(base + d))));
+                    }
+                    st(p, v);
+                }
+            }
+        }
+    }
+
+    /// The box sums of a row: `cost[x] = Σ colsum[x ..= x + 2r]`, running along the row.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 (lengths are asserted).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
+        assert!(ndq.is_multiple_of(16) && w > 0 && cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
+        let (c, cs) = (cost.as_mut_ptr(), colsum.as_ptr());
+        for d in (0..ndq).step_by(16) {
+            // SAFETY: offsets below (2r + 1)·ndq and w·ndq (asserted).
+            unsafe {
+                let mut acc = _mm256_setzero_si256();
+                for xp in 0..=2 * r {
+                    acc = _mm256_add_epi16(acc, ld(cs.add(xp * ndq + d)));
+                }
+                st(c.add(d), acc);
+            }
+        }
+        for x in 1..w {
+            for d in (0..ndq).step_by(16) {
+                // SAFETY: x + 2r < w + 2r columns; x < w rows of cost (asserted).
+                unsafe {
+                    let v = _mm256_sub_epi16(
+                        _mm256_add_epi16(ld(c.add((x - 1) * ndq + d)), ld(cs.add((x + 2 * r) * ndq + d))),
+                        ld(cs.add((x - 1) * ndq + d)),
+                    );
+                    st(c.add(x * ndq + d), v);
+                }
+            }
+        }
+    }
+
+    /// The smallest `S` over lanes `lo..=hi`, its first lane, and (when `need2`) the smallest
+    /// over the same lanes minus the winner and its two neighbours (`u16::MAX`: none).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2; `s.len()` is a multiple of 16 and `lo ≤ hi < s.len()`
+    /// (asserted).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn wta(s: &[u16], lo: usize, hi: usize, need2: bool) -> (u16, usize, u16) {
+        let ndq = s.len();
+        assert!(ndq.is_multiple_of(16) && lo <= hi && hi < ndq && ndq < 1 << 15);
+        let ramp = _mm256_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+        let (lov, hiv) = (_mm256_set1_epi16(lo as i16), _mm256_set1_epi16(hi as i16));
+        let ones = _mm256_set1_epi16(-1);
+        let outside =
+            |dv: __m256i, a: __m256i, b: __m256i| _mm256_or_si256(_mm256_cmpgt_epi16(a, dv), _mm256_cmpgt_epi16(dv, b));
+        let (c0, c1) = (lo / 16 * 16, hi / 16 * 16 + 16);
+        let mut mv = ones;
+        for d in (c0..c1).step_by(16) {
+            // SAFETY: d + 16 ≤ c1 ≤ ndq.
+            unsafe {
+                let dv = _mm256_add_epi16(ramp, _mm256_set1_epi16(d as i16));
+                mv = _mm256_min_epu16(mv, _mm256_or_si256(ld(s.as_ptr().add(d)), outside(dv, lov, hiv)));
+            }
+        }
+        let hmin = |v: __m256i| {
+            let m = _mm_min_epu16(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
+            (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as u16
+        };
+        let m = hmin(mv);
+        let mut kb = hi;
+        let mvv = _mm256_set1_epi16(m as i16);
+        for d in (c0..c1).step_by(16) {
+            // SAFETY: as above.
+            unsafe {
+                let dv = _mm256_add_epi16(ramp, _mm256_set1_epi16(d as i16));
+                let v = _mm256_or_si256(ld(s.as_ptr().add(d)), outside(dv, lov, hiv));
+                let bits = _mm256_movemask_epi8(_mm256_cmpeq_epi16(v, mvv)) as u32;
+                if bits != 0 {
+                    kb = d + bits.trailing_zeros() as usize / 2;
+                    break;
+                }
+            }
+        }
+        if !need2 {
+            return (m, kb, u16::MAX);
+        }
+        let (nlo, nhi) = (_mm256_set1_epi16(kb as i16 - 1), _mm256_set1_epi16(kb as i16 + 1));
+        let mut m2 = ones;
+        for d in (c0..c1).step_by(16) {
+            // SAFETY: as above.
+            unsafe {
+                let dv = _mm256_add_epi16(ramp, _mm256_set1_epi16(d as i16));
+                let near = _mm256_andnot_si256(outside(dv, nlo, nhi), ones);
+                let mask = _mm256_or_si256(outside(dv, lov, hiv), near);
+                m2 = _mm256_min_epu16(m2, _mm256_or_si256(ld(s.as_ptr().add(d)), mask));
+            }
+        }
+        (m, kb, hmin(m2))
+    }
+
+    /// [`super::right_update16`] in 16-lane chunks (strictly smaller wins: first wins).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2; the three slices have the same length (asserted).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn right_update(c: &[u16], rc: &mut [u16], rk: &mut [u16], lo: usize) {
+        let n = c.len();
+        assert!(rc.len() == n && rk.len() == n);
+        let ramp = _mm256_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+        let ones = _mm256_set1_epi16(-1);
+        let mut t = 0;
+        while t + 16 <= n {
+            // SAFETY: t + 16 ≤ n for all three slices.
+            unsafe {
+                let v = ld(c.as_ptr().add(t));
+                let r = ld(rc.as_ptr().add(t));
+                // v < r ⟺ not (max(r, v) == v)
+                let better = _mm256_andnot_si256(_mm256_cmpeq_epi16(_mm256_max_epu16(r, v), v), ones);
+                let k = _mm256_add_epi16(ramp, _mm256_set1_epi16((lo + t) as i16));
+                st(rc.as_mut_ptr().add(t), _mm256_min_epu16(r, v));
+                st(rk.as_mut_ptr().add(t), _mm256_blendv_epi8(ld(rk.as_ptr().add(t)), k, better));
+            }
+            t += 16;
+        }
+        super::right_update16(&c[t..], &mut rc[t..], &mut rk[t..], lo + t);
+    }
+}

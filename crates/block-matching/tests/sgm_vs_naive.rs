@@ -1,0 +1,393 @@
+//! Semi-global matching against a naive reference written from the definition (module docs of
+//! `sgm.rs`): the full cost volume by direct window sums, each path aggregated by its own
+//! recursion over the strip's domain, the sum, then the same decisions as the block matcher's
+//! naive reference. Integer aggregation: the fast path must match exactly, on every strip
+//! layout, path count, penalty setting and instruction set.
+
+use image::{GrayImage, Luma};
+use parallax_block_matching::prefilter::{rank_transform, texture_mask_into, x_sobel};
+use parallax_block_matching::{
+    BlockMatcher, MatcherConfig, Method, Prefilter, SgmConfig, SgmPaths, SimdLevel, Subpixel,
+};
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngSeed};
+
+fn clampi(v: i64, hi: usize) -> usize {
+    v.clamp(0, hi as i64 - 1) as usize
+}
+
+/// The naive SGM: returns the disparity map (NaN invalid) and the confidence (0 where invalid).
+/// `scale`: 1 for 8-bit input, 257 for 16-bit (prefilter caps and intensity differences).
+fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, scale: i64) -> (Vec<f32>, Vec<f32>) {
+    let g = &cfg.sgm;
+    let nd = cfg.num_disparities;
+    let dmin = cfg.min_disparity as i64;
+    let (l, rt, maxv): (Vec<u16>, Vec<u16>, i64) = match cfg.prefilter {
+        Prefilter::XSobel { cap } => {
+            let c = cap as u32 * scale as u32;
+            (x_sobel(left, w, h, c), x_sobel(right, w, h, c), 2 * c as i64)
+        }
+        Prefilter::Rank { size } => {
+            (rank_transform(left, w, h, size), rank_transform(right, w, h, size), (size * size - 1) as i64)
+        }
+        _ => unreachable!("the test uses x-Sobel and rank"),
+    };
+    let texture_ok: Vec<bool> = if cfg.texture_threshold > 0 {
+        assert_eq!(scale, 1, "the 16-bit cases run without the texture check");
+        let s = x_sobel(left, w, h, 31);
+        let mut t = Vec::new();
+        texture_mask_into(&s, w, h, cfg.block_size / 2, 31, cfg.texture_threshold, &mut t);
+        t
+    } else {
+        vec![true; w * h]
+    };
+    let r = (g.block / 2) as i64;
+    let n = (g.block * g.block) as i64;
+    let cmax = n * maxv;
+    let (p1, p2) = (g.p1 as i64 * n, g.p2 as i64 * n);
+    // cost volume
+    let mut c = vec![0i64; w * h * nd];
+    for y in 0..h as i64 {
+        for x in 0..w as i64 {
+            for k in 0..nd as i64 {
+                let u = x - dmin - k;
+                let v = if u < 0 || u >= w as i64 {
+                    cmax
+                } else {
+                    let mut s = 0;
+                    for dy in -r..=r {
+                        for dx in -r..=r {
+                            let a = l[clampi(y + dy, h) * w + clampi(x + dx, w)] as i64;
+                            let b = rt[clampi(y + dy, h) * w + clampi(u + dx, w)] as i64;
+                            s += (a - b).abs();
+                        }
+                    }
+                    s
+                };
+                c[(y as usize * w + x as usize) * nd + k as usize] = v;
+            }
+        }
+    }
+    let p2_between = |a: u16, b: u16| -> i64 {
+        if g.p2_gamma == 0 {
+            return p2;
+        }
+        let di = (a as i64 - b as i64).abs() / scale;
+        (p2 * g.p2_gamma as i64 / (g.p2_gamma as i64 + di)).max(p1)
+    };
+    // one path (dx, dy) over rows [ya, yb): predecessor (x − dx, y − dy)
+    let path = |dx: i64, dy: i64, ya: usize, yb: usize, s: &mut Vec<i64>| {
+        let mut lv = vec![0i64; w * h * nd];
+        let rows: Vec<usize> = if dy >= 0 { (ya..yb).collect() } else { (ya..yb).rev().collect() };
+        let cols: Vec<usize> = if dx >= 0 { (0..w).collect() } else { (0..w).rev().collect() };
+        for &y in &rows {
+            for &x in &cols {
+                let (qx, qy) = (x as i64 - dx, y as i64 - dy);
+                let i = y * w + x;
+                let has_prev = qx >= 0 && qx < w as i64 && qy >= ya as i64 && qy < yb as i64;
+                for k in 0..nd {
+                    let v = if !has_prev {
+                        c[i * nd + k]
+                    } else {
+                        let q = qy as usize * w + qx as usize;
+                        let prev = &lv[q * nd..][..nd];
+                        let m = *prev.iter().min().unwrap();
+                        let pen2 = p2_between(left[i], left[q]);
+                        let mut best = prev[k].min(m + pen2);
+                        if k > 0 {
+                            best = best.min(prev[k - 1] + p1);
+                        }
+                        if k + 1 < nd {
+                            best = best.min(prev[k + 1] + p1);
+                        }
+                        c[i * nd + k] + best - m
+                    };
+                    lv[i * nd + k] = v;
+                }
+            }
+        }
+        for y in ya..yb {
+            for i in y * w * nd..(y + 1) * w * nd {
+                s[i] += lv[i];
+            }
+        }
+    };
+    // strips
+    // the automatic layout: max(128, ⌈h / 8⌉) rows (the memory cap of eight paths does not bind
+    // at these sizes), whatever the thread count
+    let strip = if g.strip_rows > 0 { g.strip_rows.min(h) } else { h.div_ceil(8).max(128).min(h) };
+    let mut s = vec![0i64; w * h * nd];
+    let mut y0 = 0;
+    while y0 < h {
+        let y1 = (y0 + strip).min(h);
+        let ys = y0.saturating_sub(g.overlap);
+        let mut part = vec![0i64; w * h * nd];
+        for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (1, 1), (-1, 1)] {
+            path(dx, dy, ys, y1, &mut part);
+        }
+        if g.paths == SgmPaths::Eight {
+            let ye = (y1 + g.overlap).min(h);
+            for (dx, dy) in [(0, -1), (1, -1), (-1, -1)] {
+                path(dx, dy, y0, ye, &mut part);
+            }
+        }
+        s[y0 * w * nd..y1 * w * nd].copy_from_slice(&part[y0 * w * nd..y1 * w * nd]);
+        y0 = y1;
+    }
+    // decisions, as the block matcher's naive reference
+    let sub = match cfg.subpixel {
+        Subpixel::Auto => Subpixel::Parabola,
+        s => s,
+    };
+    let mut out = vec![f32::NAN; w * h];
+    let mut confidence = vec![0.0f32; w * h];
+    for y in 0..h {
+        let mut rejected = vec![false; w];
+        let mut rbest = vec![usize::MAX; w];
+        for u in 0..w {
+            let mut best = i64::MAX;
+            for k in 0..nd {
+                let x = u as i64 + dmin + k as i64;
+                if x < 0 || x >= w as i64 {
+                    continue;
+                }
+                let v = s[(y * w + x as usize) * nd + k];
+                if v < best {
+                    best = v;
+                    rbest[u] = k;
+                }
+            }
+        }
+        for x in 0..w {
+            let cs = &s[(y * w + x) * nd..][..nd];
+            let ks: Vec<usize> = (0..nd).filter(|&k| (0..w as i64).contains(&(x as i64 - dmin - k as i64))).collect();
+            if ks.is_empty() || !texture_ok[y * w + x] {
+                continue;
+            }
+            let (lo, hi) = (ks[0], *ks.last().unwrap());
+            let mut kb = lo;
+            for &k in &ks {
+                if cs[k] < cs[kb] {
+                    kb = k;
+                }
+            }
+            let m = cs[kb];
+            if cfg.uniqueness_ratio > 0 {
+                let t = m + m * cfg.uniqueness_ratio as i64 / 100;
+                if ks.iter().any(|&k| (k as i64 - kb as i64).abs() > 1 && cs[k] <= t) {
+                    continue;
+                }
+            }
+            let mut lr_factor = 1.0f32;
+            if let Some(tol) = cfg.lr_max_diff {
+                let u = (x as i64 - dmin - kb as i64) as usize;
+                let diff = (rbest[u] as i64 - kb as i64).abs();
+                if diff > tol as i64 {
+                    rejected[x] = true;
+                    continue;
+                }
+                lr_factor = 1.0 / (1.0 + diff as f32);
+            }
+            if cfg.confidence_map || cfg.min_confidence > 0.0 {
+                let c2 = ks.iter().filter(|&&k| (k as i64 - kb as i64).abs() > 1).map(|&k| cs[k]).min();
+                let ratio = match c2 {
+                    Some(c2) if c2 > 0 => (1.0 - m as f64 / c2 as f64).clamp(0.0, 1.0) as f32,
+                    _ => 0.0,
+                };
+                let cf = ratio * lr_factor;
+                if cf < cfg.min_confidence {
+                    rejected[x] = true;
+                    continue;
+                }
+                confidence[y * w + x] = cf;
+            }
+            let mut off = 0.0;
+            if kb > lo && kb < hi && sub != Subpixel::None {
+                let (a, b, c) = (cs[kb - 1] as f64, cs[kb] as f64, cs[kb + 1] as f64);
+                let den = if sub == Subpixel::Equiangular { a.max(c) - b } else { a - 2.0 * b + c };
+                if den > 0.0 {
+                    off = ((a - c) / (2.0 * den)).clamp(-0.5, 0.5);
+                }
+            }
+            out[y * w + x] = (dmin + kb as i64) as f32 + off as f32;
+        }
+        if cfg.fill {
+            let row: Vec<f32> = out[y * w..][..w].to_vec();
+            for x in 0..w {
+                if !rejected[x] {
+                    continue;
+                }
+                let left = (0..x).rev().map(|i| row[i]).find(|v| !v.is_nan());
+                let right = (x + 1..w).map(|i| row[i]).find(|v| !v.is_nan());
+                out[y * w + x] = match (left, right) {
+                    (Some(a), Some(b)) => a.min(b),
+                    (Some(a), None) | (None, Some(a)) => a,
+                    (None, None) => f32::NAN,
+                };
+            }
+        }
+    }
+    (out, confidence)
+}
+
+/// Right = left shifted by a piecewise-constant disparity (two layers) plus sparse noise.
+fn make_pair(seed: u64, w: usize, h: usize) -> (Vec<u16>, Vec<u16>) {
+    let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    let mut rnd = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        s
+    };
+    let big = w + 40;
+    let tex: Vec<u16> = (0..big * h).map(|_| (rnd() % 256) as u16).collect();
+    let (d0, d1) = ((rnd() % 6) as usize, (rnd() % 6) as usize + 2);
+    let left: Vec<u16> = (0..w * h).map(|i| tex[(i / w) * big + i % w + 20]).collect();
+    let right: Vec<u16> = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let d = if x > w / 3 && x < 2 * w / 3 && y > h / 4 { d1 } else { d0 };
+            let v = tex[y * big + x + 20 + d];
+            if rnd() % 5 == 0 { v.saturating_add((rnd() % 9) as u16).min(255) } else { v }
+        })
+        .collect();
+    (left, right)
+}
+
+fn run_case(seed: u64, w: usize, h: usize, cfg: MatcherConfig) {
+    let (l, r) = make_pair(seed, w, h);
+    let (expect, expect_conf) = naive(&l, &r, w, h, &cfg, 1);
+    let li = GrayImage::from_fn(w as u32, h as u32, |x, y| Luma([l[y as usize * w + x as usize] as u8]));
+    let ri = GrayImage::from_fn(w as u32, h as u32, |x, y| Luma([r[y as usize * w + x as usize] as u8]));
+    for level in [SimdLevel::Scalar, SimdLevel::Avx2] {
+        // two threads: the strip layout does not depend on them
+        let mut m = BlockMatcher::new(MatcherConfig { threads: 2, ..cfg.clone() }).unwrap();
+        if m.set_simd(level) != level {
+            continue;
+        }
+        m.compute(&li, &ri).unwrap();
+        let got = m.compute(&li, &ri).unwrap();
+        let what = format!("{level:?} seed {seed} {w}x{h} {cfg:?}");
+        for (i, (a, b)) in got.data().iter().zip(&expect).enumerate() {
+            let same = (a.is_nan() && b.is_nan()) || a == b;
+            assert!(same, "{what}: pixel ({}, {}) fast {a} naive {b}", i % w, i / w);
+        }
+        if let Some(c) = m.confidence() {
+            for (i, (a, b)) in c.iter().zip(&expect_conf).enumerate() {
+                assert!(a == b, "confidence, {what}: pixel ({}, {}) fast {a} naive {b}", i % w, i / w);
+            }
+        }
+    }
+}
+
+fn sgm_strategy() -> impl Strategy<Value = MatcherConfig> {
+    (
+        prop_oneof![Just(SgmPaths::Five), Just(SgmPaths::Eight)],
+        prop_oneof![Just(1usize), Just(3), Just(5)],
+        (1u32..6, 0u32..40),
+        prop_oneof![Just(0u32), Just(4), Just(30)],
+        prop_oneof![Just((0usize, 0usize)), Just((3, 2)), Just((5, 0)), Just((4, 9))],
+        prop_oneof![Just(Prefilter::XSobel { cap: 31 }), Just(Prefilter::Rank { size: 5 })],
+        (-3i32..4, 1usize..20),
+        (prop_oneof![Just(0u32), Just(10)], prop_oneof![Just(0u32), Just(20)]),
+        (prop_oneof![Just(None), Just(Some(0u32)), Just(Some(1))], any::<bool>()),
+        prop_oneof![Just((false, 0.0f32)), Just((true, 0.0)), Just((true, 0.1))],
+        prop_oneof![Just(Subpixel::Auto), Just(Subpixel::Equiangular), Just(Subpixel::None)],
+    )
+        .prop_map(
+            |(
+                paths,
+                block,
+                (p1, extra),
+                p2_gamma,
+                (strip_rows, overlap),
+                prefilter,
+                (min_disparity, num_disparities),
+                (texture_threshold, uniqueness_ratio),
+                (lr_max_diff, fill),
+                (confidence_map, min_confidence),
+                subpixel,
+            )| MatcherConfig {
+                method: Method::Sgm,
+                sgm: SgmConfig { paths, p1, p2: p1 + extra, p2_gamma, block, strip_rows, overlap },
+                prefilter,
+                min_disparity,
+                num_disparities,
+                texture_threshold,
+                uniqueness_ratio,
+                lr_max_diff,
+                fill,
+                confidence_map,
+                min_confidence,
+                subpixel,
+                speckle_window_size: 0,
+                ..MatcherConfig::default()
+            },
+        )
+}
+
+proptest! {
+    #![proptest_config(Config { cases: 40, rng_seed: RngSeed::Fixed(0x5e6_5e6), failure_persistence: None, ..Config::default() })]
+
+    #[test]
+    fn sgm_fast_equals_naive(cfg in sgm_strategy(), seed in any::<u64>(), w in 5usize..28, h in 3usize..18) {
+        run_case(seed, w, h, cfg);
+    }
+}
+
+#[test]
+fn sgm_fast_equals_naive_with_the_defaults_and_eight_paths() {
+    for paths in [SgmPaths::Five, SgmPaths::Eight] {
+        let cfg = MatcherConfig {
+            method: Method::Sgm,
+            num_disparities: 24,
+            speckle_window_size: 0,
+            confidence_map: true,
+            sgm: SgmConfig { paths, strip_rows: 13, overlap: 5, ..SgmConfig::default() },
+            ..MatcherConfig::default()
+        };
+        run_case(11, 48, 40, cfg);
+    }
+}
+
+#[test]
+fn sgm_fast_equals_naive_on_16_bit_images() {
+    use parallax_block_matching::Gray16Image;
+    // 8-bit structure times 256 plus low bits: the adaptive P2 in 16-bit units (rank prefilter;
+    // x-Sobel is refused there, its sums do not fit 16 bits)
+    for (seed, paths, gamma) in [(21, SgmPaths::Five, 16), (22, SgmPaths::Eight, 4), (23, SgmPaths::Five, 0)] {
+        let (w, h) = (26, 15);
+        let (l8, r8) = make_pair(seed, w, h);
+        let widen = |v: &[u16]| {
+            v.iter().enumerate().map(|(i, &p)| p * 256 + (i as u16).wrapping_mul(37) % 256).collect::<Vec<u16>>()
+        };
+        let (l, r) = (widen(&l8), widen(&r8));
+        let cfg = MatcherConfig {
+            method: Method::Sgm,
+            prefilter: Prefilter::Rank { size: 5 },
+            num_disparities: 12,
+            texture_threshold: 0,
+            speckle_window_size: 0,
+            confidence_map: true,
+            sgm: SgmConfig { paths, p2_gamma: gamma, strip_rows: 6, overlap: 3, ..SgmConfig::default() },
+            ..MatcherConfig::default()
+        };
+        let (expect, expect_conf) = naive(&l, &r, w, h, &cfg, 257);
+        let li = Gray16Image::from_raw(w as u32, h as u32, l.clone()).unwrap();
+        let ri = Gray16Image::from_raw(w as u32, h as u32, r.clone()).unwrap();
+        for level in [SimdLevel::Scalar, SimdLevel::Avx2] {
+            let mut m = BlockMatcher::new(MatcherConfig { threads: 2, ..cfg.clone() }).unwrap();
+            if m.set_simd(level) != level {
+                continue;
+            }
+            let got = m.compute_u16(&li, &ri).unwrap();
+            for (i, (a, b)) in got.data().iter().zip(&expect).enumerate() {
+                assert!((a.is_nan() && b.is_nan()) || a == b, "{level:?} seed {seed}: pixel {i} fast {a} naive {b}");
+            }
+            assert_eq!(m.confidence().unwrap(), &expect_conf[..]);
+        }
+        // the x-Sobel prefilter on 16-bit input would overflow the 16-bit sums: refused
+        let xs = MatcherConfig { prefilter: Prefilter::XSobel { cap: 31 }, ..cfg.clone() };
+        assert!(BlockMatcher::new(xs).unwrap().compute_u16(&li, &ri).is_err());
+    }
+}

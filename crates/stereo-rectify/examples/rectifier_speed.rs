@@ -1,0 +1,37 @@
+//! Prints the median time of `Rectifier::new` (both maps and their fixed-point tables, 640x480,
+//! OpenCV's stereo chessboard rig) over `N` builds (argument, default 50), for side-by-side
+//! runs with OpenCV's `initUndistortRectifyMap` (see the report of issue 19).
+
+use glam::DVec3;
+use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
+use parallax_stereo_rectify::{Rectifier, RectifyConfig};
+
+fn main() {
+    let n: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(50);
+    let left = Camera::new(
+        Intrinsics::new(536.32, 536.32, 341.84, 235.60),
+        Distortion::new(-0.2714, 0.0128, 0.00171, -0.00045, 0.1330),
+        640,
+        480,
+    )
+    .expect("left camera");
+    let right = Camera::new(
+        Intrinsics::new(541.44, 540.84, 327.67, 247.72),
+        Distortion::new(-0.2822, 0.1084, -0.00061, 0.00091, -0.0253),
+        640,
+        480,
+    )
+    .expect("right camera");
+    let pose = Isometry3::from_rvec_tvec(DVec3::new(0.00481, 0.00343, -0.00378), DVec3::new(-100.120, 1.161, 0.074));
+    let rig = StereoRig::new(left, right, pose).expect("rig");
+    let config = RectifyConfig { alpha: Some(0.0), ..Default::default() };
+    let mut times = Vec::with_capacity(n);
+    for _ in 0..n {
+        let t = std::time::Instant::now();
+        let r = Rectifier::new(&rig, &config).expect("maps");
+        times.push(t.elapsed().as_secs_f64());
+        std::hint::black_box(r);
+    }
+    times.sort_by(f64::total_cmp);
+    println!("seconds: {:.6}", times[n / 2]);
+}
