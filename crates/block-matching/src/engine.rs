@@ -592,6 +592,8 @@ impl BlockMatcher {
                         band_rows,
                         data,
                         conf_plane,
+                        // SAFETY: `isa` comes from `SimdLevel::detect()` and the 16-bit kernel was
+                        // chosen only when every window sum fits below the lane maximum.
                         |sc, rows, conf, y0, y1| unsafe { crate::simd::band16(isa, &shared, sc, rows, conf, y0, y1) },
                     );
                 }
@@ -603,6 +605,8 @@ impl BlockMatcher {
                         band_rows,
                         data,
                         conf_plane,
+                        // SAFETY: `isa` comes from `SimdLevel::detect()` and the 32-bit kernel was
+                        // chosen only when every window sum fits below the lane maximum.
                         |sc, rows, conf, y0, y1| unsafe {
                             crate::simd::band32(isa, squared, &shared, sc, rows, conf, y0, y1)
                         },
@@ -756,9 +760,10 @@ fn dispatch<A: Acc, const K: u8>(
 ) -> MatchStats {
     #[cfg(target_arch = "x86_64")]
     {
-        // SAFETY: `simd` never exceeds `SimdLevel::detect()`, which checked these features.
         match simd {
+            // SAFETY: `simd` never exceeds `SimdLevel::detect()`, which checked AVX-512 F/BW/VL.
             SimdLevel::Avx512 => return unsafe { band_avx512::<A, K>(sh, sc, out, conf, y0, y1) },
+            // SAFETY: `simd` never exceeds `SimdLevel::detect()`, which checked AVX2.
             SimdLevel::Avx2 => return unsafe { band_avx2::<A, K>(sh, sc, out, conf, y0, y1) },
             SimdLevel::Scalar => {}
         }
@@ -769,6 +774,8 @@ fn dispatch<A: Acc, const K: u8>(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+/// # Safety
+/// The CPU must support AVX2, FMA, BMI1/2, LZCNT and POPCNT (the caller checks `SimdLevel::detect()`), and `sc` must be sized for `sh` (as `for_each_band` does).
 unsafe fn band_avx2<A: Acc, const K: u8>(
     sh: &Shared,
     sc: &mut Scratch<A>,
@@ -782,6 +789,8 @@ unsafe fn band_avx2<A: Acc, const K: u8>(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+/// # Safety
+/// The CPU must support AVX-512 F/BW/VL/DQ and AVX2 (the caller checks `SimdLevel::detect()`), and `sc` must be sized for `sh` (as `for_each_band` does).
 unsafe fn band_avx512<A: Acc, const K: u8>(
     sh: &Shared,
     sc: &mut Scratch<A>,

@@ -631,6 +631,8 @@ fn strip(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
+/// # Safety
+/// The CPU must support AVX2 (the caller checks `SimdLevel::detect()`), and the strip's buffers must be sized for `sh` (as the driver does).
 unsafe fn strip_avx2(
     sh: &Shared,
     pp: &SgmParams,
@@ -703,7 +705,7 @@ mod avx2 {
         let outp: [*mut u16; N] = std::array::from_fn(|i| out[i].as_ptr() as *mut u16);
         let _ = out;
         for d in (0..ndq).step_by(16) {
-            // SAFETY (all loads and stores): d + 16 ≤ ndq, and the padded vectors have ndq + 2
+            // SAFETY: (all loads and stores) d + 16 ≤ ndq, and the padded vectors have ndq + 2
             // entries, so offsets d .. d + 2 + 16 are inside (asserted above).
             unsafe {
                 let cv = _mm256_loadu_si256(c.as_ptr().add(d) as *const __m256i);
@@ -737,12 +739,16 @@ mod avx2 {
     }
 
     #[inline(always)]
+    /// # Safety
+    /// `p` must point to a full vector of readable lanes, and the CPU must support the module's target features.
     unsafe fn ld(p: *const u16) -> __m256i {
         // SAFETY: the caller guarantees 16 readable lanes at p.
         unsafe { _mm256_loadu_si256(p as *const __m256i) }
     }
 
     #[inline(always)]
+    /// # Safety
+    /// `p` must point to a full vector of writable lanes, and the CPU must support the module's target features.
     unsafe fn st(p: *mut u16, v: __m256i) {
         // SAFETY: the caller guarantees 16 writable lanes at p.
         unsafe { _mm256_storeu_si256(p as *mut __m256i, v) }

@@ -295,6 +295,9 @@ macro_rules! kernel {
         /// [`row`] with the chunk count as a constant for the common ranges (up to 64 and 128
         /// disparities).
         #[target_feature(enable = $feat)]
+        ///
+        /// # Safety
+        /// The CPU must support this module's target features (the dispatch checks `SimdLevel::detect()`), and `sc` must have been sized for `sh` by its `resize`.
         unsafe fn row_n<const VERT: bool, const SQ: bool>(
             sh: &Shared,
             sc: &mut Scratch<E>,
@@ -325,6 +328,9 @@ macro_rules! kernel {
 
         /// Adds `|L − R|` of the row in `l_in` / `r_in` to every column sum.
         #[target_feature(enable = $feat)]
+        ///
+        /// # Safety
+        /// The CPU must support this module's target features (the dispatch checks `SimdLevel::detect()`), and `sc` must have been sized for `sh` by its `resize`.
         unsafe fn add_row<const SQ: bool>(sh: &Shared, sc: &mut Scratch<E>) {
             let wp = sh.w + 2 * sh.r;
             let ndp = sc.ndp;
@@ -345,6 +351,9 @@ macro_rules! kernel {
 
         /// One row: column-sum update (when `VERT`), box sums, both winners, decisions.
         #[target_feature(enable = $feat)]
+        ///
+        /// # Safety
+        /// The CPU must support this module's target features (the dispatch checks `SimdLevel::detect()`), and `sc` must have been sized for `sh` by its `resize`.
         unsafe fn row<const VERT: bool, const SQ: bool, const NCH: usize, const LR: bool>(
             sh: &Shared,
             sc: &mut Scratch<E>,
@@ -439,19 +448,23 @@ macro_rules! kernel {
                     }
                 }};
             }
-            // SAFETY (all `step` calls): `p` holds this band's buffers, sized by
-            // `Scratch16::resize`; x < w.
+            // Every `step` call below: `p` holds this band's buffers, sized by
+            // `Scratch16::resize`, and x < w.
             let (lo, hi) = range(0);
+            // SAFETY: see above (x = 0).
             record!(0, unsafe { step::<VERT, SQ, false, true, NCH, LR>(&p, 0, lo, hi) });
             for x in 1..xa.max(1).min(w) {
                 let (lo, hi) = range(x);
+                // SAFETY: see above.
                 record!(x, unsafe { step::<VERT, SQ, true, true, NCH, LR>(&p, x, lo, hi) });
             }
             for x in xa.max(1)..xb {
+                // SAFETY: see above.
                 record!(x, unsafe { step::<VERT, SQ, true, false, NCH, LR>(&p, x, 0, nd as i64 - 1) });
             }
             for x in xb.max(xa).max(1)..w {
                 let (lo, hi) = range(x);
+                // SAFETY: see above.
                 record!(x, unsafe { step::<VERT, SQ, true, true, NCH, LR>(&p, x, lo, hi) });
             }
             decide_row(sh, sc, y, stats);
@@ -502,6 +515,9 @@ macro_rules! kernel {
         /// key (cost `E::MAX`, the sentinel, when no lane is searchable).
         #[inline]
         #[target_feature(enable = $feat)]
+        ///
+        /// # Safety
+        /// The CPU must support this module's target features, `p` must hold this band's buffers as sized by `resize`, and `x < w`.
         unsafe fn step<
             const VERT: bool,
             const SQ: bool,
@@ -676,12 +692,16 @@ macro_rules! lanes16 {
 
         #[inline]
         #[target_feature(enable = $feat)]
+        /// # Safety
+        /// `p` must point to a full vector of readable lanes, and the CPU must support the module's target features.
         unsafe fn ld(p: *const E) -> V {
             // SAFETY: the caller guarantees L readable lanes at p.
             unsafe { _mm256_loadu_si256(p as *const V) }
         }
         #[inline]
         #[target_feature(enable = $feat)]
+        /// # Safety
+        /// `p` must point to a full vector of writable lanes, and the CPU must support the module's target features.
         unsafe fn st(p: *mut E, v: V) {
             // SAFETY: the caller guarantees L writable lanes at p.
             unsafe { _mm256_storeu_si256(p as *mut V, v) }
@@ -689,6 +709,9 @@ macro_rules! lanes16 {
         /// Pixels are already 16-bit lanes.
         #[inline]
         #[target_feature(enable = $feat)]
+        ///
+        /// # Safety
+        /// `p` must point to a full vector of readable 16-bit pixels, and the CPU must support the module's target features.
         unsafe fn ld_px(p: *const u16) -> V {
             // SAFETY: as `ld`.
             unsafe { ld(p) }
@@ -782,12 +805,16 @@ macro_rules! lanes32 {
 
         #[inline]
         #[target_feature(enable = $feat)]
+        /// # Safety
+        /// `p` must point to a full vector of readable lanes, and the CPU must support the module's target features.
         unsafe fn ld(p: *const E) -> V {
             // SAFETY: the caller guarantees L readable lanes at p.
             unsafe { _mm256_loadu_si256(p as *const V) }
         }
         #[inline]
         #[target_feature(enable = $feat)]
+        /// # Safety
+        /// `p` must point to a full vector of writable lanes, and the CPU must support the module's target features.
         unsafe fn st(p: *mut E, v: V) {
             // SAFETY: the caller guarantees L writable lanes at p.
             unsafe { _mm256_storeu_si256(p as *mut V, v) }
@@ -795,6 +822,9 @@ macro_rules! lanes32 {
         /// Eight 16-bit pixels widened to 32-bit lanes.
         #[inline]
         #[target_feature(enable = $feat)]
+        ///
+        /// # Safety
+        /// `p` must point to a full vector of readable 16-bit pixels, and the CPU must support the module's target features.
         unsafe fn ld_px(p: *const u16) -> V {
             // SAFETY: the caller guarantees L readable pixels at p.
             unsafe { _mm256_cvtepu16_epi32(_mm_loadu_si128(p as *const __m128i)) }

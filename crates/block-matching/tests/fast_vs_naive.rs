@@ -446,3 +446,16 @@ fn fast_equals_naive_with_several_disparity_chunks() {
         }
     }
 }
+
+/// Which instruction-set levels the kernel tests above ran on this machine (each test runs
+/// every level the CPU has, from the portable one up). CI prints this with `--nocapture`.
+#[test]
+fn simd_levels_run_on_this_machine() {
+    let levels: Vec<SimdLevel> = [SimdLevel::Scalar, SimdLevel::Avx2, SimdLevel::Avx512]
+        .into_iter()
+        .filter(|&l| BlockMatcher::new(MatcherConfig::default()).unwrap().set_simd(l) == l)
+        .collect();
+    println!("block-matching SIMD levels tested on this machine: {levels:?} (detected {:?})", SimdLevel::detect());
+    assert_eq!(levels.first(), Some(&SimdLevel::Scalar));
+    assert_eq!(levels.last(), Some(&SimdLevel::detect()));
+}
