@@ -60,7 +60,7 @@
 //! assert!(sol.transform.distance(&x).1 < 1e-9);
 //! assert!(sol.refinement.as_ref().is_some_and(|r| r.converged));
 //! // The same stations in millimetres: the same rotation, 1000 × the translation.
-//! let mm = |p: &Isometry3| Isometry3 { translation: p.translation * 1000.0, ..*p };
+//! let mm = |p: &Isometry3| p.with_translation(p.translation * 1000.0);
 //! let (g_mm, c_mm): (Vec<_>, Vec<_>) = (g.iter().map(mm).collect(), c.iter().map(mm).collect());
 //! let sol_mm = calibrate(&g_mm, &c_mm, Method::Refined, &HandEyeConfig::default())?;
 //! assert!(sol_mm.transform.distance(&sol.transform).0 < 1e-9);
