@@ -106,7 +106,7 @@ pub fn check_stereo(result: &StereoCalibrationResult, checks: &StereoChecks) -> 
         return Err(PipelineError::Input(format!(
             "the right camera is to the left of the left camera (right_from_left t = [{:.3}, {:.3}, {:.3}], t.x should \
              be negative): the left and right images are probably swapped; swap them (or allow a swapped rig on \
-             purpose)",
+             purpose: `allow_swapped`, `--allow-swapped` in the CLI)",
             t.x, t.y, t.z
         )));
     }
