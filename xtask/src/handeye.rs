@@ -61,7 +61,9 @@ pub struct Args {
     /// the number in the name).
     #[arg(long)]
     images: Option<String>,
-    /// Inner corners, `COLSxROWS` (with `--images`).
+    /// The target (with `--images`): a chessboard's inner corners `COLSxROWS` (with `--square`),
+    /// or any target description: `chessboard:9x6:25`, `charuco:…`, `circles:…`, `acircles:…`,
+    /// `aprilgrid:…`, or a single tag `marker:DICT:ID:SIZE` (e.g. `marker:apriltag_36h11:0:0.08`).
     #[arg(long, default_value = "9x6")]
     board: String,
     /// Square size, in the robot poses' length unit (with `--images`).
@@ -166,13 +168,13 @@ fn camera_poses_from_images(args: &Args, robot: Vec<Isometry3>) -> anyhow::Resul
         images.len(),
         robot.len()
     );
-    let (cols, rows) = args
-        .board
-        .split_once(['x', 'X'])
-        .and_then(|(c, r)| Some((c.trim().parse::<usize>().ok()?, r.trim().parse::<usize>().ok()?)))
-        .with_context(|| format!("--board {:?}: expected COLSxROWS, e.g. 9x6", args.board))?;
-    let square = args.square.context("--square is required with --images")?;
-    let board = parallax_camera_model::Chessboard::new(cols, rows, square)?;
+    let target: parallax_camera_model::TargetDescription = match crate::util::parse_board_size(&args.board) {
+        Ok((cols, rows)) => {
+            let square = args.square.context("--square is required with --images and a COLSxROWS board")?;
+            parallax_camera_model::TargetDescription::Chessboard(crate::util::board(cols, rows, square)?)
+        }
+        Err(_) => args.board.parse().with_context(|| format!("--board {:?}", args.board))?,
+    };
     let intr = args.intrinsics.as_deref().context("--intrinsics is required with --images")?;
     let side = match args.camera.to_ascii_lowercase().as_str() {
         "left" => Side::Left,
@@ -209,7 +211,6 @@ fn camera_poses_from_images(args: &Args, robot: Vec<Isometry3>) -> anyhow::Resul
             Some(cam)
         }
     };
-    let cfg = parallax_corner_detection::ChessboardConfig::default();
     let (mut kept_robot, mut camera) = (Vec::new(), Vec::new());
     for (path, g) in images.iter().zip(robot) {
         let img = parallax_composition::io::load_gray(path)?;
@@ -219,19 +220,23 @@ fn camera_poses_from_images(args: &Args, robot: Vec<Isometry3>) -> anyhow::Resul
             (None, None) => unreachable!("one intrinsics source is always read"),
         };
         let name = path.display();
-        match parallax_corner_detection::find_chessboard(&img, cols, rows, &cfg)
-            .with_context(|| format!("corners of {name}"))?
-        {
-            Some(grid) => {
-                let (pose, rms) = parallax_planar_calibration::solve_pnp_planar(&cam, &board, &grid.corners)
-                    .with_context(|| format!("board pose in {name}"))?;
-                println!("  {name}: board found, pose RMS reprojection {rms:.3} px");
+        match parallax_composition::detect_target(&img, &target).with_context(|| format!("target in {name}"))? {
+            Some(obs) => {
+                let (pose, rms) = parallax_composition::target_pose(&cam, &target, &obs)
+                    .with_context(|| format!("target pose in {name}"))?;
+                println!("  {name}: {} points of the target found, pose RMS reprojection {rms:.3} px", obs.ids().len());
                 kept_robot.push(g);
                 camera.push(pose);
             }
-            None => println!("  {name}: board not found, station skipped"),
+            None => println!("  {name}: target not found, station skipped"),
         }
     }
+    ensure!(
+        !camera.is_empty(),
+        "no {target} found in any of the {} images (searched for {target}); the targets the detector knows: {}",
+        images.len(),
+        parallax_camera_model::ACCEPTED_FORMS
+    );
     Ok((kept_robot, camera))
 }
 

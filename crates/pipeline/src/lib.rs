@@ -48,6 +48,6 @@ pub use report::{Bound, Report, Row};
 pub use scene::{Corruption, run_scene};
 pub use stages::{
     MIN_VALID_RECTIFIED_FRACTION, RectifiedRig, StereoChecks, StereoViews, adjacent_distances, board_poses,
-    calibrate_mono, calibrate_stereo, check_stereo, detect_boards, hand_eye, match_blobs, match_pair, measure,
-    point_cloud, rectified_abs_dv, rectify, rectify_images, to_robot_frame,
+    calibrate_mono, calibrate_stereo, check_stereo, detect_boards, detect_target, hand_eye, match_blobs, match_pair,
+    measure, point_cloud, rectified_abs_dv, rectify, rectify_images, target_pose, to_robot_frame,
 };

@@ -364,3 +364,35 @@ pub fn match_blobs(
     }
     Ok(pairs)
 }
+
+/// Finds any kind of target in one image: a whole chessboard or circle grid, the visible part of
+/// a ChArUco board or an AprilGrid, or a single marker. `None` where nothing of it is found.
+pub fn detect_target(
+    img: &image::GrayImage,
+    target: &parallax_camera_model::TargetDescription,
+) -> Result<Option<parallax_camera_model::TargetObservation>> {
+    use parallax_camera_model::{TargetDescription as T, TargetObservation};
+    use parallax_corner_detection as cd;
+    let found = match target {
+        T::Chessboard(b) => cd::find_chessboard(img, b.cols, b.rows, &Default::default())?
+            .map(|g| TargetObservation::whole(g.corners))
+            .transpose()
+            .map_err(|e| PipelineError::Input(e.to_string()))?,
+        T::Charuco(b) => Some(cd::detect_charuco(img, b, &Default::default())?.observation),
+        T::CircleGrid(g) => cd::detect_circle_grid(img, g, &Default::default())?.map(|d| d.observation),
+        T::AprilGrid(g) => Some(cd::detect_aprilgrid(img, g, &Default::default())?.observation),
+        T::Marker(m) => cd::detect_single_marker(img, m, &Default::default())?,
+    };
+    Ok(found.filter(|o| o.ids().len() >= 4))
+}
+
+/// `camera_from_target` of one observation by planar PnP with a calibrated camera, and the RMS
+/// reprojection error in pixels.
+pub fn target_pose(
+    camera: &Camera,
+    target: &parallax_camera_model::TargetDescription,
+    observation: &parallax_camera_model::TargetObservation,
+) -> Result<(Isometry3, f64)> {
+    let object = parallax_planar_calibration::object_points_for(target, observation, 0)?;
+    Ok(parallax_planar_calibration::solve_pnp_planar_points(camera, &object, observation.points())?)
+}
