@@ -103,15 +103,9 @@ fn a_scene_in_metres_reports_metres() {
     assert!(r_m.notes.iter().any(|(s, t)| s == "measurement" && t.ends_with(" m")), "{:?}", r_m.notes);
 }
 
-fn fixtures() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/stereo")
-}
-
-/// The real-data path on the committed synthetic stereo fixtures (5 pairs): every check runs and
-/// passes, the calibration matches the fixtures' true rig, and the artifacts are written.
-#[test]
-fn real_mode_runs_its_checks_on_the_stereo_fixtures() {
-    let dir = fixtures();
+/// The committed synthetic stereo fixtures (5 pairs, 9x6 board of 25 mm) as real-run inputs.
+fn fixture_inputs(robot: Option<Vec<parallax_camera_model::Isometry3>>) -> RealInputs {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/stereo");
     let calibration = (0..5)
         .map(|i| {
             let l = io::load_gray(&dir.join(format!("left_{i:02}.png"))).unwrap();
@@ -119,15 +113,22 @@ fn real_mode_runs_its_checks_on_the_stereo_fixtures() {
             ([l, r], format!("left_{i:02}.png"))
         })
         .collect();
-    let inputs = RealInputs {
+    RealInputs {
         board: parallax_camera_model::Chessboard::new(9, 6, 25.0).unwrap(),
         unit: "mm".into(),
         calibration,
         pair: None,
         disparities: 64,
-        robot: None,
+        robot,
         checks: RealChecks::default(),
-    };
+    }
+}
+
+/// The real-data path on the committed synthetic stereo fixtures (5 pairs): every check runs and
+/// passes, the calibration matches the fixtures' true rig, and the artifacts are written.
+#[test]
+fn real_mode_runs_its_checks_on_the_stereo_fixtures() {
+    let inputs = fixture_inputs(None);
     let out = temp("real");
     let report = run_real(inputs, &out).unwrap();
     assert!(report.rows.len() >= 5, "{}", report.table());
@@ -149,23 +150,7 @@ fn real_mode_runs_its_checks_on_the_stereo_fixtures() {
 /// is written.
 #[test]
 fn real_mode_refuses_robot_poses_that_do_not_match_the_pairs() {
-    let dir = fixtures();
-    let calibration = (0..5)
-        .map(|i| {
-            let l = io::load_gray(&dir.join(format!("left_{i:02}.png"))).unwrap();
-            let r = io::load_gray(&dir.join(format!("right_{i:02}.png"))).unwrap();
-            ([l, r], format!("pair {i}"))
-        })
-        .collect();
-    let inputs = RealInputs {
-        board: parallax_camera_model::Chessboard::new(9, 6, 25.0).unwrap(),
-        unit: "mm".into(),
-        calibration,
-        pair: None,
-        disparities: 64,
-        robot: Some(vec![parallax_camera_model::Isometry3::IDENTITY; 3]),
-        checks: RealChecks::default(),
-    };
+    let inputs = fixture_inputs(Some(vec![parallax_camera_model::Isometry3::IDENTITY; 3]));
     let out = temp("real-bad");
     let err = run_real(inputs, &out).unwrap_err().to_string();
     assert!(err.contains("3 robot poses for 5 image pairs"), "{err}");
