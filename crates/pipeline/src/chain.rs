@@ -197,19 +197,17 @@ fn progress(step: usize, what: &str) {
     eprintln!("[{step}/8] {what}…");
 }
 
-fn detect_pairs(
-    pairs: impl Iterator<Item = (image::GrayImage, Option<image::GrayImage>)>,
+fn detect_pairs<'a>(
+    pairs: impl Iterator<Item = (&'a image::GrayImage, Option<&'a image::GrayImage>)>,
     input: &ChainInput,
 ) -> crate::Result<Vec<[Option<CornerGrid>; 2]>> {
-    let (left, right): (Vec<_>, Vec<_>) = pairs.unzip();
-    let found_left = stages::detect_boards(&left, &input.board, &input.detector)?;
-    let present: Vec<image::GrayImage> = right.iter().flatten().cloned().collect();
-    let mut found_right = stages::detect_boards(&present, &input.board, &input.detector)?.into_iter();
-    Ok(found_left
-        .into_iter()
-        .zip(&right)
-        .map(|(l, r)| [l, r.as_ref().and_then(|_| found_right.next().flatten())])
-        .collect())
+    use rayon::prelude::*;
+    let pairs: Vec<_> = pairs.collect();
+    let find = |img: &image::GrayImage| {
+        parallax_corner_detection::find_chessboard(img, input.board.cols, input.board.rows, &input.detector)
+    };
+    // The images are borrowed, never copied: each pair is detected where it lies.
+    pairs.par_iter().map(|(l, r)| Ok([find(l)?, r.map(find).transpose()?.flatten()])).collect()
 }
 
 /// Runs every stage. Only a detector error (an unusable image) is returned as an error; every
@@ -217,7 +215,7 @@ fn detect_pairs(
 pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
     let board = &input.board;
     progress(1, "detecting the calibration board");
-    let detections = detect_pairs(input.calibration.iter().map(|[l, r]| (l.clone(), Some(r.clone()))), input)?;
+    let detections = detect_pairs(input.calibration.iter().map(|[l, r]| (l, Some(r))), input)?;
     let views = StereoViews::from_detections(&detections);
 
     progress(2, "calibrating both cameras and the rig");
@@ -265,7 +263,7 @@ pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
     });
 
     progress(6, "hand-eye");
-    let station_detections = detect_pairs(input.stations.iter().map(|s| (s.left.clone(), s.right.clone())), input)?;
+    let station_detections = detect_pairs(input.stations.iter().map(|s| (&s.left, s.right.as_ref())), input)?;
     let station_left: Vec<Option<CornerGrid>> = station_detections.iter().map(|d| d[0].clone()).collect();
     let station_poses = need(&calibration, "calibration")
         .and_then(|c| stages::board_poses(&c.rig.left, board, &station_left).or_else(failed));
