@@ -1,5 +1,7 @@
 //! Prints the chessboard corners of the images given on the command line, one line per image:
-//! `path x0 y0 x1 y1 ...` (or `path none`), for comparison with other tools.
+//! `path ms x0 y0 x1 y1 ...` (or `path ms none`), coordinates printed to full precision (the
+//! shortest decimal that reads back as the same `f64`), for comparison with other tools and
+//! between versions.
 //! Usage: `cargo run --release -p corner-detection --example dump_corners -- [subpix|saddle] COLSxROWS IMAGES...`
 
 use parallax_corner_detection::{ChessboardConfig, CornerRefinement, detect_chessboard};
@@ -33,7 +35,7 @@ fn main() {
             Ok(Some(d)) => {
                 let g = d.grid;
                 eprintln!("{path}: pyramid level {}, {} candidates", d.pyramid_level, d.candidates);
-                let coords: Vec<String> = g.corners.iter().map(|p| format!("{:.4} {:.4}", p.x, p.y)).collect();
+                let coords: Vec<String> = g.corners.iter().map(|p| format!("{} {}", p.x, p.y)).collect();
                 println!("{path} {ms:.3} {}", coords.join(" "));
             }
             Ok(None) => println!("{path} {ms:.3} none"),

@@ -1,7 +1,7 @@
 //! Writes synthetic chessboard views (PNG) for side-by-side timing against OpenCV:
 //! `cargo run --release -p parallax-corner-detection --example render_board_views -- DIR [W H COLS ROWS VIEWS BLUR]`
 //! (defaults: 1600 1200 12 12 6 4.5; noise σ 2, the lens of `tests/scale_free.rs`).
-//! Time both with `scripts/chessboard_vs_opencv.sh DIR COLSxROWS`.
+//! Time both with `scripts/chessboard_vs_opencv.py DIR COLSxROWS`.
 
 use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics};
 use parallax_synthetic::{RenderOptions, ViewSetConfig, calibration_poses, render_chessboard};

@@ -561,8 +561,24 @@ fn collect_peaks(r: &[f32], w: usize, h: usize, min_abs: f32, border: usize, max
     }
     sc.peaks.sort_by(|a, b| b.0.total_cmp(&a.0));
     // Greedy suppression: distance < 2.5 px means |dx|, |dy| <= 2 and dx² + dy² < 6.25.
-    sc.marks.clear();
-    sc.marks.resize(w * h, false);
+    // `sc.marks` is all false between calls (the marks are undone below), so it is cleared
+    // only when the image size changes, not with a memset of the whole image per level.
+    if sc.marks.len() != w * h {
+        sc.marks.clear();
+        sc.marks.resize(w * h, false);
+    }
+    let mark = |marks: &mut [bool], x: usize, y: usize, value: bool| {
+        for dy in -2i64..=2 {
+            for dx in -2i64..=2 {
+                if dx * dx + dy * dy < 7 {
+                    let (xx, yy) = (x as i64 + dx, y as i64 + dy);
+                    if xx >= 0 && yy >= 0 && (xx as usize) < w && (yy as usize) < h {
+                        marks[yy as usize * w + xx as usize] = value;
+                    }
+                }
+            }
+        }
+    };
     let mut kept = 0;
     for k in 0..sc.peaks.len() {
         let (v, x, y) = sc.peaks[k];
@@ -570,16 +586,7 @@ fn collect_peaks(r: &[f32], w: usize, h: usize, min_abs: f32, border: usize, max
         if sc.marks[y * w + x] {
             continue;
         }
-        for dy in -2i64..=2 {
-            for dx in -2i64..=2 {
-                if dx * dx + dy * dy < 7 {
-                    let (xx, yy) = (x as i64 + dx, y as i64 + dy);
-                    if xx >= 0 && yy >= 0 && (xx as usize) < w && (yy as usize) < h {
-                        sc.marks[yy as usize * w + xx as usize] = true;
-                    }
-                }
-            }
-        }
+        mark(&mut sc.marks, x, y, true);
         sc.peaks[kept] = (v, x as u32, y as u32);
         kept += 1;
         if kept >= max {
@@ -587,6 +594,9 @@ fn collect_peaks(r: &[f32], w: usize, h: usize, min_abs: f32, border: usize, max
         }
     }
     sc.peaks.truncate(kept);
+    for &(_, x, y) in &sc.peaks {
+        mark(&mut sc.marks, x as usize, y as usize, false);
+    }
 }
 
 /// Peak position refined by 1D parabola fits along x and y.

@@ -55,6 +55,8 @@ mod markers;
 mod single_marker;
 mod subpix;
 
+pub(crate) use imageops::Isa;
+
 // The crates whose types this crate's public API uses, re-exported so that a caller needs no
 // version match with them (`parallax_x::glam::DVec3` is the `DVec3` this crate takes).
 pub use glam;
