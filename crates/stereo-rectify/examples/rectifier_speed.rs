@@ -1,6 +1,7 @@
 //! Prints the median time of `Rectifier::new` (both maps and their fixed-point tables, 640x480,
-//! OpenCV's stereo chessboard rig) over `N` builds (argument, default 50), for side-by-side
-//! runs with OpenCV's `initUndistortRectifyMap` (see the report of issue 19).
+//! OpenCV's stereo chessboard rig) over `N` builds (argument, default 50), and of
+//! `Rectifier::rebuild` into the same rectifier (tables reused), for side-by-side runs with
+//! OpenCV's `initUndistortRectifyMap` (`benches/scripts/rectifier_vs_opencv.py`).
 
 use glam::DVec3;
 use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
@@ -33,5 +34,15 @@ fn main() {
         std::hint::black_box(r);
     }
     times.sort_by(f64::total_cmp);
-    println!("seconds: {:.6}", times[n / 2]);
+    println!("new: {:.6}", times[n / 2]);
+    let mut r = Rectifier::new(&rig, &config).expect("maps");
+    let mut times = Vec::with_capacity(n);
+    for _ in 0..n {
+        let t = std::time::Instant::now();
+        r.rebuild(&rig, &config).expect("maps");
+        times.push(t.elapsed().as_secs_f64());
+        std::hint::black_box(&r);
+    }
+    times.sort_by(f64::total_cmp);
+    println!("rebuild: {:.6}", times[n / 2]);
 }

@@ -23,6 +23,11 @@ pub struct RemapTable {
 }
 
 impl RemapTable {
+    /// A 0x0 table (no entries), the starting point of buffers filled later.
+    pub(crate) fn empty() -> Self {
+        Self { width: 0, height: 0, map_x: Vec::new(), map_y: Vec::new() }
+    }
+
     /// The source position of output pixel `(u, v)`; `None` outside the table.
     pub fn source(&self, u: u32, v: u32) -> Option<(f32, f32)> {
         if u >= self.width || v >= self.height {
@@ -91,44 +96,92 @@ pub fn init_undistort_rectify_map(
 }
 
 /// [`init_undistort_rectify_map`] and the fixed-point table of the map for a source of
-/// `source_width x source_height` in one parallel pass: each row's table is built while the
-/// row is still in cache, and every page of the four arrays is first touched by the row tasks
-/// (zeroed allocations are mapped lazily), not by a serial fill.
+/// `source_width x source_height` in one parallel pass, written into `map` and `fast` (their
+/// buffers are reused when they already hold `width x height` entries, so a rebuild of the same
+/// size allocates nothing and takes no page faults). Each row's table is built while the row is
+/// still in cache, and the pages of fresh buffers are first touched by the row tasks (zeroed
+/// allocations are mapped lazily), not by a serial fill. `params` comes from [`map_params`]
+/// (all checks are done there: this step cannot fail, so a failed rebuild leaves the buffers
+/// untouched).
+pub(crate) fn fill_map_and_fast_table(
+    params: &MapRow,
+    width: u32,
+    height: u32,
+    (sw, sh): (u32, u32),
+    map: &mut RemapTable,
+    fast: &mut crate::remap::FastBilinear,
+) {
+    let w = width as usize;
+    size_map_and_fast_table(width, height, (sw, sh), map, fast);
+    // as `FastBilinear::new`: sides below 2^24 for the unsaturated conversions of the table rows
+    let usable = (sw as u64) * (sh as u64) < u32::MAX as u64 && sw < 1 << 24 && sh < 1 << 24 && width > 0;
+    let (last_x, last_y) = (sw as f32 - 1.0, sh as f32 - 1.0);
+    map.map_x
+        .par_chunks_mut(w)
+        .zip(map.map_y.par_chunks_mut(w))
+        .zip(fast.index.par_chunks_mut(w).zip(fast.frac.par_chunks_mut(w)))
+        .enumerate()
+        .for_each(|(v, ((mx, my), (k, f)))| {
+            params.row(v, mx, my);
+            if usable {
+                crate::remap::fast_table_row(mx, my, k, f, sw, last_x, last_y);
+            } else {
+                k.fill(u32::MAX);
+                f.fill(0);
+            }
+        });
+}
+
+/// Gives `map` and `fast` `width x height` entries: every entry is overwritten by
+/// [`fill_map_and_fast_table`], so a buffer of the right length is kept as it is and others are
+/// replaced by a fresh zeroed (lazily mapped) one instead of being resized (which would write
+/// it).
+pub(crate) fn size_map_and_fast_table(
+    width: u32,
+    height: u32,
+    source_size: (u32, u32),
+    map: &mut RemapTable,
+    fast: &mut crate::remap::FastBilinear,
+) {
+    fn sized<T: Copy + Default>(v: &mut Vec<T>, n: usize) {
+        if v.len() != n {
+            *v = vec![T::default(); n];
+        }
+    }
+    let n = width as usize * height as usize;
+    sized(&mut map.map_x, n);
+    sized(&mut map.map_y, n);
+    sized(&mut fast.index, n);
+    sized(&mut fast.frac, n);
+    (map.width, map.height) = (width, height);
+    fast.source_size = source_size;
+}
+
+/// [`fill_map_and_fast_table`] into fresh buffers.
+#[cfg(test)]
 pub(crate) fn rectify_map_and_fast_table(
     camera: &Camera,
     r: DMat3,
     new_camera_matrix: DMat3,
     width: u32,
     height: u32,
-    (sw, sh): (u32, u32),
+    src: (u32, u32),
 ) -> Result<(RemapTable, crate::remap::FastBilinear)> {
     let params = map_params(camera, r, new_camera_matrix, width, height)?;
-    let n = width as usize * height as usize;
-    let w = width as usize;
-    let mut map_x = vec![0f32; n];
-    let mut map_y = vec![0f32; n];
-    // as `FastBilinear::new`: sides below 2^24 for the unsaturated conversions of the table rows
-    let usable = (sw as u64) * (sh as u64) < u32::MAX as u64 && sw < 1 << 24 && sh < 1 << 24 && width > 0;
-    let mut index = if usable { vec![0u32; n] } else { vec![u32::MAX; n] };
-    let mut frac = vec![0u16; n];
-    let (last_x, last_y) = (sw as f32 - 1.0, sh as f32 - 1.0);
-    map_x
-        .par_chunks_mut(w)
-        .zip(map_y.par_chunks_mut(w))
-        .zip(index.par_chunks_mut(w).zip(frac.par_chunks_mut(w)))
-        .enumerate()
-        .for_each(|(v, ((mx, my), (k, f)))| {
-            params.row(v, mx, my);
-            if usable {
-                crate::remap::fast_table_row(mx, my, k, f, sw, last_x, last_y);
-            }
-        });
-    let fast = crate::remap::FastBilinear { source_size: (sw, sh), index, frac, nearest: None };
-    Ok((RemapTable { width, height, map_x, map_y }, fast))
+    let mut map = RemapTable::empty();
+    let mut fast = crate::remap::FastBilinear::empty();
+    fill_map_and_fast_table(&params, width, height, src, &mut map, &mut fast);
+    Ok((map, fast))
 }
 
 /// Checks the inputs of a map and precomputes its per-row parameters.
-fn map_params(camera: &Camera, r: DMat3, new_camera_matrix: DMat3, width: u32, height: u32) -> Result<MapRow> {
+pub(crate) fn map_params(
+    camera: &Camera,
+    r: DMat3,
+    new_camera_matrix: DMat3,
+    width: u32,
+    height: u32,
+) -> Result<MapRow> {
     camera.validate().map_err(|source| RectifyError::Camera { what: "camera of the map", source })?;
     if !r.is_finite() {
         return Err(RectifyError::NonFinite("rectifying rotation"));
@@ -185,7 +238,7 @@ pub fn init_homography_map(h: DMat3, width: u32, height: u32) -> Result<RemapTab
 }
 
 /// The per-row computation of [`init_undistort_rectify_map`].
-struct MapRow {
+pub(crate) struct MapRow {
     ir: DMat3,
     step: DVec3,
     fx: f64,

@@ -2,7 +2,7 @@
 
 use parallax_camera_model::StereoRig;
 
-use crate::maps::rectify_map_and_fast_table;
+use crate::maps::{fill_map_and_fast_table, map_params, size_map_and_fast_table};
 use crate::remap::{FastBilinear, Image, Sample, remap_impl};
 use crate::{Border, Interpolation, Rectification, RectifyConfig, RectifyError, RemapTable, Result, stereo_rectify};
 
@@ -28,24 +28,62 @@ impl Rectifier {
 
     /// Builds the maps of an existing rectification of `rig`.
     pub fn from_rectification(rig: &StereoRig, rectification: Rectification) -> Result<Self> {
+        let mut rectifier = Self {
+            rectification,
+            left_map: RemapTable::empty(),
+            right_map: RemapTable::empty(),
+            left_fast: FastBilinear::empty(),
+            right_fast: FastBilinear::empty(),
+            input_size: (rig.left.width, rig.left.height),
+            interpolation: Interpolation::Bilinear,
+        };
+        rectifier.rebuild_from_rectification(rig, rectification)?;
+        Ok(rectifier)
+    }
+
+    /// Re-rectifies `rig` (a new calibration, or new [`RectifyConfig`]) into this rectifier,
+    /// reusing its tables: when the rectified size is unchanged nothing is allocated (no fresh
+    /// pages to fault in, which is most of the cost of [`Self::new`]). The interpolation chosen
+    /// with [`Self::with_interpolation`] is kept. On error the rectifier is left unchanged.
+    pub fn rebuild(&mut self, rig: &StereoRig, config: &RectifyConfig) -> Result<()> {
+        let rectification = stereo_rectify(rig, config)?;
+        self.rebuild_from_rectification(rig, rectification)
+    }
+
+    /// [`Self::rebuild`] from an existing rectification of `rig`.
+    pub fn rebuild_from_rectification(&mut self, rig: &StereoRig, rectification: Rectification) -> Result<()> {
         let (w, h) = (rectification.width, rectification.height);
+        // every check first: the fill below cannot fail, so an error leaves `self` as it was
+        let lp = map_params(&rig.left, rectification.r1, rectification.left_camera_matrix(), w, h)?;
+        let rp = map_params(&rig.right, rectification.r2, rectification.right_camera_matrix(), w, h)?;
         // each map and its fixed-point table in one pass (the table of a row is built while the
         // row is in cache), for sources of the calibrated size
         let src = (rig.left.width, rig.left.height);
-        let (left, right) = rayon::join(
-            || rectify_map_and_fast_table(&rig.left, rectification.r1, rectification.left_camera_matrix(), w, h, src),
-            || rectify_map_and_fast_table(&rig.right, rectification.r2, rectification.right_camera_matrix(), w, h, src),
+        let nearest = self.interpolation == Interpolation::Nearest;
+        // (re)size the tables on this thread: fresh buffers then come from this thread's malloc
+        // arena, whose freed blocks the next build reuses (allocated inside the rayon tasks they
+        // came from other threads' arenas and were returned to the OS on free: measured, every
+        // `new` then faulted in all 8.6 MB of a 640x480 pair's tables again)
+        size_map_and_fast_table(w, h, src, &mut self.left_map, &mut self.left_fast);
+        size_map_and_fast_table(w, h, src, &mut self.right_map, &mut self.right_fast);
+        let (lm, lf, rm, rf) = (&mut self.left_map, &mut self.left_fast, &mut self.right_map, &mut self.right_fast);
+        rayon::join(
+            || {
+                fill_map_and_fast_table(&lp, w, h, src, lm, lf);
+                if nearest {
+                    lf.fill_nearest(lm);
+                }
+            },
+            || {
+                fill_map_and_fast_table(&rp, w, h, src, rm, rf);
+                if nearest {
+                    rf.fill_nearest(rm);
+                }
+            },
         );
-        let ((left_map, left_fast), (right_map, right_fast)) = (left?, right?);
-        Ok(Self {
-            rectification,
-            left_map,
-            right_map,
-            left_fast,
-            right_fast,
-            input_size: (rig.left.width, rig.left.height),
-            interpolation: Interpolation::Bilinear,
-        })
+        self.rectification = rectification;
+        self.input_size = src;
+        Ok(())
     }
 
     /// Chooses the interpolation of [`Self::rectify_pair`].
@@ -53,9 +91,8 @@ impl Rectifier {
         self.interpolation = interpolation;
         if interpolation == Interpolation::Nearest && self.left_fast.nearest.is_none() {
             // nearest-neighbour offsets, built once (bilinear users do not pay for them)
-            let (left, right) = (&self.left_map, &self.right_map);
-            let (l, r) = (self.left_fast, self.right_fast);
-            (self.left_fast, self.right_fast) = rayon::join(|| l.with_nearest(left), || r.with_nearest(right));
+            let (lm, lf, rm, rf) = (&self.left_map, &mut self.left_fast, &self.right_map, &mut self.right_fast);
+            rayon::join(|| lf.fill_nearest(lm), || rf.fill_nearest(rm));
         }
         self
     }

@@ -351,7 +351,7 @@ pub(crate) struct FastBilinear {
     pub index: Vec<u32>,
     pub frac: Vec<u16>,
     /// Nearest-neighbour source pixel of every output pixel whose rounded position is inside
-    /// (`u32::MAX`: border handling), built on demand by [`FastBilinear::with_nearest`].
+    /// (`u32::MAX`: border handling), built on demand by [`FastBilinear::fill_nearest`].
     pub nearest: Option<Vec<u32>>,
 }
 
@@ -383,21 +383,27 @@ impl FastBilinear {
 }
 
 impl FastBilinear {
-    /// Adds the nearest-neighbour offsets of `table` (the positions `remap`'s nearest path
-    /// rounds inside the source, half to even).
-    pub(crate) fn with_nearest(mut self, table: &RemapTable) -> Self {
+    /// A table with no entries, the starting point of buffers filled later.
+    pub(crate) fn empty() -> Self {
+        Self { source_size: (0, 0), index: Vec::new(), frac: Vec::new(), nearest: None }
+    }
+
+    /// (Re)computes the nearest-neighbour offsets of `table` (the positions `remap`'s nearest
+    /// path rounds inside the source, half to even), reusing the buffer when it has the table's
+    /// size.
+    pub(crate) fn fill_nearest(&mut self, table: &RemapTable) {
         let (sw, sh) = (self.source_size.0 as usize, self.source_size.1 as usize);
         let usable = (sw as u64) * (sh as u64) < u32::MAX as u64;
-        let mut near = vec![u32::MAX; table.map_x.len()];
-        if usable {
-            near.par_iter_mut().zip(table.map_x.par_iter().zip(&table.map_y)).for_each(|(k, (&x, &y))| {
-                if let Some(o) = nearest_inside(x, y, sw, sh) {
-                    *k = o as u32;
-                }
-            });
+        let near = self.nearest.get_or_insert_with(Vec::new);
+        if near.len() != table.map_x.len() {
+            *near = vec![0; table.map_x.len()];
         }
-        self.nearest = Some(near);
-        self
+        near.par_iter_mut().zip(table.map_x.par_iter().zip(&table.map_y)).for_each(|(k, (&x, &y))| {
+            *k = match nearest_inside(x, y, sw, sh) {
+                Some(o) if usable => o as u32,
+                _ => u32::MAX,
+            };
+        });
     }
 }
 

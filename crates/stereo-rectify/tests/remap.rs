@@ -226,3 +226,30 @@ fn vectorised_8_bit_rectification_equals_the_16_bit_scalar_path() {
         assert_eq!(rn, remap(&right, rectifier.right_map(), Interpolation::Nearest, border).unwrap());
     }
 }
+
+#[test]
+fn rebuilt_rectifier_equals_a_new_one() {
+    // `rebuild` reuses the tables (same size) or replaces them (other size): either way the
+    // result is the rectifier `new` builds for the new rig, bit for bit, interpolation kept
+    let (h, v) = (common::horizontal_rig(), common::vertical_rig());
+    let cfg = RectifyConfig { alpha: Some(0.0), ..Default::default() };
+    let mut rectifier = Rectifier::new(&h, &cfg).unwrap().with_interpolation(Interpolation::Nearest);
+    rectifier.rebuild(&v, &cfg).unwrap();
+    assert_eq!(rectifier, Rectifier::new(&v, &cfg).unwrap().with_interpolation(Interpolation::Nearest));
+    let smaller = RectifyConfig { alpha: Some(1.0), new_size: Some((500, 300)), ..Default::default() };
+    rectifier.rebuild(&h, &smaller).unwrap();
+    assert_eq!(rectifier, Rectifier::new(&h, &smaller).unwrap().with_interpolation(Interpolation::Nearest));
+    assert_eq!(rectifier.left_map().map_x.len(), 500 * 300);
+    // the rebuilt rectifier resamples as the new one
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    let img: Image<Luma<u8>> = ImageBuffer::from_fn(640, 480, |_, _| Luma([rng.random()]));
+    let border = Border::Constant(Luma([0u8]));
+    let (l, _) = rectifier.rectify_pair(&img, &img, border).unwrap();
+    assert_eq!(l, remap(&img, rectifier.left_map(), Interpolation::Nearest, border).unwrap());
+    // a failed rebuild leaves the rectifier as it was
+    let before = rectifier.clone();
+    let mut broken = *rectifier.rectification();
+    broken.width = 0;
+    assert!(rectifier.rebuild_from_rectification(&h, broken).is_err());
+    assert_eq!(rectifier, before);
+}
