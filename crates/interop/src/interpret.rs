@@ -2,12 +2,151 @@
 //! found wherever they sit in the document.
 
 use glam::{DMat3, DVec3};
-use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, ProjectionMatrix, StereoRig};
+use parallax_camera_model::{
+    Camera, Distortion, DoubleSphere, FisheyeCamera, FisheyeLens, FisheyeStereoRig, Intrinsics, Isometry3,
+    KannalaBrandt, ProjectionMatrix, StereoRig,
+};
 use parallax_hand_eye::Setup;
 use serde_json::{Map, Value};
 
 use crate::error::{Result, content, model};
-use crate::model::{Calibration, HandEyeCalibration, MonoCalibration, RectificationMatrices, StereoCalibration, mat3};
+use crate::model::{
+    Calibration, FisheyeMonoCalibration, FisheyeStereoCalibration, HandEyeCalibration, MonoCalibration,
+    RectificationMatrices, StereoCalibration, lens_model_name, mat3,
+};
+
+/// A camera of either family, as read from a file.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Cam {
+    Pinhole(Camera),
+    Fisheye(FisheyeCamera),
+}
+
+/// The model marker of an OpenCV or ROS node: `fisheye_model` (OpenCV's calibration sample
+/// `camera_calibration.cpp` writes `fisheye_model: 1` for `cv::fisheye`, `0` otherwise) and
+/// `distortion_model` (ROS: `plumb_bob`, `rational_polynomial`, `equidistant`; `fisheye` is taken
+/// as `equidistant`). No marker means pinhole: a 4-value `D` alone is OpenCV's `k1 k2 p1 p2`.
+fn is_fisheye(o: &Map<String, Value>, what: &str) -> Result<bool> {
+    let mut fisheye = None;
+    if let Some(v) = o.get("fisheye_model") {
+        fisheye = Some(match v {
+            Value::Bool(b) => *b,
+            Value::Number(n) if n.as_f64() == Some(1.0) => true,
+            Value::Number(n) if n.as_f64() == Some(0.0) => false,
+            other => return Err(content(what, format!("fisheye_model: {other} (expected 0 or 1)"))),
+        });
+    }
+    if let Some(v) = o.get("distortion_model") {
+        let f = match v.as_str() {
+            Some("plumb_bob" | "rational_polynomial") => false,
+            Some("equidistant" | "fisheye") => true,
+            _ => {
+                return Err(content(
+                    what,
+                    format!(
+                        "distortion_model: {v} is not supported (plumb_bob, rational_polynomial, or equidistant = \
+                         OpenCV's fisheye)"
+                    ),
+                ));
+            }
+        };
+        if fisheye.is_some_and(|g| g != f) {
+            return Err(content(what, format!("fisheye_model and distortion_model: {v} disagree")));
+        }
+        fisheye = Some(f);
+    }
+    Ok(fisheye.unwrap_or(false))
+}
+
+/// A Kannala–Brandt camera from `K` and `D` (exactly `k1 k2 k3 k4`), with every check.
+fn fisheye_camera(k: DMat3, d: &[f64], width: u32, height: u32, key: &str, what: &str) -> Result<FisheyeCamera> {
+    let below = [k.x_axis.y, k.x_axis.z, k.y_axis.z];
+    if below.iter().any(|v| *v != 0.0) {
+        return Err(content(what, format!("camera matrix is not upper triangular ({below:?} below the diagonal)")));
+    }
+    if d.len() != 4 {
+        return Err(content(
+            what,
+            format!(
+                "{key}: a fisheye (equidistant, cv::fisheye) camera takes exactly 4 coefficients k1 k2 k3 k4, the \
+                 file has {}",
+                d.len()
+            ),
+        ));
+    }
+    FisheyeCamera::from_opencv(k, d, width, height).map_err(model(what))
+}
+
+/// A pinhole or (with a marker) Kannala–Brandt camera from `K`, `D` and a size.
+fn camera_marked(fisheye: bool, k: DMat3, d: &[f64], w: u32, h: u32, key: &str, what: &str) -> Result<Cam> {
+    if fisheye {
+        Ok(Cam::Fisheye(fisheye_camera(k, d, w, h, key, what)?))
+    } else {
+        Ok(Cam::Pinhole(camera(k, d, w, h, what)?))
+    }
+}
+
+/// The lens of a native `FisheyeCamera`: serde's tagged form (`{"KannalaBrandt": {k1 ..}}`) or
+/// the bare parameters RON's untyped reading leaves (`{k1 k2 k3 k4}` or `{xi alpha}`: the field
+/// names tell the model).
+fn native_lens(v: &Value, what: &str) -> Result<FisheyeLens> {
+    let mut v = v;
+    loop {
+        match v {
+            Value::Array(a) if a.len() == 1 => v = &a[0],
+            Value::Object(m) if m.len() == 1 && (m.contains_key("KannalaBrandt") || m.contains_key("DoubleSphere")) => {
+                v = m.values().next().expect("one entry");
+            }
+            _ => break,
+        }
+    }
+    let o = v.as_object().ok_or_else(|| content(what, format!("lens: {v} is not a lens (k1..k4 or xi, alpha)")))?;
+    let num = |k: &str| o.get(k).and_then(Value::as_f64);
+    match (num("k1"), num("k2"), num("k3"), num("k4"), num("xi"), num("alpha")) {
+        (Some(k1), Some(k2), Some(k3), Some(k4), None, None) if o.len() == 4 => {
+            KannalaBrandt::new(k1, k2, k3, k4).map(FisheyeLens::KannalaBrandt).map_err(model(what))
+        }
+        (None, None, None, None, Some(xi), Some(alpha)) if o.len() == 2 => {
+            DoubleSphere::new(xi, alpha).map(FisheyeLens::DoubleSphere).map_err(model(what))
+        }
+        _ => Err(content(
+            what,
+            format!(
+                "lens: keys {:?} are neither Kannala–Brandt (k1 k2 k3 k4) nor double sphere (xi alpha)",
+                o.keys().collect::<Vec<_>>()
+            ),
+        )),
+    }
+}
+
+fn is_fisheye_camera_shape(o: &Map<String, Value>) -> bool {
+    ["intrinsics", "lens", "width", "height"].iter().all(|k| o.contains_key(*k))
+}
+
+/// A native `FisheyeCamera` (`intrinsics`, `lens`, `width`, `height`), checked.
+fn native_fisheye(o: &Map<String, Value>, what: &str) -> Result<FisheyeCamera> {
+    let intrinsics: Intrinsics = from_native(&o["intrinsics"], "intrinsics", what)?;
+    let lens = native_lens(&o["lens"], what)?;
+    let dim = |k: &str| {
+        o[k].as_u64()
+            .and_then(|n| u32::try_from(n).ok())
+            .ok_or_else(|| content(what, format!("{k}: {} is not an image size", o[k])))
+    };
+    FisheyeCamera::new(intrinsics, lens, dim("width")?, dim("height")?).map_err(model(what))
+}
+
+/// A record's `lens_model` (when present) must name the camera's lens.
+fn check_lens_model(o: &Map<String, Value>, cameras: &[&FisheyeCamera], what: &str) -> Result<()> {
+    if let Some(name) = o.get("lens_model") {
+        for c in cameras {
+            let actual = lens_model_name(&c.lens());
+            if name.as_str() != Some(actual) {
+                return Err(content(what, format!("lens_model: {name} but the camera's lens is {actual}")));
+            }
+        }
+    }
+    Ok(())
+}
 
 /// A matrix in any of the written forms: `{rows, cols, data}` (OpenCV, ROS), nested rows
 /// (native files, Kalibr) or a flat list (a vector: `1 x n`). Returns `(rows, cols, row-major)`.
@@ -166,8 +305,9 @@ fn rig(left: Camera, right: Camera, r: DMat3, t: DVec3, what: &str) -> Result<St
 }
 
 /// OpenCV's stereo keys (`stereo_calib.cpp`): `M1 D1 M2 D2 R T` and optionally
-/// `R1 R2 P1 P2 Q`; the image size from `image_width`/`image_height` (also `imageSize`).
-fn opencv_stereo(o: &Map<String, Value>, what: &str) -> Result<StereoCalibration> {
+/// `R1 R2 P1 P2 Q`; the image size from `image_width`/`image_height` (also `imageSize`). With
+/// the marker `fisheye_model: 1` the cameras are `cv::fisheye`'s (`D` = `k1 k2 k3 k4`).
+fn opencv_stereo(o: &Map<String, Value>, what: &str) -> Result<Calibration> {
     let (w, h) = if let Some(s) = o.get("imageSize").or_else(|| o.get("image_size")) {
         match vector(s, "imageSize", what)?.as_slice() {
             [w, h] if *w >= 1.0 && *h >= 1.0 => (*w as u32, *h as u32),
@@ -180,11 +320,15 @@ fn opencv_stereo(o: &Map<String, Value>, what: &str) -> Result<StereoCalibration
         (Some(_), Some(_)) => size(o, "right_image_width", "right_image_height", what)?,
         _ => (w, h),
     };
-    let left =
-        camera(mat3_of(get(o, "M1", what)?, "M1", what)?, &vector(get(o, "D1", what)?, "D1", what)?, w, h, what)?;
-    let right =
-        camera(mat3_of(get(o, "M2", what)?, "M2", what)?, &vector(get(o, "D2", what)?, "D2", what)?, rw, rh, what)?;
-    let rig = rig(left, right, rotation(get(o, "R", what)?, "R", what)?, vec3(get(o, "T", what)?, "T", what)?, what)?;
+    let fisheye = is_fisheye(o, what)?;
+    let side = |m: &str, d: &str, w: u32, h: u32| -> Result<Cam> {
+        let k = mat3_of(get(o, m, what)?, m, what)?;
+        camera_marked(fisheye, k, &vector(get(o, d, what)?, d, what)?, w, h, d, what)
+    };
+    let (left, right) = (side("M1", "D1", w, h)?, side("M2", "D2", rw, rh)?);
+    let r = rotation(get(o, "R", what)?, "R", what)?;
+    let t = vec3(get(o, "T", what)?, "T", what)?;
+    let right_from_left = Isometry3::from_rotation_translation(r, t).map_err(model(what))?;
     let rect_keys = ["R1", "R2", "P1", "P2", "Q"];
     let present: Vec<_> = rect_keys.iter().filter(|k| o.get(**k).is_some_and(|v| !v.is_null())).collect();
     let rectification = if present.is_empty() {
@@ -200,81 +344,162 @@ fn opencv_stereo(o: &Map<String, Value>, what: &str) -> Result<StereoCalibration
             q: rows_n::<4, 4>(&o["Q"], "Q", what)?,
         })
     };
-    for (key, expected) in [("E", rig.essential()), ("F", rig.fundamental())] {
-        if let Some(v) = o.get(key) {
-            let m = mat3_of(v, key, what)?;
-            // E and F are defined up to scale: compare the normalised matrices (sign too).
-            let unit = |m: DMat3| m / m.to_cols_array().iter().map(|x| x * x).sum::<f64>().sqrt();
-            let (a, b) = (unit(m), unit(expected));
-            let largest = |m: DMat3| m.to_cols_array().iter().fold(0.0f64, |acc, x| acc.max(x.abs()));
-            let same = largest(a - b) < 1e-6 || largest(a + b) < 1e-6;
-            if !same {
+    let (rms_px, per_view_rms_px) = (rms_of(o), per_view_stereo(o, what)?);
+    let (left, right) = match (left, right) {
+        (Cam::Fisheye(left), Cam::Fisheye(right)) => {
+            let rig = FisheyeStereoRig::new(left, right, right_from_left).map_err(model(what))?;
+            check_up_to_scale(o, "E", rig.essential(), what)?;
+            if o.contains_key("F") {
                 return Err(content(
                     what,
-                    format!("{key} does not agree with M1 M2 R T (normalised difference {:.3e})", largest(a - b)),
+                    "F in a fisheye (fisheye_model: 1) file: fisheye pixels are not related by a fundamental \
+                     matrix; the file mixes a pinhole and a fisheye calibration",
                 ));
             }
+            return Ok(Calibration::FisheyeStereo(FisheyeStereoCalibration {
+                rig,
+                rectification,
+                rms_px,
+                per_view_rms_px,
+            }));
         }
-    }
-    Ok(StereoCalibration { rig, rectification, rms_px: rms_of(o), per_view_rms_px: per_view_stereo(o, what)? })
+        (Cam::Pinhole(l), Cam::Pinhole(r)) => (l, r),
+        _ => unreachable!("both sides use the node's one marker"),
+    };
+    let rig = StereoRig::new(left, right, right_from_left).map_err(model(what))?;
+    check_up_to_scale(o, "E", rig.essential(), what)?;
+    check_up_to_scale(o, "F", rig.fundamental(), what)?;
+    Ok(Calibration::Stereo(StereoCalibration { rig, rectification, rms_px, per_view_rms_px }))
 }
 
-/// OpenCV's mono keys (`calibration.cpp`) or ROS `camera_info`: `camera_matrix`,
-/// `distortion_coefficients`, `image_width`, `image_height`.
-fn opencv_mono(o: &Map<String, Value>, what: &str) -> Result<MonoCalibration> {
+/// `key` (E or F, defined up to scale), when present, agrees with `expected`: the normalised
+/// matrices, sign too.
+fn check_up_to_scale(o: &Map<String, Value>, key: &str, expected: DMat3, what: &str) -> Result<()> {
+    if let Some(v) = o.get(key) {
+        let m = mat3_of(v, key, what)?;
+        let unit = |m: DMat3| m / m.to_cols_array().iter().map(|x| x * x).sum::<f64>().sqrt();
+        let (a, b) = (unit(m), unit(expected));
+        let largest = |m: DMat3| m.to_cols_array().iter().fold(0.0f64, |acc, x| acc.max(x.abs()));
+        let same = largest(a - b) < 1e-6 || largest(a + b) < 1e-6;
+        if !same {
+            return Err(content(
+                what,
+                format!("{key} does not agree with M1 M2 R T (normalised difference {:.3e})", largest(a - b)),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// OpenCV's mono keys (`calibration.cpp`, `camera_calibration.cpp`) or ROS `camera_info`:
+/// `camera_matrix`, `distortion_coefficients`, `image_width`, `image_height`; a fisheye camera
+/// when marked (`fisheye_model: 1`, `distortion_model: equidistant`).
+fn opencv_mono(o: &Map<String, Value>, what: &str) -> Result<Calibration> {
     let (w, h) = size(o, "image_width", "image_height", what)?;
     let d = vector(get(o, "distortion_coefficients", what)?, "distortion_coefficients", what)?;
-    if let Some(model_name) = o.get("distortion_model").and_then(Value::as_str) {
-        let expected = match model_name {
-            "plumb_bob" => 5,
-            "rational_polynomial" => 8,
-            other => {
-                return Err(content(
-                    what,
-                    format!("distortion_model: {other} is not supported (plumb_bob or rational_polynomial)"),
-                ));
-            }
-        };
+    let fisheye = is_fisheye(o, what)?;
+    if let Some(model_name) = o.get("distortion_model").and_then(Value::as_str).filter(|_| !fisheye) {
+        let expected = if model_name == "rational_polynomial" { 8 } else { 5 };
         if d.len() != expected && !d.is_empty() {
             return Err(content(what, format!("{model_name} takes {expected} coefficients, the file has {}", d.len())));
         }
     }
-    let camera = camera(mat3_of(get(o, "camera_matrix", what)?, "camera_matrix", what)?, &d, w, h, what)?;
-    Ok(MonoCalibration { camera, rms_px: rms_of(o), per_view_rms_px: per_view_mono(o, what)? })
+    let k = mat3_of(get(o, "camera_matrix", what)?, "camera_matrix", what)?;
+    let (rms_px, per_view_rms_px) = (rms_of(o), per_view_mono(o, what)?);
+    Ok(match camera_marked(fisheye, k, &d, w, h, "distortion_coefficients", what)? {
+        Cam::Pinhole(camera) => Calibration::Mono(MonoCalibration { camera, rms_px, per_view_rms_px }),
+        Cam::Fisheye(camera) => Calibration::FisheyeMono(FisheyeMonoCalibration { camera, rms_px, per_view_rms_px }),
+    })
 }
 
-/// Kalibr's camchain: `cam0` (and `cam1` with `T_cn_cnm1` = `cam1_from_cam0`).
-fn kalibr_camera(o: &Map<String, Value>, name: &str, what: &str) -> Result<Camera> {
+/// Kalibr's camchain: `cam0` (and `cam1` with `T_cn_cnm1` = `cam1_from_cam0`). Models:
+/// `pinhole` with `radtan` (OpenCV's `k1 k2 p1 p2`) or `equidistant` (Kannala–Brandt `k1..k4`),
+/// and `ds` (double sphere, intrinsics `[xi alpha fu fv pu pv]`, no distortion).
+fn kalibr_camera(o: &Map<String, Value>, name: &str, what: &str) -> Result<Cam> {
     let cam = get(o, name, what)?.as_object().ok_or_else(|| content(what, format!("{name} is not a map")))?;
-    let model = cam.get("camera_model").and_then(Value::as_str).unwrap_or("pinhole");
-    if model != "pinhole" {
-        return Err(content(what, format!("{name}: camera_model {model} is not supported (pinhole)")));
-    }
-    let dist_model = cam.get("distortion_model").and_then(Value::as_str).unwrap_or("radtan");
-    if dist_model != "radtan" {
-        return Err(content(
-            what,
-            format!("{name}: distortion_model {dist_model} is not supported (radtan = OpenCV's k1 k2 p1 p2)"),
-        ));
-    }
+    let model_name = cam.get("camera_model").and_then(Value::as_str).unwrap_or("pinhole");
+    let dist_model = cam.get("distortion_model").and_then(Value::as_str);
     let i = vector(get(cam, "intrinsics", what)?, "intrinsics", what)?;
-    let [fu, fv, pu, pv] = i[..] else {
-        return Err(content(what, format!("{name}: intrinsics has {} values, expected [fu, fv, pu, pv]", i.len())));
+    let d = match cam.get("distortion_coeffs") {
+        Some(v) => vector(v, "distortion_coeffs", what)?,
+        None => Vec::new(),
     };
-    let d = vector(get(cam, "distortion_coeffs", what)?, "distortion_coeffs", what)?;
-    if d.len() != 4 {
-        return Err(content(what, format!("{name}: radtan takes 4 distortion_coeffs, got {}", d.len())));
-    }
     let r = vector(get(cam, "resolution", what)?, "resolution", what)?;
     let [w, h] = r[..] else { return Err(content(what, format!("{name}: resolution must be [width, height]"))) };
-    let k = Intrinsics::new(fu, fv, pu, pv).matrix();
-    camera(k, &d, w as u32, h as u32, what)
+    let (w, h) = (w as u32, h as u32);
+    match model_name {
+        "pinhole" => {
+            let [fu, fv, pu, pv] = i[..] else {
+                return Err(content(
+                    what,
+                    format!("{name}: intrinsics has {} values, expected [fu, fv, pu, pv]", i.len()),
+                ));
+            };
+            let k = Intrinsics::new(fu, fv, pu, pv).matrix();
+            match dist_model.unwrap_or("radtan") {
+                "radtan" => {
+                    if d.len() != 4 {
+                        return Err(content(
+                            what,
+                            format!("{name}: radtan takes 4 distortion_coeffs, got {}", d.len()),
+                        ));
+                    }
+                    Ok(Cam::Pinhole(camera(k, &d, w, h, what)?))
+                }
+                "equidistant" => {
+                    Ok(Cam::Fisheye(fisheye_camera(k, &d, w, h, &format!("{name}.distortion_coeffs"), what)?))
+                }
+                other => Err(content(
+                    what,
+                    format!(
+                        "{name}: distortion_model {other} is not supported (radtan = OpenCV's k1 k2 p1 p2, \
+                         equidistant = Kannala–Brandt k1 k2 k3 k4)"
+                    ),
+                )),
+            }
+        }
+        "ds" => {
+            let [xi, alpha, fu, fv, pu, pv] = i[..] else {
+                return Err(content(
+                    what,
+                    format!("{name}: ds intrinsics has {} values, expected [xi, alpha, fu, fv, pu, pv]", i.len()),
+                ));
+            };
+            if !matches!(dist_model, None | Some("none")) || !d.is_empty() {
+                return Err(content(
+                    what,
+                    format!(
+                        "{name}: camera_model ds with distortion_model {} and {} coefficients: the double sphere \
+                         model takes no distortion (distortion_model: none)",
+                        dist_model.unwrap_or("none"),
+                        d.len()
+                    ),
+                ));
+            }
+            let lens = FisheyeLens::DoubleSphere(DoubleSphere::new(xi, alpha).map_err(model(what))?);
+            Ok(Cam::Fisheye(FisheyeCamera::new(Intrinsics::new(fu, fv, pu, pv), lens, w, h).map_err(model(what))?))
+        }
+        other => Err(content(
+            what,
+            format!(
+                "{name}: camera_model {other} is not supported (pinhole with radtan or equidistant, ds); omni and \
+                 eucm have no parallax model: recalibrate with ds"
+            ),
+        )),
+    }
 }
 
 fn kalibr(o: &Map<String, Value>, what: &str) -> Result<Calibration> {
     let left = kalibr_camera(o, "cam0", what)?;
     if !o.contains_key("cam1") {
-        return Ok(Calibration::Mono(MonoCalibration { camera: left, rms_px: None, per_view_rms_px: Vec::new() }));
+        return Ok(match left {
+            Cam::Pinhole(camera) => {
+                Calibration::Mono(MonoCalibration { camera, rms_px: None, per_view_rms_px: Vec::new() })
+            }
+            Cam::Fisheye(camera) => {
+                Calibration::FisheyeMono(FisheyeMonoCalibration { camera, rms_px: None, per_view_rms_px: Vec::new() })
+            }
+        });
     }
     if o.contains_key("cam2") {
         return Err(content(what, "more than two cameras (cam2): give a camchain with cam0 and cam1"));
@@ -286,8 +511,33 @@ fn kalibr(o: &Map<String, Value>, what: &str) -> Result<Calibration> {
         return Err(content(what, format!("cam1.T_cn_cnm1: last row {:?} is not [0, 0, 0, 1]", t[3])));
     }
     let r = mat3(&[[t[0][0], t[0][1], t[0][2]], [t[1][0], t[1][1], t[1][2]], [t[2][0], t[2][1], t[2][2]]]);
-    let rig = rig(left, right, r, DVec3::new(t[0][3], t[1][3], t[2][3]), what)?;
-    Ok(Calibration::Stereo(StereoCalibration { rig, rectification: None, rms_px: None, per_view_rms_px: Vec::new() }))
+    let tv = DVec3::new(t[0][3], t[1][3], t[2][3]);
+    match (left, right) {
+        (Cam::Pinhole(l), Cam::Pinhole(rc)) => {
+            let rig = rig(l, rc, r, tv, what)?;
+            Ok(Calibration::Stereo(StereoCalibration {
+                rig,
+                rectification: None,
+                rms_px: None,
+                per_view_rms_px: Vec::new(),
+            }))
+        }
+        (Cam::Fisheye(l), Cam::Fisheye(rc)) => {
+            let right_from_left = Isometry3::from_rotation_translation(r, tv).map_err(model(what))?;
+            let rig = FisheyeStereoRig::new(l, rc, right_from_left).map_err(model(what))?;
+            Ok(Calibration::FisheyeStereo(FisheyeStereoCalibration {
+                rig,
+                rectification: None,
+                rms_px: None,
+                per_view_rms_px: Vec::new(),
+            }))
+        }
+        _ => Err(content(
+            what,
+            "cam0 and cam1 are of different families (a pinhole-radtan and a fisheye camera): parallax rigs have \
+             two cameras of one family",
+        )),
+    }
 }
 
 /// Hand-eye keys: OpenCV's `calibrateHandEye` outputs (`R_cam2gripper`, `t_cam2gripper`; eye-to-hand
@@ -340,9 +590,53 @@ fn rig_difference(a: &StereoRig, b: &StereoRig) -> f64 {
     worst.max((ta - tb).length() / ta.length().max(1e-300))
 }
 
-/// Stereo shapes at one node: `{rig: StereoRig, ...}`, a bare `StereoRig`, OpenCV's `M1 … T`,
-/// Kalibr's `cam0` + `cam1`.
-fn stereo_at(o: &Map<String, Value>, what: &str) -> Result<Option<StereoCalibration>> {
+/// A native fisheye rig (`left`, `right` with a `lens`, `right_from_left`), checked.
+fn native_fisheye_rig(o: &Map<String, Value>, what: &str) -> Result<FisheyeStereoRig> {
+    let side = |k: &str| -> Result<FisheyeCamera> {
+        match o.get(k) {
+            Some(Value::Object(c)) if is_fisheye_camera_shape(c) => native_fisheye(c, what),
+            _ => Err(content(what, format!("rig.{k} is not a fisheye camera (intrinsics, lens, width, height)"))),
+        }
+    };
+    let right_from_left: Isometry3 = from_native(&o["right_from_left"], "right_from_left", what)?;
+    FisheyeStereoRig::new(side("left")?, side("right")?, right_from_left).map_err(model(what))
+}
+
+fn rig_is_fisheye(o: &Map<String, Value>) -> bool {
+    matches!(o.get("left"), Some(Value::Object(c)) if c.contains_key("lens"))
+}
+
+/// The `rectification` of a native fisheye record (`R1 R2 P1 P2 Q`, row-major).
+fn native_rectification(o: &Map<String, Value>, what: &str) -> Result<Option<RectificationMatrices>> {
+    match o.get("rectification") {
+        None | Some(Value::Null) => Ok(None),
+        Some(Value::Object(r)) => Ok(Some(RectificationMatrices {
+            r1: mat3_of(get(r, "R1", what)?, "R1", what)?,
+            r2: mat3_of(get(r, "R2", what)?, "R2", what)?,
+            p1: ProjectionMatrix { rows: rows_n::<4, 3>(get(r, "P1", what)?, "P1", what)? },
+            p2: ProjectionMatrix { rows: rows_n::<4, 3>(get(r, "P2", what)?, "P2", what)? },
+            q: rows_n::<4, 4>(get(r, "Q", what)?, "Q", what)?,
+        })),
+        Some(other) => Err(content(what, format!("rectification: {other} is not R1 R2 P1 P2 Q"))),
+    }
+}
+
+/// Stereo shapes at one node: `{rig: StereoRig, ...}` (or a fisheye rig), a bare `StereoRig`,
+/// OpenCV's `M1 … T`, Kalibr's `cam0` + `cam1`.
+fn stereo_at(o: &Map<String, Value>, what: &str) -> Result<Option<Calibration>> {
+    if let Some(Value::Object(r)) = o.get("rig")
+        && is_rig_shape(r)
+        && rig_is_fisheye(r)
+    {
+        let rig = native_fisheye_rig(r, what)?;
+        check_lens_model(o, &[&rig.left, &rig.right], what)?;
+        return Ok(Some(Calibration::FisheyeStereo(FisheyeStereoCalibration {
+            rig,
+            rectification: native_rectification(o, what)?,
+            rms_px: o.get("rms_px").and_then(Value::as_f64),
+            per_view_rms_px: per_view_stereo(o, what)?,
+        })));
+    }
     if let Some(Value::Object(r)) = o.get("rig")
         && is_rig_shape(r)
     {
@@ -352,7 +646,9 @@ fn stereo_at(o: &Map<String, Value>, what: &str) -> Result<Option<StereoCalibrat
         if let Some(Value::Object(m)) = o.get("opencv")
             && m.contains_key("M1")
         {
-            let cv = opencv_stereo(m, what)?;
+            let Calibration::Stereo(cv) = opencv_stereo(m, what)? else {
+                return Err(content(what, "`rig` is a pinhole rig but the `opencv` matrices are marked fisheye"));
+            };
             let diff = rig_difference(&rig, &cv.rig);
             if diff > 1e-9 {
                 return Err(content(
@@ -367,26 +663,75 @@ fn stereo_at(o: &Map<String, Value>, what: &str) -> Result<Option<StereoCalibrat
         }
         let rms_px = o.get("rms_px").and_then(Value::as_f64);
         let per_view_rms_px = per_view_stereo(o, what)?;
-        return Ok(Some(StereoCalibration { rig, rectification, rms_px, per_view_rms_px }));
+        return Ok(Some(Calibration::Stereo(StereoCalibration { rig, rectification, rms_px, per_view_rms_px })));
+    }
+    if is_rig_shape(o) && rig_is_fisheye(o) {
+        let rig = native_fisheye_rig(o, what)?;
+        return Ok(Some(Calibration::FisheyeStereo(FisheyeStereoCalibration {
+            rig,
+            rectification: None,
+            rms_px: None,
+            per_view_rms_px: Vec::new(),
+        })));
     }
     if is_rig_shape(o) {
         let rig: StereoRig = from_native(&Value::Object(o.clone()), "rig", what)?;
         let rig = StereoRig::new(rig.left, rig.right, rig.right_from_left).map_err(model(what))?;
-        return Ok(Some(StereoCalibration { rig, rectification: None, rms_px: None, per_view_rms_px: Vec::new() }));
+        return Ok(Some(Calibration::Stereo(StereoCalibration {
+            rig,
+            rectification: None,
+            rms_px: None,
+            per_view_rms_px: Vec::new(),
+        })));
     }
     if ["M1", "D1", "M2", "D2", "R", "T"].iter().all(|k| o.contains_key(*k)) {
         return opencv_stereo(o, what).map(Some);
     }
     if o.contains_key("cam0") && o.contains_key("cam1") {
         return match kalibr(o, what)? {
-            Calibration::Stereo(s) => Ok(Some(s)),
+            c @ (Calibration::Stereo(_) | Calibration::FisheyeStereo(_)) => Ok(Some(c)),
             _ => Ok(None),
         };
     }
     Ok(None)
 }
 
-fn mono_at(o: &Map<String, Value>, what: &str) -> Result<Option<MonoCalibration>> {
+fn mono_at(o: &Map<String, Value>, what: &str) -> Result<Option<Calibration>> {
+    if let Some(Value::Object(c)) = o.get("camera")
+        && is_fisheye_camera_shape(c)
+    {
+        let camera = native_fisheye(c, what)?;
+        check_lens_model(o, &[&camera], what)?;
+        if let Some(Value::Object(m)) = o.get("opencv")
+            && m.contains_key("camera_matrix")
+        {
+            let same = match opencv_mono(m, what)? {
+                Calibration::FisheyeMono(cv) => {
+                    let p = |c: &FisheyeCamera| {
+                        let k = c.intrinsics();
+                        let mut v = vec![k.fx, k.fy, k.cx, k.cy, k.skew];
+                        v.extend(c.lens().parameters());
+                        (v, c.width(), c.height())
+                    };
+                    p(&cv.camera) == p(&camera)
+                }
+                _ => false,
+            };
+            if !same {
+                return Err(content(
+                    what,
+                    "`camera` and the `opencv` matrices (cv::fisheye K, D) disagree: the file was edited in one place \
+                     only; edit `camera` (what is read) and delete `opencv`, or fix both",
+                ));
+            }
+        }
+        let rms_px = o.get("rms_px").and_then(Value::as_f64);
+        return Ok(Some(Calibration::FisheyeMono(FisheyeMonoCalibration {
+            camera,
+            rms_px,
+            per_view_rms_px: per_view_mono(o, what)?,
+        })));
+    }
     if let Some(Value::Object(c)) = o.get("camera")
         && is_camera_shape(c)
     {
@@ -395,7 +740,9 @@ fn mono_at(o: &Map<String, Value>, what: &str) -> Result<Option<MonoCalibration>
         if let Some(Value::Object(m)) = o.get("opencv")
             && m.contains_key("camera_matrix")
         {
-            let cv = opencv_mono(m, what)?;
+            let Calibration::Mono(cv) = opencv_mono(m, what)? else {
+                return Err(content(what, "`camera` is a pinhole camera but the `opencv` matrices are marked fisheye"));
+            };
             let same = StereoRig { left: camera, right: camera, right_from_left: Isometry3::IDENTITY };
             let other = StereoRig { left: cv.camera, right: cv.camera, right_from_left: Isometry3::IDENTITY };
             let diff = rig_difference(&same, &other);
@@ -407,19 +754,31 @@ fn mono_at(o: &Map<String, Value>, what: &str) -> Result<Option<MonoCalibration>
             }
         }
         let rms_px = o.get("rms_px").and_then(Value::as_f64);
-        return Ok(Some(MonoCalibration { camera, rms_px, per_view_rms_px: per_view_mono(o, what)? }));
+        return Ok(Some(Calibration::Mono(MonoCalibration {
+            camera,
+            rms_px,
+            per_view_rms_px: per_view_mono(o, what)?,
+        })));
+    }
+    if is_fisheye_camera_shape(o) {
+        let camera = native_fisheye(o, what)?;
+        return Ok(Some(Calibration::FisheyeMono(FisheyeMonoCalibration {
+            camera,
+            rms_px: None,
+            per_view_rms_px: Vec::new(),
+        })));
     }
     if is_camera_shape(o) {
         let camera: Camera = from_native(&Value::Object(o.clone()), "camera", what)?;
         camera.validate().map_err(model(what))?;
-        return Ok(Some(MonoCalibration { camera, rms_px: None, per_view_rms_px: Vec::new() }));
+        return Ok(Some(Calibration::Mono(MonoCalibration { camera, rms_px: None, per_view_rms_px: Vec::new() })));
     }
     if o.contains_key("camera_matrix") && o.contains_key("distortion_coefficients") {
         return opencv_mono(o, what).map(Some);
     }
     if o.contains_key("cam0") {
         return match kalibr(o, what)? {
-            Calibration::Mono(m) => Ok(Some(m)),
+            c @ (Calibration::Mono(_) | Calibration::FisheyeMono(_)) => Ok(Some(c)),
             _ => Ok(None),
         };
     }
@@ -464,12 +823,12 @@ pub fn interpret(root: &Value, what: &str) -> Result<Calibration> {
     let nodes = objects(root);
     for o in &nodes {
         if let Some(s) = stereo_at(o, what)? {
-            return Ok(Calibration::Stereo(s));
+            return Ok(s);
         }
     }
     for o in &nodes {
         if let Some(m) = mono_at(o, what)? {
-            return Ok(Calibration::Mono(m));
+            return Ok(m);
         }
     }
     for o in &nodes {
@@ -493,14 +852,15 @@ pub fn interpret(root: &Value, what: &str) -> Result<Calibration> {
 
 /// A rig from two ROS `camera_info` documents (left, then right): `R = R2ᵀ R1`,
 /// `T = R2ᵀ (t2 − t1)` with `tᵢ = K'⁻¹ Pᵢ[:, 3]` (the rectified right camera sits at `t2 − t1` in
-/// the rectified left frame).
-pub fn rig_from_ros_pair(left: &Value, right: &Value, what: &str) -> Result<StereoCalibration> {
-    let part = |v: &Value, side: &str| -> Result<(Camera, DMat3, [[f64; 4]; 3])> {
+/// the rectified left frame). Both `plumb_bob`/`rational_polynomial` (a pinhole rig) or both
+/// `equidistant` (a fisheye rig).
+pub fn rig_from_ros_pair(left: &Value, right: &Value, what: &str) -> Result<Calibration> {
+    let part = |v: &Value, side: &str| -> Result<(Calibration, DMat3, [[f64; 4]; 3])> {
         let o = v.as_object().ok_or_else(|| content(what, format!("{side}: not a camera_info map")))?;
         let m = opencv_mono(o, what)?;
         let r = mat3_of(get(o, "rectification_matrix", what)?, "rectification_matrix", what)?;
         let p = rows_n::<4, 3>(get(o, "projection_matrix", what)?, "projection_matrix", what)?;
-        Ok((m.camera, r, p))
+        Ok((m, r, p))
     };
     let (lc, r1, p1) = part(left, "left")?;
     let (rc, r2, p2) = part(right, "right")?;
@@ -526,20 +886,36 @@ pub fn rig_from_ros_pair(left: &Value, right: &Value, what: &str) -> Result<Ster
         ));
     }
     let r = r2.transpose() * r1;
-    let rig = rig(lc, rc, r, r2.transpose() * (t2 - t1), what)?;
-    let q = q_from(&p1, &p2);
-    Ok(StereoCalibration {
-        rig,
-        rectification: Some(RectificationMatrices {
-            r1,
-            r2,
-            p1: ProjectionMatrix { rows: p1 },
-            p2: ProjectionMatrix { rows: p2 },
-            q,
-        }),
-        rms_px: None,
-        per_view_rms_px: Vec::new(),
-    })
+    let translation = r2.transpose() * (t2 - t1);
+    let rectification = Some(RectificationMatrices {
+        r1,
+        r2,
+        p1: ProjectionMatrix { rows: p1 },
+        p2: ProjectionMatrix { rows: p2 },
+        q: q_from(&p1, &p2),
+    });
+    match (lc, rc) {
+        (Calibration::Mono(l), Calibration::Mono(rc)) => Ok(Calibration::Stereo(StereoCalibration {
+            rig: rig(l.camera, rc.camera, r, translation, what)?,
+            rectification,
+            rms_px: None,
+            per_view_rms_px: Vec::new(),
+        })),
+        (Calibration::FisheyeMono(l), Calibration::FisheyeMono(rc)) => {
+            let right_from_left = Isometry3::from_rotation_translation(r, translation).map_err(model(what))?;
+            Ok(Calibration::FisheyeStereo(FisheyeStereoCalibration {
+                rig: FisheyeStereoRig::new(l.camera, rc.camera, right_from_left).map_err(model(what))?,
+                rectification,
+                rms_px: None,
+                per_view_rms_px: Vec::new(),
+            }))
+        }
+        _ => Err(content(
+            what,
+            "one camera_info is equidistant (fisheye) and the other plumb_bob/rational_polynomial: a rig has two \
+             cameras of one family",
+        )),
+    }
 }
 
 /// OpenCV's `Q` of a horizontal rectified pair from `P1`, `P2` (`stereoRectify`'s formula).

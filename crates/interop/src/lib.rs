@@ -1,7 +1,8 @@
 //! Calibration files that other tools read and write.
 //!
-//! One model ([`Calibration`]: a mono camera, a stereo rig with its rectification, or a hand-eye
-//! transform) and six formats, each read and written:
+//! One model ([`Calibration`]: a mono camera, a stereo rig with its rectification, a hand-eye
+//! transform, or a wide-angle camera or rig — Kannala–Brandt or double sphere) and six formats,
+//! each read and written:
 //!
 //! | [`Format`] | files | holds |
 //! |---|---|---|
@@ -17,6 +18,37 @@
 //! `M1 D1 M2 D2 R T E F R1 R2 P1 P2 Q` (one file, or `stereo_calib.cpp`'s `intrinsics.yml` and
 //! `extrinsics.yml` given together); hand-eye `R_cam2gripper`/`t_cam2gripper` (eye-to-hand
 //! `R_cam2base`/`t_cam2base`), the names of `calibrateHandEye`'s outputs.
+//!
+//! **Wide-angle lenses** ([`FisheyeMonoCalibration`], [`FisheyeStereoCalibration`]) carry their
+//! model in every format that has one, and are refused by the formats that have none:
+//!
+//! | lens | OpenCV YAML / XML | ROS `camera_info` | Kalibr camchain | RON / JSON |
+//! |---|---|---|---|---|
+//! | Kannala–Brandt (`cv::fisheye`) | `fisheye_model: 1` (OpenCV's `camera_calibration.cpp`), `camera_matrix`, `distortion_coefficients` 4x1 = `k1 k2 k3 k4`; stereo `M1 D1 M2 D2 R T E` (+ `R1 R2 P1 P2 Q`) | `distortion_model: equidistant`, `D` 1x4 (ROS's `camera_calibration`) | `camera_model: pinhole`, `distortion_model: equidistant`, intrinsics `[fu fv pu pv]`, coefficients `[k1 k2 k3 k4]` | [`FisheyeMonoRecord`] / [`FisheyeStereoRecord`]: the camera, `lens_model: kannala_brandt` and the `cv::fisheye` matrices |
+//! | double sphere | refused (no such model) | refused | `camera_model: ds`, intrinsics `[xi alpha fu fv pu pv]`, `distortion_model: none` | the same records, `lens_model: double_sphere` |
+//!
+//! Reading never guesses the lens: an OpenCV or ROS file is fisheye only when marked
+//! (`fisheye_model: 1`, or `distortion_model: equidistant` / `fisheye`) and then needs exactly 4
+//! coefficients; a 4-value `D` without a marker is OpenCV's pinhole `k1 k2 p1 p2`. Kalibr's
+//! `eucm` and `omni` have no parallax model and are refused. A fisheye calibration given where a
+//! pinhole one is needed ([`Calibration::camera`], [`Calibration::into_stereo`]) is refused
+//! with the lens named. A fisheye rig written as ROS without a rectification gets
+//! [`fisheye_rectify_default`]'s.
+//!
+//! ```
+//! use parallax_interop::{Calibration, FisheyeMonoCalibration, Format, parse, render};
+//! use parallax_interop::parallax_camera_model::{DoubleSphere, FisheyeCamera, FisheyeLens, Intrinsics};
+//!
+//! let ds = FisheyeLens::DoubleSphere(DoubleSphere::new(-0.2, 0.6).unwrap());
+//! let camera = FisheyeCamera::new(Intrinsics::new(250.0, 250.0, 319.5, 239.5), ds, 640, 480).unwrap();
+//! let mono = Calibration::FisheyeMono(FisheyeMonoCalibration { camera, rms_px: None, per_view_rms_px: vec![] });
+//! let kalibr = &render(&mono, Format::Kalibr, "camchain.yaml".as_ref()).unwrap()[0].1;
+//! assert!(kalibr.contains("camera_model: ds"));
+//! let (back, format) = parse(kalibr, "camchain.yaml").unwrap();
+//! assert_eq!((back, format), (mono.clone(), Format::Kalibr));
+//! let err = render(&mono, Format::OpenCvYaml, "camera.yml".as_ref()).unwrap_err().to_string();
+//! assert!(err.contains("double-sphere") && err.contains("kalibr"));
+//! ```
 //!
 //! Lengths (`T`, `P2`'s baseline column, `T_cn_cnm1`, hand-eye translations) are written in the
 //! calibration's own unit (the board square's); ROS and Kalibr expect metres.
@@ -69,9 +101,10 @@ pub use parallax_camera_model;
 pub use error::{InteropError, Result};
 pub use interpret::{interpret, rig_from_ros_pair};
 pub use model::{
-    Calibration, HandEyeCalibration, HandEyeRecord, MonoCalibration, MonoMatrices, MonoRecord, PoseRecord,
-    RectificationMatrices, RectifiedRecord, Rows3, Side, StereoCalibration, StereoMatrices, StereoRecord,
-    distortion_vector, mat3, rows3, setup_from_name, setup_name,
+    Calibration, FisheyeMatrices, FisheyeMonoCalibration, FisheyeMonoRecord, FisheyeStereoCalibration,
+    FisheyeStereoRecord, HandEyeCalibration, HandEyeRecord, MonoCalibration, MonoMatrices, MonoRecord, PoseRecord,
+    RectificationMatrices, RectificationRows, RectifiedRecord, Rows3, Side, StereoCalibration, StereoMatrices,
+    StereoRecord, distortion_vector, lens_model_name, mat3, rows3, setup_from_name, setup_name,
 };
 pub use write::{native_string, opencv_entries, record_string, render, ros_pair_paths};
 
@@ -227,7 +260,7 @@ pub fn read<P: AsRef<Path>>(paths: &[P]) -> Result<(Calibration, Vec<Format>)> {
             let (fa, va) = detect(&read_text(a)?, &a.display().to_string())?;
             let (fb, vb) = detect(&read_text(b)?, &b.display().to_string())?;
             if fa == Format::Ros && fb == Format::Ros {
-                return Ok((Calibration::Stereo(rig_from_ros_pair(&va, &vb, &what)?), vec![fa, fb]));
+                return Ok((rig_from_ros_pair(&va, &vb, &what)?, vec![fa, fb]));
             }
             let (Value::Object(mut merged), Value::Object(second)) = (va, vb) else {
                 return Err(content(&what, "two files are read together only when both are key-value maps"));
@@ -287,5 +320,24 @@ pub fn default_rectify_config() -> parallax_stereo_rectify::RectifyConfig {
 pub fn rectify_default(rig: &parallax_camera_model::StereoRig) -> Result<RectificationMatrices> {
     let r = parallax_stereo_rectify::stereo_rectify(rig, &default_rectify_config())
         .map_err(|e| InteropError::Unsupported(format!("rectifying the rig: {e}")))?;
+    Ok(RectificationMatrices::from(&r))
+}
+
+/// `R1 R2 P1 P2 Q` of a fisheye rig, written into ROS files when none is given:
+/// `cv::fisheye::stereoRectify` with OpenCV's defaults (`balance = 0`, `fov_scale = 1`, the input
+/// size, `CALIB_ZERO_DISPARITY`). A rig whose image edges lie 90° or more from the rectified axis
+/// has no pinhole rectification: that is an error (rectify it with a chosen `fov_scale` and
+/// write the result).
+pub fn fisheye_rectify_default(rig: &parallax_camera_model::FisheyeStereoRig) -> Result<RectificationMatrices> {
+    let r = parallax_stereo_rectify::fisheye_stereo_rectify(
+        rig,
+        &parallax_stereo_rectify::FisheyeRectifyConfig::default(),
+    )
+    .map_err(|e| {
+        InteropError::Unsupported(format!(
+            "rectifying the fisheye rig to a pinhole pair (ROS camera_info needs R and P): {e}; rectify it with \
+                 a field of view that fits (fov_scale) and write the calibration with that rectification"
+        ))
+    })?;
     Ok(RectificationMatrices::from(&r))
 }

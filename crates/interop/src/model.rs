@@ -1,7 +1,9 @@
 //! What a calibration file holds, and the row-major records the native (RON / JSON) files use.
 
 use glam::{DMat3, DVec3};
-use parallax_camera_model::{Camera, Isometry3, ProjectionMatrix, StereoRig};
+use parallax_camera_model::{
+    Camera, FisheyeCamera, FisheyeLens, FisheyeStereoRig, Isometry3, ProjectionMatrix, StereoRig,
+};
 use parallax_hand_eye::{PoseConventions, Setup};
 use parallax_stereo_rectify::Rectification;
 use serde::{Deserialize, Serialize};
@@ -70,6 +72,40 @@ pub struct StereoCalibration {
     pub per_view_rms_px: Vec<[f64; 2]>,
 }
 
+/// A wide-angle camera calibration (Kannala–Brandt or double sphere).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FisheyeMonoCalibration {
+    /// The camera (intrinsics, lens, image size).
+    pub camera: FisheyeCamera,
+    /// RMS reprojection error over all corners, pixels.
+    pub rms_px: Option<f64>,
+    /// RMS reprojection error per view, pixels.
+    pub per_view_rms_px: Vec<f64>,
+}
+
+/// A stereo rig of two wide-angle cameras, optionally with its pinhole rectification.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FisheyeStereoCalibration {
+    /// Both cameras and `right_from_left`.
+    pub rig: FisheyeStereoRig,
+    /// `R1 R2 P1 P2 Q` of the rectification to a pinhole pair (`cv::fisheye::stereoRectify`),
+    /// when the file holds them.
+    pub rectification: Option<RectificationMatrices>,
+    /// RMS reprojection error over both cameras, pixels.
+    pub rms_px: Option<f64>,
+    /// Per view `[left, right]` RMS, pixels.
+    pub per_view_rms_px: Vec<[f64; 2]>,
+}
+
+/// The name of a lens model in files and messages: `kannala_brandt` (OpenCV's `fisheye`, ROS's
+/// and Kalibr's `equidistant`) or `double_sphere` (Kalibr's `ds`).
+pub fn lens_model_name(lens: &FisheyeLens) -> &'static str {
+    match lens {
+        FisheyeLens::KannalaBrandt(_) => "kannala_brandt",
+        FisheyeLens::DoubleSphere(_) => "double_sphere",
+    }
+}
+
 /// A hand-eye calibration result.
 #[derive(Debug, Clone, PartialEq)]
 pub struct HandEyeCalibration {
@@ -102,6 +138,10 @@ pub enum Calibration {
     Stereo(StereoCalibration),
     /// A hand-eye transform.
     HandEye(HandEyeCalibration),
+    /// One wide-angle camera.
+    FisheyeMono(FisheyeMonoCalibration),
+    /// A stereo rig of wide-angle cameras.
+    FisheyeStereo(FisheyeStereoCalibration),
 }
 
 /// Which camera of a stereo calibration to take where one camera is needed.
@@ -121,6 +161,35 @@ impl Calibration {
             Self::Mono(_) => "mono camera calibration",
             Self::Stereo(_) => "stereo calibration",
             Self::HandEye(_) => "hand-eye transform",
+            Self::FisheyeMono(_) => "fisheye camera calibration",
+            Self::FisheyeStereo(_) => "fisheye stereo calibration",
+        }
+    }
+
+    /// The lens model of a fisheye calibration (`None` for the pinhole ones and hand-eye).
+    pub fn lens_model(&self) -> Option<&'static str> {
+        match self {
+            Self::FisheyeMono(m) => Some(lens_model_name(&m.camera.lens())),
+            Self::FisheyeStereo(s) => Some(lens_model_name(&s.rig.left.lens())),
+            _ => None,
+        }
+    }
+
+    /// The fisheye stereo calibration, or an error naming what the file holds instead.
+    pub fn into_fisheye_stereo(self, what: &str) -> Result<FisheyeStereoCalibration> {
+        match self {
+            Self::FisheyeStereo(s) => Ok(s),
+            other => Err(content(what, format!("holds a {}, not a stereo rig of fisheye cameras", other.kind()))),
+        }
+    }
+
+    /// One fisheye camera: the mono calibration's, or the chosen side of a fisheye rig.
+    pub fn fisheye_camera(&self, side: Side, what: &str) -> Result<FisheyeCamera> {
+        match (self, side) {
+            (Self::FisheyeMono(m), _) => Ok(m.camera),
+            (Self::FisheyeStereo(s), Side::Left) => Ok(s.rig.left),
+            (Self::FisheyeStereo(s), Side::Right) => Ok(s.rig.right),
+            (other, _) => Err(content(what, format!("holds a {}, not a fisheye camera", other.kind()))),
         }
     }
 
@@ -128,6 +197,14 @@ impl Calibration {
     pub fn into_stereo(self, what: &str) -> Result<StereoCalibration> {
         match self {
             Self::Stereo(s) => Ok(s),
+            Self::FisheyeStereo(s) => Err(content(
+                what,
+                format!(
+                    "holds a fisheye stereo calibration ({} lenses): this input takes a pinhole (Brown–Conrady) \
+                     rig",
+                    lens_model_name(&s.rig.left.lens())
+                ),
+            )),
             other => Err(content(
                 what,
                 format!(
@@ -148,6 +225,15 @@ impl Calibration {
             (Self::HandEye(_), _) => {
                 Err(content(what, "holds a hand-eye transform, not camera intrinsics: give a calibrate result"))
             }
+            (Self::FisheyeMono(_) | Self::FisheyeStereo(_), _) => Err(content(
+                what,
+                format!(
+                    "holds a {} ({} lens): this input takes a pinhole (Brown–Conrady) camera; the fisheye \
+                     lens cannot be expressed as k1 k2 p1 p2 k3 without changing the images",
+                    self.kind(),
+                    self.lens_model().unwrap_or_default()
+                ),
+            )),
         }
     }
 }
@@ -417,6 +503,122 @@ impl RectifiedRecord {
             focal_px: rect.focal(),
             rectified_baseline: rect.rectified_baseline(),
             scale: rect.scale,
+        }
+    }
+}
+
+/// OpenCV's `cv::fisheye` matrices of a Kannala–Brandt camera, row-major, in the native files:
+/// `K` and `D = [k1 k2 k3 k4]`, with the marker `fisheye_model: 1` of OpenCV's calibration
+/// sample (`camera_calibration.cpp`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FisheyeMatrices {
+    /// `1`: `distortion_coefficients` are `cv::fisheye`'s `k1 k2 k3 k4`.
+    pub fisheye_model: u8,
+    /// `K`, 3x3.
+    pub camera_matrix: Rows3,
+    /// `k1 k2 k3 k4`.
+    pub distortion_coefficients: Vec<f64>,
+    /// Image width, pixels.
+    pub image_width: u32,
+    /// Image height, pixels.
+    pub image_height: u32,
+}
+
+impl FisheyeMatrices {
+    /// The matrices of `camera`, or `None` for a lens OpenCV has no model of (double sphere).
+    pub fn of(camera: &FisheyeCamera) -> Option<Self> {
+        let FisheyeLens::KannalaBrandt(kb) = camera.lens() else { return None };
+        Some(Self {
+            fisheye_model: 1,
+            camera_matrix: rows3(&camera.intrinsics().matrix()),
+            distortion_coefficients: kb.coefficients().to_vec(),
+            image_width: camera.width(),
+            image_height: camera.height(),
+        })
+    }
+}
+
+/// The native record of a fisheye calibration: the camera in the project's own form (what is
+/// read back), the lens model's name, and for Kannala–Brandt the `cv::fisheye` matrices
+/// (checked against the camera on reading).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FisheyeMonoRecord {
+    /// The camera.
+    pub camera: FisheyeCamera,
+    /// `kannala_brandt` or `double_sphere`.
+    pub lens_model: &'static str,
+    /// `K` and `D` as `cv::fisheye` (Kannala–Brandt only).
+    pub opencv: Option<FisheyeMatrices>,
+    /// RMS reprojection error, pixels.
+    pub rms_px: Option<f64>,
+    /// Per-view RMS, pixels.
+    pub per_view_rms_px: Vec<f64>,
+}
+
+impl FisheyeMonoRecord {
+    /// The record of `m`.
+    pub fn of(m: &FisheyeMonoCalibration) -> Self {
+        Self {
+            camera: m.camera,
+            lens_model: lens_model_name(&m.camera.lens()),
+            opencv: FisheyeMatrices::of(&m.camera),
+            rms_px: m.rms_px,
+            per_view_rms_px: m.per_view_rms_px.clone(),
+        }
+    }
+}
+
+/// The native record of a fisheye stereo calibration: the rig in the project's own form (what
+/// is read back), the lens model's name, `right_from_left` in every convention and the
+/// rectification matrices (row-major) when known.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FisheyeStereoRecord {
+    /// The rig.
+    pub rig: FisheyeStereoRig,
+    /// `kannala_brandt` or `double_sphere` (both cameras).
+    pub lens_model: &'static str,
+    /// `right_from_left` as translation, quaternion, matrix, rotation vector and tf line.
+    pub right_from_left: PoseRecord,
+    /// `R1 R2 P1 P2 Q` of the rectification to a pinhole pair, when known.
+    pub rectification: Option<RectificationRows>,
+    /// RMS reprojection error over both cameras, pixels.
+    pub rms_px: Option<f64>,
+    /// Per view `[left, right]` RMS, pixels.
+    pub per_view_rms_px: Vec<[f64; 2]>,
+}
+
+/// `R1 R2 P1 P2 Q`, row-major, under OpenCV's names.
+#[allow(non_snake_case)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RectificationRows {
+    /// `rectified_from_left`.
+    pub R1: Rows3,
+    /// `rectified_from_right`.
+    pub R2: Rows3,
+    /// Left rectified projection.
+    pub P1: [[f64; 4]; 3],
+    /// Right rectified projection.
+    pub P2: [[f64; 4]; 3],
+    /// Disparity-to-depth.
+    pub Q: [[f64; 4]; 4],
+}
+
+impl From<&RectificationMatrices> for RectificationRows {
+    fn from(r: &RectificationMatrices) -> Self {
+        Self { R1: rows3(&r.r1), R2: rows3(&r.r2), P1: r.p1.rows, P2: r.p2.rows, Q: r.q }
+    }
+}
+
+impl FisheyeStereoRecord {
+    /// The record of `s`.
+    pub fn of(s: &FisheyeStereoCalibration) -> Self {
+        Self {
+            rig: s.rig,
+            lens_model: lens_model_name(&s.rig.left.lens()),
+            right_from_left: PoseRecord::of(&s.rig.right_from_left),
+            rectification: s.rectification.as_ref().map(RectificationRows::from),
+            rms_px: s.rms_px,
+            per_view_rms_px: s.per_view_rms_px.clone(),
         }
     }
 }

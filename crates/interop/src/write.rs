@@ -2,12 +2,14 @@
 
 use std::path::{Path, PathBuf};
 
-use parallax_camera_model::{Camera, Isometry3};
+use parallax_camera_model::{Camera, FisheyeCamera, FisheyeLens, Isometry3};
 use serde::Serialize;
 
 use crate::error::{InteropError, Result};
 use crate::model::{
-    Calibration, HandEyeRecord, MonoCalibration, MonoRecord, StereoCalibration, StereoRecord, distortion_vector, rows3,
+    Calibration, FisheyeMonoCalibration, FisheyeMonoRecord, FisheyeStereoCalibration, FisheyeStereoRecord,
+    HandEyeRecord, MonoCalibration, MonoRecord, RectificationMatrices, StereoCalibration, StereoRecord,
+    distortion_vector, rows3,
 };
 use crate::opencv::Entry;
 use crate::{Format, rectify_default};
@@ -50,13 +52,7 @@ fn entries_stereo(s: &StereoCalibration) -> Vec<(String, Entry)> {
         ("F".to_string(), Entry::matrix(&rows3(&rig.fundamental()))),
     ]);
     if let Some(r) = &s.rectification {
-        e.extend([
-            ("R1".to_string(), Entry::matrix(&rows3(&r.r1))),
-            ("R2".to_string(), Entry::matrix(&rows3(&r.r2))),
-            ("P1".to_string(), Entry::matrix(&r.p1.rows)),
-            ("P2".to_string(), Entry::matrix(&r.p2.rows)),
-            ("Q".to_string(), Entry::matrix(&r.q)),
-        ]);
+        e.extend(rectification_entries(r));
     }
     if let Some(rms) = s.rms_px {
         e.push(("avg_reprojection_error".to_string(), Entry::Real(rms)));
@@ -82,13 +78,101 @@ fn entries_hand_eye(h: &crate::HandEyeCalibration) -> Vec<(String, Entry)> {
     e
 }
 
-/// OpenCV FileStorage entries of `c` (the key names of OpenCV's calibration samples).
-pub fn opencv_entries(c: &Calibration) -> Vec<(String, Entry)> {
-    match c {
+/// The refusal to write a double-sphere camera to a format that has no such model.
+fn no_double_sphere(format: &str) -> InteropError {
+    InteropError::Unsupported(format!(
+        "a double-sphere camera has no {format} representation (OpenCV and ROS camera_info know pinhole and \
+         Kannala–Brandt/equidistant lenses only): write it as kalibr (camera_model: ds), ron or json"
+    ))
+}
+
+/// `cv::fisheye`'s `K` and `D = [k1 k2 k3 k4]` of a Kannala–Brandt camera.
+fn fisheye_kd(c: &FisheyeCamera, format: &str) -> Result<(Entry, [f64; 4])> {
+    match c.lens() {
+        FisheyeLens::KannalaBrandt(kb) => Ok((Entry::matrix(&rows3(&c.intrinsics().matrix())), kb.coefficients())),
+        FisheyeLens::DoubleSphere(_) => Err(no_double_sphere(format)),
+    }
+}
+
+/// OpenCV's calibration sample (`camera_calibration.cpp`) with its fisheye option: the marker
+/// `fisheye_model: 1`, `camera_matrix`, `distortion_coefficients` 4x1 (`k1 k2 k3 k4`).
+fn entries_fisheye_mono(m: &FisheyeMonoCalibration) -> Result<Vec<(String, Entry)>> {
+    let c = &m.camera;
+    let (k, d) = fisheye_kd(c, "OpenCV")?;
+    let mut e = vec![
+        ("image_width".to_string(), Entry::Int(i64::from(c.width()))),
+        ("image_height".to_string(), Entry::Int(i64::from(c.height()))),
+        ("fisheye_model".to_string(), Entry::Int(1)),
+        ("camera_matrix".to_string(), k),
+        ("distortion_coefficients".to_string(), Entry::col_vector(&d)),
+    ];
+    if let Some(rms) = m.rms_px {
+        e.push(("avg_reprojection_error".to_string(), Entry::Real(rms)));
+    }
+    if !m.per_view_rms_px.is_empty() {
+        e.push(("per_view_reprojection_errors".to_string(), Entry::col_vector(&m.per_view_rms_px)));
+    }
+    Ok(e)
+}
+
+/// `stereo_calib.cpp`'s keys for a `cv::fisheye::stereoCalibrate` result, with the marker
+/// `fisheye_model: 1`: `M1 D1 M2 D2` (`D` 1x4), `R T E` and `cv::fisheye::stereoRectify`'s
+/// `R1 R2 P1 P2 Q` when known. No `F`: pixels of a fisheye image are not related by one.
+fn entries_fisheye_stereo(s: &FisheyeStereoCalibration) -> Result<Vec<(String, Entry)>> {
+    let rig = &s.rig;
+    let (m1, d1) = fisheye_kd(&rig.left, "OpenCV")?;
+    let (m2, d2) = fisheye_kd(&rig.right, "OpenCV")?;
+    let mut e = vec![
+        ("image_width".to_string(), Entry::Int(i64::from(rig.left.width()))),
+        ("image_height".to_string(), Entry::Int(i64::from(rig.left.height()))),
+    ];
+    if (rig.right.width(), rig.right.height()) != (rig.left.width(), rig.left.height()) {
+        e.push(("right_image_width".to_string(), Entry::Int(i64::from(rig.right.width()))));
+        e.push(("right_image_height".to_string(), Entry::Int(i64::from(rig.right.height()))));
+    }
+    e.extend([
+        ("fisheye_model".to_string(), Entry::Int(1)),
+        ("M1".to_string(), m1),
+        ("D1".to_string(), Entry::row_vector(&d1)),
+        ("M2".to_string(), m2),
+        ("D2".to_string(), Entry::row_vector(&d2)),
+        ("R".to_string(), Entry::matrix(&rows3(&rig.right_from_left.rotation_matrix()))),
+        ("T".to_string(), Entry::col_vector(&rig.right_from_left.translation.to_array())),
+        ("E".to_string(), Entry::matrix(&rows3(&rig.essential()))),
+    ]);
+    if let Some(r) = &s.rectification {
+        e.extend(rectification_entries(r));
+    }
+    if let Some(rms) = s.rms_px {
+        e.push(("avg_reprojection_error".to_string(), Entry::Real(rms)));
+    }
+    if !s.per_view_rms_px.is_empty() {
+        e.push(("per_view_reprojection_errors".to_string(), Entry::matrix(&s.per_view_rms_px)));
+    }
+    Ok(e)
+}
+
+fn rectification_entries(r: &RectificationMatrices) -> [(String, Entry); 5] {
+    [
+        ("R1".to_string(), Entry::matrix(&rows3(&r.r1))),
+        ("R2".to_string(), Entry::matrix(&rows3(&r.r2))),
+        ("P1".to_string(), Entry::matrix(&r.p1.rows)),
+        ("P2".to_string(), Entry::matrix(&r.p2.rows)),
+        ("Q".to_string(), Entry::matrix(&r.q)),
+    ]
+}
+
+/// OpenCV FileStorage entries of `c` (the key names of OpenCV's calibration samples; a
+/// Kannala–Brandt camera marked `fisheye_model: 1` as `camera_calibration.cpp` does). A
+/// double-sphere camera is refused: OpenCV has no such model.
+pub fn opencv_entries(c: &Calibration) -> Result<Vec<(String, Entry)>> {
+    Ok(match c {
         Calibration::Mono(m) => entries_mono(m),
         Calibration::Stereo(s) => entries_stereo(s),
         Calibration::HandEye(h) => entries_hand_eye(h),
-    }
+        Calibration::FisheyeMono(m) => entries_fisheye_mono(m)?,
+        Calibration::FisheyeStereo(s) => entries_fisheye_stereo(s)?,
+    })
 }
 
 #[derive(Serialize)]
@@ -117,14 +201,46 @@ struct RosCameraInfo {
     projection_matrix: RosMatrix,
 }
 
-fn ros_camera(name: &str, camera: &Camera, r: glam::DMat3, p: [[f64; 4]; 3]) -> Result<String> {
-    let d = distortion_vector(camera);
+/// A camera as ROS knows it: size, `K`, the distortion model's name and its coefficients.
+struct RosLens {
+    width: u32,
+    height: u32,
+    k: glam::DMat3,
+    model: &'static str,
+    d: Vec<f64>,
+}
+
+impl RosLens {
+    fn pinhole(c: &Camera) -> Self {
+        let d = distortion_vector(c);
+        let model = if d.len() == 8 { "rational_polynomial" } else { "plumb_bob" };
+        Self { width: c.width, height: c.height, k: c.intrinsics.matrix(), model, d }
+    }
+
+    /// ROS's `equidistant` model (what `camera_calibration` writes for a fisheye: OpenCV's
+    /// `cv::fisheye`, `D = [k1 k2 k3 k4]`).
+    fn fisheye(c: &FisheyeCamera) -> Result<Self> {
+        match c.lens() {
+            FisheyeLens::KannalaBrandt(kb) => Ok(Self {
+                width: c.width(),
+                height: c.height(),
+                k: c.intrinsics().matrix(),
+                model: "equidistant",
+                d: kb.coefficients().to_vec(),
+            }),
+            FisheyeLens::DoubleSphere(_) => Err(no_double_sphere("ROS camera_info")),
+        }
+    }
+}
+
+fn ros_camera(name: &str, camera: &RosLens, r: glam::DMat3, p: [[f64; 4]; 3]) -> Result<String> {
+    let d = camera.d.clone();
     let info = RosCameraInfo {
         image_width: camera.width,
         image_height: camera.height,
         camera_name: name.to_string(),
-        camera_matrix: RosMatrix::of(&rows3(&camera.intrinsics.matrix())),
-        distortion_model: if d.len() == 8 { "rational_polynomial" } else { "plumb_bob" },
+        camera_matrix: RosMatrix::of(&rows3(&camera.k)),
+        distortion_model: camera.model,
         distortion_coefficients: RosMatrix { rows: 1, cols: d.len(), data: d },
         rectification_matrix: RosMatrix::of(&rows3(&r)),
         projection_matrix: RosMatrix::of(&p),
@@ -139,28 +255,37 @@ pub fn ros_pair_paths(path: &Path) -> [PathBuf; 2] {
     [path.with_file_name(format!("{stem}_left.{ext}")), path.with_file_name(format!("{stem}_right.{ext}"))]
 }
 
+/// One camera_info of a mono camera: `R = I`, `P = [K | 0]`.
+fn ros_mono(path: &Path, lens: RosLens) -> Result<Vec<(PathBuf, String)>> {
+    let kr = rows3(&lens.k);
+    let p =
+        [[kr[0][0], kr[0][1], kr[0][2], 0.0], [kr[1][0], kr[1][1], kr[1][2], 0.0], [kr[2][0], kr[2][1], kr[2][2], 0.0]];
+    Ok(vec![(path.to_path_buf(), ros_camera("camera", &lens, glam::DMat3::IDENTITY, p)?)])
+}
+
+fn ros_pair(path: &Path, left: RosLens, right: RosLens, r: &RectificationMatrices) -> Result<Vec<(PathBuf, String)>> {
+    let [lp, rp] = ros_pair_paths(path);
+    Ok(vec![(lp, ros_camera("left", &left, r.r1, r.p1.rows)?), (rp, ros_camera("right", &right, r.r2, r.p2.rows)?)])
+}
+
 fn ros(c: &Calibration, path: &Path) -> Result<Vec<(PathBuf, String)>> {
     match c {
-        Calibration::Mono(m) => {
-            let k = m.camera.intrinsics.matrix();
-            let kr = rows3(&k);
-            let p = [
-                [kr[0][0], kr[0][1], kr[0][2], 0.0],
-                [kr[1][0], kr[1][1], kr[1][2], 0.0],
-                [kr[2][0], kr[2][1], kr[2][2], 0.0],
-            ];
-            Ok(vec![(path.to_path_buf(), ros_camera("camera", &m.camera, glam::DMat3::IDENTITY, p)?)])
-        }
+        Calibration::Mono(m) => ros_mono(path, RosLens::pinhole(&m.camera)),
+        Calibration::FisheyeMono(m) => ros_mono(path, RosLens::fisheye(&m.camera)?),
         Calibration::Stereo(s) => {
             let r = match s.rectification {
                 Some(r) => r,
                 None => rectify_default(&s.rig)?,
             };
-            let [lp, rp] = ros_pair_paths(path);
-            Ok(vec![
-                (lp, ros_camera("left", &s.rig.left, r.r1, r.p1.rows)?),
-                (rp, ros_camera("right", &s.rig.right, r.r2, r.p2.rows)?),
-            ])
+            ros_pair(path, RosLens::pinhole(&s.rig.left), RosLens::pinhole(&s.rig.right), &r)
+        }
+        Calibration::FisheyeStereo(s) => {
+            let (left, right) = (RosLens::fisheye(&s.rig.left)?, RosLens::fisheye(&s.rig.right)?);
+            let r = match s.rectification {
+                Some(r) => r,
+                None => crate::fisheye_rectify_default(&s.rig)?,
+            };
+            ros_pair(path, left, right, &r)
         }
         Calibration::HandEye(_) => Err(InteropError::Unsupported(
             "ROS camera_info holds camera intrinsics, not a hand-eye transform: write it as ron, json or opencv \
@@ -174,9 +299,9 @@ fn ros(c: &Calibration, path: &Path) -> Result<Vec<(PathBuf, String)>> {
 #[allow(non_snake_case)]
 struct KalibrCamera {
     camera_model: &'static str,
-    intrinsics: [f64; 4],
+    intrinsics: Vec<f64>,
     distortion_model: &'static str,
-    distortion_coeffs: [f64; 4],
+    distortion_coeffs: Vec<f64>,
     resolution: [u32; 2],
     #[serde(skip_serializing_if = "Option::is_none")]
     T_cn_cnm1: Option<[[f64; 4]; 4]>,
@@ -196,20 +321,51 @@ fn kalibr_camera(c: &Camera, name: &str, t: Option<&Isometry3>) -> Result<Kalibr
     }
     Ok(KalibrCamera {
         camera_model: "pinhole",
-        intrinsics: [k.fx, k.fy, k.cx, k.cy],
+        intrinsics: vec![k.fx, k.fy, k.cx, k.cy],
         distortion_model: "radtan",
-        distortion_coeffs: [d.k1, d.k2, d.p1, d.p2],
+        distortion_coeffs: vec![d.k1, d.k2, d.p1, d.p2],
         resolution: [c.width, c.height],
-        T_cn_cnm1: t.map(|t| {
-            let m = rows3(&t.rotation_matrix());
-            let p = t.translation;
-            [
-                [m[0][0], m[0][1], m[0][2], p.x],
-                [m[1][0], m[1][1], m[1][2], p.y],
-                [m[2][0], m[2][1], m[2][2], p.z],
-                [0.0, 0.0, 0.0, 1.0],
-            ]
-        }),
+        T_cn_cnm1: t.map(kalibr_transform),
+    })
+}
+
+/// `T_cn_cnm1`: the 4x4 matrix of `cam1_from_cam0`.
+fn kalibr_transform(t: &Isometry3) -> [[f64; 4]; 4] {
+    let m = rows3(&t.rotation_matrix());
+    let p = t.translation;
+    [
+        [m[0][0], m[0][1], m[0][2], p.x],
+        [m[1][0], m[1][1], m[1][2], p.y],
+        [m[2][0], m[2][1], m[2][2], p.z],
+        [0.0, 0.0, 0.0, 1.0],
+    ]
+}
+
+/// Kalibr's `pinhole-equi` (`camera_model: pinhole`, `distortion_model: equidistant`,
+/// intrinsics `[fu fv pu pv]`, coefficients `[k1 k2 k3 k4]`) or `ds` (intrinsics
+/// `[xi alpha fu fv pu pv]`, `distortion_model: none`, no coefficients).
+fn kalibr_fisheye(c: &FisheyeCamera, name: &str, t: Option<&Isometry3>) -> Result<KalibrCamera> {
+    let k = c.intrinsics();
+    if k.skew != 0.0 {
+        return Err(InteropError::Unsupported(format!(
+            "{name}: Kalibr's camera models have no skew (this camera has {}); calibrate without skew to write \
+             Kalibr",
+            k.skew
+        )));
+    }
+    let (camera_model, intrinsics, distortion_model, distortion_coeffs) = match c.lens() {
+        FisheyeLens::KannalaBrandt(kb) => {
+            ("pinhole", vec![k.fx, k.fy, k.cx, k.cy], "equidistant", kb.coefficients().to_vec())
+        }
+        FisheyeLens::DoubleSphere(ds) => ("ds", vec![ds.xi(), ds.alpha(), k.fx, k.fy, k.cx, k.cy], "none", vec![]),
+    };
+    Ok(KalibrCamera {
+        camera_model,
+        intrinsics,
+        distortion_model,
+        distortion_coeffs,
+        resolution: [c.width(), c.height()],
+        T_cn_cnm1: t.map(kalibr_transform),
     })
 }
 
@@ -222,6 +378,13 @@ fn kalibr(c: &Calibration) -> Result<String> {
         Calibration::Stereo(s) => {
             chain.insert("cam0", kalibr_camera(&s.rig.left, "cam0", None)?);
             chain.insert("cam1", kalibr_camera(&s.rig.right, "cam1", Some(&s.rig.right_from_left))?);
+        }
+        Calibration::FisheyeMono(m) => {
+            chain.insert("cam0", kalibr_fisheye(&m.camera, "cam0", None)?);
+        }
+        Calibration::FisheyeStereo(s) => {
+            chain.insert("cam0", kalibr_fisheye(&s.rig.left, "cam0", None)?);
+            chain.insert("cam1", kalibr_fisheye(&s.rig.right, "cam1", Some(&s.rig.right_from_left))?);
         }
         Calibration::HandEye(_) => {
             return Err(InteropError::Unsupported(
@@ -256,6 +419,8 @@ pub fn record_string(c: &Calibration, format: Format) -> Result<String> {
         Calibration::Mono(m) => native_string(&MonoRecord::of(m), format),
         Calibration::Stereo(s) => native_string(&StereoRecord::of(s), format),
         Calibration::HandEye(h) => native_string(&HandEyeRecord::of(h), format),
+        Calibration::FisheyeMono(m) => native_string(&FisheyeMonoRecord::of(m), format),
+        Calibration::FisheyeStereo(s) => native_string(&FisheyeStereoRecord::of(s), format),
     }
 }
 
@@ -265,8 +430,8 @@ pub fn render(c: &Calibration, format: Format, path: &Path) -> Result<Vec<(PathB
     let one = |text: String| Ok(vec![(path.to_path_buf(), text)]);
     match format {
         Format::Ron | Format::Json => one(record_string(c, format)?),
-        Format::OpenCvYaml => one(crate::opencv::to_yaml(&opencv_entries(c))?),
-        Format::OpenCvXml => one(crate::opencv::to_xml(&opencv_entries(c))?),
+        Format::OpenCvYaml => one(crate::opencv::to_yaml(&opencv_entries(c)?)?),
+        Format::OpenCvXml => one(crate::opencv::to_xml(&opencv_entries(c)?)?),
         Format::Ros => ros(c, path),
         Format::Kalibr => one(kalibr(c)?),
     }
