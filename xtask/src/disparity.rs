@@ -7,13 +7,13 @@
 //! `rejected_uniqueness`, `rejected_lr`, `rejected_confidence`, `rejected_speckle`, `filled`
 //! (percent of the image), `seconds`, `mdes`.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
-use std::time::Instant;
 
 use anyhow::Context;
-use parallax_block_matching::{BlockMatcher, CostFunction, Gray16Image, MatcherConfig, Prefilter, SgmConfig, SgmPaths};
-use parallax_camera_model::DisparityMap;
+use parallax_block_matching::{BlockMatcher, CostFunction, MatcherConfig, Prefilter, SgmConfig, SgmPaths, SwapCheck};
+use parallax_composition::disparity::{self, FrameEvent};
+use parallax_composition::summary;
 
 /// Arguments of `cargo xtask disparity`.
 #[derive(clap::Args)]
@@ -103,181 +103,57 @@ pub struct Args {
     calib: Vec<PathBuf>,
 }
 
-enum Pair {
-    U8(image::GrayImage, image::GrayImage),
-    U16(Gray16Image, Gray16Image),
-}
-
-fn is_16_bit(path: &Path) -> anyhow::Result<bool> {
-    let img = image::open(path).with_context(|| format!("reading image {}", path.display()))?;
-    Ok(img.color().bytes_per_pixel() / img.color().channel_count() > 1)
-}
-
-fn load_pair(left: &Path, right: &Path) -> anyhow::Result<Pair> {
-    if is_16_bit(left)? || is_16_bit(right)? {
-        let l = image::open(left).with_context(|| format!("reading image {}", left.display()))?.into_luma16();
-        let r = image::open(right).with_context(|| format!("reading image {}", right.display()))?.into_luma16();
-        Ok(Pair::U16(l, r))
-    } else {
-        Ok(Pair::U8(parallax_composition::io::load_gray(left)?, parallax_composition::io::load_gray(right)?))
+/// Warns of a swapped-looking pair (`what`: "pair" or "pairs"); `Some(exit code 2)` when that
+/// refuses the run.
+fn refuse_swapped(swap: &SwapCheck, allow: bool, sequence: bool) -> Option<ExitCode> {
+    if !swap.looks_swapped {
+        return None;
     }
-}
-
-fn load_truth(path: &Path, scale: f32) -> anyhow::Result<DisparityMap> {
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("pfm")) {
-        let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-        return Ok(parallax_block_matching::from_pfm(&bytes, &path.display().to_string())?);
+    eprintln!("{}", disparity::swap_warning(swap, sequence));
+    let res = if sequence { "swapped-looking pairs" } else { "a swapped-looking pair" };
+    if allow {
+        return None;
     }
-    let img = image::open(path).with_context(|| format!("reading ground truth {}", path.display()))?;
-    let (w, h) = (img.width() as usize, img.height() as usize);
-    let values: Vec<u16> = if img.color().bytes_per_pixel() / img.color().channel_count() > 1 {
-        img.into_luma16().into_raw()
-    } else {
-        img.into_luma8().into_raw().into_iter().map(u16::from).collect()
-    };
-    parallax_block_matching::from_scaled(&values, w, h, scale)
-        .with_context(|| format!("ground truth {}", path.display()))
+    eprintln!("error: refusing {res}; exchange --left and --right, or pass --allow-swapped");
+    Some(ExitCode::from(2))
 }
 
-impl parallax_block_matching::StereoPair for Pair {
-    fn match_into(&self, m: &mut BlockMatcher, out: &mut DisparityMap) -> parallax_block_matching::Result<()> {
-        match self {
-            Pair::U8(l, r) => m.compute_into(l, r, out),
-            Pair::U16(l, r) => m.compute_u16_into(l, r, out),
-        }
-    }
-}
-
-/// The paired left and right files when `--left` / `--right` name folders or glob patterns
-/// (`None`: a single pair).
-fn sequence(left: &Path, right: &Path) -> anyhow::Result<Option<(Vec<PathBuf>, Vec<PathBuf>)>> {
-    let is_pattern = |p: &Path| p.to_string_lossy().contains(['*', '?', '[']);
-    let list = |p: &Path| -> anyhow::Result<Vec<PathBuf>> {
-        if p.is_dir() {
-            let mut v: Vec<PathBuf> = std::fs::read_dir(p)
-                .with_context(|| format!("listing {}", p.display()))?
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|f| {
-                    f.is_file()
-                        && f.extension().is_some_and(|e| {
-                            ["png", "jpg", "jpeg", "pgm", "ppm", "pnm"]
-                                .contains(&e.to_ascii_lowercase().to_str().unwrap_or(""))
-                        })
-                })
-                .collect();
-            v.sort();
-            anyhow::ensure!(!v.is_empty(), "no image in folder {}", p.display());
-            Ok(v)
-        } else {
-            Ok(parallax_composition::io::expand_glob(&p.to_string_lossy())?)
-        }
-    };
-    let (ls, rs) = (left.is_dir() || is_pattern(left), right.is_dir() || is_pattern(right));
-    if !ls && !rs {
-        return Ok(None);
-    }
-    anyhow::ensure!(ls && rs, "--left and --right must both be single images or both folders / glob patterns");
-    let (l, r) = (list(left)?, list(right)?);
-    anyhow::ensure!(
-        l.len() == r.len(),
-        "{} left images but {} right images: the sequences must pair up one to one",
-        l.len(),
-        r.len()
-    );
-    Ok(Some((l, r)))
-}
-
-/// `disparity` over an image sequence: decode (prefetch thread), match (this thread) and write
-/// (writer thread) overlapped, a progress bar, and the throughput.
+/// `disparity` over an image sequence: decode, match and write overlapped
+/// (`parallax_composition::disparity::run_sequence`), a progress bar, and the throughput.
 fn run_sequence(
     args: &Args,
     matcher: BlockMatcher,
     lefts: Vec<PathBuf>,
     rights: Vec<PathBuf>,
 ) -> anyhow::Result<ExitCode> {
-    let n = lefts.len();
     // the first pair decides whether the sequence looks swapped
-    let first = load_pair(&lefts[0], &rights[0])?;
-    let swap = match &first {
-        Pair::U8(l, r) => matcher.check_swap(l, r)?,
-        Pair::U16(l, r) => matcher.check_swap_u16(l, r)?,
-    };
-    if swap.looks_swapped {
-        eprintln!(
-            "warning: the pairs look swapped (left and right exchanged): {:.1} % of the pixels pass the checks as \
-             given, {:.1} % with the images exchanged (first pair, half resolution)",
-            100.0 * swap.forward_density,
-            100.0 * swap.reverse_density
-        );
-        if !args.allow_swapped {
-            eprintln!("error: refusing swapped-looking pairs; exchange --left and --right, or pass --allow-swapped");
-            return Ok(ExitCode::from(2));
-        }
+    let first = disparity::load_pair(&lefts[0], &rights[0])?;
+    if let Some(code) = refuse_swapped(&first.check_swap(&matcher)?, args.allow_swapped, true) {
+        return Ok(code);
     }
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
-    let names: Vec<String> = lefts
-        .iter()
-        .map(|p| p.file_stem().map_or_else(|| "frame".into(), |s| s.to_string_lossy().into_owned()))
-        .collect();
-    let source = lefts.into_iter().zip(rights).map(|(l, r)| load_pair(&l, &r).map_err(|e| format!("{e:#}")));
-    let bar = indicatif::ProgressBar::new(n as u64);
+    let bar = indicatif::ProgressBar::new(lefts.len() as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} frames {per_sec} eta {eta} {msg}")
             .context("progress bar template")?,
     );
-    // the writer thread: PFM and 16-bit PNG (1/256 px) per frame, atomically
-    let (tx, rx) = std::sync::mpsc::sync_channel::<(String, DisparityMap)>(2);
-    let out_dir = args.out.clone();
-    let writer = std::thread::spawn(move || -> anyhow::Result<()> {
-        for (name, map) in rx {
-            parallax_composition::io::write_atomic(
-                &out_dir.join(format!("{name}.pfm")),
-                &parallax_block_matching::to_pfm(&map),
-            )?;
-            parallax_composition::io::save_png(
-                &out_dir.join(format!("{name}.png")),
-                &parallax_block_matching::to_png16(&map, 256.0),
-            )?;
-        }
-        Ok(())
-    });
-    let t0 = Instant::now();
-    let (mut failed, mut density, mut done) = (0usize, 0.0f64, 0usize);
-    for frame in matcher.frames(source, args.prefetch) {
-        match frame {
-            Ok(f) => {
-                density += f.stats.density;
-                done += 1;
-                if f.stats.density < 0.5 {
-                    bar.println(format!(
-                        "warning: {}: most of the map was rejected ({:.1} % returned)",
-                        names[f.index],
-                        100.0 * f.stats.density
-                    ));
-                }
-                if tx.send((names[f.index].clone(), f.disparity)).is_err() {
-                    break; // the writer failed: its error is reported below
-                }
-            }
-            Err(e) => {
-                failed += 1;
-                bar.println(format!("error: frame {}: {e}", done + failed - 1));
-            }
+    let s = disparity::run_sequence(matcher, lefts, rights, &args.out, args.prefetch, |e| {
+        match e {
+            FrameEvent::Matched { name, density } if *density < 0.5 => bar
+                .println(format!("warning: {name}: most of the map was rejected ({:.1} % returned)", 100.0 * density)),
+            FrameEvent::Failed { index, error } => bar.println(format!("error: frame {index}: {error}")),
+            FrameEvent::Matched { .. } => {}
         }
         bar.inc(1);
-    }
-    drop(tx);
-    let written = writer.join().map_err(|_| anyhow::anyhow!("the writer thread panicked"))?;
-    let seconds = t0.elapsed().as_secs_f64();
+    });
     bar.finish_and_clear();
-    written.context("writing the disparity maps")?;
-    println!("wrote {done} maps to {} (<name>.pfm, <name>.png at 1/256 px)", args.out.display());
-    println!("frames: {done}");
-    println!("failed: {failed}");
-    println!("density: {:.2}", if done > 0 { 100.0 * density / done as f64 } else { 0.0 });
-    println!("seconds: {seconds:.3}");
-    println!("fps: {:.2}", (done + failed) as f64 / seconds);
-    Ok(if failed > 0 { ExitCode::FAILURE } else { ExitCode::SUCCESS })
+    let s = s?;
+    println!("wrote {} maps to {} (<name>.pfm, <name>.png at 1/256 px)", s.frames, args.out.display());
+    println!("frames: {}", s.frames);
+    println!("failed: {}", s.failed);
+    println!("density: {:.2}", s.density_pct);
+    println!("seconds: {:.3}", s.seconds);
+    println!("fps: {:.2}", (s.frames + s.failed) as f64 / s.seconds);
+    Ok(if s.failed > 0 { ExitCode::FAILURE } else { ExitCode::SUCCESS })
 }
 
 fn parse_prefilter(p: &str) -> anyhow::Result<Prefilter> {
@@ -323,7 +199,6 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         None => d.prefilter,
         Some(p) => parse_prefilter(&p)?,
     };
-    anyhow::ensure!(args.runs >= 1, "--runs must be at least 1");
     let cfg = MatcherConfig {
         cost,
         block_size: args.block,
@@ -346,67 +221,21 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         ..d
     };
     let mut matcher = BlockMatcher::new(cfg.clone()).context("block-matching configuration")?;
-    if let Some((lefts, rights)) = sequence(&args.left, &args.right)? {
+    if let Some((lefts, rights)) = disparity::image_sequence(&args.left, &args.right)? {
         return run_sequence(&args, matcher, lefts, rights);
     }
-    let pair = load_pair(&args.left, &args.right)?;
-    let truth = args.gt.as_deref().map(|p| load_truth(p, args.gt_scale)).transpose()?;
-    let mask = match &args.mask {
-        Some(p) => {
-            Some(parallax_composition::io::load_gray(p)?.into_raw().into_iter().map(|v| v > 128).collect::<Vec<bool>>())
-        }
-        None => None,
-    };
+    let pair = disparity::load_pair(&args.left, &args.right)?;
+    let truth = args.gt.as_deref().map(|p| disparity::load_truth(p, args.gt_scale)).transpose()?;
+    let mask = args.mask.as_deref().map(disparity::load_mask).transpose()?;
     // a swapped pair gives a confident-looking wrong map: refuse it unless told otherwise
-    let swap = match &pair {
-        Pair::U8(l, r) => matcher.check_swap(l, r)?,
-        Pair::U16(l, r) => matcher.check_swap_u16(l, r)?,
-    };
-    if swap.looks_swapped {
-        eprintln!(
-            "warning: the pair looks swapped (left and right exchanged): {:.1} % of the pixels pass the checks \
-             as given, {:.1} % with the images exchanged (half resolution)",
-            100.0 * swap.forward_density,
-            100.0 * swap.reverse_density
-        );
-        if !args.allow_swapped {
-            eprintln!("error: refusing a swapped-looking pair; exchange --left and --right, or pass --allow-swapped");
-            return Ok(ExitCode::from(2));
-        }
+    if let Some(code) = refuse_swapped(&pair.check_swap(&matcher)?, args.allow_swapped, false) {
+        return Ok(code);
     }
-    // the output map is reused across runs, as a video loop would
-    let mut map = DisparityMap::new_invalid(0, 0);
-    let mut compute = |map: &mut DisparityMap| -> anyhow::Result<()> {
-        match &pair {
-            Pair::U8(l, r) => matcher.compute_into(l, r, map)?,
-            Pair::U16(l, r) => matcher.compute_u16_into(l, r, map)?,
-        }
-        Ok(())
-    };
-    compute(&mut map)?; // warm-up (buffers, thread pool, caches)
-    let mut times = Vec::with_capacity(args.runs);
-    for _ in 0..args.runs {
-        let t = Instant::now();
-        compute(&mut map)?;
-        times.push(t.elapsed().as_secs_f64());
-    }
-    times.sort_by(f64::total_cmp);
-    let seconds = times[times.len() / 2];
+    let (map, seconds) = disparity::match_timed(&mut matcher, &pair, args.runs)?;
     let stats = matcher.last_stats();
     let mdes = (map.width() * map.height() * cfg.num_disparities) as f64 / seconds / 1e6;
-
-    parallax_composition::io::write_atomic(&args.out.join("disparity.pfm"), &parallax_block_matching::to_pfm(&map))?;
-    parallax_composition::io::save_png(
-        &args.out.join("disparity16.png"),
-        &parallax_block_matching::to_png16(&map, 256.0),
-    )?;
     let lo = cfg.min_disparity as f32;
-    let range = (lo, lo + cfg.num_disparities as f32 - 1.0);
-    parallax_composition::io::save_png(
-        &args.out.join("disparity_colour.png"),
-        &parallax_block_matching::false_colour(&map, Some(range)),
-    )?;
-
+    disparity::write_maps(&args.out, &map, (lo, lo + cfg.num_disparities as f32 - 1.0))?;
     println!(
         "{}x{} {:?} cost {:?} block {} disparities [{}, {}) simd {:?}, median of {} runs",
         map.width(),
@@ -419,27 +248,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         matcher.simd(),
         args.runs
     );
-    if let Some(conf) = matcher.confidence() {
-        let cmap = DisparityMap::from_data(map.width(), map.height(), conf.to_vec())
-            .context("confidence map of the matcher's size")?;
-        parallax_composition::io::write_atomic(
-            &args.out.join("confidence.pfm"),
-            &parallax_block_matching::to_pfm(&cmap),
-        )?;
-    }
-    println!(
-        "rejected: {} no candidate, {} low texture, {} not unique, {} left-right, {} low confidence, {} speckle; \
-         {} filled; returned map density {:.2} %{}",
-        stats.no_candidate,
-        stats.low_texture,
-        stats.not_unique,
-        stats.lr_inconsistent,
-        stats.low_confidence,
-        stats.speckle,
-        stats.filled,
-        100.0 * stats.density,
-        if stats.filled > 0 { " (filled pixels are guesses)" } else { "" }
-    );
+    disparity::write_confidence(&args.out, &matcher, &map)?;
+    println!("{}", summary::match_stats(&stats));
     if stats.density < 0.5 {
         eprintln!(
             "warning: most of the map was rejected ({:.1} % returned): check the disparity range, the image \
@@ -448,27 +258,21 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         );
     }
     println!("wrote {}/disparity.pfm, disparity16.png, disparity_colour.png", args.out.display());
-    if let Some(truth) = &truth {
-        let e = parallax_block_matching::evaluate(&map, truth, mask.as_deref(), &[1.0, 2.0])
-            .context("evaluating against the ground truth")?;
-        println!("evaluated {} px, rms {:.3} px", e.evaluated, e.rms);
-        println!("bad1: {:.2}", e.bad_at(1.0).unwrap_or(f64::NAN));
-        println!("bad2: {:.2}", e.bad_at(2.0).unwrap_or(f64::NAN));
-        println!("bad2_returned: {:.2}", e.bad_returned_at(2.0).unwrap_or(f64::NAN));
-        println!("density: {:.2}", e.density);
-    } else {
-        println!("density: {:.2}", 100.0 * stats.density);
-    }
-    println!("rejected_texture: {:.2}", stats.percent(stats.low_texture));
-    println!("rejected_uniqueness: {:.2}", stats.percent(stats.not_unique));
-    println!("rejected_lr: {:.2}", stats.percent(stats.lr_inconsistent));
-    println!("rejected_confidence: {:.2}", stats.percent(stats.low_confidence));
-    println!("rejected_speckle: {:.2}", stats.percent(stats.speckle));
-    println!("filled: {:.2}", stats.percent(stats.filled));
-    println!("seconds: {seconds:.6}");
-    println!("mdes: {mdes:.0}");
+    let evaluation = truth
+        .map(|t| parallax_block_matching::evaluate(&map, &t, mask.as_deref(), &[1.0, 2.0]))
+        .transpose()
+        .context("evaluating against the ground truth")?;
+    println!("{}", summary::disparity_keys(&stats, evaluation.as_ref(), seconds, mdes));
     if !args.calib.is_empty() {
-        crate::files::disparity_depth(&args.calib, &map, &args.out)?;
+        let stereo = crate::files::read_calibration(&args.calib)?.into_stereo(&args.calib[0].display().to_string())?;
+        let depth = disparity::depth_from_rectification(&stereo, &map, &args.calib[0].display().to_string())?;
+        let ply = args.out.join("points.ply");
+        parallax_triangulation::write_ply(&ply, &depth.cloud, parallax_triangulation::PlyFormat::BinaryLittleEndian)?;
+        println!("wrote {}", ply.display());
+        println!("points: {}", depth.cloud.len());
+        println!("depth_min: {:.6}", depth.min);
+        println!("depth_median: {:.6}", depth.median);
+        println!("depth_max: {:.6}", depth.max);
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -12,17 +12,16 @@
 //! are means over the station pairs of `A X = X B`. Ends with `key: value` lines of the result
 //! (the refined method, else the first that succeeded).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, ensure};
 use parallax_camera_model::Isometry3;
-use parallax_hand_eye::io::{PoseFileFormat, parse_pose_file};
-use parallax_hand_eye::{
-    ConsistencyConfig, HandEyeConfig, HandEyeSolution, Method, PairSelection, RefineConfig, Setup, calibrate,
-};
-use parallax_interop::{Calibration, HandEyeCalibration, HandEyeRecord, PoseRecord, Side};
-use serde::Serialize;
+use parallax_composition::poses;
+use parallax_composition::records::{HandEyeOutput, chosen_solution, hand_eye_calibration};
+use parallax_hand_eye::io::PoseFileFormat;
+use parallax_hand_eye::{ConsistencyConfig, HandEyeConfig, PairSelection, RefineConfig, Setup, calibrate};
+use parallax_interop::{Calibration, Side};
 
 /// Format of a pose file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -123,42 +122,22 @@ pub struct Args {
     allow_unconverged: bool,
 }
 
-fn read_pose_file(path: &Path, format: PoseFormat) -> anyhow::Result<Vec<Isometry3>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let format = match format {
-        PoseFormat::Auto => PoseFileFormat::from_path(path),
-        PoseFormat::Ron => PoseFileFormat::Ron,
-        PoseFormat::Visp => PoseFileFormat::Visp,
-        PoseFormat::AxisAngle => PoseFileFormat::AxisAngle,
-        PoseFormat::RpyDeg => PoseFileFormat::RollPitchYawDeg,
-    };
-    Ok(parse_pose_file(&text, format, &path.display().to_string())?)
-}
-
-/// Reads poses from one file or a glob of files (concatenated in natural order).
-pub fn read_poses(spec: &str, format: PoseFormat) -> anyhow::Result<Vec<Isometry3>> {
-    let paths = if Path::new(spec).is_file() {
-        vec![PathBuf::from(spec)]
-    } else {
-        parallax_composition::io::expand_glob(spec)?
-    };
-    let mut poses = Vec::new();
-    for p in &paths {
-        poses.extend(read_pose_file(p, format)?);
+impl PoseFormat {
+    /// The pose file format (`None`: from each file's extension).
+    pub fn file_format(self) -> Option<PoseFileFormat> {
+        match self {
+            PoseFormat::Auto => None,
+            PoseFormat::Ron => Some(PoseFileFormat::Ron),
+            PoseFormat::Visp => Some(PoseFileFormat::Visp),
+            PoseFormat::AxisAngle => Some(PoseFileFormat::AxisAngle),
+            PoseFormat::RpyDeg => Some(PoseFileFormat::RollPitchYawDeg),
+        }
     }
-    Ok(poses)
 }
 
-fn parse_methods(spec: &str) -> anyhow::Result<Vec<Method>> {
-    if spec.trim().eq_ignore_ascii_case("all") {
-        return Ok(Method::ALL.to_vec());
-    }
-    spec.split(',').map(|s| s.parse::<Method>().map_err(anyhow::Error::from)).collect()
-}
-
-/// Camera poses from board images: chessboard corners (corner-detection) and a planar pose
-/// (planar-calibration) per image. Images where the board is not found are dropped together
-/// with their robot pose (reported). Returns the kept robot and camera poses.
+/// Camera poses from target images (`parallax_composition::poses::camera_poses_from_images`):
+/// images where the target is not found are dropped with their robot pose (reported). Returns
+/// the kept robot and camera poses.
 fn camera_poses_from_images(args: &Args, robot: Vec<Isometry3>) -> anyhow::Result<(Vec<Isometry3>, Vec<Isometry3>)> {
     let pattern = args.images.as_deref().context("--images or --camera-poses is required")?;
     let images = parallax_composition::io::expand_glob(pattern)?;
@@ -168,133 +147,17 @@ fn camera_poses_from_images(args: &Args, robot: Vec<Isometry3>) -> anyhow::Resul
         images.len(),
         robot.len()
     );
-    let target: parallax_camera_model::TargetDescription = match crate::util::parse_board_size(&args.board) {
-        Ok((cols, rows)) => {
-            let square = args.square.context("--square is required with --images and a COLSxROWS board")?;
-            parallax_camera_model::TargetDescription::Chessboard(crate::util::board(cols, rows, square)?)
-        }
-        Err(_) => args.board.parse().with_context(|| format!("--board {:?}", args.board))?,
-    };
+    let target = crate::util::target(&args.board, args.square)?;
     let intr = args.intrinsics.as_deref().context("--intrinsics is required with --images")?;
     let side = match args.camera.to_ascii_lowercase().as_str() {
         "left" => Side::Left,
         "right" => Side::Right,
         other => anyhow::bail!("--camera {other:?}: left or right"),
     };
-    let text = std::fs::read_to_string(intr).with_context(|| format!("reading {}", intr.display()))?;
-    let is_visp = text.trim_start().starts_with('<') && !parallax_interop::opencv::is_opencv_xml(&text);
-    let ron_camera: Option<parallax_camera_model::Camera> = if is_visp {
-        None
-    } else {
-        let calibration = crate::files::read_calibration(&[intr.to_path_buf()])?;
-        let camera = calibration.camera(side, &intr.display().to_string())?;
-        if matches!(calibration, Calibration::Stereo(_)) {
-            println!("  intrinsics: the {} camera of the stereo calibration", args.camera.to_ascii_lowercase());
-        }
-        Some(camera)
-    };
-    let xml_intrinsics = match ron_camera {
-        Some(_) => None,
-        None => {
-            let text = std::fs::read_to_string(intr).with_context(|| format!("reading {}", intr.display()))?;
-            let cam = parallax_hand_eye::visp::parse_camera_xml(&text, &intr.display().to_string(), None, None)?;
-            println!(
-                "  ViSP intrinsics {}: px {} py {} u0 {} v0 {} kud {} (→ k1) kdu {}",
-                cam.projection.visp_name(),
-                cam.px,
-                cam.py,
-                cam.u0,
-                cam.v0,
-                cam.kud,
-                cam.kdu
-            );
-            Some(cam)
-        }
-    };
-    let (mut kept_robot, mut camera) = (Vec::new(), Vec::new());
-    for (path, g) in images.iter().zip(robot) {
-        let img = parallax_composition::io::load_gray(path)?;
-        let cam = match (&ron_camera, &xml_intrinsics) {
-            (Some(c), _) => *c,
-            (None, Some(v)) => v.camera(img.width(), img.height())?,
-            (None, None) => unreachable!("one intrinsics source is always read"),
-        };
-        let name = path.display();
-        match parallax_composition::detect_target(&img, &target).with_context(|| format!("target in {name}"))? {
-            Some(obs) => {
-                let (pose, rms) = parallax_composition::target_pose(&cam, &target, &obs)
-                    .with_context(|| format!("target pose in {name}"))?;
-                println!("  {name}: {} points of the target found, pose RMS reprojection {rms:.3} px", obs.ids().len());
-                kept_robot.push(g);
-                camera.push(pose);
-            }
-            None => println!("  {name}: target not found, station skipped"),
-        }
-    }
-    ensure!(
-        !camera.is_empty(),
-        "no {target} found in any of the {} images (searched for {target}); the targets the detector knows: {}",
-        images.len(),
-        parallax_camera_model::ACCEPTED_FORMS
-    );
-    Ok((kept_robot, camera))
-}
-
-fn print_solution(s: &HandEyeSolution) {
-    let t = s.transform.translation;
-    let c = s.conventions();
-    let [qx, qy, qz, qw] = c.quaternion_xyzw;
-    let converged = s.refinement.as_ref().map(|rf| format!(" converged: {}", rf.converged)).unwrap_or_default();
-    println!(
-        "method: {} tx: {:.6} ty: {:.6} tz: {:.6} qx: {:.9} qy: {:.9} qz: {:.9} qw: {:.9} rot_residual_deg: {:.4} trans_residual: {:.6}{converged}",
-        s.method, t.x, t.y, t.z, qx, qy, qz, qw, s.quality.mean_rotation_deg, s.quality.mean_translation
-    );
-    let rv = c.rotation_vector;
-    println!("    tf (x y z qx qy qz qw): {}", c.tf_line());
-    println!("    rotation vector [{:.9}, {:.9}, {:.9}] rad", rv[0], rv[1], rv[2]);
-    if let Some(rf) = &s.refinement {
-        println!(
-            "    {}; translation noise robot {:.6} camera {:.6} (data unit)",
-            rf.convergence_summary(),
-            rf.robot_translation_sigma,
-            rf.camera_translation_sigma
-        );
-    }
-    for w in &s.warnings {
-        println!("    warning: {w}");
-    }
-    println!(
-        "    board spread {:.4}° / {:.6}, table-4 error {:.6}",
-        s.quality.board_spread_rotation_deg, s.quality.board_spread_translation, s.quality.mean_matrix_error
-    );
-    if let Some((rf, sd)) = s.refinement.as_ref().and_then(|rf| rf.std_devs.map(|sd| (rf, sd))) {
-        println!(
-            "    std devs: rotation [{:.4}, {:.4}, {:.4}]°, translation [{:.6}, {:.6}, {:.6}]; variance factor {:.3}, from {}",
-            sd[0].to_degrees(),
-            sd[1].to_degrees(),
-            sd[2].to_degrees(),
-            sd[3],
-            sd[4],
-            sd[5],
-            rf.variance_factor,
-            s.start.map(Method::name).unwrap_or("?")
-        );
-    }
-}
-
-/// What a RON / JSON `--out` holds: the chosen solution (the refined one, else the first that
-/// succeeded) in every convention — what other commands read back — and every solution.
-#[derive(Serialize)]
-struct HandEyeOutput<'a> {
-    result: HandEyeRecord,
-    solutions: Vec<SolutionRecord<'a>>,
-}
-
-/// One method's solution: `X` in every convention, then everything the solver reports.
-#[derive(Serialize)]
-struct SolutionRecord<'a> {
-    pose: PoseRecord,
-    solution: &'a HandEyeSolution,
+    let intrinsics = poses::read_intrinsics(intr, side)?;
+    println!("{}", parallax_composition::summary::intrinsics(intr, &intrinsics, side));
+    let station = |s: &poses::StationImage| println!("{}", parallax_composition::summary::station(s));
+    Ok(poses::camera_poses_from_images(&images, robot, &target, &intrinsics, station)?)
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
@@ -306,10 +169,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             out.display()
         );
     }
-    let robot = read_poses(&args.robot, args.robot_format).with_context(|| format!("robot poses {:?}", args.robot))?;
+    let robot = poses::read_poses(&args.robot, args.robot_format.file_format())
+        .with_context(|| format!("robot poses {:?}", args.robot))?;
     let (robot, camera) = match &args.camera_poses {
         Some(spec) => {
-            let c = read_poses(spec, args.camera_format).with_context(|| format!("camera poses {spec:?}"))?;
+            let c = poses::read_poses(spec, args.camera_format.file_format())
+                .with_context(|| format!("camera poses {spec:?}"))?;
             (robot, c)
         }
         None => camera_poses_from_images(&args, robot)?,
@@ -324,7 +189,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         parallax_composition::io::write_ron(path, &camera)?;
         println!("wrote camera poses to {}", path.display());
     }
-    let methods = parse_methods(&args.method)?;
+    let methods = poses::parse_methods(&args.method)?;
     let config = HandEyeConfig {
         setup: if args.eye_to_hand { Setup::EyeToHand } else { Setup::EyeInHand },
         pairs: if args.consecutive { PairSelection::Consecutive } else { PairSelection::All },
@@ -355,7 +220,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         let elapsed = start.elapsed();
         match r {
             Ok(s) => {
-                print_solution(&s);
+                println!("{}", parallax_composition::summary::hand_eye_solution(&s));
                 println!("    time {:.1} µs", elapsed.as_secs_f64() * 1e6);
                 ok.push(s);
             }
@@ -365,14 +230,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             }
         }
     }
-    let chosen = ok.iter().find(|s| s.method == Method::Refined).or(ok.first());
+    let chosen = chosen_solution(&ok);
     if let (Some(out), Some(format)) = (&args.out, format) {
-        let s = chosen.context("no solution to write")?;
-        let result = HandEyeCalibration { setup: s.setup, transform: s.transform, method: Some(s.method.to_string()) };
-        let native = HandEyeOutput {
-            result: HandEyeRecord::of(&result),
-            solutions: ok.iter().map(|s| SolutionRecord { pose: PoseRecord::of(&s.transform), solution: s }).collect(),
-        };
+        let result = hand_eye_calibration(chosen.context("no solution to write")?);
+        let native = HandEyeOutput::new(&result, &ok);
         for p in crate::files::write_result(out, format, &native, Some(&Calibration::HandEye(result)))? {
             println!("wrote {} ({})", p.display(), format.name());
         }
@@ -392,12 +253,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     println!("succeeded: {}", ok.len());
     println!("failed: {failed}");
     if let Some(s) = chosen {
-        let c = s.conventions();
-        println!("result: {}", s.method);
-        println!("result_transform: {what}");
-        println!("result_tf: {}", c.tf_line());
-        let rv = c.rotation_vector;
-        println!("result_rotation_vector_rad: {} {} {}", rv[0], rv[1], rv[2]);
+        println!("{}", parallax_composition::summary::hand_eye_keys(s, what));
     }
     Ok(if ok.is_empty() { ExitCode::FAILURE } else { ExitCode::SUCCESS })
 }

@@ -34,9 +34,9 @@ enum Command {
     Fixtures(fixtures::Args),
     /// Run the criterion benchmarks.
     Bench(bench::Args),
-    /// Detect chessboard corners in images.
+    /// Detect a target (chessboard, ChArUco, circle grid, AprilGrid, marker) in images.
     Corners(corners::Args),
-    /// Calibrate one camera or a stereo rig from chessboard images.
+    /// Calibrate one camera or a stereo rig from target images (partial views of ChArUco / AprilGrid).
     Calibrate(calibrate::Args),
     /// Rectify a stereo pair with a stereo calibration.
     Rectify(rectify::Args),

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
-use parallax_composition::{Corruption, RealChecks, RealInputs, Report, io};
+use parallax_composition::{Corruption, RealInputs, Report, io};
 
 use crate::util;
 
@@ -88,29 +88,9 @@ fn run_real(args: &Args) -> anyhow::Result<ExitCode> {
     let board = util::board(cols, rows, args.square.unwrap_or(f64::NAN))?;
     let lp = io::expand_glob(args.left.as_deref().unwrap_or_default())?;
     let rp = io::expand_glob(args.right.as_deref().unwrap_or_default())?;
-    anyhow::ensure!(lp.len() == rp.len(), "{} left images but {} right images", lp.len(), rp.len());
-    let robot = match &args.robot {
-        Some(spec) => Some(crate::handeye::read_poses(spec, crate::handeye::PoseFormat::Auto)?),
-        None => None,
-    };
-    let pair = match (&args.pair_left, &args.pair_right) {
-        (Some(l), Some(r)) => Some([io::load_gray(l)?, io::load_gray(r)?]),
-        _ => None,
-    };
-    let mut calibration = Vec::with_capacity(lp.len());
-    for (l, r) in lp.iter().zip(&rp) {
-        let name = l.file_name().map_or_else(|| l.display().to_string(), |n| n.to_string_lossy().into_owned());
-        calibration.push(([io::load_gray(l)?, io::load_gray(r)?], name));
-    }
-    let inputs = RealInputs {
-        board,
-        unit: args.unit.clone(),
-        calibration,
-        pair,
-        disparities: args.disparities,
-        robot,
-        checks: RealChecks::default(),
-    };
+    let robot = args.robot.as_deref().map(|spec| parallax_composition::poses::read_poses(spec, None)).transpose()?;
+    let pair = args.pair_left.as_deref().zip(args.pair_right.as_deref()).map(|(l, r)| [l, r]);
+    let inputs = RealInputs::from_files(board, &args.unit, &lp, &rp, pair, args.disparities, robot)?;
     let out = args.out.clone().unwrap_or_else(|| workspace_root().join("target").join("pipeline").join("real"));
     let started = std::time::Instant::now();
     let report = parallax_composition::run_real(inputs, &out)?;

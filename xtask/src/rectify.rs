@@ -8,17 +8,17 @@
 //! vertical one) and the rectification (`rectification.ron` by default, `--format` for json /
 //! opencv / ros): the rig with `R1 R2 P1 P2 Q` (row-major), image size and ROIs.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
-use image::{DynamicImage, GenericImageView, Luma, Rgb, RgbImage};
+use image::GenericImageView;
 
-use parallax_interop::{Calibration, RectificationMatrices, RectifiedRecord, StereoCalibration};
-use parallax_stereo_rectify::{Border, ExtentMethod, Image, Rectifier, RectifyConfig};
-
+use parallax_composition::images::{rectify_pair, side_by_side};
 use parallax_composition::io::save_png;
+use parallax_interop::{Calibration, RectificationMatrices, RectifiedRecord, StereoCalibration};
+use parallax_stereo_rectify::{ExtentMethod, Rectifier, RectifyConfig};
 
 /// Arguments of `cargo xtask rectify`.
 #[derive(clap::Args)]
@@ -55,12 +55,6 @@ pub struct Args {
     line_spacing: u32,
 }
 
-/// `rectify`'s default rectification (alpha 0: only valid pixels, zero disparity at infinity,
-/// OpenCV's extents); `calibrate` writes the same into its result.
-pub fn default_config() -> RectifyConfig {
-    parallax_interop::default_rectify_config()
-}
-
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let ext = match args.format.to_ascii_lowercase().as_str() {
         "ron" => "ron",
@@ -92,7 +86,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         alpha: (args.alpha >= 0.0).then_some(args.alpha),
         zero_disparity: !args.no_zero_disparity,
         extents: if args.exact_extents { ExtentMethod::Exact } else { ExtentMethod::OpenCv },
-        ..default_config()
+        ..parallax_interop::default_rectify_config()
     };
     let t0 = Instant::now();
     let rectifier = Rectifier::new(&rig, &config).context("rectifying the rig")?;
@@ -100,24 +94,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let rect = *rectifier.rectification();
 
     let t1 = Instant::now();
-    let (l, r) = match (&left, &right) {
-        (DynamicImage::ImageLuma16(_), _) | (_, DynamicImage::ImageLuma16(_)) => {
-            let (l, r) =
-                rectifier.rectify_pair(&left.to_luma16(), &right.to_luma16(), Border::Constant(Luma([0u16])))?;
-            write_pair(&args.out, &l, &r)?;
-            (to_rgb16(&l), to_rgb16(&r))
-        }
-        (DynamicImage::ImageLuma8(_), DynamicImage::ImageLuma8(_)) => {
-            let (l, r) = rectifier.rectify_pair(&left.to_luma8(), &right.to_luma8(), Border::Constant(Luma([0u8])))?;
-            write_pair(&args.out, &l, &r)?;
-            (DynamicImage::ImageLuma8(l).to_rgb8(), DynamicImage::ImageLuma8(r).to_rgb8())
-        }
-        _ => {
-            let (l, r) = rectifier.rectify_pair(&left.to_rgb8(), &right.to_rgb8(), Border::Constant(Rgb([0u8; 3])))?;
-            write_pair(&args.out, &l, &r)?;
-            (l, r)
-        }
-    };
+    let pair = rectify_pair(&rectifier, &left, &right)?;
+    pair.save(&args.out)?;
+    let (l, r) = pair.to_rgb8();
     let t_remap = t1.elapsed();
     let side = side_by_side(&l, &r, rect.vertical, args.line_spacing);
     save_png(&args.out.join("side_by_side.png"), &side)?;
@@ -125,7 +104,6 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let native = RectifiedRecord::of(&calibration, &rect);
     let written = crate::files::write_result(&rect_path, format, &native, Some(&Calibration::Stereo(calibration)))?;
 
-    let p2 = rect.p2.rows;
     println!("rectify: {} rig", if rect.vertical { "vertical" } else { "horizontal" });
     println!("  alpha {:?}, zero disparity {}, extents {:?}", config.alpha, config.zero_disparity, config.extents);
     println!(
@@ -137,68 +115,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     for p in &written {
         println!("wrote {} ({})", p.display(), format.name());
     }
-    println!("focal_px: {:.6}", rect.focal());
-    println!("principal_point_left_u: {:.6}", rect.p1.rows[0][2]);
-    println!("principal_point_left_v: {:.6}", rect.p1.rows[1][2]);
-    println!("principal_point_right_u: {:.6}", p2[0][2]);
-    println!("principal_point_right_v: {:.6}", p2[1][2]);
-    println!("rectified_baseline: {:.6}", rect.rectified_baseline());
-    println!("vertical: {}", rect.vertical);
-    for (name, roi) in [("roi_left", rect.roi1), ("roi_right", rect.roi2)] {
-        println!("{name}_x: {}", roi.x);
-        println!("{name}_y: {}", roi.y);
-        println!("{name}_width: {}", roi.width);
-        println!("{name}_height: {}", roi.height);
-    }
+    println!("{}", parallax_composition::summary::rectification_keys(&rect));
     println!("rectification: {}", written[0].display());
     Ok(ExitCode::SUCCESS)
-}
-
-fn write_pair<P>(dir: &Path, l: &Image<P>, r: &Image<P>) -> anyhow::Result<()>
-where
-    P: image::PixelWithColorType,
-    [P::Subpixel]: image::EncodableLayout,
-{
-    save_png(&dir.join("left_rectified.png"), l)?;
-    Ok(save_png(&dir.join("right_rectified.png"), r)?)
-}
-
-fn to_rgb16(img: &Image<Luma<u16>>) -> RgbImage {
-    RgbImage::from_fn(img.width(), img.height(), |u, v| {
-        let g = (img.get_pixel(u, v)[0] >> 8) as u8;
-        Rgb([g, g, g])
-    })
-}
-
-/// The two rectified images side by side (stacked for a vertical rig) with guide lines along
-/// the epipolar direction every `spacing` pixels, alternating green and magenta.
-fn side_by_side(l: &RgbImage, r: &RgbImage, vertical: bool, spacing: u32) -> RgbImage {
-    let (w, h) = l.dimensions();
-    let (ow, oh) = if vertical { (w, 2 * h) } else { (2 * w, h) };
-    let mut out = RgbImage::new(ow, oh);
-    for (u, v, p) in l.enumerate_pixels() {
-        out.put_pixel(u, v, *p);
-    }
-    for (u, v, p) in r.enumerate_pixels() {
-        if vertical {
-            out.put_pixel(u, v + h, *p);
-        } else {
-            out.put_pixel(u + w, v, *p);
-        }
-    }
-    let colours = [Rgb([0, 255, 0]), Rgb([255, 0, 255])];
-    if vertical {
-        for (k, u) in (spacing / 2..ow).step_by(spacing as usize).enumerate() {
-            for v in 0..oh {
-                out.put_pixel(u, v, colours[k % 2]);
-            }
-        }
-    } else {
-        for (k, v) in (spacing / 2..oh).step_by(spacing as usize).enumerate() {
-            for u in 0..ow {
-                out.put_pixel(u, v, colours[k % 2]);
-            }
-        }
-    }
-    out
 }

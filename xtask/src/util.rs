@@ -1,6 +1,7 @@
 //! Argument parsing shared by the xtask commands (file I/O lives in `parallax_composition::io`).
 
-use parallax_camera_model::Chessboard;
+use anyhow::Context;
+use parallax_camera_model::{Chessboard, TargetDescription};
 
 /// Parses a board size `COLSxROWS` (inner corners, OpenCV's `patternSize`), e.g. `9x6`.
 pub fn parse_board_size(s: &str) -> Result<(usize, usize), String> {
@@ -23,6 +24,19 @@ pub fn board(cols: usize, rows: usize, square: f64) -> anyhow::Result<Chessboard
     Ok(Chessboard::new(cols, rows, square)?)
 }
 
+/// The target of `--board B [--square S]`: a chessboard's `COLSxROWS` (needs `--square`), or
+/// any target description (`chessboard:9x6:25`, `charuco:…`, …, its lengths in it); an unknown
+/// form is refused naming it and the accepted forms.
+pub fn target(board: &str, square: Option<f64>) -> anyhow::Result<TargetDescription> {
+    match parse_board_size(board) {
+        Ok((cols, rows)) => {
+            let square = square.context("--square is required with a COLSxROWS board")?;
+            Ok(TargetDescription::Chessboard(self::board(cols, rows, square)?))
+        }
+        Err(_) => board.parse().with_context(|| format!("--board {board:?}")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -36,5 +50,9 @@ mod tests {
         assert!(parse_board_size("ax6").unwrap_err().contains("column"));
         assert!(board(9, 6, -30.0).unwrap_err().to_string().contains("--square"));
         assert!(board(9, 6, f64::NAN).is_err());
+        assert_eq!(target("9x6", Some(25.0)).unwrap().to_string(), "chessboard:9x6:25");
+        assert!(target("9x6", None).unwrap_err().to_string().contains("--square"));
+        let err = format!("{:#}", target("hexagons:3x3", None).unwrap_err());
+        assert!(err.contains("hexagons") && err.contains("charuco:") && err.contains("aprilgrid:"), "{err}");
     }
 }

@@ -26,6 +26,9 @@ pub enum PipelineError {
     /// Hand-eye calibration failed or rejected its input.
     #[error("hand-eye: {0}")]
     HandEye(#[from] parallax_hand_eye::HandEyeError),
+    /// A calibration or result file could not be read, written or converted.
+    #[error(transparent)]
+    Interop(#[from] parallax_interop::InteropError),
     /// Rendering a synthetic scene failed.
     #[error("synthetic scene: {0}")]
     Synthetic(#[from] parallax_synthetic::SyntheticError),

@@ -17,7 +17,7 @@
 //!                                          `handeye` example
 //! ```
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use glam::DVec2;
 use parallax_camera_model::{Camera, Chessboard, Isometry3, StereoRig};
@@ -27,8 +27,8 @@ use parallax_synthetic::{
 };
 use serde::Serialize;
 
-use crate::Result;
 use crate::io::{png_bytes, to_ron};
+use crate::{PipelineError, Result};
 
 /// What to generate (the tests use a smaller plan).
 pub struct FixturePlan {
@@ -238,20 +238,99 @@ fn mask(s: &StereoScene, m: &[bool]) -> image::GrayImage {
         .expect("mask of width x height")
 }
 
+/// The fixture folders (first path component) that generation owns.
+fn owned_folders(files: &[(PathBuf, Vec<u8>)]) -> Vec<PathBuf> {
+    let mut dirs: Vec<PathBuf> =
+        files.iter().filter_map(|f| f.0.components().next()).map(|c| PathBuf::from(c.as_os_str())).collect();
+    dirs.dedup();
+    dirs
+}
+
+/// Writes every file (atomically) under `dir` and removes the files of the owned folders that are not generated any
+/// more (never anything outside them); returns how many were removed.
+pub fn write_fixtures(dir: &Path, files: &[(PathBuf, Vec<u8>)]) -> Result<usize> {
+    for (rel, bytes) in files {
+        crate::io::write_atomic(&dir.join(rel), bytes)?;
+    }
+    let mut removed = 0;
+    for rel in list_files(dir)? {
+        let owned = owned_folders(files).iter().any(|d| rel.starts_with(d));
+        if owned && !files.iter().any(|f| f.0 == rel) {
+            let path = dir.join(&rel);
+            std::fs::remove_file(&path).map_err(|source| PipelineError::Io { what: "removing stale", path, source })?;
+            removed += 1;
+        }
+    }
+    Ok(removed)
+}
+
+/// Every regular file under `dir` (relative, sorted), skipping hidden entries (temporary files).
+pub fn list_files(dir: &Path) -> Result<Vec<PathBuf>> {
+    fn walk(root: &Path, sub: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
+        let here = root.join(sub);
+        let io = |source| PipelineError::Io { what: "reading", path: here.clone(), source };
+        for entry in std::fs::read_dir(&here).map_err(io)? {
+            let entry = entry.map_err(io)?;
+            let name = entry.file_name();
+            if name.to_string_lossy().starts_with('.') {
+                continue;
+            }
+            let rel = sub.join(&name);
+            if entry.file_type().map_err(io)?.is_dir() {
+                walk(root, &rel, out)?;
+            } else {
+                out.push(rel);
+            }
+        }
+        Ok(())
+    }
+    let mut out = Vec::new();
+    if dir.exists() {
+        walk(dir, Path::new(""), &mut out)?;
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// Compares the committed folder `dir` with a fresh generation; `Some(description of the first
+/// difference)` when stale.
+pub fn check_fixtures(dir: &Path, files: &[(PathBuf, Vec<u8>)]) -> Result<Option<String>> {
+    for (rel, bytes) in files {
+        let committed = dir.join(rel);
+        let Ok(old) = std::fs::read(&committed) else {
+            return Ok(Some(format!("{} is missing", committed.display())));
+        };
+        if &old != bytes {
+            return Ok(Some(format!("{} differs from a fresh generation", committed.display())));
+        }
+    }
+    for rel in list_files(dir)? {
+        if !files.iter().any(|f| f.0 == rel) {
+            return Ok(Some(format!("{} is not generated any more", dir.join(rel).display())));
+        }
+    }
+    Ok(None)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    #[test]
-    fn generation_is_deterministic_and_complete() {
-        let plan = FixturePlan {
+    /// A plan small enough for a unit test.
+    fn small_plan() -> FixturePlan {
+        FixturePlan {
             mono_views: 2,
             stereo_views: 1,
             scene_width: 96,
             scene_height: 64,
             scene_max_disparity: 12.0,
             handeye_stations: 1,
-        };
+        }
+    }
+
+    #[test]
+    fn generation_is_deterministic_and_complete() {
+        let plan = small_plan();
         let a = fixture_files(&plan).unwrap();
         let b = fixture_files(&plan).unwrap();
         assert_eq!(a, b);
@@ -268,5 +347,39 @@ mod tests {
         let pfm = a.iter().find(|f| f.0.ends_with("stereo-scene-easy/disparity.pfm")).unwrap();
         let map = parallax_block_matching::from_pfm(&pfm.1, "disparity.pfm").unwrap();
         assert_eq!((map.width(), map.height()), (96, 64));
+    }
+
+    fn temp(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("parallax-fixtures-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        d
+    }
+
+    /// Writing then checking passes; an altered, a missing and an extra file are each named;
+    /// regeneration removes the extra file so the check passes again.
+    #[test]
+    fn check_names_every_kind_of_staleness_and_regeneration_cures_it() {
+        let plan = small_plan();
+        let files = fixture_files(&plan).unwrap();
+        let a = temp("a");
+        write_fixtures(&a, &files).unwrap();
+        assert_eq!(list_files(&a).unwrap(), files.iter().map(|f| f.0.clone()).collect::<Vec<_>>(), "no other file");
+        assert_eq!(check_fixtures(&a, &files).unwrap(), None);
+        let victim = a.join("mono/view_01.png");
+        let mut bytes = std::fs::read(&victim).unwrap();
+        let n = bytes.len();
+        bytes[n / 2] ^= 1;
+        std::fs::write(&victim, &bytes).unwrap();
+        let problem = check_fixtures(&a, &files).unwrap().expect("altered file must fail the check");
+        assert!(problem.contains("mono/view_01.png") && problem.contains("differs"), "{problem}");
+        write_fixtures(&a, &files).unwrap();
+        std::fs::remove_file(a.join("handeye/eye-in-hand.ron")).unwrap();
+        assert!(check_fixtures(&a, &files).unwrap().unwrap().contains("eye-in-hand.ron"));
+        write_fixtures(&a, &files).unwrap();
+        std::fs::write(a.join("stereo/stale.png"), b"x").unwrap();
+        assert!(check_fixtures(&a, &files).unwrap().unwrap().contains("stale.png"));
+        assert_eq!(write_fixtures(&a, &files).unwrap(), 1);
+        assert_eq!(check_fixtures(&a, &files).unwrap(), None);
+        std::fs::remove_dir_all(&a).unwrap();
     }
 }

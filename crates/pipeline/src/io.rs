@@ -50,6 +50,33 @@ pub fn read_ron<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
     ron::from_str(&text).map_err(|e| PipelineError::Format { path: path.to_path_buf(), message: e.to_string() })
 }
 
+/// Writes a result atomically: `native` as RON or JSON, or `calibration` in a calibration
+/// format (OpenCV, ROS, Kalibr; some write two files); a result that is no calibration is
+/// refused in those. Returns the files written.
+pub fn write_result<T: serde::Serialize>(
+    path: &Path,
+    format: parallax_interop::Format,
+    native: &T,
+    calibration: Option<&parallax_interop::Calibration>,
+) -> Result<Vec<PathBuf>> {
+    use parallax_interop::Format;
+    let files = match (format, calibration) {
+        (Format::Ron | Format::Json, _) => vec![(path.to_path_buf(), parallax_interop::native_string(native, format)?)],
+        (_, Some(c)) => parallax_interop::render(c, format, path)?,
+        (_, None) => {
+            return Err(PipelineError::Input(format!(
+                "{}: this result is written as ron or json, not {}",
+                path.display(),
+                format.name()
+            )));
+        }
+    };
+    for (p, text) in &files {
+        write_atomic(p, text.as_bytes())?;
+    }
+    Ok(files.into_iter().map(|f| f.0).collect())
+}
+
 /// Largest image accepted by [`load_image`]: 2^28 pixels (e.g. 16384 x 16384), and at most
 /// 2 GiB of decoded data, so a corrupt or hostile header cannot make the decoder allocate more.
 pub const MAX_IMAGE_PIXELS: u64 = 1 << 28;
@@ -213,6 +240,25 @@ mod tests {
         std::fs::write(&garbage, b"\x89PNG\r\n\x1a\nnot really").unwrap();
         assert!(load_gray(&garbage).unwrap_err().to_string().contains("garbage.png"));
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn results_are_written_in_their_format_and_a_non_calibration_is_refused_elsewhere() {
+        use parallax_interop::Format;
+        let dir = temp("result");
+        let written = write_result(&dir.join("r.json"), Format::Json, &vec![1.5, 2.0], None).unwrap();
+        assert_eq!(written, [dir.join("r.json")]);
+        let back: Vec<f64> = serde_json_free_parse(&std::fs::read_to_string(&written[0]).unwrap());
+        assert_eq!(back, [1.5, 2.0]);
+        let err = write_result(&dir.join("r.yml"), Format::OpenCvYaml, &vec![1.0], None).unwrap_err().to_string();
+        assert!(err.contains("written as ron or json, not opencv"), "{err}");
+        assert!(!dir.join("r.yml").exists());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A JSON list of numbers, read without a JSON dependency (RON reads this subset).
+    fn serde_json_free_parse(text: &str) -> Vec<f64> {
+        ron::from_str(text).unwrap()
     }
 
     #[test]

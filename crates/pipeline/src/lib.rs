@@ -12,6 +12,14 @@
 //!   no truth ([`run_real`], [`RealChecks`]).
 //! * [`report`]: rows, verdict and the Markdown / HTML / RON report (self-contained HTML: every
 //!   image inline); [`io`]: atomic output, RON, images, globs; [`stats`]: mean, RMS, median.
+//! * Files, for programs that work on image folders as the `cargo xtask` commands do:
+//!   [`session`] (a target found in image files, corners files, common image size, a stereo
+//!   calibration's point-level checks), [`records`] (the RON / JSON result files of a mono,
+//!   stereo or hand-eye calibration), [`disparity`] (pairs at their bit depth, ground truth,
+//!   image sequences matched in a batch, depth through `Q`), [`poses`] (robot and camera pose
+//!   files, intrinsics, camera poses from target images), [`measurement`] (pixel pairs given
+//!   as text), [`images`] (rectified pairs at their pixel type, the side-by-side picture) and
+//!   [`fixtures`] (the committed fixtures, written and checked).
 //! * [`plots`]: the pictures of each stage — calibration residuals, per-view errors, coverage,
 //!   board poses, projection uncertainty and distortion; the rectified pair; disparity with its
 //!   colour bar and error image; hand-eye residuals and methods.
@@ -31,15 +39,22 @@
 
 pub mod artifacts;
 pub mod chain;
+pub mod disparity;
 mod error;
 pub mod fixtures;
+pub mod images;
 pub mod io;
+pub mod measurement;
 pub mod plots;
+pub mod poses;
 pub mod real;
+pub mod records;
 pub mod report;
 pub mod scene;
+pub mod session;
 pub mod stages;
 pub mod stats;
+pub mod summary;
 
 pub use chain::{ChainInput, ChainOutput, MatchPair, StageFailure, StageResult, Station, run_chain};
 pub use error::{PipelineError, Result};

@@ -2,13 +2,13 @@
 //! truth it checks, each figure against a stated tolerance ([`RealChecks`]): the board geometry
 //! is known, so distances between triangulated corners are scored against it.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use parallax_camera_model::{Chessboard, Isometry3};
 
 use crate::chain::{ChainInput, ChainOutput, MatchPair, Station, run_chain};
 use crate::report::Report;
-use crate::{PipelineError, Result, artifacts, stats};
+use crate::{PipelineError, Result, artifacts, io, stats};
 
 /// Tolerances of the self-consistency checks of a real run.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -65,6 +65,32 @@ pub struct RealInputs {
     pub robot: Option<Vec<Isometry3>>,
     /// Tolerances of the checks.
     pub checks: RealChecks,
+}
+
+impl RealInputs {
+    /// The inputs of a real run read from files: calibration pairs `left[k]`, `right[k]` (named
+    /// by the left file's name), the pair to match when given, default checks. Refuses lists of
+    /// different lengths.
+    pub fn from_files(
+        board: Chessboard,
+        unit: &str,
+        left: &[PathBuf],
+        right: &[PathBuf],
+        pair: Option<[&Path; 2]>,
+        disparities: usize,
+        robot: Option<Vec<Isometry3>>,
+    ) -> Result<Self> {
+        if left.len() != right.len() {
+            return Err(PipelineError::Input(format!("{} left images but {} right images", left.len(), right.len())));
+        }
+        let pair = pair.map(|[l, r]| Ok::<_, PipelineError>([io::load_gray(l)?, io::load_gray(r)?])).transpose()?;
+        let mut calibration = Vec::with_capacity(left.len());
+        for (l, r) in left.iter().zip(right) {
+            let name = l.file_name().map_or_else(|| l.display().to_string(), |n| n.to_string_lossy().into_owned());
+            calibration.push(([io::load_gray(l)?, io::load_gray(r)?], name));
+        }
+        Ok(Self { board, unit: unit.to_string(), calibration, pair, disparities, robot, checks: RealChecks::default() })
+    }
 }
 
 /// Runs the chain on real images, writes the artifacts and the report into `out`, and returns
