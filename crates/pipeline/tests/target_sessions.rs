@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use glam::DVec3;
 use parallax_camera_model::{
-    Camera, CharucoBoard, Chessboard, Distortion, Intrinsics, Isometry3, MarkerDictionary, StereoRig, TargetDescription,
+    Camera, CharucoBoard, Chessboard, Distortion, Intrinsics, Isometry3, StereoRig, TargetDescription,
 };
 use parallax_composition::session;
 use parallax_synthetic::{RenderOptions, ViewSetConfig, calibration_poses, render_charuco};
