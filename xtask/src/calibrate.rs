@@ -66,7 +66,8 @@ pub struct Args {
     /// images are then almost always swapped).
     #[arg(long)]
     allow_swapped: bool,
-    /// Write the calibration pictures (PNG/SVG) and a self-contained report.html into this directory.
+    /// Write the calibration pictures (PNG/SVG) and a self-contained report.html into this directory
+    /// (chessboard sessions).
     #[arg(long)]
     report: Option<PathBuf>,
 }

@@ -324,13 +324,6 @@ pub fn depth_from_rectification(
 mod tests {
     use super::*;
 
-    fn temp(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("parallax-disparity-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
-    }
-
     /// A textured pair whose right image is the left shifted by `d` pixels.
     fn pair(d: u32) -> (image::GrayImage, image::GrayImage) {
         let tex = |x: u32, y: u32| image::Luma([((x.wrapping_mul(2654435761) ^ y.wrapping_mul(40503)) >> 7) as u8]);
@@ -341,7 +334,7 @@ mod tests {
 
     #[test]
     fn sequences_pair_up_and_single_images_are_no_sequence() {
-        let dir = temp("seq");
+        let dir = crate::io::test_dir("seq");
         let (l, r) = pair(5);
         for k in 0..3 {
             l.save(dir.join(format!("l{k}.png"))).unwrap();
@@ -361,7 +354,7 @@ mod tests {
     /// Every frame of a sequence is matched and written; the maps hold the true shift.
     #[test]
     fn a_sequence_is_matched_and_written_frame_by_frame() {
-        let dir = temp("run");
+        let dir = crate::io::test_dir("run");
         let (l, r) = pair(7);
         let mut lefts = Vec::new();
         let mut rights = Vec::new();
@@ -391,7 +384,7 @@ mod tests {
 
     #[test]
     fn truth_pngs_are_scaled_and_zero_is_unknown() {
-        let dir = temp("truth");
+        let dir = crate::io::test_dir("truth");
         let img = image::GrayImage::from_fn(4, 2, |x, _| image::Luma([(x * 8) as u8]));
         img.save(dir.join("gt.png")).unwrap();
         let t = load_truth(&dir.join("gt.png"), 4.0).unwrap();

@@ -349,19 +349,13 @@ mod tests {
         assert_eq!((map.width(), map.height()), (96, 64));
     }
 
-    fn temp(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("parallax-fixtures-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        d
-    }
-
     /// Writing then checking passes; an altered, a missing and an extra file are each named;
     /// regeneration removes the extra file so the check passes again.
     #[test]
     fn check_names_every_kind_of_staleness_and_regeneration_cures_it() {
         let plan = small_plan();
         let files = fixture_files(&plan).unwrap();
-        let a = temp("a");
+        let a = crate::io::test_dir("fixtures-check");
         write_fixtures(&a, &files).unwrap();
         assert_eq!(list_files(&a).unwrap(), files.iter().map(|f| f.0.clone()).collect::<Vec<_>>(), "no other file");
         assert_eq!(check_fixtures(&a, &files).unwrap(), None);

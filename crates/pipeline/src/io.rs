@@ -77,6 +77,15 @@ pub fn write_result<T: serde::Serialize>(
     Ok(files.into_iter().map(|f| f.0).collect())
 }
 
+/// A fresh, empty directory under the system temp dir for a test (`name` and the process id).
+#[cfg(test)]
+pub(crate) fn test_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("parallax-composition-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("creating a test directory");
+    d
+}
+
 /// Largest image accepted by [`load_image`]: 2^28 pixels (e.g. 16384 x 16384), and at most
 /// 2 GiB of decoded data, so a corrupt or hostile header cannot make the decoder allocate more.
 pub const MAX_IMAGE_PIXELS: u64 = 1 << 28;
@@ -185,13 +194,9 @@ pub fn expand_glob(pattern: &str) -> Result<Vec<PathBuf>> {
 mod tests {
     use super::*;
 
-    fn temp(name: &str) -> PathBuf {
-        std::env::temp_dir().join(format!("parallax-io-{name}-{}", std::process::id()))
-    }
-
     #[test]
     fn atomic_write_replaces_and_leaves_no_temp_file() {
-        let dir = temp("atomic");
+        let dir = test_dir("io-atomic");
         let path = dir.join("a.ron");
         write_ron(&path, &vec![1, 2, 3]).unwrap();
         write_ron(&path, &vec![4]).unwrap();
@@ -204,7 +209,7 @@ mod tests {
 
     #[test]
     fn a_directory_as_output_file_is_refused_and_leaves_nothing() {
-        let dir = temp("isdir");
+        let dir = test_dir("io-isdir");
         std::fs::create_dir_all(dir.join("out.ron")).unwrap();
         let err = write_atomic(&dir.join("out.ron"), b"x").unwrap_err().to_string();
         assert!(err.contains("is a directory"), "{err}");
@@ -224,7 +229,7 @@ mod tests {
 
     #[test]
     fn a_truncated_jpeg_is_refused_naming_the_file() {
-        let dir = temp("jpeg");
+        let dir = test_dir("io-jpeg");
         std::fs::create_dir_all(&dir).unwrap();
         let img = image::GrayImage::from_fn(64, 48, |x, y| image::Luma([((x * 7 + y * 3) % 256) as u8]));
         let mut bytes = Vec::new();
@@ -245,7 +250,7 @@ mod tests {
     #[test]
     fn results_are_written_in_their_format_and_a_non_calibration_is_refused_elsewhere() {
         use parallax_interop::Format;
-        let dir = temp("result");
+        let dir = test_dir("io-result");
         let written = write_result(&dir.join("r.json"), Format::Json, &vec![1.5, 2.0], None).unwrap();
         assert_eq!(written, [dir.join("r.json")]);
         let back: Vec<f64> = serde_json_free_parse(&std::fs::read_to_string(&written[0]).unwrap());

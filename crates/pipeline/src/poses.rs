@@ -144,16 +144,9 @@ mod tests {
     use super::*;
     use glam::DVec3;
 
-    fn temp(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("parallax-poses-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
-    }
-
     #[test]
     fn pose_globs_are_read_in_natural_order_and_methods_parse() {
-        let dir = temp("glob");
+        let dir = crate::io::test_dir("glob");
         // One axis-angle pose per file: tx = the file number.
         for k in [1, 2, 10] {
             std::fs::write(dir.join(format!("pose{k}.txt")), format!("{k} 0 0 0 0 0.1\n")).unwrap();

@@ -7,36 +7,31 @@ use std::path::PathBuf;
 
 use glam::DVec3;
 use parallax_camera_model::{
-    Camera, CharucoBoard, Chessboard, Distortion, Intrinsics, Isometry3, MarkerDictionary, StereoRig, TargetDescription,
+    Camera, CharucoBoard, Chessboard, Distortion, Intrinsics, Isometry3, StereoRig, TargetDescription,
 };
 use parallax_composition::session;
 use parallax_synthetic::{RenderOptions, ViewSetConfig, calibration_poses, render_charuco};
 
+/// The renderer's camera: 800x600, fx 760, fy 758, centre (402, 297), barrel distortion.
 fn camera() -> Camera {
-    Camera {
-        intrinsics: Intrinsics::new(760.0, 758.0, 402.0, 297.0),
-        distortion: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0),
-        width: 800,
-        height: 600,
-    }
+    let k = Intrinsics::new(760.0, 758.0, 402.0, 297.0);
+    Camera::new(k, Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0), 800, 600).unwrap()
 }
 
+/// OpenCV's 9x7-square ChArUco board, 25 mm squares, 18 mm markers of DICT_4X4_50.
 fn board() -> CharucoBoard {
-    CharucoBoard::new(9, 7, 25.0, 18.0, MarkerDictionary::predefined("DICT_4X4_50").unwrap(), false).unwrap()
+    match "charuco:9x7:25:18:DICT_4X4_50".parse() {
+        Ok(TargetDescription::Charuco(b)) => b,
+        other => panic!("{other:?}"),
+    }
 }
 
 /// `camera_from_board` poses of the view generator (partial views allowed), moved from its
 /// chessboard frame (first inner corner) to the ChArUco frame (outer corner).
 fn poses(cam: &Camera, b: &CharucoBoard, views: usize, seed: u64) -> Vec<Isometry3> {
     let chess = Chessboard::new(b.squares_x() - 1, b.squares_y() - 1, b.square_length()).unwrap();
-    let cfg = ViewSetConfig {
-        views,
-        seed,
-        allow_partial: true,
-        min_distance: 350.0,
-        max_distance: 650.0,
-        ..Default::default()
-    };
+    let (min_distance, max_distance) = (380.0, 620.0);
+    let cfg = ViewSetConfig { views, seed, allow_partial: true, min_distance, max_distance, ..Default::default() };
     let shift = Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(-b.square_length(), -b.square_length(), 0.0));
     calibration_poses(cam, &chess, &cfg).unwrap().into_iter().map(|p| p * shift).collect()
 }
