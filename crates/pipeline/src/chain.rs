@@ -11,11 +11,25 @@ use std::fmt;
 use glam::{DVec2, DVec3};
 use parallax_camera_model::{Chessboard, CornerGrid, DisparityMap, Isometry3};
 use parallax_hand_eye::{HandEyeConfig, HandEyeSolution, Method, Setup};
-use parallax_planar_calibration::{StereoCalibrationResult, StereoConfig};
-use parallax_stereo_rectify::RectifyConfig;
+use parallax_planar_calibration::{
+    FisheyeModelKind, FisheyeStereoCalibrationResult, FisheyeStereoConfig, StereoCalibrationResult, StereoConfig,
+};
+use parallax_stereo_rectify::{FisheyeRectifyConfig, RectifyConfig};
 use parallax_triangulation::{CornerDistance, Measurement, PointCloud, TriangulationConfig};
 
-use crate::stages::{self, RectifiedRig, StereoViews};
+use crate::stages::{self, FisheyeRectifiedRig, RectifiedRig, StereoViews};
+
+/// The lens family the chain calibrates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Lens {
+    /// Pinhole with Brown–Conrady distortion ([`ChainInput::stereo`]).
+    #[default]
+    Pinhole,
+    /// A wide-angle lens of this model ([`ChainInput::fisheye_stereo`]'s cameras are set to
+    /// it): rectified to a pinhole pair ([`ChainInput::fisheye_rectify`]), and every later stage
+    /// works on the rectified pair ([`FisheyeRectifiedRig`]).
+    Fisheye(FisheyeModelKind),
+}
 
 /// Why a stage has no result.
 #[derive(Debug, Clone, PartialEq)]
@@ -97,6 +111,13 @@ pub struct ChainInput {
     pub stereo_checks: stages::StereoChecks,
     /// Rectification settings.
     pub rectify: RectifyConfig,
+    /// The lens family to calibrate.
+    pub lens: Lens,
+    /// Fisheye stereo calibration settings (with [`Lens::Fisheye`]; its model replaces the
+    /// cameras' `model`).
+    pub fisheye_stereo: FisheyeStereoConfig,
+    /// Rectification of a fisheye rig to a pinhole pair (`balance`, `fov_scale`).
+    pub fisheye_rectify: FisheyeRectifyConfig,
     /// Block-matching settings.
     pub matcher: parallax_block_matching::MatcherConfig,
     /// Hand-eye settings (the refined method is used).
@@ -116,6 +137,9 @@ impl ChainInput {
             stereo: Default::default(),
             stereo_checks: Default::default(),
             rectify: Default::default(),
+            lens: Lens::Pinhole,
+            fisheye_stereo: Default::default(),
+            fisheye_rectify: Default::default(),
             matcher: Default::default(),
             hand_eye: Default::default(),
         }
@@ -164,10 +188,14 @@ pub struct ChainOutput {
     pub detections: Vec<[Option<CornerGrid>; 2]>,
     /// The views with the board in both images.
     pub views: StereoViews,
-    /// Stereo calibration.
+    /// Stereo calibration (`NotRequested` with a fisheye lens).
     pub calibration: StageResult<StereoCalibrationResult>,
-    /// Rectification and corner `|Δv|`.
+    /// Fisheye stereo calibration (`NotRequested` with a pinhole lens).
+    pub fisheye_calibration: StageResult<FisheyeStereoCalibrationResult>,
+    /// Rectification and corner `|Δv|` (of either lens family).
     pub rectified: StageResult<RectifiedRig>,
+    /// A fisheye rig's rectification with the rectified pair's pinhole rig.
+    pub fisheye_rectified: StageResult<FisheyeRectifiedRig>,
     /// The first kept calibration view, rectified (for reports).
     pub rectified_view: StageResult<(image::GrayImage, image::GrayImage)>,
     /// Block matching.
@@ -210,6 +238,22 @@ fn detect_pairs<'a>(
     pairs.par_iter().map(|(l, r)| Ok([find(l)?, r.map(find).transpose()?.flatten()])).collect()
 }
 
+/// The calibrated rig of either lens family.
+#[derive(Clone, Copy)]
+enum Calibrated<'a> {
+    Pinhole(&'a StereoCalibrationResult),
+    Fisheye(&'a FisheyeStereoCalibrationResult),
+}
+
+impl Calibrated<'_> {
+    fn sigma_px(&self) -> f64 {
+        match self {
+            Self::Pinhole(c) => c.sigma_px,
+            Self::Fisheye(c) => c.sigma_px,
+        }
+    }
+}
+
 /// Runs every stage. Only a detector error (an unusable image) is returned as an error; every
 /// later failure is recorded in the output and the stages that do not depend on it still run.
 pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
@@ -219,31 +263,57 @@ pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
     let views = StereoViews::from_detections(&detections);
 
     progress(2, "calibrating both cameras and the rig");
-    let calibration = match input.calibration.first() {
-        None => failed("no calibration images"),
-        Some([l, r]) => {
-            stages::calibrate_stereo(board, &views, l.dimensions(), r.dimensions(), &input.stereo, &input.stereo_checks)
-                .or_else(failed)
+    let sizes = input.calibration.first().map(|[l, r]| (l.dimensions(), r.dimensions()));
+    let (calibration, fisheye_calibration) = match (input.lens, sizes) {
+        (_, None) => (failed("no calibration images"), failed("no calibration images")),
+        (Lens::Pinhole, Some((ls, rs))) => (
+            stages::calibrate_stereo(board, &views, ls, rs, &input.stereo, &input.stereo_checks).or_else(failed),
+            Err(StageFailure::NotRequested),
+        ),
+        (Lens::Fisheye(model), Some((ls, rs))) => {
+            let mut cfg = input.fisheye_stereo.clone();
+            cfg.left.model = model;
+            cfg.right.model = model;
+            (
+                Err(StageFailure::NotRequested),
+                stages::calibrate_fisheye_stereo(board, &views, ls, rs, &cfg, &input.stereo_checks).or_else(failed),
+            )
         }
+    };
+    let calib: StageResult<Calibrated> = match input.lens {
+        Lens::Pinhole => need(&calibration, "calibration").map(Calibrated::Pinhole),
+        Lens::Fisheye(_) => need(&fisheye_calibration, "calibration").map(Calibrated::Fisheye),
     };
 
     progress(3, "rectifying");
-    let rectified =
-        need(&calibration, "calibration").and_then(|c| stages::rectify(&c.rig, &views, &input.rectify).or_else(failed));
-    let rectified_view = need(&calibration, "calibration").and_then(|c| {
-        let r = need(&rectified, "rectification")?;
+    let fisheye_rectified = match &calib {
+        Ok(Calibrated::Fisheye(c)) => stages::rectify_fisheye(&c.rig, &views, &input.fisheye_rectify).or_else(failed),
+        Ok(Calibrated::Pinhole(_)) => Err(StageFailure::NotRequested),
+        Err(e) => Err(e.clone()),
+    };
+    let rectified = match &calib {
+        Ok(Calibrated::Pinhole(c)) => stages::rectify(&c.rig, &views, &input.rectify).or_else(failed),
+        Ok(Calibrated::Fisheye(_)) => fisheye_rectified.as_ref().map(|f| f.rectified.clone()).map_err(Clone::clone),
+        Err(e) => Err(e.clone()),
+    };
+    let rectify_pair = |l: &image::GrayImage, r: &image::GrayImage| {
+        let c = calib.as_ref().map_err(Clone::clone)?;
+        let rect = need(&rectified, "rectification")?;
+        match c {
+            Calibrated::Pinhole(c) => stages::rectify_images(&c.rig, &rect.rectification, l, r).or_else(failed),
+            Calibrated::Fisheye(c) => stages::rectify_fisheye_images(&c.rig, &rect.rectification, l, r).or_else(failed),
+        }
+    };
+    let rectified_view = need(&rectified, "rectification").and_then(|_| {
         let i = *views.index.first().ok_or(StageFailure::Skipped { needs: "corners" })?;
         let [l, rr] = &input.calibration[i];
-        stages::rectify_images(&c.rig, &r.rectification, l, rr).or_else(failed)
+        rectify_pair(l, rr)
     });
 
     progress(4, "block matching");
     let to_match: StageResult<(image::GrayImage, image::GrayImage, bool)> = match &input.match_pair {
         Some(MatchPair::Rectified(l, r)) => Ok((l.clone(), r.clone(), false)),
-        Some(MatchPair::Raw(l, r)) => need(&calibration, "calibration").and_then(|c| {
-            let rect = need(&rectified, "rectification")?;
-            stages::rectify_images(&c.rig, &rect.rectification, l, r).map(|(l, r)| (l, r, true)).or_else(failed)
-        }),
+        Some(MatchPair::Raw(l, r)) => rectify_pair(l, r).map(|(l, r)| (l, r, true)),
         None => need(&rectified_view, "rectification").map(|(l, r)| (l.clone(), r.clone(), true)),
     };
     let matched = to_match.and_then(|(left, right, rectified_here)| {
@@ -257,16 +327,27 @@ pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
         let rect = need(&rectified, "rectification")?;
         stages::point_cloud(&m.disparity, rect.rectification.q, Some(&m.left)).or_else(failed)
     });
-    let adjacent = need(&calibration, "calibration").and_then(|c| {
-        let cfg = TriangulationConfig { pixel_sigma: c.sigma_px, ..Default::default() };
-        stages::adjacent_distances(&c.rig, &views, &cfg).or_else(failed)
+    let adjacent = calib.as_ref().map_err(Clone::clone).and_then(|c| {
+        let cfg = TriangulationConfig { pixel_sigma: c.sigma_px(), ..Default::default() };
+        match c {
+            Calibrated::Pinhole(c) => stages::adjacent_distances(&c.rig, &views, &cfg).or_else(failed),
+            Calibrated::Fisheye(c) => {
+                let rect = need(&fisheye_rectified, "rectification")?;
+                stages::fisheye_adjacent_distances(&c.rig, rect, &views, &cfg).or_else(failed)
+            }
+        }
     });
 
     progress(6, "hand-eye");
     let station_detections = detect_pairs(input.stations.iter().map(|s| (&s.left, s.right.as_ref())), input)?;
     let station_left: Vec<Option<CornerGrid>> = station_detections.iter().map(|d| d[0].clone()).collect();
-    let station_poses = need(&calibration, "calibration")
-        .and_then(|c| stages::board_poses(&c.rig.left, board, &station_left).or_else(failed));
+    let station_poses = calib.as_ref().map_err(Clone::clone).and_then(|c| match c {
+        Calibrated::Pinhole(c) => stages::board_poses(&c.rig.left, board, &station_left).or_else(failed),
+        Calibrated::Fisheye(c) => {
+            let rect = need(&fisheye_rectified, "rectification")?;
+            stages::fisheye_board_poses(&c.rig, rect, board, &station_left).or_else(failed)
+        }
+    });
     let hand_eye = if input.stations.iter().all(|s| s.robot.is_none()) {
         Err(StageFailure::NotRequested)
     } else {
@@ -286,7 +367,7 @@ pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
     let measurement = if input.stations.iter().all(|s| s.right.is_none()) {
         Err(StageFailure::NotRequested)
     } else {
-        need(&calibration, "calibration").and_then(|c| {
+        calib.as_ref().map_err(Clone::clone).and_then(|c| {
             let station = station_detections
                 .iter()
                 .position(|d| d[0].is_some() && d[1].is_some())
@@ -296,8 +377,14 @@ pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
             };
             let targets = measurement_targets(board);
             let pairs: Vec<(DVec2, DVec2)> = targets.iter().map(|&(c, r)| (gl.at(c, r), gr.at(c, r))).collect();
-            let cfg = TriangulationConfig { pixel_sigma: c.sigma_px, ..Default::default() };
-            let measurement = stages::measure(&c.rig, &pairs, &cfg).or_else(failed)?;
+            let cfg = TriangulationConfig { pixel_sigma: c.sigma_px(), ..Default::default() };
+            let measurement = match c {
+                Calibrated::Pinhole(c) => stages::measure(&c.rig, &pairs, &cfg).or_else(failed)?,
+                Calibrated::Fisheye(c) => {
+                    let rect = need(&fisheye_rectified, "rectification")?;
+                    stages::measure_fisheye(&c.rig, rect, &pairs, &cfg).or_else(failed)?
+                }
+            };
             Ok(StationMeasurement { station, targets, measurement })
         })
     };
@@ -316,7 +403,9 @@ pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
         detections,
         views,
         calibration,
+        fisheye_calibration,
         rectified,
+        fisheye_rectified,
         rectified_view,
         matched,
         cloud,

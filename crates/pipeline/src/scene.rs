@@ -4,12 +4,12 @@
 use std::path::Path;
 
 use glam::{DVec2, DVec3};
-use parallax_camera_model::{Chessboard, DisparityMap, Isometry3, StereoRig};
+use parallax_camera_model::{CameraModel, Chessboard, DisparityMap, FisheyeLens, Isometry3};
 use parallax_hand_eye::Setup;
 use parallax_synthetic::{RenderOptions, SceneDescription};
 use rayon::prelude::*;
 
-use crate::chain::{ChainInput, ChainOutput, MatchPair, StageResult, Station, run_chain};
+use crate::chain::{ChainInput, ChainOutput, Lens, MatchPair, StageResult, Station, run_chain};
 use crate::report::Report;
 use crate::stats::{median, rms};
 use crate::{Result, artifacts};
@@ -23,24 +23,26 @@ pub enum Corruption {
     SwapStereo,
 }
 
-/// Renders a stereo view of the board at `left_from_board` (both images and their true corners).
-fn render_stereo_view(
-    rig: &StereoRig,
+/// Renders a stereo view of the board at `left_from_board` through `left` and `right`
+/// (`right_from_left` apart): both images and their true corners.
+fn render_stereo_view<C: CameraModel + Sync>(
+    (left, right, right_from_left): (&C, &C, &Isometry3),
     board: &Chessboard,
     left_from_board: &Isometry3,
     opts: &RenderOptions,
     seed: u64,
 ) -> Result<[parallax_synthetic::RenderedView; 2]> {
-    let l = parallax_synthetic::render_chessboard(&rig.left, board, left_from_board, &RenderOptions { seed, ..*opts })?;
+    let l = parallax_synthetic::render_chessboard(left, board, left_from_board, &RenderOptions { seed, ..*opts })?;
     let r = parallax_synthetic::render_chessboard(
-        &rig.right,
+        right,
         board,
-        &(rig.right_from_left * *left_from_board),
+        &(*right_from_left * *left_from_board),
         &RenderOptions { seed: seed ^ 0x5eed_0001, ..*opts },
     )?;
     Ok([l, r])
 }
 
+/// Renders every pose through the scene's rig: the fisheye rig when the scene has one.
 fn render_views(
     scene: &SceneDescription,
     poses: &[Isometry3],
@@ -50,13 +52,23 @@ fn render_views(
         .par_iter()
         .enumerate()
         .map(|(i, p)| {
-            render_stereo_view(
-                &scene.rig,
-                &scene.board,
-                p,
-                &scene.render,
-                scene.render.seed.wrapping_add(seed_offset + i as u64),
-            )
+            let seed = scene.render.seed.wrapping_add(seed_offset + i as u64);
+            match &scene.fisheye {
+                Some(f) => render_stereo_view(
+                    (&f.rig.left, &f.rig.right, &f.rig.right_from_left),
+                    &scene.board,
+                    p,
+                    &scene.render,
+                    seed,
+                ),
+                None => render_stereo_view(
+                    (&scene.rig.left, &scene.rig.right, &scene.rig.right_from_left),
+                    &scene.board,
+                    p,
+                    &scene.render,
+                    seed,
+                ),
+            }
         })
         .collect()
 }
@@ -80,7 +92,11 @@ pub fn run_scene(name: &str, scene: &SceneDescription, out: &Path, corrupt: Opti
     })?;
 
     eprintln!("[0/8] rendering the calibration session, the stereo scene and the robot stations…");
-    let session = render_views(scene, &scene.stereo_poses()?, 1000)?;
+    let session_poses = match scene.fisheye_stereo_poses() {
+        Some(poses) => poses?,
+        None => scene.stereo_poses()?,
+    };
+    let session = render_views(scene, &session_poses, 1000)?;
     let stereo_scene = parallax_synthetic::render_stereo_scene(&scene.stereo_scene)?;
     let traj_cfg = parallax_synthetic::TrajectoryConfig { rot_noise_rad: 0.0, trans_noise: 0.0, ..scene.trajectory };
     let trajectory = parallax_synthetic::hand_eye_trajectory(&traj_cfg)?;
@@ -125,6 +141,12 @@ pub fn run_scene(name: &str, scene: &SceneDescription, out: &Path, corrupt: Opti
         .map(|([l, r], p)| Station { robot: Some(*p), left: l.image, right: Some(r.image) })
         .collect();
     input.setup = if truth.trajectory.eye_in_hand { Setup::EyeInHand } else { Setup::EyeToHand };
+    if let Some(f) = &scene.fisheye {
+        input.lens = Lens::Fisheye(match f.rig.left.lens() {
+            FisheyeLens::KannalaBrandt(_) => parallax_planar_calibration::FisheyeModelKind::KannalaBrandt,
+            FisheyeLens::DoubleSphere(_) => parallax_planar_calibration::FisheyeModelKind::DoubleSphere,
+        });
+    }
     input.matcher = parallax_block_matching::MatcherConfig {
         num_disparities: (scene.stereo_scene.max_disparity.ceil() as usize + 16) & !15,
         ..Default::default()
@@ -148,7 +170,7 @@ pub fn run_scene(name: &str, scene: &SceneDescription, out: &Path, corrupt: Opti
     };
 
     let output = run_chain(&input)?;
-    score(&mut report, scene, &truth, &output);
+    score(&mut report, scene, &truth, &output, &input);
     report.images = artifacts::write_artifacts(out, &input, &output)?;
     let truth_disparity = crate::plots::disparity::DisparityTruth {
         disparity: &truth.stereo_disparity,
@@ -174,7 +196,7 @@ fn missing<T>(report: &mut Report, stage: &str, result: &StageResult<T>, figures
     }
 }
 
-fn score(report: &mut Report, scene: &SceneDescription, truth: &Truth, out: &ChainOutput) {
+fn score(report: &mut Report, scene: &SceneDescription, truth: &Truth, out: &ChainOutput, input: &ChainInput) {
     let tol = &scene.tolerances;
     let unit = scene.unit.clone();
     let unit = unit.as_str();
@@ -194,54 +216,79 @@ fn score(report: &mut Report, scene: &SceneDescription, truth: &Truth, out: &Cha
     report.at_most("corners", "corner RMS error", rms(corner_errors), tol.corner_rms_px, "px");
 
     // Calibration.
-    missing(
-        report,
-        "calibration",
-        &out.calibration,
-        &[
-            ("focal length error (worst of 4)", tol.focal_error_pct, "%", true),
-            ("principal point error (worst)", tol.principal_point_px, "px", true),
-            ("stereo RMS reprojection error", tol.reprojection_rms_px, "px", true),
-            ("baseline vector error", tol.baseline_error, unit, true),
-            ("rig rotation error", tol.rig_rotation_deg, "deg", true),
-        ],
-    );
-    if let Ok(stereo) = &out.calibration {
-        let rig = stereo.rig;
-        let focal_err = [
-            (rig.left.intrinsics.fx, rig_true.left.intrinsics.fx),
-            (rig.left.intrinsics.fy, rig_true.left.intrinsics.fy),
-            (rig.right.intrinsics.fx, rig_true.right.intrinsics.fx),
-            (rig.right.intrinsics.fy, rig_true.right.intrinsics.fy),
-        ]
-        .iter()
-        .map(|(e, t)| 100.0 * (e - t).abs() / t)
-        .fold(0.0, f64::max);
+    let calibration_figures = [
+        ("focal length error (worst of 4)", tol.focal_error_pct, "%", true),
+        ("principal point error (worst)", tol.principal_point_px, "px", true),
+        ("stereo RMS reprojection error", tol.reprojection_rms_px, "px", true),
+        ("baseline vector error", tol.baseline_error, unit, true),
+        ("rig rotation error", tol.rig_rotation_deg, "deg", true),
+    ];
+    match &scene.fisheye {
+        None => missing(report, "calibration", &out.calibration, &calibration_figures),
+        Some(_) => missing(report, "calibration", &out.fisheye_calibration, &calibration_figures),
+    }
+    // (fx, fy, cx, cy) of left and right, estimated and true; the rig's pose and baseline σ.
+    let estimated = match (&scene.fisheye, &out.calibration, &out.fisheye_calibration) {
+        (None, Ok(c), _) => Some((
+            [c.rig.left.intrinsics, c.rig.right.intrinsics],
+            c.rig.right_from_left,
+            c.rms_px,
+            c.rig_std_devs.baseline,
+        )),
+        (Some(_), _, Ok(c)) => Some((
+            [c.rig.left.intrinsics(), c.rig.right.intrinsics()],
+            c.rig.right_from_left,
+            c.rms_px,
+            c.rig_std_devs.baseline,
+        )),
+        _ => None,
+    };
+    let (true_k, true_pose) = match &scene.fisheye {
+        None => ([rig_true.left.intrinsics, rig_true.right.intrinsics], rig_true.right_from_left),
+        Some(f) => ([f.rig.left.intrinsics(), f.rig.right.intrinsics()], f.rig.right_from_left),
+    };
+    if let Some((k, pose, rms_px, baseline_sigma)) = estimated {
+        let focal_err =
+            [(k[0].fx, true_k[0].fx), (k[0].fy, true_k[0].fy), (k[1].fx, true_k[1].fx), (k[1].fy, true_k[1].fy)]
+                .iter()
+                .map(|(e, t)| 100.0 * (e - t).abs() / t)
+                .fold(0.0, f64::max);
         report.at_most("calibration", "focal length error (worst of 4)", focal_err, tol.focal_error_pct, "%");
-        let pp_err = [(rig.left, rig_true.left), (rig.right, rig_true.right)]
-            .iter()
-            .map(|(e, t)| DVec2::new(e.intrinsics.cx - t.intrinsics.cx, e.intrinsics.cy - t.intrinsics.cy).length())
-            .fold(0.0, f64::max);
+        let pp_err =
+            k.iter().zip(&true_k).map(|(e, t)| DVec2::new(e.cx - t.cx, e.cy - t.cy).length()).fold(0.0, f64::max);
         report.at_most("calibration", "principal point error (worst)", pp_err, tol.principal_point_px, "px");
-        report.at_most("calibration", "stereo RMS reprojection error", stereo.rms_px, tol.reprojection_rms_px, "px");
-        let baseline_err = (rig.right_from_left.translation - rig_true.right_from_left.translation).length();
+        report.at_most("calibration", "stereo RMS reprojection error", rms_px, tol.reprojection_rms_px, "px");
+        let baseline_err = (pose.translation - true_pose.translation).length();
         report.at_most("calibration", "baseline vector error", baseline_err, tol.baseline_error, unit);
-        let (rot_err, _) = rig.right_from_left.distance(&rig_true.right_from_left);
+        let (rot_err, _) = pose.distance(&true_pose);
         report.at_most("calibration", "rig rotation error", rot_err.to_degrees(), tol.rig_rotation_deg, "deg");
         report.note(
             "calibration",
             format!(
                 "{} stereo views; left fx {:.3} (true {:.3}), right fx {:.3} (true {:.3}); baseline {:.4} {unit} ± {:.4} (true {:.4})",
                 out.views.len(),
-                rig.left.intrinsics.fx,
-                rig_true.left.intrinsics.fx,
-                rig.right.intrinsics.fx,
-                rig_true.right.intrinsics.fx,
-                rig.baseline(),
-                stereo.rig_std_devs.baseline,
-                rig_true.baseline()
+                k[0].fx,
+                true_k[0].fx,
+                k[1].fx,
+                true_k[1].fx,
+                pose.translation.length(),
+                baseline_sigma,
+                true_pose.translation.length()
             ),
         );
+    }
+    if let (Some(f), Ok(c)) = (&scene.fisheye, &out.fisheye_calibration) {
+        for (side, est, tru) in [("left", &c.rig.left, &f.rig.left), ("right", &c.rig.right, &f.rig.right)] {
+            report.note(
+                "calibration",
+                format!(
+                    "{side} lens ({}): {:.6?} (true {:.6?})",
+                    parallax_interop::lens_model_name(&est.lens()),
+                    est.lens().parameters(),
+                    tru.lens().parameters()
+                ),
+            );
+        }
     }
 
     // Rectification.
@@ -284,7 +331,10 @@ fn score(report: &mut Report, scene: &SceneDescription, truth: &Truth, out: &Cha
     let depth_figure = "median relative depth error of the cloud";
     missing(report, "triangulation", &out.cloud, &[(depth_figure, tol.cloud_depth_error_pct, "%", true)]);
     if let (Ok(cloud), Ok(m), Ok(r)) = (&out.cloud, &out.matched, &out.rectified) {
-        let rect_true = parallax_stereo_rectify::stereo_rectify(&rig_true, &Default::default());
+        let rect_true = match &scene.fisheye {
+            None => parallax_stereo_rectify::stereo_rectify(&rig_true, &Default::default()),
+            Some(f) => parallax_stereo_rectify::fisheye_stereo_rectify(&f.rig, &input.fisheye_rectify),
+        };
         let errors = match rect_true {
             Ok(rt) => {
                 relative_depth_errors(&m.disparity, &truth.stereo_disparity, &truth.visible, r.rectification.q, rt.q)

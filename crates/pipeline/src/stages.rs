@@ -2,10 +2,15 @@
 //! the CLI commands and users' own programs all call these.
 
 use glam::{DVec2, DVec3};
-use parallax_camera_model::{Camera, Chessboard, CornerGrid, DisparityMap, Isometry3, StereoRig};
+use parallax_camera_model::{
+    Camera, CameraModel, Chessboard, CornerGrid, DisparityMap, FisheyeStereoRig, Isometry3, StereoRig,
+};
 use parallax_hand_eye::{HandEyeConfig, HandEyeSolution, Method, Setup};
-use parallax_planar_calibration::{CalibrationConfig, CalibrationResult, StereoCalibrationResult, StereoConfig};
-use parallax_stereo_rectify::{Rectification, RectifyConfig};
+use parallax_planar_calibration::{
+    CalibrationConfig, CalibrationResult, FisheyeStereoCalibrationResult, FisheyeStereoConfig, StereoCalibrationResult,
+    StereoConfig,
+};
+use parallax_stereo_rectify::{FisheyeRectifyConfig, Rectification, RectifyConfig};
 use parallax_triangulation::{CornerDistance, Measurement, PointCloud, TriangulationConfig};
 use rayon::prelude::*;
 
@@ -395,4 +400,232 @@ pub fn target_pose(
 ) -> Result<(Isometry3, f64)> {
     let object = parallax_planar_calibration::object_points_for(target, observation, 0)?;
     Ok(parallax_planar_calibration::solve_pnp_planar_points(camera, &object, observation.points())?)
+}
+
+/// Plausibility checks of a fisheye stereo calibration: the same limits as [`check_stereo`]
+/// (RMS far above corner noise, right camera to the left of the left one).
+pub fn check_fisheye_stereo(result: &FisheyeStereoCalibrationResult, checks: &StereoChecks) -> Result<()> {
+    let t = result.rig.right_from_left.translation;
+    if result.rms_px.is_nan() || result.rms_px > checks.max_rms_px {
+        return Err(PipelineError::Input(format!(
+            "fisheye stereo RMS reprojection error {:.2} px is far above the corner noise (limit {} px): are the left \
+             and right images paired in the same order, the board size and the lens model right?",
+            result.rms_px, checks.max_rms_px
+        )));
+    }
+    if !checks.allow_swapped && t.x > 0.0 && t.x.abs() > t.y.abs().max(t.z.abs()) {
+        return Err(PipelineError::Input(format!(
+            "the right camera is to the left of the left camera (right_from_left t = [{:.3}, {:.3}, {:.3}]): the left \
+             and right images are probably swapped; swap them (or allow a swapped rig: `allow_swapped`)",
+            t.x, t.y, t.z
+        )));
+    }
+    Ok(())
+}
+
+/// Stereo calibration of two wide-angle cameras (the lens model in `config.left` /
+/// `config.right`) from the views with the board in both images, refused when it fails the
+/// plausibility `checks`.
+pub fn calibrate_fisheye_stereo(
+    board: &Chessboard,
+    views: &StereoViews,
+    left_size: (u32, u32),
+    right_size: (u32, u32),
+    config: &FisheyeStereoConfig,
+    checks: &StereoChecks,
+) -> Result<FisheyeStereoCalibrationResult> {
+    let object = vec![board.object_points(); views.len()];
+    let corners = |grids: &[CornerGrid]| grids.iter().map(|g| g.corners.clone()).collect::<Vec<_>>();
+    let result = parallax_planar_calibration::calibrate_fisheye_stereo(
+        &object,
+        &corners(&views.left),
+        &corners(&views.right),
+        left_size,
+        right_size,
+        config,
+    )?;
+    check_fisheye_stereo(&result, checks)?;
+    Ok(result)
+}
+
+/// A fisheye rig rectified to a pinhole pair: the rectification, the corners' `|Δv|`, and the
+/// rectified pair as a distortion-free pinhole rig (`K` = the left block of `P1` and `P2`,
+/// `right_from_left` = the baseline `(Tx, 0, 0)`, `Tx = P2[0][3] / P2[0][0]`). Every stage
+/// after rectification (triangulation, measurement, board poses) works on rectified pixels
+/// with this rig; its frame is the rectified left frame, `R1 · left camera frame`.
+#[derive(Debug, Clone)]
+pub struct FisheyeRectifiedRig {
+    /// `R1, R2, P1, P2, Q`, the valid regions and the corners' `|Δv|`.
+    pub rectified: RectifiedRig,
+    /// The rectified pair as a pinhole rig without distortion.
+    pub pinhole: StereoRig,
+}
+
+impl FisheyeRectifiedRig {
+    /// Pixels of the left camera in the rectified left image.
+    pub fn rectify_left<C: CameraModel>(&self, camera: &C, pixels: &[DVec2]) -> Result<Vec<DVec2>> {
+        let r = &self.rectified.rectification;
+        Ok(parallax_stereo_rectify::rectify_points_fisheye(camera, r.r1, &r.p1, pixels)?)
+    }
+
+    /// Pixels of the right camera in the rectified right image.
+    pub fn rectify_right<C: CameraModel>(&self, camera: &C, pixels: &[DVec2]) -> Result<Vec<DVec2>> {
+        let r = &self.rectified.rectification;
+        Ok(parallax_stereo_rectify::rectify_points_fisheye(camera, r.r2, &r.p2, pixels)?)
+    }
+
+    /// `left camera_from_rectified left`: the rotation `R1ᵀ`.
+    pub fn left_from_rectified(&self) -> Result<Isometry3> {
+        Ok(Isometry3::from_rotation_translation(self.rectified.rectification.r1.transpose(), DVec3::ZERO)?)
+    }
+}
+
+/// The pinhole rig of a rectified pair (see [`FisheyeRectifiedRig`]).
+pub fn rectified_pinhole_rig(rect: &Rectification) -> Result<StereoRig> {
+    let camera = |p: &parallax_camera_model::ProjectionMatrix| -> Result<Camera> {
+        Ok(Camera::new(
+            parallax_camera_model::Intrinsics::from_matrix(p.left_block())?,
+            parallax_camera_model::Distortion::default(),
+            rect.width,
+            rect.height,
+        )?)
+    };
+    if rect.vertical {
+        return Err(PipelineError::Input("a vertical rectification has no horizontal pinhole rig".into()));
+    }
+    let tx = rect.p2.rows[0][3] / rect.p2.rows[0][0];
+    let right_from_left = Isometry3::from_rotation_translation(glam::DMat3::IDENTITY, DVec3::new(tx, 0.0, 0.0))?;
+    Ok(StereoRig::new(camera(&rect.p1)?, camera(&rect.p2)?, right_from_left)?)
+}
+
+/// Rectifies a fisheye rig to a pinhole pair (`cv::fisheye::stereoRectify`) and measures the
+/// corners' `|Δv|` after rectification; refuses a collapsed valid region as [`rectify`] does.
+pub fn rectify_fisheye(
+    rig: &FisheyeStereoRig,
+    views: &StereoViews,
+    config: &FisheyeRectifyConfig,
+) -> Result<FisheyeRectifiedRig> {
+    let rectification = parallax_stereo_rectify::fisheye_stereo_rectify(rig, config)?;
+    let area = f64::from(rectification.width) * f64::from(rectification.height);
+    for (side, roi) in [("left", rectification.roi1), ("right", rectification.roi2)] {
+        let valid = f64::from(roi.width) * f64::from(roi.height);
+        if valid < MIN_VALID_RECTIFIED_FRACTION * area {
+            return Err(PipelineError::Input(format!(
+                "the rectified {side} image has a valid region of {}x{} px ({:.1} % of the image): the fisheye \
+                 calibration is implausible",
+                roi.width,
+                roi.height,
+                100.0 * valid / area.max(1.0)
+            )));
+        }
+    }
+    let pinhole = rectified_pinhole_rig(&rectification)?;
+    let mut out = FisheyeRectifiedRig { rectified: RectifiedRig { rectification, abs_dv: Vec::new() }, pinhole };
+    let mut abs_dv = Vec::new();
+    for (l, r) in views.left.iter().zip(&views.right) {
+        let lp = out.rectify_left(&rig.left, &l.corners)?;
+        let rp = out.rectify_right(&rig.right, &r.corners)?;
+        abs_dv.extend(lp.iter().zip(&rp).map(|(a, b)| (a.y - b.y).abs()));
+    }
+    out.rectified.abs_dv = abs_dv;
+    Ok(out)
+}
+
+/// Resamples a fisheye stereo pair into the rectified pinhole geometry (bilinear, black where
+/// no source pixel is).
+pub fn rectify_fisheye_images(
+    rig: &FisheyeStereoRig,
+    rectification: &Rectification,
+    left: &image::GrayImage,
+    right: &image::GrayImage,
+) -> Result<(image::GrayImage, image::GrayImage)> {
+    let (w, h) = (rectification.width, rectification.height);
+    let one = |camera: &parallax_camera_model::FisheyeCamera, r, p: &parallax_camera_model::ProjectionMatrix, img| {
+        let table = parallax_stereo_rectify::init_fisheye_undistort_rectify_map(camera, r, p.left_block(), w, h)?;
+        Ok::<_, PipelineError>(parallax_stereo_rectify::remap(
+            img,
+            &table,
+            parallax_stereo_rectify::Interpolation::Bilinear,
+            parallax_stereo_rectify::Border::Constant(image::Luma([0u8])),
+        )?)
+    };
+    Ok((
+        one(&rig.left, rectification.r1, &rectification.p1, left)?,
+        one(&rig.right, rectification.r2, &rectification.p2, right)?,
+    ))
+}
+
+/// Grids of both fisheye cameras moved onto the rectified pinhole pair (same corner order).
+pub fn rectified_grids(
+    rig: &FisheyeStereoRig,
+    rect: &FisheyeRectifiedRig,
+    left: &CornerGrid,
+    right: &CornerGrid,
+) -> Result<(CornerGrid, CornerGrid)> {
+    Ok((
+        CornerGrid::new(left.cols, left.rows, rect.rectify_left(&rig.left, &left.corners)?)?,
+        CornerGrid::new(right.cols, right.rows, rect.rectify_right(&rig.right, &right.corners)?)?,
+    ))
+}
+
+/// Distances between adjacent corners of every stereo view of a fisheye rig, triangulated on
+/// the rectified pinhole pair (distances do not depend on the frame).
+pub fn fisheye_adjacent_distances(
+    rig: &FisheyeStereoRig,
+    rect: &FisheyeRectifiedRig,
+    views: &StereoViews,
+    config: &TriangulationConfig,
+) -> Result<Vec<CornerDistance>> {
+    let mut out = Vec::new();
+    for (l, r) in views.left.iter().zip(&views.right) {
+        let (lr, rr) = rectified_grids(rig, rect, l, r)?;
+        out.extend(parallax_triangulation::adjacent_corner_distances(&rect.pinhole, &lr, &rr, config)?);
+    }
+    Ok(out)
+}
+
+/// Triangulates matched fisheye pixel pairs on the rectified pinhole pair and measures every
+/// distance between them (with σ); the points are returned in the left camera frame
+/// (`R1ᵀ ·` rectified). A point's per-axis σ belongs to the rectified frame and is dropped
+/// (`None`) after the rotation; the distances and their σ do not depend on the frame.
+pub fn measure_fisheye(
+    rig: &FisheyeStereoRig,
+    rect: &FisheyeRectifiedRig,
+    pairs: &[(DVec2, DVec2)],
+    config: &TriangulationConfig,
+) -> Result<Measurement> {
+    let (l, r): (Vec<DVec2>, Vec<DVec2>) = pairs.iter().copied().unzip();
+    let (lr, rr) = (rect.rectify_left(&rig.left, &l)?, rect.rectify_right(&rig.right, &r)?);
+    let rect_pairs: Vec<(DVec2, DVec2)> = lr.into_iter().zip(rr).collect();
+    let mut m = parallax_triangulation::measure_stereo(&rect.pinhole, &rect_pairs, config)?;
+    let left_from_rect = rect.left_from_rectified()?;
+    for (p, (a, b)) in m.points.iter_mut().zip(pairs) {
+        p.point = left_from_rect.transform_point(p.point);
+        p.std_dev = None;
+        (p.left, p.right) = (*a, *b);
+    }
+    Ok(m)
+}
+
+/// `camera_from_board` of every found grid of the left fisheye camera: planar PnP on the
+/// corners moved onto the rectified left view, then rotated back by `R1ᵀ`.
+pub fn fisheye_board_poses(
+    rig: &FisheyeStereoRig,
+    rect: &FisheyeRectifiedRig,
+    board: &Chessboard,
+    grids: &[Option<CornerGrid>],
+) -> Result<Vec<Option<Isometry3>>> {
+    let left_from_rect = rect.left_from_rectified()?;
+    grids
+        .iter()
+        .map(|g| match g {
+            Some(g) => {
+                let corners = rect.rectify_left(&rig.left, &g.corners)?;
+                let (rect_from_board, _) =
+                    parallax_planar_calibration::solve_pnp_planar(&rect.pinhole.left, board, &corners)?;
+                Ok(Some(left_from_rect * rect_from_board))
+            }
+            None => Ok(None),
+        })
+        .collect()
 }

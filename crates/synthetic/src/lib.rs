@@ -56,7 +56,7 @@ pub use fisheye::{
 };
 pub use noise::{add_pixel_noise, perturb_pose, rng};
 pub use render::{RenderOptions, RenderedView, render_chessboard};
-pub use scene::{SceneDescription, Tolerances};
+pub use scene::{FisheyeScene, SceneDescription, Tolerances};
 pub use stereo::{StereoScene, StereoSceneConfig, render_stereo_scene};
 pub use targets::{Occluder, TargetView, render_aprilgrid, render_charuco, render_circle_grid, render_marker};
 pub use trajectory::{HandEyeTruth, Trajectory, TrajectoryConfig, hand_eye_trajectory};

@@ -2,13 +2,24 @@
 //! robot trajectory and the pipeline's pass/fail tolerances.
 
 use glam::DVec3;
-use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3, StereoRig};
+use parallax_camera_model::{Camera, Chessboard, Distortion, FisheyeStereoRig, Intrinsics, Isometry3, StereoRig};
 use serde::{Deserialize, Serialize};
 
 use crate::{
-    RenderOptions, RenderedView, StereoSceneConfig, SyntheticError, TrajectoryConfig, ViewSetConfig, calibration_poses,
-    render_chessboard, stereo_calibration_poses,
+    RenderOptions, RenderedView, StereoSceneConfig, SyntheticError, TrajectoryConfig, ViewSetConfig, WideViewSetConfig,
+    calibration_poses, render_chessboard, stereo_calibration_poses, wide_angle_stereo_calibration_poses,
 };
+
+/// A wide-angle stereo rig of a scene: the cameras (Kannala–Brandt or double sphere, the model
+/// the pipeline calibrates with) and the generator of the stereo session's views, spread over
+/// the whole field of view.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FisheyeScene {
+    /// The rig.
+    pub rig: FisheyeStereoRig,
+    /// Generator of the stereo session's left `camera_from_board` poses.
+    pub views: WideViewSetConfig,
+}
 
 /// Pass/fail bars of `cargo xtask pipeline`, one per stage. Lengths are in the scene's unit
 /// ([`SceneDescription::unit`], millimetres in the built-in scenes).
@@ -135,6 +146,11 @@ pub struct SceneDescription {
     /// Pass/fail bars of the pipeline.
     #[serde(default)]
     pub tolerances: Tolerances,
+    /// A wide-angle rig: when set, the stereo session and the robot stations are rendered
+    /// through it (not `rig`, whose cameras then serve no stage) and the pipeline calibrates
+    /// with its lens model, rectifies to a pinhole pair and measures there.
+    #[serde(default)]
+    pub fisheye: Option<FisheyeScene>,
 }
 
 impl SceneDescription {
@@ -215,6 +231,7 @@ impl SceneDescription {
                 handeye_trans: 8.0,
                 base_point_error: 12.0,
             },
+            fisheye: None,
         }
     }
 
@@ -288,6 +305,11 @@ impl SceneDescription {
             v.min_distance *= factor;
             v.max_distance *= factor;
         }
+        if let Some(f) = &mut s.fisheye {
+            f.rig.right_from_left = scale_pose(&f.rig.right_from_left);
+            f.views.min_distance *= factor;
+            f.views.max_distance *= factor;
+        }
         for poses in [&mut s.mono_poses, &mut s.stereo_poses].into_iter().flatten() {
             poses.iter_mut().for_each(|p| *p = scale_pose(p));
         }
@@ -319,6 +341,9 @@ impl SceneDescription {
         s.render.seed = mix(3);
         s.stereo_scene.seed = mix(4);
         s.trajectory.seed = mix(5);
+        if let Some(f) = &mut s.fisheye {
+            f.views.seed = mix(6);
+        }
         s
     }
 
@@ -350,6 +375,12 @@ impl SceneDescription {
         self.stereo_scene.validate()?;
         self.trajectory.validate()?;
         self.tolerances.validate()?;
+        if let Some(f) = &self.fisheye {
+            if !f.rig.right_from_left.is_finite() {
+                return Err(SyntheticError::config("fisheye.rig.right_from_left", "pose is not finite"));
+            }
+            f.views.validate()?;
+        }
         for (field, poses) in [("mono_poses", &self.mono_poses), ("stereo_poses", &self.stereo_poses)] {
             if let Some(p) = poses {
                 if p.is_empty() {
@@ -377,6 +408,23 @@ impl SceneDescription {
             Some(p) => Ok(p.clone()),
             None => stereo_calibration_poses(&self.rig, &self.board, &self.stereo_views),
         }
+    }
+
+    /// The left `camera_from_board` poses of the wide-angle stereo session (explicit
+    /// `stereo_poses`, or generated over the field of view of both fisheye cameras); `None`
+    /// without a fisheye rig.
+    pub fn fisheye_stereo_poses(&self) -> Option<Result<Vec<Isometry3>, SyntheticError>> {
+        let f = self.fisheye.as_ref()?;
+        Some(match &self.stereo_poses {
+            Some(p) => Ok(p.clone()),
+            None => wide_angle_stereo_calibration_poses(
+                &f.rig.left,
+                &f.rig.right,
+                &f.rig.right_from_left,
+                &self.board,
+                &f.views,
+            ),
+        })
     }
 
     /// Renders the mono session; view `i` uses noise seed `render.seed + i`.
