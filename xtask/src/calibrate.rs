@@ -30,7 +30,8 @@ pub struct Args {
     right_corners: Option<PathBuf>,
     /// The target: a chessboard's inner corners COLSxROWS (OpenCV's patternSize, e.g. 9x6, with
     /// --square), or any target description: `chessboard:9x6:25`, `charuco:…`, `circles:…`,
-    /// `acircles:…`, `aprilgrid:…` (partial ChArUco and AprilGrid views are used as seen).
+    /// `acircles:…`, `aprilgrid:…` (partial ChArUco and AprilGrid views are used as seen), or a
+    /// target file (Kalibr's target YAML, lengths in metres; a TargetDescription record).
     #[arg(long)]
     board: String,
     /// Square size of a COLSxROWS chessboard; every length in the result is in this unit (e.g. mm).

@@ -16,7 +16,8 @@ pub struct Args {
     images: String,
     /// The target: a chessboard's inner corners as COLSxROWS (OpenCV's patternSize), e.g. 9x6,
     /// or any target description (`charuco:7x5:40:30:DICT_5X5_100`, `circles:…`, `aprilgrid:…`);
-    /// the file then holds the ids of the points found.
+    /// or a target file (Kalibr's target YAML, a TargetDescription record); the file then holds
+    /// the ids of the points found.
     #[arg(long)]
     board: String,
     /// Write the corners of every image to this file (`.ron` or `.json`; `calibrate --corners` reads it).
@@ -41,7 +42,9 @@ fn parse_refinement(s: &str) -> Result<CornerRefinement, String> {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let target = crate::util::target(&args.board, Some(1.0))?;
+    // Corner positions need no unit: a COLSxROWS board gets squares of 1.
+    let square = (!std::path::Path::new(&args.board).is_file()).then_some(1.0);
+    let target = crate::util::target(&args.board, square)?;
     let format = args.out.as_deref().map(|o| crate::files::output_format(o, None)).transpose()?;
     if let (Some(out), Some(f)) = (&args.out, format) {
         anyhow::ensure!(

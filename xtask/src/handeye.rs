@@ -62,7 +62,8 @@ pub struct Args {
     images: Option<String>,
     /// The target (with `--images`): a chessboard's inner corners `COLSxROWS` (with `--square`),
     /// or any target description: `chessboard:9x6:25`, `charuco:…`, `circles:…`, `acircles:…`,
-    /// `aprilgrid:…`, or a single tag `marker:DICT:ID:SIZE` (e.g. `marker:apriltag_36h11:0:0.08`).
+    /// `aprilgrid:…`, or a single tag `marker:DICT:ID:SIZE` (e.g. `marker:apriltag_36h11:0:0.08`),
+    /// or a target file (Kalibr's target YAML, lengths in metres; a TargetDescription record).
     #[arg(long, default_value = "9x6")]
     board: String,
     /// Square size, in the robot poses' length unit (with `--images`).

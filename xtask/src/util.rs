@@ -24,10 +24,16 @@ pub fn board(cols: usize, rows: usize, square: f64) -> anyhow::Result<Chessboard
     Ok(Chessboard::new(cols, rows, square)?)
 }
 
-/// The target of `--board B [--square S]`: a chessboard's `COLSxROWS` (needs `--square`), or
-/// any target description (`chessboard:9x6:25`, `charuco:…`, …, its lengths in it); an unknown
-/// form is refused naming it and the accepted forms.
+/// The target of `--board B [--square S]`: a chessboard's `COLSxROWS` (needs `--square`), any
+/// target description (`chessboard:9x6:25`, `charuco:…`, …, its lengths in it), or a target file
+/// (Kalibr's target YAML, a `TargetDescription` record, a description line); an unknown form is
+/// refused naming it and the accepted forms.
 pub fn target(board: &str, square: Option<f64>) -> anyhow::Result<TargetDescription> {
+    let path = std::path::Path::new(board);
+    if path.is_file() {
+        anyhow::ensure!(square.is_none(), "--square is not used with a target file ({board}): its lengths are in it");
+        return Ok(parallax_interop::read_target(path)?);
+    }
     match parse_board_size(board) {
         Ok((cols, rows)) => {
             let square = square.context("--square is required with a COLSxROWS board")?;
@@ -54,5 +60,19 @@ mod tests {
         assert!(target("9x6", None).unwrap_err().to_string().contains("--square"));
         let err = format!("{:#}", target("hexagons:3x3", None).unwrap_err());
         assert!(err.contains("hexagons") && err.contains("charuco:") && err.contains("aprilgrid:"), "{err}");
+    }
+
+    #[test]
+    fn a_target_file_is_read_and_a_square_beside_it_refused() {
+        let path = std::env::temp_dir().join(format!("xtask-util-target-{}.yaml", std::process::id()));
+        std::fs::write(&path, "target_type: 'aprilgrid'\ntagCols: 6\ntagRows: 5\ntagSize: 0.04\ntagSpacing: 0.25\n")
+            .unwrap();
+        let file = path.to_str().unwrap();
+        let t = target(file, None).unwrap();
+        assert_eq!(t, "aprilgrid:6x5:0.04:0.25".parse::<TargetDescription>().unwrap());
+        assert_eq!(t.point_count(), 4 * 6 * 5);
+        let err = target(file, Some(25.0)).unwrap_err().to_string();
+        assert!(err.contains("--square") && err.contains(file), "{err}");
+        std::fs::remove_file(&path).unwrap();
     }
 }

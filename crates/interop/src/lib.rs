@@ -53,6 +53,10 @@
 //! Lengths (`T`, `P2`'s baseline column, `T_cn_cnm1`, hand-eye translations) are written in the
 //! calibration's own unit (the board square's); ROS and Kalibr expect metres.
 //!
+//! **Targets** ([`read_target`]): Kalibr's target YAML (`target_type: aprilgrid | checkerboard |
+//! circlegrid`, lengths in metres), the project's own `TargetDescription` records, or a text file
+//! with one `--board` description line.
+//!
 //! **Reading detects the format from the content** ([`detect`]), whatever the extension, and
 //! finds the calibration wherever it sits in the document ([`read`]): a result file of any
 //! `cargo xtask` command, a bare `StereoRig` or `Camera`, OpenCV, ROS or Kalibr keys. A stereo
@@ -90,6 +94,7 @@
 mod error;
 mod interpret;
 mod model;
+mod target;
 pub mod opencv;
 mod write;
 
@@ -106,6 +111,7 @@ pub use model::{
     RectificationMatrices, RectificationRows, RectifiedRecord, Rows3, Side, StereoCalibration, StereoMatrices,
     StereoRecord, distortion_vector, lens_model_name, mat3, rows3, setup_from_name, setup_name,
 };
+pub use target::{parse_target, read_target};
 pub use write::{native_string, opencv_entries, record_string, render, ros_pair_paths};
 
 use error::{content, syntax};
