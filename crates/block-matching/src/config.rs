@@ -108,7 +108,8 @@ pub struct SgmConfig {
     /// Side of the window summed into the per-pixel matching cost (odd, 1..=11; default 5).
     pub block: usize,
     /// Rows of one strip (a parallel task with its own buffers; paths restart at strip
-    /// boundaries, `overlap` rows outside); 0 chooses `max(128, ⌈height / 8⌉)` rows, lowered for
+    /// boundaries, `overlap` rows outside); 0 chooses an even number of strips of at most 256
+    /// rows (`2 · ⌈height / 512⌉` strips), lowered for
     /// eight paths until the strip's stored sums stay under 48 MiB. Never the thread count: the
     /// map is the same on every machine.
     pub strip_rows: usize,

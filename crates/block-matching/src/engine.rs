@@ -546,10 +546,9 @@ impl BlockMatcher {
         if sgm {
             let (intensity, iscale) = (raw_left, scale);
             let pp = crate::sgm::SgmParams::new(&cfg.sgm, maxv, intensity, iscale)?;
-            let avx2 = simd >= SimdLevel::Avx2;
             let per_band =
                 for_each_band(&shared, &mut self.sgm, nbands, band_rows, data, conf_plane, |sc, rows, conf, y0, y1| {
-                    crate::sgm::run_strip(&shared, &pp, sc, rows, conf, y0, y1, avx2)
+                    crate::sgm::run_strip(&shared, &pp, sc, rows, conf, y0, y1, simd)
                 });
             for s in &per_band {
                 stats.add(s);

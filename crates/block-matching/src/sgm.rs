@@ -25,12 +25,16 @@
 //!
 //! Every step is exact 16-bit integer arithmetic (the run refuses costs whose sums could
 //! exceed 16 bits). The path steps, column sums, box sums, winner search and right-image
-//! minima run in AVX2 intrinsics when the CPU has AVX2 (module `avx2`), plain loops otherwise;
-//! the naive reference in `tests/sgm_vs_naive.rs` implements the same definition directly on a
-//! full cost volume and both levels must match it exactly.
+//! minima run in AVX2 intrinsics when the CPU has AVX2 (module `avx2`); with AVX-512 F/BW/VL the
+//! path steps, column sums and box sums take 512-bit vectors (module `avx512`); plain loops
+//! otherwise. The level is chosen once per strip. The naive reference in
+//! `tests/sgm_vs_naive.rs` implements the same definition directly on a full cost volume and
+//! every level must match it exactly.
 
 use crate::config::{SgmConfig, SgmPaths};
-use crate::engine::{MatchStats, Shared, conf_row, curve_ratio, decide, finish_row, load_rows, subpixel_offset};
+use crate::engine::{
+    MatchStats, Shared, SimdLevel, conf_row, curve_ratio, decide, finish_row, load_rows, subpixel_offset,
+};
 use crate::error::{BlockMatchingError, Result};
 
 /// Largest task memory of the eight-path strips, bytes.
@@ -115,13 +119,16 @@ impl<'a> SgmParams<'a> {
 }
 
 /// The strip height: independent of the thread count, so a map does not depend on the machine
-/// (paths restart at strip boundaries): `max(128, ⌈h / 8⌉)` rows, and (eight paths) the strip's
-/// stored sums under [`STRIP_BYTES`].
+/// (paths restart at strip boundaries): an even number of strips of at most 256 rows
+/// (`2 · ⌈h / 512⌉` strips: every strip costs `overlap` extra rows, and an even count keeps
+/// two cores equally busy — measured on teddy, the former `max(128, ⌈h / 8⌉)` rows gave three
+/// strips, two of them on one core), and (eight paths) the strip's stored sums under
+/// [`STRIP_BYTES`].
 pub(crate) fn strip_rows(cfg: &SgmConfig, w: usize, h: usize, nd: usize) -> usize {
     if cfg.strip_rows > 0 {
         return cfg.strip_rows.min(h);
     }
-    let mut rows = h.div_ceil(8).max(128);
+    let mut rows = h.div_ceil(2 * h.div_ceil(512)).max(1);
     if cfg.paths == SgmPaths::Eight {
         let per_row = w * (nd + 2) * 2;
         rows = rows.min((STRIP_BYTES / per_row).saturating_sub(9).max(16));
@@ -149,6 +156,9 @@ pub(crate) struct Scratch {
     /// slots `D + 1..` are [`PAD`].
     hprev: Vec<u16>,
     hcur: Vec<u16>,
+    /// The same for the right→left path (run in the same sweep).
+    rprev: Vec<u16>,
+    rcur: Vec<u16>,
     /// Start of a path: zeros with padded ends.
     zero: Vec<u16>,
     /// The three vertical/diagonal paths, previous and current row, `W · (Dq + 2)` each.
@@ -185,7 +195,7 @@ impl Scratch {
         self.tail.clear();
         self.tail.extend((0..ndq).map(|d| if d < nd { 0 } else { u16::MAX }));
         // the padding slots must hold PAD: refilled every frame (the layout may have changed)
-        for v in [&mut self.hprev, &mut self.hcur] {
+        for v in [&mut self.hprev, &mut self.hcur, &mut self.rprev, &mut self.rcur] {
             v.clear();
             v.resize(ndp, PAD);
         }
@@ -245,14 +255,20 @@ fn step_set(c: &[u16], prev: &[u16], pmin: u16, p1: u16, p2: u16, out: &mut [u16
 /// Adds (or, with `sub`, replaces row `b` by row `a` in) the column sums: `|L − R|` of the rows
 /// loaded in `l_a/r_a` (and `l_b/r_b`).
 #[inline(always)]
-fn vertical(sc: &mut Scratch, nd: usize, sub: bool, avx2: bool) {
+fn vertical(sc: &mut Scratch, nd: usize, sub: bool, isa: Isa) {
     #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` only when the CPU has AVX2; lengths asserted inside.
+    if isa == Isa::Avx512 {
+        // SAFETY: `Isa::Avx512` only when the CPU has AVX-512 F/BW/VL; lengths asserted inside.
+        unsafe { avx512::vertical(&mut sc.colsum, &sc.l_a, &sc.r_a, &sc.l_b, &sc.r_b, lanes(nd), sub) };
+        return;
+    }
+    #[cfg(target_arch = "x86_64")]
+    if isa.avx2() {
+        // SAFETY: `isa` only when the CPU has AVX2; lengths asserted inside.
         unsafe { avx2::vertical(&mut sc.colsum, &sc.l_a, &sc.r_a, &sc.l_b, &sc.r_b, lanes(nd), sub) };
         return;
     }
-    let _ = avx2;
+    let _ = isa;
     // whole 16-lane chunks (`Dq` per column; the lanes past `D` carry ignored values, hence the
     // wrapping arithmetic): fixed-size chunks the compiler vectorises
     let ndq = lanes(nd);
@@ -279,18 +295,18 @@ fn vertical(sc: &mut Scratch, nd: usize, sub: bool, avx2: bool) {
 
 /// The column sums of row `y` from scratch.
 #[inline(always)]
-fn colsum_init(sh: &Shared, sc: &mut Scratch, y: usize, avx2: bool) {
+fn colsum_init(sh: &Shared, sc: &mut Scratch, y: usize, isa: Isa) {
     let (h, r) = (sh.h as i64, sh.r as i64);
     sc.colsum.fill(0);
     for j in y as i64 - r..=y as i64 + r {
         load_rows(sh, j.clamp(0, h - 1) as usize, &mut sc.l_a, &mut sc.r_a);
-        vertical(sc, sh.nd, false, avx2);
+        vertical(sc, sh.nd, false, isa);
     }
 }
 
 /// Moves the column sums from row `y` to row `y + 1` (`down`) or `y − 1`.
 #[inline(always)]
-fn colsum_move(sh: &Shared, sc: &mut Scratch, y: usize, down: bool, avx2: bool) {
+fn colsum_move(sh: &Shared, sc: &mut Scratch, y: usize, down: bool, isa: Isa) {
     let (h, r) = (sh.h as i64, sh.r as i64);
     let clamp = |v: i64| v.clamp(0, h - 1) as usize;
     let (yi, yo) = if down {
@@ -301,23 +317,26 @@ fn colsum_move(sh: &Shared, sc: &mut Scratch, y: usize, down: bool, avx2: bool) 
     if yi != yo {
         load_rows(sh, yi, &mut sc.l_a, &mut sc.r_a);
         load_rows(sh, yo, &mut sc.l_b, &mut sc.r_b);
-        vertical(sc, sh.nd, true, avx2);
+        vertical(sc, sh.nd, true, isa);
     }
 }
 
 /// `C` of the current row from the column sums: running box sums along the row, then the
 /// out-of-image candidates set to `cmax`.
 #[inline(always)]
-fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, avx2: bool) {
+fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, isa: Isa) {
     let (w, r, nd, dmin) = (sh.w, sh.r, sh.nd, sh.dmin);
     let ndq = lanes(nd);
     let (cost, colsum) = (&mut sc.cost, &sc.colsum);
     #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` only when the CPU has AVX2; lengths asserted inside.
+    if isa == Isa::Avx512 {
+        // SAFETY: `Isa::Avx512` only when the CPU has AVX-512 F/BW/VL; lengths asserted inside.
+        unsafe { avx512::box_row(cost, colsum, w, r, ndq) };
+    } else if isa.avx2() {
+        // SAFETY: `isa` only when the CPU has AVX2; lengths asserted inside.
         unsafe { avx2::box_row(cost, colsum, w, r, ndq) };
     }
-    if !avx2 {
+    if !isa.avx2() {
         let c0 = &mut cost[..ndq];
         c0.fill(0);
         for xp in 0..=2 * r {
@@ -352,7 +371,7 @@ fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, avx2: bool) {
 /// returns their minima. `acc` (`Dq` lanes) receives their sum (`set`: replaces it).
 #[inline(always)]
 fn paths<const N: usize>(
-    avx2: bool,
+    isa: Isa,
     c: &[u16],
     prev: [&[u16]; N],
     pmin: [u16; N],
@@ -365,11 +384,16 @@ fn paths<const N: usize>(
     set: bool,
 ) -> [u16; N] {
     #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` is set only when the CPU has AVX2; slice lengths are checked inside.
-        return unsafe { avx2::paths(c, prev, pmin, p2, p1, out, acc, tail) };
+    if isa == Isa::Avx512 {
+        // SAFETY: `Isa::Avx512` only when the CPU has AVX-512 F/BW/VL; lengths checked inside.
+        return unsafe { avx512::paths(c, prev, pmin, p2, p1, out, acc, tail, set) };
     }
-    let _ = (avx2, tail);
+    #[cfg(target_arch = "x86_64")]
+    if isa.avx2() {
+        // SAFETY: `isa` is set only when the CPU has AVX2; slice lengths are checked inside.
+        return unsafe { avx2::paths(c, prev, pmin, p2, p1, out, acc, tail, set) };
+    }
+    let _ = (isa, tail);
     let mut m = [0u16; N];
     for (i, o) in out.into_iter().enumerate() {
         m[i] = if set && i == 0 {
@@ -383,29 +407,28 @@ fn paths<const N: usize>(
 
 /// The forward paths of row `y`: right→left, left→right and, from the row above (unless
 /// `first`), top, top-left and top-right. Writes `S` of these paths to `acc`.
+///
+/// One sweep: step `x` runs the four paths at `x` and the right→left path at `w − 1 − x`. Each
+/// horizontal path is a chain (a pixel needs the minimum of its predecessor); run alone, the
+/// right→left chain left the vector units idle (measured: ~19 % of a teddy frame for one path of
+/// five), interleaved its latency hides behind the other paths' work. Whichever visits a pixel
+/// first writes its `acc`, the other adds (exact integer sums: the order does not matter): pixel
+/// `p` is visited by the four paths at step `p` and by the right→left path at step `w − 1 − p`,
+/// the four paths first when both fall on the same step.
 #[inline(always)]
-fn forward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, avx2: bool) {
+fn forward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
     let (w, nd) = (sh.w, sh.nd);
     let ndq = lanes(nd);
     let ndp = ndq + 2;
     let row = &pp.intensity[y * w..][..w];
     let above = if first { row } else { &pp.intensity[(y - 1) * w..][..w] };
-    // right → left (writes acc)
-    let mut pmin = 0;
-    for x in (0..w).rev() {
-        let (prev, m, p2) =
-            if x + 1 < w { (&sc.hprev[..], pmin, pp.p2_between(row[x], row[x + 1])) } else { (&sc.zero[..], 0, pp.p2) };
-        let c = &sc.cost[x * ndq..][..ndq];
-        let acc = &mut sc.acc[x * ndq..][..ndq];
-        [pmin] = paths::<1>(avx2, c, [prev], [m], [p2], pp.p1, [&mut sc.hcur[..]], acc, &sc.tail, nd, true);
-        std::mem::swap(&mut sc.hprev, &mut sc.hcur);
-    }
-    // left → right, top, top-left, top-right
     let (vp, vc, mp, mc) = (&sc.vp, &mut sc.vc, &sc.mp, &mut sc.mc);
     let [vc0, vc1, vc2] = vc;
     let [mc0, mc1, mc2] = mc;
     let zero = &sc.zero[..];
+    let (mut pmin, mut rpmin) = (0, 0);
     for x in 0..w {
+        let xr = w - 1 - x;
         let c = &sc.cost[x * ndq..][..ndq];
         let acc = &mut sc.acc[x * ndq..][..ndq];
         let (h, hm, hp2) =
@@ -428,7 +451,7 @@ fn forward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: b
         let outs =
             [&mut sc.hcur[..], &mut vc0[x * ndp..][..ndp], &mut vc1[x * ndp..][..ndp], &mut vc2[x * ndp..][..ndp]];
         let m = paths::<4>(
-            avx2,
+            isa,
             c,
             [h, t, l, r],
             [hm, tm, lm, rm],
@@ -438,11 +461,18 @@ fn forward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: b
             acc,
             &sc.tail,
             nd,
-            false,
+            x <= xr,
         );
         pmin = m[0];
         (mc0[x], mc1[x], mc2[x]) = (m[1], m[2], m[3]);
         std::mem::swap(&mut sc.hprev, &mut sc.hcur);
+        // right → left at xr
+        let (prev, m, p2) =
+            if xr + 1 < w { (&sc.rprev[..], rpmin, pp.p2_between(row[xr], row[xr + 1])) } else { (zero, 0, pp.p2) };
+        let c = &sc.cost[xr * ndq..][..ndq];
+        let acc = &mut sc.acc[xr * ndq..][..ndq];
+        [rpmin] = paths::<1>(isa, c, [prev], [m], [p2], pp.p1, [&mut sc.rcur[..]], acc, &sc.tail, nd, x < xr);
+        std::mem::swap(&mut sc.rprev, &mut sc.rcur);
     }
     std::mem::swap(&mut sc.vp, &mut sc.vc);
     std::mem::swap(&mut sc.mp, &mut sc.mc);
@@ -451,7 +481,7 @@ fn forward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: b
 /// The backward paths of row `y` (from the row below unless `first`): bottom, bottom-left,
 /// bottom-right, added to `acc`.
 #[inline(always)]
-fn backward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, avx2: bool) {
+fn backward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
     let (w, nd) = (sh.w, sh.nd);
     let ndq = lanes(nd);
     let ndp = ndq + 2;
@@ -480,7 +510,7 @@ fn backward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: 
             (&vp[2][(x + 1) * ndp..][..ndp], mp[2][x + 1], pp.p2_between(row[x], below[x + 1]))
         };
         let outs = [&mut vc0[x * ndp..][..ndp], &mut vc1[x * ndp..][..ndp], &mut vc2[x * ndp..][..ndp]];
-        let m = paths::<3>(avx2, c, [t, l, r], [tm, lm, rm], [tp2, lp2, rp2], pp.p1, outs, acc, &sc.tail, nd, false);
+        let m = paths::<3>(isa, c, [t, l, r], [tm, lm, rm], [tp2, lp2, rp2], pp.p1, outs, acc, &sc.tail, nd, false);
         (mc0[x], mc1[x], mc2[x]) = (m[0], m[1], m[2]);
     }
     std::mem::swap(&mut sc.vp, &mut sc.vc);
@@ -507,7 +537,7 @@ fn decide_row(
     out: &mut [f32],
     conf: &mut [f32],
     st: &mut MatchStats,
-    avx2: bool,
+    isa: Isa,
 ) {
     let (w, nd, dmin) = (sh.w, sh.nd, sh.dmin);
     let ndq = lanes(nd);
@@ -528,11 +558,11 @@ fn decide_row(
         let j0 = (w as i64 - 1 - xd + lo as i64) as usize;
         let len = hi - lo + 1;
         #[cfg(target_arch = "x86_64")]
-        if avx2 {
-            // SAFETY: `avx2` only when the CPU has AVX2; the slices have equal lengths.
+        if isa.avx2() {
+            // SAFETY: `isa` only when the CPU has AVX2; the slices have equal lengths.
             unsafe { avx2::right_update(&s[lo..=hi], &mut sc.rc[j0..][..len], &mut sc.rk[j0..][..len], lo) };
         }
-        if !avx2 {
+        if !isa.avx2() {
             right_update16(&s[lo..=hi], &mut sc.rc[j0..][..len], &mut sc.rk[j0..][..len], lo);
         }
         if sh.texture_ok.is_some_and(|t| !t[y * w + x]) {
@@ -541,7 +571,7 @@ fn decide_row(
             continue;
         }
         #[cfg(target_arch = "x86_64")]
-        if avx2 {
+        if isa.avx2() {
             // SAFETY: as above; `s` has Dq lanes, lo ≤ hi < D.
             let (m, kb, c2) = unsafe { avx2::wta(s, lo, hi, need2) };
             let t = (m as u32 + m as u32 * sh.uniq / 100).min(u16::MAX as u32) as u16;
@@ -583,7 +613,7 @@ fn strip(
     conf: &mut [f32],
     y0: usize,
     y1: usize,
-    avx2: bool,
+    isa: Isa,
 ) -> MatchStats {
     let (w, h) = (sh.w, sh.h);
     let nd = lanes(sh.nd);
@@ -591,38 +621,38 @@ fn strip(
     sc.resize(sh, y1 - y0, eight);
     let mut st = MatchStats::default();
     let ys = y0.saturating_sub(pp.overlap);
-    colsum_init(sh, sc, ys, avx2);
+    colsum_init(sh, sc, ys, isa);
     for y in ys..y1 {
         if y > ys {
-            colsum_move(sh, sc, y - 1, true, avx2);
+            colsum_move(sh, sc, y - 1, true, isa);
         }
-        cost_row(sh, sc, pp.cmax, avx2);
-        forward_row(sh, sc, pp, y, y == ys, avx2);
+        cost_row(sh, sc, pp.cmax, isa);
+        forward_row(sh, sc, pp, y, y == ys, isa);
         if y < y0 {
             continue;
         }
         if eight {
             sc.vol[(y - y0) * w * nd..][..w * nd].copy_from_slice(&sc.acc);
         } else {
-            decide_row(sh, sc, y, &mut out[(y - y0) * w..][..w], conf_row(sh, conf, y, y0), &mut st, avx2);
+            decide_row(sh, sc, y, &mut out[(y - y0) * w..][..w], conf_row(sh, conf, y, y0), &mut st, isa);
         }
     }
     if eight {
         let ye = (y1 + pp.overlap).min(h);
-        colsum_init(sh, sc, ye - 1, avx2);
+        colsum_init(sh, sc, ye - 1, isa);
         for y in (y0..ye).rev() {
             if y + 1 < ye {
-                colsum_move(sh, sc, y + 1, false, avx2);
+                colsum_move(sh, sc, y + 1, false, isa);
             }
-            cost_row(sh, sc, pp.cmax, avx2);
+            cost_row(sh, sc, pp.cmax, isa);
             if y < y1 {
                 sc.acc.copy_from_slice(&sc.vol[(y - y0) * w * nd..][..w * nd]);
             } else {
                 sc.acc.fill(0);
             }
-            backward_row(sh, sc, pp, y, y + 1 == ye, avx2);
+            backward_row(sh, sc, pp, y, y + 1 == ye, isa);
             if y < y1 {
-                decide_row(sh, sc, y, &mut out[(y - y0) * w..][..w], conf_row(sh, conf, y, y0), &mut st, avx2);
+                decide_row(sh, sc, y, &mut out[(y - y0) * w..][..w], conf_row(sh, conf, y, y0), &mut st, isa);
             }
         }
     }
@@ -642,10 +672,44 @@ unsafe fn strip_avx2(
     y0: usize,
     y1: usize,
 ) -> MatchStats {
-    strip(sh, pp, sc, out, conf, y0, y1, true)
+    strip(sh, pp, sc, out, conf, y0, y1, Isa::Avx2)
 }
 
-/// Rows `y0..y1` of one strip, compiled for AVX2 when `avx2` (the same code).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+/// # Safety
+/// The CPU must support AVX2 and AVX-512 F/BW/VL (the caller checks `SimdLevel::detect()`).
+unsafe fn strip_avx512(
+    sh: &Shared,
+    pp: &SgmParams,
+    sc: &mut Scratch,
+    out: &mut [f32],
+    conf: &mut [f32],
+    y0: usize,
+    y1: usize,
+) -> MatchStats {
+    strip(sh, pp, sc, out, conf, y0, y1, Isa::Avx512)
+}
+
+/// The instruction set of a run: the path steps, column sums and box sums have AVX-512 and
+/// AVX2 kernels, the decisions AVX2 ones (used at both levels).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Isa {
+    Scalar,
+    Avx2,
+    Avx512,
+}
+
+impl Isa {
+    /// True when the AVX2 kernels may run (AVX2 or AVX-512 level).
+    #[inline(always)]
+    fn avx2(self) -> bool {
+        self != Isa::Scalar
+    }
+}
+
+/// Rows `y0..y1` of one strip, compiled for the instruction set of `simd` (the same code; the
+/// caller passes a level the CPU supports, from `SimdLevel::detect()`).
 pub(crate) fn run_strip(
     sh: &Shared,
     pp: &SgmParams,
@@ -654,14 +718,19 @@ pub(crate) fn run_strip(
     conf: &mut [f32],
     y0: usize,
     y1: usize,
-    avx2: bool,
+    simd: SimdLevel,
 ) -> MatchStats {
+    let simd = simd.min(SimdLevel::detect());
     #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: the caller passes `avx2` only when `SimdLevel::detect()` found AVX2.
-        return unsafe { strip_avx2(sh, pp, sc, out, conf, y0, y1) };
+    match simd {
+        // SAFETY: `detect()` found AVX-512 F/BW/VL and AVX2 on this CPU.
+        SimdLevel::Avx512 => return unsafe { strip_avx512(sh, pp, sc, out, conf, y0, y1) },
+        // SAFETY: `detect()` found AVX2 on this CPU.
+        SimdLevel::Avx2 => return unsafe { strip_avx2(sh, pp, sc, out, conf, y0, y1) },
+        SimdLevel::Scalar => {}
     }
-    strip(sh, pp, sc, out, conf, y0, y1, false)
+    let _ = simd;
+    strip(sh, pp, sc, out, conf, y0, y1, Isa::Scalar)
 }
 
 /// The path steps in AVX2 intrinsics, 16 disparities per vector: the compiler did not vectorise
@@ -688,6 +757,7 @@ mod avx2 {
         out: [&mut [u16]; N],
         acc: &mut [u16],
         tail: &[u16],
+        set: bool,
     ) -> [u16; N] {
         let ndq = c.len();
         assert!(ndq.is_multiple_of(16) && acc.len() == ndq && tail.len() == ndq);
@@ -710,7 +780,7 @@ mod avx2 {
             unsafe {
                 let cv = _mm256_loadu_si256(c.as_ptr().add(d) as *const __m256i);
                 let tv = _mm256_loadu_si256(tail.as_ptr().add(d) as *const __m256i);
-                let mut sum = if N == 1 {
+                let mut sum = if set {
                     _mm256_setzero_si256()
                 } else {
                     _mm256_loadu_si256(acc.as_ptr().add(d) as *const __m256i)
@@ -720,10 +790,9 @@ mod avx2 {
                     let a = _mm256_loadu_si256(p as *const __m256i);
                     let b = _mm256_loadu_si256(p.add(1) as *const __m256i);
                     let e = _mm256_loadu_si256(p.add(2) as *const __m256i);
-                    let best = _mm256_min_epu16(
-                        _mm256_min_epu16(b, jump[i]),
-                        _mm256_min_epu16(_mm256_adds_epu16(a, p1v), _mm256_adds_epu16(e, p1v)),
-                    );
+                    // min(a + P1, e + P1) = min(a, e) + P1 (saturating addition is monotone)
+                    let best =
+                        _mm256_min_epu16(_mm256_min_epu16(b, jump[i]), _mm256_adds_epu16(_mm256_min_epu16(a, e), p1v));
                     let v = _mm256_or_si256(_mm256_add_epi16(cv, _mm256_sub_epi16(best, pm[i])), tv);
                     _mm256_storeu_si256(outp[i].add(d + 1) as *mut __m256i, v);
                     mv[i] = _mm256_min_epu16(mv[i], v);
@@ -917,5 +986,244 @@ mod avx2 {
             t += 16;
         }
         super::right_update16(&c[t..], &mut rc[t..], &mut rk[t..], lo + t);
+    }
+}
+
+/// The path steps, column sums and box sums with 512-bit vectors (32 disparities per vector; a
+/// last 16-lane chunk when `Dq` is not a multiple of 32 takes 256-bit vectors): the same
+/// integer operations as the AVX2 kernels, so the same results.
+#[cfg(target_arch = "x86_64")]
+mod avx512 {
+    use std::arch::x86_64::*;
+
+    /// [`super::avx2::paths`] with 512-bit vectors.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and AVX-512 F/BW/VL. Lengths: `c`, `acc`, `tail` have `Dq` (a
+    /// multiple of 16) entries, every `prev[i]` and `out[i]` `Dq + 2` (checked by assertions).
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    pub(super) unsafe fn paths<const N: usize>(
+        c: &[u16],
+        prev: [&[u16]; N],
+        pmin: [u16; N],
+        p2: [u16; N],
+        p1: u16,
+        out: [&mut [u16]; N],
+        acc: &mut [u16],
+        tail: &[u16],
+        set: bool,
+    ) -> [u16; N] {
+        let ndq = c.len();
+        assert!(ndq.is_multiple_of(16) && acc.len() == ndq && tail.len() == ndq);
+        for i in 0..N {
+            assert!(prev[i].len() == ndq + 2 && out[i].len() == ndq + 2);
+        }
+        let p1v = _mm512_set1_epi16(p1 as i16);
+        let mut mv = [_mm512_set1_epi16(-1); N];
+        let mut jump = [_mm512_setzero_si512(); N];
+        let mut pm = [_mm512_setzero_si512(); N];
+        for i in 0..N {
+            jump[i] = _mm512_set1_epi16(pmin[i].saturating_add(p2[i]) as i16);
+            pm[i] = _mm512_set1_epi16(pmin[i] as i16);
+        }
+        let outp: [*mut u16; N] = std::array::from_fn(|i| out[i].as_ptr() as *mut u16);
+        let _ = out;
+        let mut d = 0;
+        while d + 32 <= ndq {
+            // SAFETY: (all loads and stores) d + 32 ≤ ndq, and the padded vectors have ndq + 2
+            // entries, so offsets d .. d + 2 + 32 are inside (asserted above).
+            unsafe {
+                let cv = _mm512_loadu_si512(c.as_ptr().add(d) as *const _);
+                let tv = _mm512_loadu_si512(tail.as_ptr().add(d) as *const _);
+                let mut sum =
+                    if set { _mm512_setzero_si512() } else { _mm512_loadu_si512(acc.as_ptr().add(d) as *const _) };
+                for i in 0..N {
+                    let p = prev[i].as_ptr().add(d);
+                    let a = _mm512_loadu_si512(p as *const _);
+                    let b = _mm512_loadu_si512(p.add(1) as *const _);
+                    let e = _mm512_loadu_si512(p.add(2) as *const _);
+                    let best =
+                        _mm512_min_epu16(_mm512_min_epu16(b, jump[i]), _mm512_adds_epu16(_mm512_min_epu16(a, e), p1v));
+                    let v = _mm512_or_si512(_mm512_add_epi16(cv, _mm512_sub_epi16(best, pm[i])), tv);
+                    _mm512_storeu_si512(outp[i].add(d + 1) as *mut _, v);
+                    mv[i] = _mm512_min_epu16(mv[i], v);
+                    sum = _mm512_add_epi16(sum, v);
+                }
+                _mm512_storeu_si512(acc.as_mut_ptr().add(d) as *mut _, sum);
+            }
+            d += 32;
+        }
+        // the 256-bit halves of the minima, and the last 16 lanes when Dq is an odd multiple of 16
+        let mut mh: [__m256i; N] = std::array::from_fn(|i| {
+            _mm256_min_epu16(_mm512_castsi512_si256(mv[i]), _mm512_extracti64x4_epi64::<1>(mv[i]))
+        });
+        if d < ndq {
+            let p1h = _mm256_set1_epi16(p1 as i16);
+            // SAFETY: d + 16 = ndq here; offsets as above.
+            unsafe {
+                let cv = _mm256_loadu_si256(c.as_ptr().add(d) as *const __m256i);
+                let tv = _mm256_loadu_si256(tail.as_ptr().add(d) as *const __m256i);
+                let mut sum = if set {
+                    _mm256_setzero_si256()
+                } else {
+                    _mm256_loadu_si256(acc.as_ptr().add(d) as *const __m256i)
+                };
+                for i in 0..N {
+                    let (jh, pmh) = (_mm512_castsi512_si256(jump[i]), _mm512_castsi512_si256(pm[i]));
+                    let p = prev[i].as_ptr().add(d);
+                    let a = _mm256_loadu_si256(p as *const __m256i);
+                    let b = _mm256_loadu_si256(p.add(1) as *const __m256i);
+                    let e = _mm256_loadu_si256(p.add(2) as *const __m256i);
+                    let best =
+                        _mm256_min_epu16(_mm256_min_epu16(b, jh), _mm256_adds_epu16(_mm256_min_epu16(a, e), p1h));
+                    let v = _mm256_or_si256(_mm256_add_epi16(cv, _mm256_sub_epi16(best, pmh)), tv);
+                    _mm256_storeu_si256(outp[i].add(d + 1) as *mut __m256i, v);
+                    mh[i] = _mm256_min_epu16(mh[i], v);
+                    sum = _mm256_add_epi16(sum, v);
+                }
+                _mm256_storeu_si256(acc.as_mut_ptr().add(d) as *mut __m256i, sum);
+            }
+        }
+        std::array::from_fn(|i| {
+            let m = _mm_min_epu16(_mm256_castsi256_si128(mh[i]), _mm256_extracti128_si256::<1>(mh[i]));
+            (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as u16
+        })
+    }
+
+    #[inline(always)]
+    /// # Safety
+    /// `p` must point to 32 readable lanes, and the CPU must support AVX-512 F/BW.
+    unsafe fn ld(p: *const u16) -> __m512i {
+        // SAFETY: the caller guarantees 32 readable lanes at p.
+        unsafe { _mm512_loadu_si512(p as *const _) }
+    }
+
+    #[inline(always)]
+    /// # Safety
+    /// `p` must point to 32 writable lanes, and the CPU must support AVX-512 F/BW.
+    unsafe fn st(p: *mut u16, v: __m512i) {
+        // SAFETY: the caller guarantees 32 writable lanes at p.
+        unsafe { _mm512_storeu_si512(p as *mut _, v) }
+    }
+
+    #[inline(always)]
+    fn absdiff(a: __m512i, b: __m512i) -> __m512i {
+        // SAFETY: only called from AVX-512 functions (register operations).
+        unsafe { _mm512_or_si512(_mm512_subs_epu16(a, b), _mm512_subs_epu16(b, a)) }
+    }
+
+    /// [`super::avx2::vertical`] with 512-bit vectors (the last 16 lanes of a column through
+    /// the AVX2 kernel's arithmetic on 256-bit vectors when `Dq` is an odd multiple of 16).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and AVX-512 F/BW/VL (lengths are asserted).
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    pub(super) unsafe fn vertical(
+        colsum: &mut [u16],
+        la: &[u16],
+        ra: &[u16],
+        lb: &[u16],
+        rb: &[u16],
+        ndq: usize,
+        sub: bool,
+    ) {
+        let wp = la.len();
+        assert!(ndq.is_multiple_of(16) && colsum.len() >= wp * ndq && ra.len() + 1 >= wp + ndq);
+        assert!(!sub || (lb.len() >= wp && rb.len() + 1 >= wp + ndq));
+        let full = ndq / 32 * 32;
+        for xp in 0..wp {
+            let base = wp - 1 - xp;
+            let lav = _mm512_set1_epi16(la[xp] as i16);
+            let lbv = if sub { _mm512_set1_epi16(lb[xp] as i16) } else { _mm512_setzero_si512() };
+            let mut d = 0;
+            while d < full {
+                // SAFETY: xp·ndq + d + 32 ≤ wp·ndq; base + d + 32 ≤ wp − 1 + ndq (asserted).
+                unsafe {
+                    let p = colsum.as_mut_ptr().add(xp * ndq + d);
+                    let mut v = _mm512_add_epi16(ld(p), absdiff(lav, ld(ra.as_ptr().add(base + d))));
+                    if sub {
+                        v = _mm512_sub_epi16(v, absdiff(lbv, ld(rb.as_ptr().add(base + d))));
+                    }
+                    st(p, v);
+                }
+                d += 32;
+            }
+            if d < ndq {
+                let (lah, lbh) = (_mm512_castsi512_si256(lav), _mm512_castsi512_si256(lbv));
+                let ad = |a: __m256i, b: __m256i| _mm256_or_si256(_mm256_subs_epu16(a, b), _mm256_subs_epu16(b, a));
+                // SAFETY: d + 16 = ndq: offsets as above.
+                unsafe {
+                    let p = colsum.as_mut_ptr().add(xp * ndq + d) as *mut __m256i;
+                    let r = _mm256_loadu_si256(ra.as_ptr().add(base + d) as *const __m256i);
+                    let mut v = _mm256_add_epi16(_mm256_loadu_si256(p), ad(lah, r));
+                    if sub {
+                        let r = _mm256_loadu_si256(rb.as_ptr().add(base + d) as *const __m256i);
+                        v = _mm256_sub_epi16(v, ad(lbh, r));
+                    }
+                    _mm256_storeu_si256(p, v);
+                }
+            }
+        }
+    }
+
+    /// [`super::avx2::box_row`] with 512-bit vectors (256-bit for a last 16-lane chunk).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and AVX-512 F/BW/VL (lengths are asserted).
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
+        assert!(ndq.is_multiple_of(16) && w > 0 && cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
+        let (c, cs) = (cost.as_mut_ptr(), colsum.as_ptr());
+        let full = ndq / 32 * 32;
+        let mut d = 0;
+        while d < full {
+            // SAFETY: offsets below (2r + 1)·ndq and w·ndq (asserted).
+            unsafe {
+                let mut acc = _mm512_setzero_si512();
+                for xp in 0..=2 * r {
+                    acc = _mm512_add_epi16(acc, ld(cs.add(xp * ndq + d)));
+                }
+                st(c.add(d), acc);
+            }
+            d += 32;
+        }
+        if d < ndq {
+            // SAFETY: d + 16 = ndq: as above.
+            unsafe {
+                let mut acc = _mm256_setzero_si256();
+                for xp in 0..=2 * r {
+                    acc = _mm256_add_epi16(acc, _mm256_loadu_si256(cs.add(xp * ndq + d) as *const __m256i));
+                }
+                _mm256_storeu_si256(c.add(d) as *mut __m256i, acc);
+            }
+        }
+        for x in 1..w {
+            let mut d = 0;
+            while d < full {
+                // SAFETY: x + 2r < w + 2r columns; x < w rows of cost (asserted).
+                unsafe {
+                    let v = _mm512_sub_epi16(
+                        _mm512_add_epi16(ld(c.add((x - 1) * ndq + d)), ld(cs.add((x + 2 * r) * ndq + d))),
+                        ld(cs.add((x - 1) * ndq + d)),
+                    );
+                    st(c.add(x * ndq + d), v);
+                }
+                d += 32;
+            }
+            if d < ndq {
+                // SAFETY: d + 16 = ndq: as above.
+                unsafe {
+                    let l = |p: *const u16| _mm256_loadu_si256(p as *const __m256i);
+                    let v = _mm256_sub_epi16(
+                        _mm256_add_epi16(l(c.add((x - 1) * ndq + d)), l(cs.add((x + 2 * r) * ndq + d))),
+                        l(cs.add((x - 1) * ndq + d)),
+                    );
+                    _mm256_storeu_si256(c.add(x * ndq + d) as *mut __m256i, v);
+                }
+            }
+        }
     }
 }

@@ -113,9 +113,9 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
         }
     };
     // strips
-    // the automatic layout: max(128, ⌈h / 8⌉) rows (the memory cap of eight paths does not bind
-    // at these sizes), whatever the thread count
-    let strip = if g.strip_rows > 0 { g.strip_rows.min(h) } else { h.div_ceil(8).max(128).min(h) };
+    // the automatic layout: 2 · ⌈h / 512⌉ strips of equal height (the memory cap of eight paths
+    // does not bind at these sizes), whatever the thread count
+    let strip = if g.strip_rows > 0 { g.strip_rows.min(h) } else { h.div_ceil(2 * h.div_ceil(512)).min(h) };
     let mut s = vec![0i64; w * h * nd];
     let mut y0 = 0;
     while y0 < h {
@@ -259,7 +259,7 @@ fn run_case(seed: u64, w: usize, h: usize, cfg: MatcherConfig) {
     let (expect, expect_conf) = naive(&l, &r, w, h, &cfg, 1);
     let li = GrayImage::from_fn(w as u32, h as u32, |x, y| Luma([l[y as usize * w + x as usize] as u8]));
     let ri = GrayImage::from_fn(w as u32, h as u32, |x, y| Luma([r[y as usize * w + x as usize] as u8]));
-    for level in [SimdLevel::Scalar, SimdLevel::Avx2] {
+    for level in [SimdLevel::Scalar, SimdLevel::Avx2, SimdLevel::Avx512] {
         // two threads: the strip layout does not depend on them
         let mut m = BlockMatcher::new(MatcherConfig { threads: 2, ..cfg.clone() }).unwrap();
         if m.set_simd(level) != level {
@@ -288,7 +288,7 @@ fn sgm_strategy() -> impl Strategy<Value = MatcherConfig> {
         prop_oneof![Just(0u32), Just(4), Just(30)],
         prop_oneof![Just((0usize, 0usize)), Just((3, 2)), Just((5, 0)), Just((4, 9))],
         prop_oneof![Just(Prefilter::XSobel { cap: 31 }), Just(Prefilter::Rank { size: 5 })],
-        (-3i32..4, 1usize..20),
+        (-3i32..4, 1usize..40),
         (prop_oneof![Just(0u32), Just(10)], prop_oneof![Just(0u32), Just(20)]),
         (prop_oneof![Just(None), Just(Some(0u32)), Just(Some(1))], any::<bool>()),
         prop_oneof![Just((false, 0.0f32)), Just((true, 0.0)), Just((true, 0.1))],
@@ -375,7 +375,7 @@ fn sgm_fast_equals_naive_on_16_bit_images() {
         let (expect, expect_conf) = naive(&l, &r, w, h, &cfg, 257);
         let li = Gray16Image::from_raw(w as u32, h as u32, l.clone()).unwrap();
         let ri = Gray16Image::from_raw(w as u32, h as u32, r.clone()).unwrap();
-        for level in [SimdLevel::Scalar, SimdLevel::Avx2] {
+        for level in [SimdLevel::Scalar, SimdLevel::Avx2, SimdLevel::Avx512] {
             let mut m = BlockMatcher::new(MatcherConfig { threads: 2, ..cfg.clone() }).unwrap();
             if m.set_simd(level) != level {
                 continue;
