@@ -130,11 +130,7 @@ pub fn camera_poses_from_images(
         on_image(&report);
     }
     if camera.is_empty() {
-        return Err(PipelineError::Input(format!(
-            "no {target} found in any of the {} images (searched for {target}); the targets the detector knows: {}",
-            images.len(),
-            parallax_camera_model::ACCEPTED_FORMS
-        )));
+        return Err(crate::session::target_absent(target, images.len()));
     }
     Ok((kept_robot, camera))
 }

@@ -192,14 +192,15 @@ pub fn view_names(views: &[&ImageView]) -> Vec<String> {
 /// Refuses a session in which the target was found in no image, naming the target and the
 /// accepted target forms.
 pub fn require_found(views: &[ImageView], target: &TargetDescription) -> Result<()> {
-    if views.iter().any(ImageView::found) {
-        return Ok(());
-    }
-    Err(PipelineError::Input(format!(
-        "no {target} found in any of the {} images (searched for {target}); the targets the detector knows: {}",
-        views.len(),
+    if views.iter().any(ImageView::found) { Ok(()) } else { Err(target_absent(target, views.len())) }
+}
+
+/// The error for `target` found in none of `images` images: names it and the accepted forms.
+pub fn target_absent(target: &TargetDescription, images: usize) -> PipelineError {
+    PipelineError::Input(format!(
+        "no {target} found in any of the {images} images (searched for {target}); the targets the detector knows: {}",
         parallax_camera_model::ACCEPTED_FORMS
-    )))
+    ))
 }
 
 /// One image searched by [`search_corners`]: its corners-file entry, the line that reports it
