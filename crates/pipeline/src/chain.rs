@@ -3,6 +3,10 @@
 //! both build a [`ChainInput`] and call [`run_chain`]; truth scoring and self-consistency checks
 //! are layers on top of the [`ChainOutput`].
 //!
+//! With [`Lens::Fisheye`] the rig is calibrated with a wide-angle model, rectified to a pinhole
+//! pair (`cv::fisheye::stereoRectify`), and triangulation, measurement and the board poses of
+//! hand-eye work on corners moved onto the rectified pair ([`FisheyeRectifiedRig`]).
+//!
 //! A stage that fails does not stop the chain: its output is a [`StageFailure`] and every stage
 //! that does not depend on it still runs.
 

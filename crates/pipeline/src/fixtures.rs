@@ -6,7 +6,7 @@
 //! top-left pixel):
 //!
 //! ```text
-//! scenes/{easy,hard,eye-to-hand}.ron     scene descriptions (parallax_synthetic::SceneDescription)
+//! scenes/{easy,hard,eye-to-hand,fisheye}.ron  scene descriptions (parallax_synthetic::SceneDescription)
 //! mono/view_NN.png + truth.ron           mono session (easy scene, first 6 views)
 //! stereo/{left,right}_NN.png + truth.ron stereo session (easy scene, first 5 views)
 //! stereo-scene-{easy,hard}/              rectified pair, disparity.pfm, masks, truth.ron
@@ -130,7 +130,8 @@ pub fn fixture_files(plan: &FixturePlan) -> Result<Vec<(PathBuf, Vec<u8>)>> {
     let easy = SceneDescription::builtin();
     let hard = SceneDescription::builtin_hard();
     let eye_to_hand = SceneDescription::builtin_eye_to_hand();
-    for scene in [&easy, &hard, &eye_to_hand] {
+    let fisheye = SceneDescription::builtin_fisheye();
+    for scene in [&easy, &hard, &eye_to_hand, &fisheye] {
         put(&format!("scenes/{}.ron", scene.name), scene.to_ron().as_bytes().to_vec());
     }
 

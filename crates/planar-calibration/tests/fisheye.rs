@@ -136,13 +136,16 @@ fn trial(truth: &FisheyeCamera, model: FisheyeModelKind, seed: u64) -> Trial {
         }
         _ => fx,
     };
-    Trial { fx, fy, fx_z, paraxial, lens_z: lens_z(&r, truth), rms: r.rms_px }
+    let fx_sigma = r.std_devs.fx.unwrap() / t.fx;
+    Trial { fx, fy, fx_z, fx_sigma, paraxial, lens_z: lens_z(&r, truth), rms: r.rms_px }
 }
 
 struct Trial {
     fx: f64,
     fy: f64,
     fx_z: f64,
+    /// Reported σ of fx, relative.
+    fx_sigma: f64,
     paraxial: f64,
     lens_z: Vec<f64>,
     rms: f64,
@@ -159,9 +162,13 @@ fn noisy_corners_kannala_brandt_within_tolerances() {
     }
 }
 
-/// Double sphere: `fx` and `ξ` are strongly correlated (σ_fx ≈ 0.15–0.2 % on these sets, so
-/// 0.1 % is not a property of the data); `fx` is checked within 4σ and the paraxial focal
-/// length `fx/(1 + ξ)`, which the data do fix, within 0.1 %.
+/// Double sphere: `fx` and `ξ` are strongly correlated. Over the 100 seeded sets of the
+/// acceptance test the reported σ of fx is 0.124–0.274 % (median 0.163 %), the errors are
+/// within 3σ in 100/100 with RMS (error/σ) 1.04 (σ is honest), and the optimum is the same
+/// when the solver starts from the truth with tighter tolerances (it converges fully): fx within
+/// 0.1 % in only 43/100 is a property of 20 views at σ = 0.2 px, not of the solver (52/100 with
+/// the board at 100–200 mm, 63/100 with 40 views; ≥ 95 % needs σ ≤ 0.05 %). So `fx` is checked
+/// within 4σ and the paraxial focal length `fx/(1 + ξ)`, which the data do fix, within 0.1 %.
 #[test]
 fn noisy_corners_double_sphere_within_tolerances() {
     for seed in [11, 12, 13] {
@@ -190,8 +197,10 @@ fn hundred_trials_per_model() {
         let mut z2 = vec![0.0; n_lens];
         let (mut worst_fx, mut worst_fy, mut failures) = (0.0f64, 0.0f64, 0usize);
         let (mut worst_paraxial, mut fx_within) = (0.0f64, 0usize);
+        let mut fx_sigmas = Vec::new();
         for seed in 0..100 {
-            let Trial { fx, fy, fx_z, paraxial, lens_z: z, .. } = trial(&truth, model, 100 + seed);
+            let Trial { fx, fy, fx_z, fx_sigma, paraxial, lens_z: z, .. } = trial(&truth, model, 100 + seed);
+            fx_sigmas.push(fx_sigma);
             worst_fx = worst_fx.max(fx);
             worst_fy = worst_fy.max(fy);
             worst_paraxial = worst_paraxial.max(paraxial);
@@ -205,6 +214,14 @@ fn hundred_trials_per_model() {
             }
         }
         let rms_z: Vec<f64> = z2.iter().map(|s| (s / 100.0).sqrt()).collect();
+        fx_sigmas.sort_by(f64::total_cmp);
+        println!(
+            "{model:?}: reported σ of fx: smallest {:.4} %, median {:.4} %, largest {:.4} % (fx within 0.1 % in ≥ 95 % \
+             of trials needs σ ≤ 0.05 %)",
+            100.0 * fx_sigmas[0],
+            100.0 * fx_sigmas[50],
+            100.0 * fx_sigmas[99]
+        );
         println!(
             "{model:?}: worst fx error {:.4} %, worst fy error {:.4} %, trials with fx/fy beyond 0.1 %: {failures}; \
              fx within 3σ in {fx_within}; worst paraxial focal error {:.4} %; lens parameters within 3σ in \
