@@ -94,8 +94,8 @@
 mod error;
 mod interpret;
 mod model;
-mod target;
 pub mod opencv;
+mod target;
 mod write;
 
 use std::path::Path;

@@ -17,8 +17,7 @@ use crate::error::{InteropError, Result, content};
 
 /// Reads a target file ([`parse_target`] on its text); errors name the file.
 pub fn read_target(path: &Path) -> Result<TargetDescription> {
-    let text =
-        std::fs::read_to_string(path).map_err(|source| InteropError::Io { path: path.to_path_buf(), source })?;
+    let text = std::fs::read_to_string(path).map_err(|source| InteropError::Io { path: path.to_path_buf(), source })?;
     parse_target(&text, &path.display().to_string())
 }
 
@@ -135,10 +134,9 @@ fn kalibr(v: &Value, kind: &Value, what: &str) -> Result<TargetDescription> {
                 .map_err(|e| invalid(&e))?;
             Ok(TargetDescription::CircleGrid(grid))
         }
-        _ => Err(content(
-            what,
-            format!("Kalibr target_type {kind:?} is not one of aprilgrid, checkerboard, circlegrid"),
-        )),
+        _ => {
+            Err(content(what, format!("Kalibr target_type {kind:?} is not one of aprilgrid, checkerboard, circlegrid")))
+        }
     }
 }
 
@@ -159,16 +157,26 @@ mod tests {
         let board = "target_type: 'checkerboard' #gridtype\ntargetCols: 6\ntargetRows: 7\n\
                      rowSpacingMeters: 0.06\ncolSpacingMeters: 0.06\n";
         assert_eq!(parse_target(board, "b").unwrap(), parse("chessboard:6x7:0.06"));
-        let circles = "target_type: 'circlegrid'\ntargetCols: 6\ntargetRows: 7\nspacingMeters: 0.02\nasymmetricGrid: False\n";
+        let circles =
+            "target_type: 'circlegrid'\ntargetCols: 6\ntargetRows: 7\nspacingMeters: 0.02\nasymmetricGrid: False\n";
         assert_eq!(parse_target(circles, "c").unwrap(), parse("circles:6x7:0.02"));
     }
 
     #[test]
     fn kalibr_targets_that_would_need_a_guess_are_refused_by_name() {
         let cases = [
-            ("target_type: 'aprilgrid'\ntagCols: 6\ntagRows: 6\ntagSize: 0.088\ntagSpacing: 0.3\ncodeOffset: 24\n", "codeOffset"),
-            ("target_type: 'checkerboard'\ntargetCols: 6\ntargetRows: 7\nrowSpacingMeters: 0.06\ncolSpacingMeters: 0.05\n", "square cells"),
-            ("target_type: 'circlegrid'\ntargetCols: 6\ntargetRows: 7\nspacingMeters: 0.02\nasymmetricGrid: True\n", "acircles:"),
+            (
+                "target_type: 'aprilgrid'\ntagCols: 6\ntagRows: 6\ntagSize: 0.088\ntagSpacing: 0.3\ncodeOffset: 24\n",
+                "codeOffset",
+            ),
+            (
+                "target_type: 'checkerboard'\ntargetCols: 6\ntargetRows: 7\nrowSpacingMeters: 0.06\ncolSpacingMeters: 0.05\n",
+                "square cells",
+            ),
+            (
+                "target_type: 'circlegrid'\ntargetCols: 6\ntargetRows: 7\nspacingMeters: 0.02\nasymmetricGrid: True\n",
+                "acircles:",
+            ),
             ("target_type: 'aprilgrid'\ntagCols: 6\ntagRows: 6\ntagSize: -0.088\ntagSpacing: 0.3\n", "tagSize"),
             ("target_type: 'aprilgrid'\ntagCols: 6\ntagSize: 0.088\ntagSpacing: 0.3\n", "tagRows"),
             ("target_type: 'aprilgrid'\ntagCols: 6\ntagRows: 6\ntagSize: 0.088\ntagSpacing: 3\n", "spacing"),
