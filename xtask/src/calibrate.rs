@@ -200,6 +200,17 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let board = Chessboard::new(args.board.0, args.board.1, args.square)?;
     // Refuse an unknown output format before any work.
     let format = args.out.as_deref().map(|o| crate::files::output_format(o, args.format.as_deref())).transpose()?;
+    if let Some(out) = &args.out {
+        let mut outputs = vec![out.clone()];
+        if format == Some(parallax_interop::Format::Ros) {
+            outputs.extend(parallax_interop::ros_pair_paths(out));
+        }
+        let mut inputs: Vec<PathBuf> = args.corners.iter().chain(&args.right_corners).cloned().collect();
+        for spec in args.images.iter().chain(&args.right) {
+            inputs.extend(parallax_composition::io::input_paths(spec));
+        }
+        parallax_composition::io::refuse_overwriting_inputs(&outputs, &inputs)?;
+    }
     let t0 = Instant::now();
     let (left, right) = match (&args.corners, &args.images) {
         (Some(file), _) => {
@@ -227,6 +238,19 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
 }
 
+/// The library's "too few views" suggests an intrinsic guess, which this command cannot take:
+/// name what the user can do instead.
+fn too_few_views_hint(e: parallax_planar_calibration::CalibrationError) -> anyhow::Error {
+    match e {
+        parallax_planar_calibration::CalibrationError::TooFewViews { got, needed, .. } => anyhow::anyhow!(
+            "the board was found in {got} image(s) but a calibration needs at least {needed} views of it at \
+             different tilts (10 to 20 recommended): add images where the whole board is visible \
+             (`cargo xtask corners` shows in which images it is found)"
+        ),
+        e => e.into(),
+    }
+}
+
 fn run_mono(
     args: &Args,
     format: Option<parallax_interop::Format>,
@@ -239,7 +263,7 @@ fn run_mono(
     let size = common_size(&found)?;
     let grids: Vec<CornerGrid> = found.iter().filter_map(|v| v.2.clone()).collect();
     let t1 = Instant::now();
-    let r = calibrate_chessboard(board, &grids, size.0, size.1, &config(args))?;
+    let r = calibrate_chessboard(board, &grids, size.0, size.1, &config(args)).map_err(too_few_views_hint)?;
     println!(
         "calibrated {} views in {:.1} ms, {} iterations",
         grids.len(),
@@ -322,7 +346,7 @@ fn run_stereo(
         ..StereoConfig::default()
     };
     let t1 = Instant::now();
-    let r = calibrate_stereo_chessboard(board, &lg, &rg, lsize, rsize, &cfg)?;
+    let r = calibrate_stereo_chessboard(board, &lg, &rg, lsize, rsize, &cfg).map_err(too_few_views_hint)?;
     // Plausibility before anything is written: swapped cameras, pairs out of order.
     let checks = parallax_composition::StereoChecks { allow_swapped: args.allow_swapped, ..Default::default() };
     parallax_composition::check_stereo(&r, &checks)?;

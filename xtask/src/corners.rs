@@ -79,6 +79,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             out.display()
         );
     }
+    if let Some(out) = &args.out {
+        parallax_composition::io::refuse_overwriting_inputs(
+            &[out],
+            &parallax_composition::io::input_paths(&args.images),
+        )?;
+    }
     let paths = parallax_composition::io::expand_glob(&args.images)?;
     let cfg = ChessboardConfig { refinement: args.refine, ..ChessboardConfig::default() };
     let mut entries = Vec::new();

@@ -346,14 +346,41 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         ..d
     };
     let mut matcher = BlockMatcher::new(cfg.clone()).context("block-matching configuration")?;
+    let outputs = ["disparity.pfm", "disparity16.png", "disparity_colour.png", "confidence.pfm", "points.ply"]
+        .map(|n| args.out.join(n));
+    let inputs: Vec<&PathBuf> =
+        [&args.left, &args.right].into_iter().chain(&args.gt).chain(&args.mask).chain(&args.calib).collect();
+    parallax_composition::io::refuse_overwriting_inputs(&outputs, &inputs)?;
     if let Some((lefts, rights)) = sequence(&args.left, &args.right)? {
         return run_sequence(&args, matcher, lefts, rights);
     }
     let pair = load_pair(&args.left, &args.right)?;
     let truth = args.gt.as_deref().map(|p| load_truth(p, args.gt_scale)).transpose()?;
+    // Ground truth and mask are checked against the pair before anything is computed or written.
+    let (w, h) = match &pair {
+        Pair::U8(l, _) => l.dimensions(),
+        Pair::U16(l, _) => l.dimensions(),
+    };
+    if let (Some(t), Some(p)) = (&truth, &args.gt) {
+        anyhow::ensure!(
+            (t.width(), t.height()) == (w as usize, h as usize),
+            "ground truth {} is {}x{} but the images are {w}x{h}: give the ground truth of this pair",
+            p.display(),
+            t.width(),
+            t.height()
+        );
+    }
     let mask = match &args.mask {
         Some(p) => {
-            Some(parallax_composition::io::load_gray(p)?.into_raw().into_iter().map(|v| v > 128).collect::<Vec<bool>>())
+            let m = parallax_composition::io::load_gray(p)?;
+            anyhow::ensure!(
+                m.dimensions() == (w, h),
+                "mask {} is {}x{} but the images are {w}x{h}: give the mask of this pair",
+                p.display(),
+                m.width(),
+                m.height()
+            );
+            Some(m.into_raw().into_iter().map(|v| v > 128).collect::<Vec<bool>>())
         }
         None => None,
     };

@@ -33,6 +33,7 @@ pub mod artifacts;
 pub mod chain;
 mod error;
 pub mod fixtures;
+pub mod fuzz_checks;
 pub mod io;
 pub mod plots;
 pub mod real;
