@@ -83,8 +83,25 @@ fn the_real_seed_files_parse() {
     for f in ["robot_pose_0.yaml", "eMc_4x4.yaml", "inline.yaml"] {
         parallax_hand_eye::visp::parse_pose_yaml(&text(&format!("visp_pose/{f}")), f).unwrap();
     }
+    // The axis-angle seed holds the fixtures' robot poses: the same poses as the RON file.
+    let lines = std::fs::read(root.join("pose_text/axis_angle_robot_poses.bin")).unwrap();
+    let from_lines = parallax_hand_eye::io::parse_pose_file(
+        std::str::from_utf8(&lines[1..]).unwrap(),
+        parallax_hand_eye::io::PoseFileFormat::AxisAngle,
+        "lines",
+    )
+    .unwrap();
+    let ron_seed = std::fs::read(root.join("pose_text/ron_robot_poses.bin")).unwrap();
+    let from_ron = parallax_hand_eye::io::parse_pose_ron(std::str::from_utf8(&ron_seed[1..]).unwrap(), "ron").unwrap();
+    assert_eq!(from_lines.len(), 6);
+    for (a, b) in from_lines.iter().zip(&from_ron) {
+        let (dr, dt) = a.distance(b);
+        assert!(dr < 1e-9 && dt < 1e-9, "{a:?} vs {b:?}");
+    }
     parallax_hand_eye::visp::parse_camera_xml(&text("visp_camera/fixture_camera.xml"), "xml", None, None).unwrap();
-    for f in ["cv2_mono.yml", "cv2_stereo.xml", "ours_stereo.ron", "ours_mono.json", "eye-in-hand.ron"] {
+    for f in
+        ["cv2_mono.yml", "cv2_stereo.xml", "ours_stereo.ron", "ours_mono.json", "ours_handeye.yml", "cv2_handeye.yml"]
+    {
         parallax_interop::parse(&text(&format!("calibration/{f}")), f).unwrap();
     }
     for f in ["easy.ron", "hard.ron", "eye-to-hand.ron"] {
