@@ -71,6 +71,8 @@ pub struct Args {
     /// (chessboard sessions).
     #[arg(long)]
     report: Option<PathBuf>,
+    #[command(flatten)]
+    detector: crate::util::DetectorArgs,
 }
 
 fn config(args: &Args) -> CalibrationConfig {
@@ -109,9 +111,24 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     );
     // Refuse an unknown output format before any work.
     let format = args.out.as_deref().map(|o| crate::files::output_format(o, args.format.as_deref())).transpose()?;
+    if let Some(out) = &args.out {
+        let mut outputs = vec![out.clone()];
+        if format == Some(parallax_interop::Format::Ros) {
+            outputs.extend(parallax_interop::ros_pair_paths(out));
+        }
+        let mut inputs: Vec<PathBuf> = args.corners.iter().chain(&args.right_corners).cloned().collect();
+        for spec in args.images.iter().chain(&args.right) {
+            inputs.extend(parallax_composition::io::input_paths(spec));
+        }
+        parallax_composition::io::refuse_overwriting_inputs(&outputs, &inputs)?;
+    }
     let t0 = Instant::now();
     let detect = |pattern: &str| -> anyhow::Result<Vec<ImageView>> {
-        let views = session::detect_files(&parallax_composition::io::expand_glob(pattern)?, &target)?;
+        let views = session::detect_files(
+            &parallax_composition::io::expand_glob(pattern)?,
+            &target,
+            &args.detector.config(Default::default()),
+        )?;
         for v in views.iter().filter(|v| !v.found()) {
             match &target {
                 TargetDescription::Chessboard(b) => {
@@ -141,6 +158,20 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
 }
 
+/// The library's "too few views" suggests an intrinsic guess, which this command cannot take:
+/// name what the user can do instead.
+fn too_few_views_hint(e: parallax_composition::PipelineError) -> anyhow::Error {
+    use parallax_composition::PipelineError::Calibration;
+    match e {
+        Calibration(parallax_planar_calibration::CalibrationError::TooFewViews { got, needed, .. }) => anyhow::anyhow!(
+            "the target was found in {got} image(s) but a calibration needs at least {needed} views of it at \
+             different tilts (10 to 20 recommended): add images where the target is visible \
+             (`cargo xtask corners` shows in which images it is found)"
+        ),
+        e => e.into(),
+    }
+}
+
 fn run_mono(
     args: &Args,
     format: Option<parallax_interop::Format>,
@@ -152,7 +183,7 @@ fn run_mono(
     println!("board found in {}/{} images ({:.0} ms)", found.len(), views.len(), t0.elapsed().as_secs_f64() * 1e3);
     let size = session::common_size(&found)?;
     let t1 = Instant::now();
-    let r = session::calibrate_views(target, &found, size, &config(args))?;
+    let r = session::calibrate_views(target, &found, size, &config(args)).map_err(too_few_views_hint)?;
     println!(
         "calibrated {} views in {:.1} ms, {} iterations",
         found.len(),
@@ -210,7 +241,7 @@ fn run_stereo(
     let mr = session::calibrate_views(target, &rf, rsize, &mono)?;
     println!("mono: left RMS {:.4} px, right RMS {:.4} px", ml.rms_px, mr.rms_px);
     let t1 = Instant::now();
-    let r = session::calibrate_stereo_views(target, &lf, &rf, [lsize, rsize], &cfg)?;
+    let r = session::calibrate_stereo_views(target, &lf, &rf, [lsize, rsize], &cfg).map_err(too_few_views_hint)?;
     let ((lg, lo), (rg, ro)) = (session::points_of(&lf), session::points_of(&rf));
     // Plausibility before anything is written: swapped cameras, pairs out of order.
     let checks = parallax_composition::StereoChecks { allow_swapped: args.allow_swapped, ..Default::default() };

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use parallax_composition::session::{self, CornersFile};
-use parallax_corner_detection::{ChessboardConfig, CornerRefinement};
+use parallax_corner_detection::CornerRefinement;
 
 /// Arguments of `cargo xtask corners`.
 #[derive(clap::Args)]
@@ -30,6 +30,8 @@ pub struct Args {
     /// Sub-pixel method: saddle (saddle-point fit, default), subpix (gradient orthogonality), none.
     #[arg(long, default_value = "saddle", value_parser = parse_refinement)]
     refine: CornerRefinement,
+    #[command(flatten)]
+    detector: crate::util::DetectorArgs,
 }
 
 fn parse_refinement(s: &str) -> Result<CornerRefinement, String> {
@@ -53,8 +55,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             out.display()
         );
     }
+    if let Some(out) = &args.out {
+        parallax_composition::io::refuse_overwriting_inputs(
+            &[out],
+            &parallax_composition::io::input_paths(&args.images),
+        )?;
+    }
     let paths = parallax_composition::io::expand_glob(&args.images)?;
-    let cfg = ChessboardConfig { refinement: args.refine, ..ChessboardConfig::default() };
+    let cfg = args.detector.config(args.refine);
     let mut entries = Vec::new();
     let mut found = 0;
     let mut times = Vec::new();

@@ -221,12 +221,19 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         ..d
     };
     let mut matcher = BlockMatcher::new(cfg.clone()).context("block-matching configuration")?;
+    let outputs = ["disparity.pfm", "disparity16.png", "disparity_colour.png", "confidence.pfm", "points.ply"]
+        .map(|n| args.out.join(n));
+    let inputs: Vec<&PathBuf> =
+        [&args.left, &args.right].into_iter().chain(&args.gt).chain(&args.mask).chain(&args.calib).collect();
+    parallax_composition::io::refuse_overwriting_inputs(&outputs, &inputs)?;
     if let Some((lefts, rights)) = disparity::image_sequence(&args.left, &args.right)? {
         return run_sequence(&args, matcher, lefts, rights);
     }
     let pair = disparity::load_pair(&args.left, &args.right)?;
-    let truth = args.gt.as_deref().map(|p| disparity::load_truth(p, args.gt_scale)).transpose()?;
-    let mask = args.mask.as_deref().map(disparity::load_mask).transpose()?;
+    // Ground truth and mask are checked against the pair before anything is computed or written.
+    let size = pair.dimensions();
+    let truth = args.gt.as_deref().map(|p| disparity::load_truth(p, args.gt_scale, size)).transpose()?;
+    let mask = args.mask.as_deref().map(|p| disparity::load_mask(p, size)).transpose()?;
     // a swapped pair gives a confident-looking wrong map: refuse it unless told otherwise
     if let Some(code) = refuse_swapped(&pair.check_swap(&matcher)?, args.allow_swapped, false) {
         return Ok(code);

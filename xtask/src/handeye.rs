@@ -170,6 +170,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             out.display()
         );
     }
+    let outputs: Vec<&PathBuf> = args.out.iter().chain(&args.save_camera_poses).chain(&args.save_visp).collect();
+    let mut inputs = parallax_composition::io::input_paths(&args.robot);
+    for spec in args.camera_poses.iter().chain(&args.images) {
+        inputs.extend(parallax_composition::io::input_paths(spec));
+    }
+    inputs.extend(args.intrinsics.iter().cloned());
+    parallax_composition::io::refuse_overwriting_inputs(&outputs, &inputs)?;
     let robot = poses::read_poses(&args.robot, args.robot_format.file_format())
         .with_context(|| format!("robot poses {:?}", args.robot))?;
     let (robot, camera) = match &args.camera_poses {

@@ -15,7 +15,7 @@ mod pipeline;
 mod rectify;
 mod util;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 /// parallax developer commands: the pipeline, fixtures, benchmarks and each stage on real data.
 #[derive(Parser)]
@@ -49,7 +49,10 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
-    let cli = Cli::parse();
+    // Negative numbers are values everywhere (`--square -30` reads as `--square=-30`, and the
+    // command's own check then names the mistake), never taken for a flag.
+    let command = Cli::command().mut_subcommands(|sub| sub.allow_negative_numbers(true));
+    let cli = Cli::from_arg_matches(&command.get_matches()).unwrap_or_else(|e| e.exit());
     let result = match cli.command {
         Command::Pipeline(a) => pipeline::run(a),
         Command::Fixtures(a) => fixtures::run(a),
@@ -64,7 +67,15 @@ fn main() -> std::process::ExitCode {
     match result {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            // The causes, each once: an error that already prints its source (`reading x: No
+            // such file`) is not followed by that source again.
+            let mut message = e.to_string();
+            for cause in e.chain().skip(1).map(|c| c.to_string()) {
+                if !message.contains(&cause) {
+                    message = format!("{message}: {cause}");
+                }
+            }
+            eprintln!("error: {message}");
             std::process::ExitCode::FAILURE
         }
     }

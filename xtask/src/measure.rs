@@ -76,6 +76,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         let csv = out.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
         let native = out.extension().is_some_and(|e| e.eq_ignore_ascii_case("ron") || e.eq_ignore_ascii_case("json"));
         ensure!(csv || native, "{}: a measurement is written as .ron, .json or .csv", out.display());
+        let mut outputs = vec![out.clone()];
+        if csv {
+            let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            outputs.push(out.with_file_name(format!("{stem}_distances.csv")));
+        }
+        let inputs: Vec<&PathBuf> = args.calib.iter().chain(&args.left).chain(&args.right).collect();
+        parallax_composition::io::refuse_overwriting_inputs(&outputs, &inputs)?;
     }
     let rig = crate::files::read_calibration(&args.calib)?.into_stereo(&args.calib[0].display().to_string())?.rig;
     let mut images = Vec::new();

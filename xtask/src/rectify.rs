@@ -65,6 +65,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     };
     let rect_path = args.out.join(format!("rectification.{ext}"));
     let format = crate::files::output_format(&rect_path, Some(&args.format))?;
+    let outputs = ["side_by_side.png", "left_rectified.png", "right_rectified.png"].map(|n| args.out.join(n));
+    let inputs: Vec<&PathBuf> = args.calib.iter().chain([&args.left, &args.right]).collect();
+    parallax_composition::io::refuse_overwriting_inputs(&outputs, &inputs)?;
+    parallax_composition::io::refuse_overwriting_inputs(&[&rect_path], &inputs)?;
     let stereo = crate::files::read_calibration(&args.calib)?.into_stereo(&args.calib[0].display().to_string())?;
     let rig = stereo.rig;
     let left = image::open(&args.left).with_context(|| format!("reading image {}", args.left.display()))?;

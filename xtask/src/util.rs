@@ -2,6 +2,7 @@
 
 use anyhow::Context;
 use parallax_camera_model::{Chessboard, TargetDescription};
+use parallax_corner_detection::{ChessboardConfig, CornerRefinement};
 
 /// Parses a board size `COLSxROWS` (inner corners, OpenCV's `patternSize`), e.g. `9x6`.
 pub fn parse_board_size(s: &str) -> Result<(usize, usize), String> {
@@ -43,6 +44,47 @@ pub fn target(board: &str, square: Option<f64>) -> anyhow::Result<TargetDescript
     }
 }
 
+/// The chessboard detector's settings (`corners`, `calibrate`). Lengths are in pixels of the
+/// pyramid level searched: the defaults follow the image (a 1600x1200 image is searched at
+/// 800x600 first), so most rigs need none of these.
+#[derive(clap::Args, Debug, Clone)]
+pub struct DetectorArgs {
+    /// Gaussian smoothing before the saddle response, pixels (default 1.5).
+    #[arg(long, value_parser = positive)]
+    detection_sigma: Option<f64>,
+    /// Radius of the ring on which a corner's four sectors are checked, pixels; below half the
+    /// smallest corner spacing (default 5).
+    #[arg(long, value_parser = positive)]
+    ring_radius: Option<f64>,
+    /// Minimum dark/bright difference on the ring, grey levels (default 20).
+    #[arg(long, value_parser = positive)]
+    min_contrast: Option<f64>,
+    /// Longer side of the coarsest pyramid level searched; 0 searches full resolution only
+    /// (default 500).
+    #[arg(long)]
+    pyramid_side: Option<u32>,
+}
+
+impl DetectorArgs {
+    /// The detector configuration: the defaults with the settings given.
+    pub fn config(&self, refinement: CornerRefinement) -> ChessboardConfig {
+        let d = ChessboardConfig::default();
+        ChessboardConfig {
+            detection_sigma: self.detection_sigma.unwrap_or(d.detection_sigma),
+            ring_radius: self.ring_radius.unwrap_or(d.ring_radius),
+            min_contrast: self.min_contrast.unwrap_or(d.min_contrast),
+            pyramid_side: self.pyramid_side.unwrap_or(d.pyramid_side),
+            refinement,
+            ..d
+        }
+    }
+}
+
+/// A positive finite number (clap value parser).
+fn positive(s: &str) -> Result<f64, String> {
+    s.parse::<f64>().ok().filter(|v| v.is_finite() && *v > 0.0).ok_or_else(|| format!("{s:?} is not a positive number"))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -60,6 +102,30 @@ mod tests {
         assert!(target("9x6", None).unwrap_err().to_string().contains("--square"));
         let err = format!("{:#}", target("hexagons:3x3", None).unwrap_err());
         assert!(err.contains("hexagons") && err.contains("charuco:") && err.contains("aprilgrid:"), "{err}");
+    }
+
+    #[test]
+    fn detector_settings_reach_the_configuration_and_bad_ones_are_refused() {
+        use clap::Parser;
+        #[derive(Parser)]
+        #[command(allow_negative_numbers = true)]
+        struct Cli {
+            #[command(flatten)]
+            detector: DetectorArgs,
+        }
+        let cli = Cli::try_parse_from(["x", "--ring-radius", "7", "--detection-sigma", "2.5", "--pyramid-side", "0"])
+            .unwrap();
+        let c = cli.detector.config(CornerRefinement::SubPix);
+        let d = ChessboardConfig::default();
+        assert_eq!((c.ring_radius, c.detection_sigma, c.pyramid_side), (7.0, 2.5, 0));
+        assert_eq!(
+            (c.min_contrast, c.max_candidates, c.refinement),
+            (d.min_contrast, d.max_candidates, CornerRefinement::SubPix)
+        );
+        for bad in [["x", "--ring-radius", "-7"], ["x", "--min-contrast", "0"], ["x", "--detection-sigma", "nan"]] {
+            let err = Cli::try_parse_from(bad).err().unwrap().to_string();
+            assert!(err.contains(bad[2]) && err.contains("positive"), "{err}");
+        }
     }
 
     #[test]

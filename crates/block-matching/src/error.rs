@@ -13,6 +13,21 @@ pub enum BlockMatchingError {
         /// What is allowed.
         reason: &'static str,
     },
+    /// A flat list of values (a mask, scaled disparities, map data) has the wrong length for
+    /// the image size it must cover.
+    #[error("length mismatch: {what} has {got} values, expected {width}x{height} = {expected}")]
+    LengthMismatch {
+        /// Which input.
+        what: &'static str,
+        /// Width it must cover.
+        width: usize,
+        /// Height it must cover.
+        height: usize,
+        /// `width · height` (saturated).
+        expected: usize,
+        /// Number of values given.
+        got: usize,
+    },
     /// The two images of a pair (or a map and its ground truth / mask) differ in size.
     #[error("size mismatch: {what} is {got_width}x{got_height}, expected {width}x{height}")]
     SizeMismatch {

@@ -55,12 +55,12 @@ pub fn evaluate(
         });
     }
     if let Some(m) = mask.filter(|m| m.len() != w * h) {
-        return Err(BlockMatchingError::SizeMismatch {
+        return Err(BlockMatchingError::LengthMismatch {
             what: "evaluation mask",
             width: w,
             height: h,
-            got_width: m.len(),
-            got_height: 1,
+            expected: w.saturating_mul(h),
+            got: m.len(),
         });
     }
     let mut evaluated = 0usize;
@@ -107,6 +107,16 @@ pub fn evaluate(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_mask_of_the_wrong_length_is_reported_as_a_length_never_as_nx1() {
+        let m = DisparityMap::from_data(4, 3, vec![1.0; 12]).unwrap();
+        let err = evaluate(&m, &m, Some(&[true; 5]), &[1.0]).unwrap_err().to_string();
+        assert!(err.contains("evaluation mask has 5 values, expected 4x3 = 12"), "{err}");
+        assert!(!err.contains("5x1"), "{err}");
+        let err = crate::from_scaled(&[1, 2, 3], 2, 2, 1.0).unwrap_err().to_string();
+        assert!(err.contains("3 values, expected 2x2 = 4"), "{err}");
+    }
 
     #[test]
     fn counts_missing_as_bad_and_respects_mask_and_unknown_truth() {

@@ -50,6 +50,9 @@ pub fn from_pfm(bytes: &[u8], what: &str) -> Result<DisparityMap> {
     if scale == 0.0 || !scale.is_finite() {
         return Err(err("scale must be non-zero"));
     }
+    if width == 0 || height == 0 {
+        return Err(err("empty map (width or height 0)"));
+    }
     let need = width.checked_mul(height).and_then(|n| n.checked_mul(4)).ok_or_else(|| err("size overflows"))?;
     let body = bytes.get(pos..).filter(|b| b.len() >= need).ok_or_else(|| err("truncated data"))?;
     let mut data = vec![DisparityMap::INVALID; width * height];
@@ -68,12 +71,12 @@ pub fn from_pfm(bytes: &[u8], what: &str) -> Result<DisparityMap> {
 /// reported as a size error, never a panic).
 fn map_from(width: usize, height: usize, data: Vec<f32>) -> Result<DisparityMap> {
     let n = data.len();
-    DisparityMap::from_data(width, height, data).map_err(|_| BlockMatchingError::SizeMismatch {
+    DisparityMap::from_data(width, height, data).map_err(|_| BlockMatchingError::LengthMismatch {
         what: "disparity data",
         width,
         height,
-        got_width: n,
-        got_height: 1,
+        expected: width.saturating_mul(height),
+        got: n,
     })
 }
 
@@ -91,12 +94,12 @@ pub fn to_png16(map: &DisparityMap, scale: f32) -> Gray16Image {
 /// Middlebury's `groundtruth.png` with its `info.txt` scale, or [`to_png16`] output.
 pub fn from_scaled(values: &[u16], width: usize, height: usize, scale: f32) -> Result<DisparityMap> {
     if values.len() != width * height {
-        return Err(BlockMatchingError::SizeMismatch {
+        return Err(BlockMatchingError::LengthMismatch {
             what: "scaled disparity image",
             width,
             height,
-            got_width: values.len(),
-            got_height: 1,
+            expected: width.saturating_mul(height),
+            got: values.len(),
         });
     }
     if !(scale.is_finite() && scale > 0.0) {

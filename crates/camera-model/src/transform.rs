@@ -115,6 +115,22 @@ impl Isometry3 {
         Self { rotation: quat_from_rvec(rvec), translation: tvec }
     }
 
+    /// [`Self::from_rvec_tvec`] for values read from outside, checked: errors naming the
+    /// translation when `tvec` is not finite, and the rotation vector when it is not finite or
+    /// its length overflows (components like `1e308` would give a NaN quaternion).
+    pub fn try_from_rvec_tvec(rvec: DVec3, tvec: DVec3) -> Result<Self> {
+        if !rvec.is_finite() {
+            return Err(CameraModelError::NonFinite { what: "rotation vector" });
+        }
+        if !rvec.length().is_finite() {
+            return Err(CameraModelError::NonFinite { what: "rotation vector length (components too large)" });
+        }
+        if !tvec.is_finite() {
+            return Err(CameraModelError::NonFinite { what: "translation" });
+        }
+        Ok(Self::from_rvec_tvec(rvec, tvec))
+    }
+
     /// From a 4x4 homogeneous matrix `[R t; 0 1]`.
     pub fn from_mat4(m: DMat4) -> Result<Self> {
         if !m.is_finite() {

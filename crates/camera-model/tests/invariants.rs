@@ -40,3 +40,38 @@ fn a_non_unit_or_non_finite_quaternion_is_refused_and_rounding_is_renormalised()
     assert!(Isometry3::new(DQuat::from_xyzw(0.0, 0.0, 0.0, 2.0), DVec3::ZERO).is_err());
     assert!(Isometry3::new(DQuat::IDENTITY, DVec3::ZERO).is_ok());
 }
+
+#[test]
+fn a_non_finite_translation_is_named_as_the_translation_never_as_the_quaternion() {
+    for t in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        let err = Isometry3::new(DQuat::IDENTITY, DVec3::new(t, 0.0, 0.0)).unwrap_err().to_string();
+        assert!(err.contains("translation") && !err.contains("quaternion"), "{err}");
+        let err =
+            Isometry3::try_from_rvec_tvec(DVec3::new(0.1, 0.2, 0.3), DVec3::new(0.0, t, 0.0)).unwrap_err().to_string();
+        assert!(err.contains("translation") && !err.contains("rotation"), "{err}");
+    }
+    // Deserialised: the same message.
+    for text in [
+        "(rotation: (0.0, 0.0, 0.0, 1.0), translation: (NaN, 0.0, 0.0))",
+        "(rotation: (0.0, 0.0, 0.0, 1.0), translation: (0.0, inf, 0.0))",
+    ] {
+        let err = ron::from_str::<Isometry3>(text).unwrap_err().to_string();
+        assert!(err.contains("translation") && !err.contains("quaternion"), "{text}: {err}");
+    }
+}
+
+#[test]
+fn huge_but_finite_rotation_vectors_are_refused_by_the_checked_constructor() {
+    // |rvec|² overflows: the unchecked constructor would give a NaN quaternion.
+    assert!(!Isometry3::from_rvec_tvec(DVec3::new(1e308, 0.0, 0.0), DVec3::ZERO).is_finite());
+    for r in [DVec3::new(1e308, 0.0, 0.0), DVec3::new(1e200, 1e200, 0.0), DVec3::new(f64::NAN, 0.0, 0.0)] {
+        let err = Isometry3::try_from_rvec_tvec(r, DVec3::ZERO).unwrap_err().to_string();
+        assert!(err.contains("rotation vector"), "{r:?}: {err}");
+    }
+    // Any representable length is accepted and equals the unchecked constructor's.
+    let r = DVec3::new(0.3, -2.0, 1.5);
+    let t = DVec3::new(1.0, 2.0, 3.0);
+    assert_eq!(Isometry3::try_from_rvec_tvec(r, t).unwrap(), Isometry3::from_rvec_tvec(r, t));
+    // Huge quaternion components (norm overflowing to infinity) are refused by `new`.
+    assert!(Isometry3::new(DQuat::from_xyzw(1e308, 1e308, 0.0, 0.0), DVec3::ZERO).is_err());
+}

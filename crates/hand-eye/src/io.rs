@@ -34,6 +34,11 @@ pub fn pose_from_six(v: [f64; 6], format: RotationFormat) -> Isometry3 {
     }
 }
 
+/// Largest translation component a pose file may hold (in any unit: 1e12 m is beyond the solar
+/// system, 1e12 mm beyond the Moon): larger values are a wrong column or a corrupt file, and
+/// would overflow the solvers' squares.
+pub const MAX_TRANSLATION: f64 = 1e12;
+
 fn parse_err(what: &str, message: String) -> HandEyeError {
     HandEyeError::Parse { what: what.to_string(), message }
 }
@@ -60,16 +65,35 @@ pub fn parse_pose_lines(text: &str, format: RotationFormat, what: &str) -> Resul
         if nums.iter().any(|v| !v.is_finite()) {
             return Err(parse_err(what, format!("line {}: non-finite number", n + 1)));
         }
-        let angle = (nums[3] * nums[3] + nums[4] * nums[4] + nums[5] * nums[5]).sqrt();
-        if format == RotationFormat::AxisAngle && angle > std::f64::consts::TAU {
-            return Err(parse_err(
-                what,
-                format!(
-                    "line {}: rotation vector of length {angle:.3} > 2π is not an axis-angle in radians — are these \
-                     roll-pitch-yaw angles in degrees (RotationFormat::RollPitchYawDeg, --robot-format rpy-deg)?",
-                    n + 1
-                ),
-            ));
+        let bad = |m: String| parse_err(what, format!("line {}: {m}", n + 1));
+        match format {
+            RotationFormat::AxisAngle => {
+                // A huge component (1e308) overflows the length to infinity: report the
+                // component instead (and never build a NaN rotation from it).
+                let length = (nums[3] * nums[3] + nums[4] * nums[4] + nums[5] * nums[5]).sqrt();
+                let angle =
+                    if length.is_finite() { length } else { nums[3..].iter().fold(0.0f64, |m, v| m.max(v.abs())) };
+                if angle > std::f64::consts::TAU {
+                    let shown = if angle < 1e6 { format!("{angle:.3}") } else { format!("{angle:.3e}") };
+                    return Err(bad(format!(
+                        "rotation vector of length {shown} > 2π is not an axis-angle in radians — are these \
+                         roll-pitch-yaw angles in degrees (RotationFormat::RollPitchYawDeg, --robot-format rpy-deg)?"
+                    )));
+                }
+            }
+            RotationFormat::RollPitchYawDeg => {
+                if let Some(v) = nums[3..].iter().find(|v| v.abs() > 360.0) {
+                    return Err(bad(format!(
+                        "roll-pitch-yaw angle {v} is beyond ±360°: not an angle in degrees (a rotation in \
+                         radians would be axis-angle, --robot-format axis-angle)"
+                    )));
+                }
+            }
+        }
+        if let Some(t) = nums[..3].iter().find(|v| v.abs() > MAX_TRANSLATION) {
+            return Err(bad(format!(
+                "translation component {t:e} is beyond ±{MAX_TRANSLATION:e}: not a length (a wrong column or unit?)"
+            )));
         }
         out.push(pose_from_six(std::array::from_fn(|i| nums[i]), format));
     }
@@ -140,7 +164,13 @@ pub fn parse_pose_ron(text: &str, what: &str) -> Result<Vec<Isometry3>> {
         return Err(parse_err(what, "empty pose list".into()));
     }
     for (k, p) in poses.iter().enumerate() {
-        if !p.is_finite() || (p.rotation().length() - 1.0).abs() > 1e-6 {
+        if !p.translation.is_finite() || p.translation.abs().max_element() > MAX_TRANSLATION {
+            return Err(parse_err(
+                what,
+                format!("pose {k}: translation {:?} is not finite or beyond ±{MAX_TRANSLATION:e}", p.translation),
+            ));
+        }
+        if !p.rotation().is_finite() || (p.rotation().length() - 1.0).abs() > 1e-6 {
             return Err(parse_err(what, format!("pose {k}: rotation is not a finite unit quaternion")));
         }
     }
@@ -189,6 +219,31 @@ mod tests {
         let f = parse_pose_file("1 2 3 0 0 90\n", PoseFileFormat::RollPitchYawDeg, "r").unwrap();
         assert!((f[0].transform_vector(DVec3::X) - DVec3::Y).length() < 1e-15);
         assert_eq!(PoseFileFormat::from_path(std::path::Path::new("a/cPo_1.YAML")), PoseFileFormat::Visp);
+    }
+
+    #[test]
+    fn huge_but_finite_values_are_refused_at_parse_time() {
+        // Axis-angle: |rvec|² overflows; the component is named, no NaN rotation is built.
+        let e = parse_pose_lines("0 0 0 1e308 0 0\n", RotationFormat::AxisAngle, "r.txt").unwrap_err().to_string();
+        assert!(e.contains("r.txt") && e.contains("line 1") && e.contains("1.000e308"), "{e}");
+        // Roll-pitch-yaw beyond ±360°, a translation beyond ±1e12.
+        let e = parse_pose_lines("0 0 0 1e308 0 0\n", RotationFormat::RollPitchYawDeg, "r.txt").unwrap_err();
+        assert!(e.to_string().contains("beyond ±360°"), "{e}");
+        assert!(parse_pose_lines("0 0 0 0 0 360\n", RotationFormat::RollPitchYawDeg, "r").is_ok());
+        let e = parse_pose_lines("1e300 0 0 0 0 0\n", RotationFormat::AxisAngle, "r").unwrap_err().to_string();
+        assert!(e.contains("translation") && e.contains("1e300"), "{e}");
+        // ViSP 6x1: θu longer than 2π, and a 1e308 component.
+        for text in ["data: [0, 0, 0, 1e308, 0, 0]\n", "data: [0, 0, 0, 4, 4, 4]\n"] {
+            let e = parse_visp_pose(text, "p.yaml").unwrap_err().to_string();
+            assert!(e.contains("p.yaml") && e.contains("longer than 2π"), "{text}: {e}");
+        }
+        let e = parse_visp_pose("data: [1e308, 0, 0, 0, 0, 0]\n", "p.yaml").unwrap_err().to_string();
+        assert!(e.contains("translation"), "{e}");
+        // RON lists: a translation beyond the bound is named as the translation.
+        let e = parse_pose_ron("[(rotation: (0.0, 0.0, 0.0, 1.0), translation: (1e300, 0.0, 0.0))]", "p.ron")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("translation") && !e.contains("quaternion"), "{e}");
     }
 
     #[test]

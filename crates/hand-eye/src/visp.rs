@@ -319,7 +319,7 @@ fn parse_array(text: &str, what: &str) -> Result<(usize, usize, Vec<f64>)> {
         _ if nums.len() == 16 => (4, 4),
         _ => return Err(parse_err(what, format!("`data:` holds {} numbers and no rows/cols", nums.len()))),
     };
-    if nums.len() != rows * cols {
+    if rows.checked_mul(cols) != Some(nums.len()) {
         return Err(parse_err(what, format!("`data:` holds {} numbers, expected {rows}x{cols}", nums.len())));
     }
     Ok((rows, cols, nums))
@@ -331,7 +331,24 @@ fn parse_array(text: &str, what: &str) -> Result<(usize, usize, Vec<f64>)> {
 pub fn parse_pose_yaml(text: &str, what: &str) -> Result<Isometry3> {
     let (rows, cols, v) = parse_array(text, what)?;
     match (rows, cols) {
-        (6, 1) | (1, 6) => Ok(Isometry3::from_rvec_tvec(DVec3::new(v[3], v[4], v[5]), DVec3::new(v[0], v[1], v[2]))),
+        (6, 1) | (1, 6) => {
+            let (t, r) = (DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]));
+            // θu is an angle in radians times a unit axis: beyond 2π it is a mistake (and a huge
+            // component like 1e308 would make the rotation NaN).
+            if r.abs().max_element() > std::f64::consts::TAU || r.length() > std::f64::consts::TAU {
+                return Err(parse_err(
+                    what,
+                    format!("rotation θu = {r:?} is longer than 2π: not an axis × angle in radians"),
+                ));
+            }
+            if t.abs().max_element() > crate::io::MAX_TRANSLATION {
+                return Err(parse_err(
+                    what,
+                    format!("translation {t:?} is beyond ±{:e}: not a length", crate::io::MAX_TRANSLATION),
+                ));
+            }
+            Isometry3::try_from_rvec_tvec(r, t).map_err(|e| parse_err(what, e.to_string()))
+        }
         (4, 4) => {
             let last = [v[12], v[13], v[14], v[15]];
             if last != [0.0, 0.0, 0.0, 1.0] {
@@ -342,8 +359,14 @@ pub fn parse_pose_yaml(text: &str, what: &str) -> Result<Isometry3> {
                 DVec3::new(v[1], v[5], v[9]),
                 DVec3::new(v[2], v[6], v[10]),
             );
-            Isometry3::from_rotation_translation(r, DVec3::new(v[3], v[7], v[11]))
-                .map_err(|e| parse_err(what, format!("4x4 matrix: {e}")))
+            let t = DVec3::new(v[3], v[7], v[11]);
+            if t.abs().max_element() > crate::io::MAX_TRANSLATION {
+                return Err(parse_err(
+                    what,
+                    format!("translation {t:?} is beyond ±{:e}: not a length", crate::io::MAX_TRANSLATION),
+                ));
+            }
+            Isometry3::from_rotation_translation(r, t).map_err(|e| parse_err(what, format!("4x4 matrix: {e}")))
         }
         (r, c) => Err(parse_err(what, format!("a {r}x{c} array is neither a 6x1 pose vector nor a 4x4 matrix"))),
     }

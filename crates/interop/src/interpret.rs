@@ -290,6 +290,11 @@ fn per_view_mono(o: &Map<String, Value>, what: &str) -> Result<Vec<f64>> {
 fn per_view_stereo(o: &Map<String, Value>, what: &str) -> Result<Vec<[f64; 2]>> {
     for key in ["per_view_reprojection_errors", "per_view_rms_px"] {
         if let Some(v) = o.get(key) {
+            // A stereo result without per-view errors (read from an OpenCV file that has none)
+            // is written with an empty list: that is no views, not a 1x0 matrix.
+            if v.as_array().is_some_and(Vec::is_empty) {
+                return Ok(Vec::new());
+            }
             return match matrix(v, key, what)? {
                 (_, 2, d) => Ok(d.chunks(2).map(|c| [c[0], c[1]]).collect()),
                 (r, c, _) => Err(content(what, format!("{key} is {r}x{c}, expected N x 2 (left, right)"))),

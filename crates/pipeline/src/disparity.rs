@@ -30,6 +30,14 @@ impl StereoPair for StereoImages {
 }
 
 impl StereoImages {
+    /// `(width, height)` of the left image.
+    pub fn dimensions(&self) -> (u32, u32) {
+        match self {
+            Self::U8(l, _) => l.dimensions(),
+            Self::U16(l, _) => l.dimensions(),
+        }
+    }
+
     /// Whether the pair looks swapped to `matcher` (see [`BlockMatcher::check_swap`]).
     pub fn check_swap(&self, matcher: &BlockMatcher) -> Result<SwapCheck> {
         Ok(match self {
@@ -59,7 +67,24 @@ pub fn load_pair(left: &Path, right: &Path) -> Result<StereoImages> {
 
 /// Loads a ground-truth disparity: PFM, or a PNG of disparity x `scale` with 0 = unknown
 /// (Middlebury's `info.txt` gives the scale).
-pub fn load_truth(path: &Path, scale: f32) -> Result<DisparityMap> {
+///
+/// Refused, naming both sizes as `WxH`, when it is not `size` (the pair's `(width, height)`).
+pub fn load_truth(path: &Path, scale: f32, size: (u32, u32)) -> Result<DisparityMap> {
+    let truth = read_truth(path, scale)?;
+    if (truth.width(), truth.height()) != (size.0 as usize, size.1 as usize) {
+        return Err(PipelineError::Input(format!(
+            "ground truth {} is {}x{} but the images are {}x{}: give the ground truth of this pair",
+            path.display(),
+            truth.width(),
+            truth.height(),
+            size.0,
+            size.1
+        )));
+    }
+    Ok(truth)
+}
+
+fn read_truth(path: &Path, scale: f32) -> Result<DisparityMap> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("pfm")) {
         let bytes = std::fs::read(path).map_err(|source| PipelineError::Io {
             what: "reading",
@@ -80,8 +105,21 @@ pub fn load_truth(path: &Path, scale: f32) -> Result<DisparityMap> {
 }
 
 /// Loads an evaluation mask: pixels above 128 are evaluated (Middlebury's `nonocc.png`).
-pub fn load_mask(path: &Path) -> Result<Vec<bool>> {
-    Ok(crate::io::load_gray(path)?.into_raw().into_iter().map(|v| v > 128).collect())
+///
+/// Refused, naming both sizes as `WxH`, when it is not `size` (the pair's `(width, height)`).
+pub fn load_mask(path: &Path, size: (u32, u32)) -> Result<Vec<bool>> {
+    let m = crate::io::load_gray(path)?;
+    if m.dimensions() != size {
+        return Err(PipelineError::Input(format!(
+            "mask {} is {}x{} but the images are {}x{}: give the mask of this pair",
+            path.display(),
+            m.width(),
+            m.height(),
+            size.0,
+            size.1
+        )));
+    }
+    Ok(m.into_raw().into_iter().map(|v| v > 128).collect())
 }
 
 const IMAGE_EXTENSIONS: [&str; 6] = ["png", "jpg", "jpeg", "pgm", "ppm", "pnm"];
@@ -387,11 +425,16 @@ mod tests {
         let dir = crate::io::test_dir("truth");
         let img = image::GrayImage::from_fn(4, 2, |x, _| image::Luma([(x * 8) as u8]));
         img.save(dir.join("gt.png")).unwrap();
-        let t = load_truth(&dir.join("gt.png"), 4.0).unwrap();
+        let t = load_truth(&dir.join("gt.png"), 4.0, (4, 2)).unwrap();
         assert!(t.data()[0].is_nan());
         assert_eq!(&t.data()[1..4], &[2.0, 4.0, 6.0]);
-        let mask = load_mask(&dir.join("gt.png")).unwrap();
+        let mask = load_mask(&dir.join("gt.png"), (4, 2)).unwrap();
         assert_eq!(mask.iter().filter(|m| **m).count(), 0, "every value is ≤ 128");
+        // A size that is not the pair's is named as WxH, never as a flat length.
+        let err = load_truth(&dir.join("gt.png"), 4.0, (8, 1)).unwrap_err().to_string();
+        assert!(err.contains("is 4x2 but the images are 8x1"), "{err}");
+        let err = load_mask(&dir.join("gt.png"), (2, 4)).unwrap_err().to_string();
+        assert!(err.contains("is 4x2 but the images are 2x4"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -33,6 +33,53 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     result
 }
 
+/// Refuses a run whose output would replace one of its inputs (`measure --calib c.ron --out
+/// c.ron`): each output path is compared with each input path, both canonicalised (symbolic
+/// links, `..` and relative paths resolved; an output that does not exist yet is its
+/// canonical parent directory plus its name). Inputs that do not exist are skipped (they are
+/// reported by the reader). An output that is an existing directory is refused too. Call it
+/// before any work, with every file the command may write.
+pub fn refuse_overwriting_inputs<O: AsRef<Path>, I: AsRef<Path>>(outputs: &[O], inputs: &[I]) -> Result<()> {
+    let canonical_output = |p: &Path| -> Option<PathBuf> {
+        if let Ok(c) = p.canonicalize() {
+            return Some(c);
+        }
+        let parent = p.parent().filter(|q| !q.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        Some(parent.canonicalize().ok()?.join(p.file_name()?))
+    };
+    let inputs: Vec<(PathBuf, &Path)> =
+        inputs.iter().filter_map(|i| Some((i.as_ref().canonicalize().ok()?, i.as_ref()))).collect();
+    for out in outputs {
+        let out = out.as_ref();
+        if out.is_dir() {
+            return Err(PipelineError::Input(format!(
+                "{} is a directory: give a file name (e.g. {})",
+                out.display(),
+                out.join("result.ron").display()
+            )));
+        }
+        let Some(o) = canonical_output(out) else { continue };
+        if let Some((_, input)) = inputs.iter().find(|(c, _)| *c == o) {
+            return Err(PipelineError::Input(format!(
+                "{} is also an input ({}): refusing to write a result over an input; choose another output path",
+                out.display(),
+                input.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The files an input argument names, for [`refuse_overwriting_inputs`]: the path itself and,
+/// when it is a glob pattern, every file it matches (a malformed pattern gives the path alone).
+pub fn input_paths(spec: &str) -> Vec<PathBuf> {
+    let mut out = vec![PathBuf::from(spec)];
+    if let Ok(paths) = glob::glob(spec) {
+        out.extend(paths.filter_map(std::result::Result::ok));
+    }
+    out
+}
+
 /// Serialises `value` as pretty RON.
 pub fn to_ron<T: serde::Serialize>(value: &T) -> Result<String> {
     ron::ser::to_string_pretty(value, ron::ser::PrettyConfig::default())
@@ -90,13 +137,21 @@ pub(crate) fn test_dir(name: &str) -> PathBuf {
 /// 2 GiB of decoded data, so a corrupt or hostile header cannot make the decoder allocate more.
 pub const MAX_IMAGE_PIXELS: u64 = 1 << 28;
 
+/// Largest allocation the image decoder may make in [`load_image`]: 2 GiB.
+pub const MAX_IMAGE_BYTES: u64 = 2 << 30;
+
 /// Decodes an image file, refusing what a decoder would silently accept: a JPEG without its
 /// end-of-image marker (a truncated file decodes with the missing rows grey), images larger
 /// than [`MAX_IMAGE_PIXELS`], and anything the decoder reports. Every error names the file.
 pub fn load_image(path: &Path) -> Result<image::DynamicImage> {
     let bytes = std::fs::read(path).map_err(io_err("reading", path))?;
+    decode_image(&bytes, path)
+}
+
+/// [`load_image`] on bytes already in memory; `path` names them in errors.
+pub fn decode_image(bytes: &[u8], path: &Path) -> Result<image::DynamicImage> {
     let image_err = |source| PipelineError::Image { path: path.to_path_buf(), source };
-    let format = image::guess_format(&bytes).map_err(image_err)?;
+    let format = image::guess_format(bytes).map_err(image_err)?;
     if format == image::ImageFormat::Jpeg {
         // A complete JPEG ends with the EOI marker FF D9 (some writers pad with zeros after it).
         let end = bytes.iter().rposition(|&b| b != 0).map_or(0, |i| i + 1);
@@ -107,22 +162,21 @@ pub fn load_image(path: &Path) -> Result<image::DynamicImage> {
             )));
         }
     }
-    let mut reader = image::ImageReader::with_format(std::io::Cursor::new(&bytes), format);
-    let mut limits = image::Limits::default();
-    limits.max_alloc = Some(2 << 30);
-    reader.limits(limits);
-    let (w, h) = reader.into_dimensions().map_err(image_err)?;
+    let reader = || {
+        let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), format);
+        let mut limits = image::Limits::default();
+        limits.max_alloc = Some(MAX_IMAGE_BYTES);
+        reader.limits(limits);
+        reader
+    };
+    let (w, h) = reader().into_dimensions().map_err(image_err)?;
     if u64::from(w) * u64::from(h) > MAX_IMAGE_PIXELS {
         return Err(PipelineError::Input(format!(
             "{}: {w}x{h} is larger than the {MAX_IMAGE_PIXELS}-pixel limit",
             path.display()
         )));
     }
-    let mut reader = image::ImageReader::with_format(std::io::Cursor::new(&bytes), format);
-    let mut limits = image::Limits::default();
-    limits.max_alloc = Some(2 << 30);
-    reader.limits(limits);
-    reader.decode().map_err(image_err)
+    reader().decode().map_err(image_err)
 }
 
 /// Loads an image as 8-bit grayscale (colour is converted with the image crate's luma weights),
@@ -264,6 +318,35 @@ mod tests {
     /// A JSON list of numbers, read without a JSON dependency (RON reads this subset).
     fn serde_json_free_parse(text: &str) -> Vec<f64> {
         ron::from_str(text).unwrap()
+    }
+
+    #[test]
+    fn an_output_onto_an_input_is_refused_through_any_spelling_of_the_path() {
+        let dir = test_dir("overwrite");
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        let calib = dir.join("c.ron");
+        std::fs::write(&calib, b"()").unwrap();
+        // The same file through `..`, and a new file beside it.
+        let spelled = dir.join("sub").join("..").join("c.ron");
+        let err = refuse_overwriting_inputs(&[&spelled], &[&calib]).unwrap_err().to_string();
+        assert!(err.contains("is also an input") && err.contains("c.ron"), "{err}");
+        refuse_overwriting_inputs(&[dir.join("m.ron")], &[&calib]).unwrap();
+        let err = refuse_overwriting_inputs(&[dir.join("sub")], &[&calib]).unwrap_err().to_string();
+        assert!(err.contains("is a directory"), "{err}");
+        // An output that does not exist yet cannot be an input; a missing input is skipped.
+        refuse_overwriting_inputs(&[dir.join("new").join("m.ron")], &[dir.join("missing.ron")]).unwrap();
+        // Globs name every file they match.
+        let pattern = format!("{}/*.ron", dir.display());
+        let matched = input_paths(&pattern);
+        assert!(matched.contains(&calib), "{matched:?}");
+        assert!(refuse_overwriting_inputs(&[&calib], &matched).is_err());
+        #[cfg(unix)]
+        {
+            let link = dir.join("link.ron");
+            std::os::unix::fs::symlink(&calib, &link).unwrap();
+            assert!(refuse_overwriting_inputs(&[&link], &[&calib]).is_err());
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -42,6 +42,7 @@ pub mod chain;
 pub mod disparity;
 mod error;
 pub mod fixtures;
+pub mod fuzz_checks;
 pub mod images;
 pub mod io;
 pub mod measurement;

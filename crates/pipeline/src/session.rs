@@ -59,13 +59,17 @@ impl ImageView {
 }
 
 /// Finds `target` in every image file (read in order, detected in parallel). Chessboards are
-/// found whole with the detector's defaults ([`crate::detect_boards`]); any other target
-/// through [`crate::detect_target`] (any part of a ChArUco board or an AprilGrid).
-pub fn detect_files(paths: &[PathBuf], target: &TargetDescription) -> Result<Vec<ImageView>> {
+/// found whole with `config` ([`crate::detect_boards`]); any other target through
+/// [`crate::detect_target`] (any part of a ChArUco board or an AprilGrid).
+pub fn detect_files(
+    paths: &[PathBuf],
+    target: &TargetDescription,
+    config: &parallax_corner_detection::ChessboardConfig,
+) -> Result<Vec<ImageView>> {
     let images = paths.iter().map(|p| crate::io::load_gray(p)).collect::<Result<Vec<_>>>()?;
     let found: Vec<(Option<CornerGrid>, Option<TargetObservation>)> = match target {
         TargetDescription::Chessboard(board) => {
-            crate::detect_boards(&images, board, &Default::default())?.into_iter().map(|g| (g, None)).collect()
+            crate::detect_boards(&images, board, config)?.into_iter().map(|g| (g, None)).collect()
         }
         _ => {
             images.par_iter().map(|img| crate::detect_target(img, target).map(|o| (None, o))).collect::<Result<_>>()?

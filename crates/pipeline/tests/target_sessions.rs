@@ -60,7 +60,7 @@ fn mono_calibration_from_charuco_files_recovers_the_intrinsics() {
         paths.push(dir.join(format!("view{k:02}.png")));
         render(&cam, pose, 300 + k as u64, &paths[k]);
     }
-    let views = session::detect_files(&paths, &target).unwrap();
+    let views = session::detect_files(&paths, &target, &Default::default()).unwrap();
     let found: Vec<_> = views.iter().filter(|v| v.found()).collect();
     assert!(found.len() >= 14, "ChArUco found in {} of 16 views", found.len());
     assert!(found.iter().all(|v| v.grid.is_none()), "a ChArUco view has ids, no whole grid");
@@ -105,7 +105,10 @@ fn stereo_calibration_from_charuco_files_uses_the_common_corners() {
         render(&cam, &left_pose, 500 + k as u64, &lp[k]);
         render(&cam, &(right_from_left * left_pose), 700 + k as u64, &rp[k]);
     }
-    let (left, right) = (session::detect_files(&lp, &target).unwrap(), session::detect_files(&rp, &target).unwrap());
+    let (left, right) = (
+        session::detect_files(&lp, &target, &Default::default()).unwrap(),
+        session::detect_files(&rp, &target, &Default::default()).unwrap(),
+    );
     let pairs: Vec<_> = left.iter().zip(&right).filter(|(l, r)| l.found() && r.found()).collect();
     assert!(pairs.len() >= 8, "{} pairs with the board in both images", pairs.len());
     let lo: Vec<_> = pairs.iter().map(|p| p.0.observation.clone().unwrap()).collect();

@@ -395,7 +395,48 @@ impl SceneDescription {
             .expect("a scene description always serialises to RON")
     }
 
-    /// Checks every part of the description (cameras, rig, board, generators, options).
+    /// Memory a run of this scene may hold at once, in bytes, the figure [`Self::validate`]
+    /// compares with [`Self::MEMORY_BUDGET`]: every rendered chessboard image kept (1 byte per
+    /// pixel: the mono views, both images of each stereo view, one image per hand-eye station)
+    /// plus the largest working set — rendering one chessboard view
+    /// ([`Self::BYTES_PER_RENDERED_PIXEL`] per pixel of the largest camera) or the stereo scene
+    /// and its matching ([`Self::BYTES_PER_STEREO_SCENE_PIXEL`] per pixel). Saturates instead of
+    /// overflowing.
+    pub fn estimated_bytes(&self) -> u64 {
+        let pixels = |c: &Camera| u64::from(c.width) * u64::from(c.height);
+        let mono_views = self.mono_poses.as_ref().map_or(self.views.views, Vec::len) as u64;
+        let stereo_views = self.stereo_poses.as_ref().map_or(self.stereo_views.views, Vec::len) as u64;
+        let stations = self.trajectory.stations as u64;
+        let left_right = pixels(&self.rig.left).saturating_add(pixels(&self.rig.right));
+        let kept = mono_views
+            .saturating_mul(pixels(&self.camera))
+            .saturating_add(stereo_views.saturating_mul(left_right))
+            .saturating_add(stations.saturating_mul(pixels(&self.rig.left).max(pixels(&self.camera))));
+        let largest_camera = pixels(&self.camera).max(pixels(&self.rig.left)).max(pixels(&self.rig.right));
+        let scene_pixels = u64::from(self.stereo_scene.width) * u64::from(self.stereo_scene.height);
+        let working = largest_camera
+            .saturating_mul(Self::BYTES_PER_RENDERED_PIXEL)
+            .max(scene_pixels.saturating_mul(Self::BYTES_PER_STEREO_SCENE_PIXEL));
+        kept.saturating_add(working)
+    }
+
+    /// Largest [`Self::estimated_bytes`] a scene may have: 4 GiB. A description above it (e.g.
+    /// a 40000x30000 stereo scene, ≈ 38 GB) is refused when it is read, with both figures,
+    /// instead of aborting on an allocation half-way through a run.
+    pub const MEMORY_BUDGET: u64 = 4 << 30;
+
+    /// Bytes per pixel of rendering one chessboard view: the `f64` background, the `f32`
+    /// radiance, the board-plane point of every pixel corner (`Option<DVec2>`, 24 bytes) and the
+    /// 8-bit image.
+    pub const BYTES_PER_RENDERED_PIXEL: u64 = 8 + 4 + 24 + 1;
+
+    /// Bytes per pixel of the stereo scene and its matching: two `f64` radiance images, the two
+    /// 8-bit images, the `f32` true disparity, three masks, and the `f32` disparity map of the
+    /// matcher with its left-right copy.
+    pub const BYTES_PER_STEREO_SCENE_PIXEL: u64 = 2 * 8 + 2 + 4 + 3 + 2 * 4;
+
+    /// Checks every part of the description (cameras, rig, board, generators, options) and
+    /// refuses a scene whose [`Self::estimated_bytes`] exceed [`Self::MEMORY_BUDGET`].
     pub fn validate(&self) -> Result<(), SyntheticError> {
         self.camera.validate().map_err(SyntheticError::model("camera"))?;
         self.rig.left.validate().map_err(SyntheticError::model("rig.left"))?;
@@ -425,6 +466,26 @@ impl SceneDescription {
                     return Err(SyntheticError::config(field, "contains a non-finite pose"));
                 }
             }
+        }
+        let bytes = self.estimated_bytes();
+        if bytes > Self::MEMORY_BUDGET {
+            let gb = |b: u64| b as f64 / 1e9;
+            return Err(SyntheticError::Scene(format!(
+                "the scene needs about {bytes} bytes ({:.1} GB) of memory, above the {} byte ({:.1} GB) budget: \
+                 reduce the image sizes (camera {}x{}, rig {}x{} and {}x{}, stereo_scene {}x{}) or the numbers of \
+                 views and stations",
+                gb(bytes),
+                Self::MEMORY_BUDGET,
+                gb(Self::MEMORY_BUDGET),
+                self.camera.width,
+                self.camera.height,
+                self.rig.left.width,
+                self.rig.left.height,
+                self.rig.right.width,
+                self.rig.right.height,
+                self.stereo_scene.width,
+                self.stereo_scene.height,
+            )));
         }
         Ok(())
     }

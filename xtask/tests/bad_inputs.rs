@@ -1,0 +1,242 @@
+//! Bad inputs, as a new user would give them, through the built binary: each test asserts a
+//! non-zero exit, an error that names the mistake, and that no file appeared (or changed) at
+//! the output path.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("xtask is inside the workspace").to_path_buf()
+}
+
+fn fixture(p: &str) -> String {
+    root().join("fixtures").join(p).display().to_string()
+}
+
+/// A fresh temporary folder for one test.
+fn temp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("xtask-bad-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_xtask")).args(args).current_dir(root()).output().expect("running xtask")
+}
+
+/// Asserts a failed run whose stderr contains every one of `words`; returns stderr.
+fn fails_naming(out: &Output, words: &[&str]) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(!out.status.success(), "exit 0 on a bad input\nstdout:\n{stdout}\nstderr:\n{stderr}");
+    for w in words {
+        assert!(stderr.contains(w), "the error does not name {w:?}:\n{stderr}\nstdout:\n{stdout}");
+    }
+    stderr
+}
+
+/// Every file below `dir` (relative names), sorted.
+fn files_below(dir: &Path) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p.clone());
+            }
+            out.push(p.strip_prefix(dir).unwrap().display().to_string());
+        }
+    }
+    out.sort();
+    out
+}
+
+/// A stereo calibration file to measure with: the stereo fixtures' true rig (the reader finds
+/// the rig anywhere in a file).
+fn calibration_in(dir: &Path) -> PathBuf {
+    let c = dir.join("c.ron");
+    std::fs::copy(root().join("fixtures/stereo/truth.ron"), &c).unwrap();
+    c
+}
+
+const POINTS: &str = "210.20,75.71,132.43,76.26;426.57,125.44,348.63,126.23";
+
+#[test]
+fn a_negative_square_gives_the_same_clear_error_in_both_spellings() {
+    let dir = temp("square");
+    let out = dir.join("c.ron");
+    let images = fixture("mono/view_*.png");
+    let base = ["calibrate", "--images", &images, "--board", "9x6", "--out", out.to_str().unwrap()];
+    let separate = run(&[&base[..], &["--square", "-30"]].concat());
+    let joined = run(&[&base[..], &["--square=-30"]].concat());
+    let a = fails_naming(&separate, &["--square must be positive", "-30"]);
+    let b = fails_naming(&joined, &["--square must be positive", "-30"]);
+    assert_eq!(a, b, "the two spellings give different errors");
+    assert!(files_below(&dir).is_empty(), "{:?}", files_below(&dir));
+}
+
+#[test]
+fn a_mask_or_ground_truth_of_the_wrong_size_is_refused_as_wxh_before_any_output() {
+    let dir = temp("mask");
+    let mask = dir.join("mask.png");
+    image::GrayImage::from_pixel(32, 24, image::Luma([255])).save(&mask).unwrap();
+    let out = dir.join("out");
+    let (left, right) = (fixture("stereo-scene-easy/left.png"), fixture("stereo-scene-easy/right.png"));
+    let common = ["disparity", "--left", &left, "--right", &right, "--runs", "1", "--out", out.to_str().unwrap()];
+    let r = run(&[&common[..], &["--mask", mask.to_str().unwrap()]].concat());
+    let err = fails_naming(&r, &["mask", "mask.png", "32x24", "320x240"]);
+    assert!(!err.contains("x1 "), "a flat length printed as a size: {err}");
+    // A ground truth of another size: a 32x24 PFM.
+    let gt = dir.join("gt.pfm");
+    let map = parallax_camera_model::DisparityMap::from_data(32, 24, vec![10.0; 32 * 24]).unwrap();
+    std::fs::write(&gt, parallax_block_matching::to_pfm(&map)).unwrap();
+    let r = run(&[&common[..], &["--gt", gt.to_str().unwrap()]].concat());
+    fails_naming(&r, &["ground truth", "gt.pfm", "32x24", "320x240"]);
+    assert!(!out.exists(), "outputs written before the refusal: {:?}", files_below(&out));
+}
+
+#[test]
+fn a_calibration_from_a_single_view_names_what_the_user_can_do() {
+    let dir = temp("single");
+    let out = dir.join("c.ron");
+    let r = run(&[
+        "calibrate",
+        "--images",
+        &fixture("mono/view_00.png"),
+        "--board",
+        "9x6",
+        "--square",
+        "25",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = fails_naming(&r, &["1 image", "at least 2 views", "add images"]);
+    assert!(!err.contains("intrinsic guess"), "suggests an intrinsic guess the CLI cannot take: {err}");
+    assert!(files_below(&dir).is_empty());
+}
+
+#[test]
+fn a_swapped_stereo_pair_is_refused_before_the_calibration_is_written() {
+    let dir = temp("swapped");
+    let out = dir.join("c.ron");
+    let r = run(&[
+        "calibrate",
+        "--images",
+        &fixture("stereo/right_*.png"),
+        "--right",
+        &fixture("stereo/left_*.png"),
+        "--board",
+        "9x6",
+        "--square",
+        "25",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    fails_naming(&r, &["swapped", "t = [60.0", "--allow-swapped"]);
+    assert!(files_below(&dir).is_empty(), "{:?}", files_below(&dir));
+}
+
+#[test]
+fn measure_refuses_to_write_over_its_calibration() {
+    let dir = temp("overwrite");
+    let calib = calibration_in(&dir);
+    let before = std::fs::read(&calib).unwrap();
+    let c = calib.to_str().unwrap();
+    let r = run(&["measure", "--calib", c, "--out", c, "--points", POINTS]);
+    fails_naming(&r, &["c.ron", "is also an input"]);
+    assert_eq!(std::fs::read(&calib).unwrap(), before, "the calibration was changed");
+    // The same file spelled through `..`.
+    std::fs::create_dir_all(dir.join("sub")).unwrap();
+    let other = dir.join("sub/../c.ron");
+    let r = run(&["measure", "--calib", c, "--out", other.to_str().unwrap(), "--points", POINTS]);
+    fails_naming(&r, &["is also an input"]);
+    assert_eq!(std::fs::read(&calib).unwrap(), before);
+    assert_eq!(files_below(&dir), ["c.ron", "sub"]);
+}
+
+#[test]
+fn measure_prints_its_error_once() {
+    let dir = temp("once");
+    let missing = dir.join("missing.ron");
+    let out = dir.join("m.ron");
+    let r = run(&["measure", "--calib", missing.to_str().unwrap(), "--out", out.to_str().unwrap(), "--points", POINTS]);
+    let err = fails_naming(&r, &["missing.ron"]);
+    // The operating system's reason once (it used to follow itself: "…: No such file or
+    // directory (os error 2): No such file or directory (os error 2)").
+    assert_eq!(err.matches("(os error 2)").count(), 1, "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(files_below(&dir).is_empty());
+}
+
+#[test]
+fn an_existing_directory_as_out_is_refused_and_leaves_nothing() {
+    let dir = temp("isdir");
+    let calib = calibration_in(&dir);
+    let out = dir.join("m.ron");
+    std::fs::create_dir_all(&out).unwrap();
+    let r = run(&["measure", "--calib", calib.to_str().unwrap(), "--out", out.to_str().unwrap(), "--points", POINTS]);
+    fails_naming(&r, &["m.ron", "is a directory"]);
+    assert_eq!(files_below(&dir), ["c.ron", "m.ron"], "temporary files left behind");
+}
+
+#[test]
+fn a_truncated_jpeg_is_refused_naming_the_file() {
+    let dir = temp("jpeg");
+    let img = image::open(root().join("fixtures/mono/view_00.png")).unwrap().into_luma8();
+    let mut bytes = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Jpeg).unwrap();
+    let cut = dir.join("cut.jpg");
+    std::fs::write(&cut, &bytes[..bytes.len() * 2 / 3]).unwrap();
+    let out = dir.join("corners.ron");
+    let r = run(&["corners", "--images", cut.to_str().unwrap(), "--board", "9x6", "--out", out.to_str().unwrap()]);
+    fails_naming(&r, &["cut.jpg", "truncated"]);
+    assert_eq!(files_below(&dir), ["cut.jpg"]);
+}
+
+#[test]
+fn pipeline_left_without_real_is_refused() {
+    let dir = temp("real");
+    let out = dir.join("p");
+    let r = run(&["pipeline", "--left", "fixtures/stereo/left_*.png", "--out", out.to_str().unwrap()]);
+    fails_naming(&r, &["--left", "--real"]);
+    assert!(files_below(&dir).is_empty());
+}
+
+#[test]
+fn huge_rotation_components_in_a_pose_file_are_refused_at_parse_time() {
+    let dir = temp("poses");
+    let robot = dir.join("robot.txt");
+    let camera = dir.join("camera.txt");
+    let line = "0.1 0.2 0.3 0.1 0.2 0.3\n";
+    std::fs::write(&robot, format!("{line}{line}0.1 0.2 0.3 1e308 0 0\n")).unwrap();
+    std::fs::write(&camera, line.repeat(3)).unwrap();
+    let out = dir.join("he.ron");
+    let r = run(&[
+        "handeye",
+        "--robot",
+        robot.to_str().unwrap(),
+        "--camera-poses",
+        camera.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = fails_naming(&r, &["robot.txt", "line 3", "1.000e308"]);
+    assert!(!err.to_lowercase().contains("nan"), "{err}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_scene_beyond_the_memory_budget_is_refused_with_the_figures() {
+    let dir = temp("scene");
+    let mut scene = parallax_synthetic::SceneDescription::builtin();
+    scene.stereo_scene.width = 40000;
+    scene.stereo_scene.height = 30000;
+    let path = dir.join("huge.ron");
+    std::fs::write(&path, scene.to_ron()).unwrap();
+    let out = dir.join("p");
+    let r = run(&["pipeline", "--scene", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    fails_naming(&r, &[&scene.estimated_bytes().to_string(), "budget", "40000x30000"]);
+    assert_eq!(files_below(&dir), ["huge.ron"]);
+}
