@@ -71,8 +71,8 @@ fn a_negative_square_gives_the_same_clear_error_in_both_spellings() {
     let base = ["calibrate", "--images", &images, "--board", "9x6", "--out", out.to_str().unwrap()];
     let separate = run(&[&base[..], &["--square", "-30"]].concat());
     let joined = run(&[&base[..], &["--square=-30"]].concat());
-    let a = fails_naming(&separate, &["--square must be positive", "-30"]);
-    let b = fails_naming(&joined, &["--square must be positive", "-30"]);
+    let a = fails_naming(&separate, &["--square must be a positive length", "-30"]);
+    let b = fails_naming(&joined, &["--square must be a positive length", "-30"]);
     assert_eq!(a, b, "the two spellings give different errors");
     assert!(files_below(&dir).is_empty(), "{:?}", files_below(&dir));
 }

@@ -65,8 +65,11 @@ impl Chessboard {
 }
 
 /// Image positions of a board's inner corners, row-major in OpenCV's order
-/// (`corners[row · cols + col]` matches [`Chessboard::object_points`]).
+/// (`corners[row · cols + col]` matches [`Chessboard::object_points`]). Read from a file, a grid
+/// is checked as by [`CornerGrid::new`] (a corners file whose grid has the wrong number of
+/// corners, or a non-finite one, is refused).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "CornerGridRaw")]
 pub struct CornerGrid {
     /// Inner corners per row.
     pub cols: usize,
@@ -76,13 +79,27 @@ pub struct CornerGrid {
     pub corners: Vec<DVec2>,
 }
 
+#[derive(Deserialize)]
+struct CornerGridRaw {
+    cols: usize,
+    rows: usize,
+    corners: Vec<DVec2>,
+}
+
+impl TryFrom<CornerGridRaw> for CornerGrid {
+    type Error = CameraModelError;
+    fn try_from(r: CornerGridRaw) -> Result<Self> {
+        Self::new(r.cols, r.rows, r.corners)
+    }
+}
+
 impl CornerGrid {
     /// A grid; errors when the number of corners is not `cols · rows` or one is not finite.
     pub fn new(cols: usize, rows: usize, corners: Vec<DVec2>) -> Result<Self> {
-        if corners.len() != cols * rows {
+        if cols.checked_mul(rows) != Some(corners.len()) {
             return Err(CameraModelError::SizeMismatch(format!(
                 "corner grid {cols}x{rows} needs {} corners, got {}",
-                cols * rows,
+                cols as u128 * rows as u128,
                 corners.len()
             )));
         }

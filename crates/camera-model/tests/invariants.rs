@@ -75,3 +75,22 @@ fn huge_but_finite_rotation_vectors_are_refused_by_the_checked_constructor() {
     // Huge quaternion components (norm overflowing to infinity) are refused by `new`.
     assert!(Isometry3::new(DQuat::from_xyzw(1e308, 1e308, 0.0, 0.0), DVec3::ZERO).is_err());
 }
+
+/// A corner grid read from a file is checked as `CornerGrid::new` checks it: a grid whose
+/// corner count is not `cols x rows` (found by the `corners_file` fuzz target, once accepted
+/// and passed on to calibration) or with a non-finite corner is refused.
+#[test]
+fn a_corner_grid_of_the_wrong_length_or_with_a_nan_is_refused_on_reading() {
+    use parallax_camera_model::CornerGrid;
+    let good =
+        CornerGrid::new(2, 2, vec![glam::DVec2::ZERO, glam::DVec2::X, glam::DVec2::Y, glam::DVec2::ONE]).unwrap();
+    let text = ron::to_string(&good).unwrap();
+    assert_eq!(ron::from_str::<CornerGrid>(&text).unwrap(), good);
+    let short = "(cols: 4, rows: 3, corners: [(1.0, 2.0)])";
+    let err = ron::from_str::<CornerGrid>(short).unwrap_err().to_string();
+    assert!(err.contains("needs 12 corners, got 1"), "{err}");
+    let huge = "(cols: 18446744073709551615, rows: 2, corners: [])";
+    assert!(ron::from_str::<CornerGrid>(huge).unwrap_err().to_string().contains("corner grid"));
+    let nan = ron::from_str::<CornerGrid>("(cols: 1, rows: 1, corners: [(NaN, 0.0)])").unwrap_err().to_string();
+    assert!(nan.contains("corner position"), "{nan}");
+}

@@ -17,6 +17,9 @@
 //! | [`calibration`] | `parallax_interop::parse` (RON, JSON, OpenCV YAML / XML, ROS, Kalibr, hand-eye records) |
 //! | [`scene`] | `parallax_synthetic::SceneDescription::from_ron` (scene files) |
 //! | [`chessboard_image`] | [`crate::io::decode_image`] into `parallax_corner_detection::find_chessboard` |
+//! | [`point_list`] | [`crate::measurement::parse_pixel_pairs`] (`measure --points` / `--right-points`) |
+//! | [`corners_file`] | [`crate::session::CornersFile`] (`corners --out`, `calibrate --corners`) and its views |
+//! | [`target_file`] | `parallax_interop::parse_target` (`--board` target files: Kalibr YAML, records, description lines) |
 
 use std::path::Path;
 
@@ -28,8 +31,18 @@ use parallax_hand_eye::io::{PoseFileFormat, RotationFormat};
 pub const MAX_FUZZ_IMAGE_SIDE: u32 = 1024;
 
 /// Names of the fuzz targets, one per function of this module (and one corpus folder each).
-pub const TARGETS: [&str; 7] =
-    ["pfm", "pose_text", "visp_pose", "visp_camera", "calibration", "scene", "chessboard_image"];
+pub const TARGETS: [&str; 10] = [
+    "pfm",
+    "pose_text",
+    "visp_pose",
+    "visp_camera",
+    "calibration",
+    "scene",
+    "chessboard_image",
+    "point_list",
+    "corners_file",
+    "target_file",
+];
 
 /// Runs the check of target `name` on `data`; `false` when no target has that name.
 pub fn run(name: &str, data: &[u8]) -> bool {
@@ -41,6 +54,9 @@ pub fn run(name: &str, data: &[u8]) -> bool {
         "calibration" => calibration(data),
         "scene" => scene(data),
         "chessboard_image" => chessboard_image(data),
+        "point_list" => point_list(data),
+        "corners_file" => corners_file(data),
+        "target_file" => target_file(data),
         _ => return false,
     }
     true
@@ -213,4 +229,61 @@ pub fn chessboard_image(data: &[u8]) {
             );
         }
     }
+}
+
+/// `measure`'s point lists: the text up to the first `|` is `--points`, the rest (when there is
+/// a `|`) `--right-points`. Every pair returned is finite, and the pairs written back in the
+/// four-value form (shortest round-trip decimals) parse to the same values exactly.
+pub fn point_list(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else { return };
+    let (points, right) = match text.split_once('|') {
+        Some((l, r)) => (l, Some(r)),
+        None => (text, None),
+    };
+    let Ok(pairs) = crate::measurement::parse_pixel_pairs(points, right) else { return };
+    assert!(!pairs.is_empty(), "point list: parsed to no pairs without an error");
+    for (l, r) in &pairs {
+        assert!(l.is_finite() && r.is_finite(), "point list: non-finite pair {l:?} {r:?}");
+    }
+    let written: Vec<String> = pairs.iter().map(|(l, r)| format!("{:?},{:?},{:?},{:?}", l.x, l.y, r.x, r.y)).collect();
+    let back = crate::measurement::parse_pixel_pairs(&written.join(";"), None)
+        .unwrap_or_else(|e| panic!("point list: written pairs do not parse: {e}"));
+    assert_eq!(back, pairs, "point list round trip");
+}
+
+/// Corners files (RON or JSON): a file that parses is written back as RON and parses to the
+/// same value, and its views for a 9x6 chessboard and a ChArUco board are given or refused
+/// without a panic; every view given has finite points and grids of `cols x rows` corners.
+pub fn corners_file(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else { return };
+    let parsed = ron::from_str::<crate::session::CornersFile>(text)
+        .or_else(|_| serde_json::from_str::<crate::session::CornersFile>(text));
+    let Ok(file) = parsed else { return };
+    let written = ron::to_string(&file).expect("a corners file serialises");
+    let back: crate::session::CornersFile =
+        ron::from_str(&written).unwrap_or_else(|e| panic!("a written corners file does not parse: {e}\n{written}"));
+    assert_eq!(back, file, "corners file round trip");
+    for target in ["chessboard:9x6:1", "chessboard:4x3:1", "charuco:5x7:40:30:DICT_4X4_50"] {
+        let target: parallax_camera_model::TargetDescription = target.parse().expect("a valid description");
+        let Ok(views) = file.clone().views(Path::new("fuzz.ron"), &target) else { continue };
+        for v in &views {
+            if let Some(g) = &v.grid {
+                assert!(g.corners.iter().all(|c| c.is_finite()), "corners file: non-finite corner");
+                assert_eq!(g.corners.len(), g.cols * g.rows, "corners file: a grid of the wrong length was accepted");
+            }
+        }
+    }
+}
+
+/// Target files: a target that parses is written as RON and parses to the same target, and
+/// its point count is the number of points it numbers.
+pub fn target_file(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else { return };
+    let Ok(target) = parallax_interop::parse_target(text, "fuzz") else { return };
+    let written = ron::to_string(&target).expect("a target serialises");
+    let back = parallax_interop::parse_target(&written, "fuzz.ron")
+        .unwrap_or_else(|e| panic!("a written target does not parse: {e}\n{written}"));
+    assert_eq!(back, target, "target round trip");
+    let n = target.point_count();
+    assert!(n > 0 && target.point(n as u32 - 1).is_some() && target.point(n as u32).is_none(), "point count {n}");
 }

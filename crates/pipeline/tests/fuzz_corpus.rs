@@ -116,4 +116,29 @@ fn the_real_seed_files_parse() {
     assert!((grid.corners[0] - glam::DVec2::new(39.5, 39.5)).length() < 0.1, "{:?}", grid.corners[0]);
     let truncated = std::fs::read(root.join("chessboard_image/truncated.jpg")).unwrap();
     assert!(parallax_composition::io::decode_image(&truncated, Path::new("t.jpg")).is_err());
+    // Point lists: the valid seeds parse (to the values written), the `edge-` ones are refused.
+    let pairs =
+        parallax_composition::measurement::parse_pixel_pairs(&text("point_list/four_values.txt"), None).unwrap();
+    assert_eq!(pairs[0], (glam::DVec2::new(100.5, 200.25), glam::DVec2::new(90.5, 200.25)));
+    let lr = text("point_list/left_and_right.txt");
+    let (l, r) = lr.split_once('|').unwrap();
+    assert_eq!(parallax_composition::measurement::parse_pixel_pairs(l, Some(r)).unwrap().len(), 2);
+    for f in ["edge-nan.txt", "edge-count-mismatch.txt"] {
+        let t = text(&format!("point_list/{f}"));
+        let (l, r) = t.split_once('|').map_or((t.as_str(), None), |(l, r)| (l, Some(r)));
+        assert!(parallax_composition::measurement::parse_pixel_pairs(l, r).is_err(), "{f}");
+    }
+    // Target files: every seed but the `edge-` ones reads; Kalibr's templates in metres.
+    for f in std::fs::read_dir(root.join("target_file")).unwrap().flatten() {
+        let name = f.file_name().to_string_lossy().into_owned();
+        let parsed = parallax_interop::read_target(&f.path());
+        assert_eq!(parsed.is_ok(), !name.starts_with("edge-"), "{name}: {parsed:?}");
+    }
+    let april = parallax_interop::read_target(&root.join("target_file/kalibr_aprilgrid.yaml")).unwrap();
+    assert_eq!(april, "aprilgrid:6x6:0.088:0.3".parse().unwrap());
+    // Corners files: the seed written by `corners --out` reads and gives its views.
+    let file: parallax_composition::session::CornersFile = ron::from_str(&text("corners_file/mono_9x6.ron")).unwrap();
+    let board = "chessboard:9x6:1".parse().unwrap();
+    let views = file.views(Path::new("mono_9x6.ron"), &board).unwrap();
+    assert!(views.iter().filter(|v| v.grid.is_some()).count() >= 2);
 }

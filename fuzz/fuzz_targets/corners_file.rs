@@ -1,0 +1,4 @@
+//! Fuzz target `corners_file`: see `parallax_composition::fuzz_checks::corners_file` for what it checks.
+#![no_main]
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| parallax_composition::fuzz_checks::corners_file(data));
