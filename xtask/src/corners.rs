@@ -62,24 +62,35 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         )?;
     }
     let paths = parallax_composition::io::expand_glob(&args.images)?;
+    let overlay_path = |dir: &std::path::Path, path: &std::path::Path| {
+        let stem = path.file_stem().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        dir.join(format!("{stem}-corners.png"))
+    };
+    if let Some(dir) = &args.draw {
+        let overlays: Vec<_> = paths.iter().map(|p| overlay_path(dir, p)).collect();
+        parallax_composition::io::refuse_overwriting_inputs(&overlays, &paths)?;
+    }
     let cfg = args.detector.config(args.refine);
     let mut entries = Vec::new();
     let mut found = 0;
     let mut times = Vec::new();
+    // the corners file and the overlays are written as one set once every image is searched
+    let mut files = parallax_composition::io::OutputSet::new();
     for path in &paths {
         let search = session::search_corners(path, &target, &cfg, args.draw.is_some())?;
         println!("{}", search.line);
         found += usize::from(search.found());
         times.push(search.entry.time_ms);
         if let (Some(dir), Some(overlay)) = (&args.draw, &search.overlay) {
-            let stem = path.file_stem().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-            parallax_composition::io::save_png(&dir.join(format!("{stem}-corners.png")), overlay)?;
+            files.add_png(overlay_path(dir, path), overlay)?;
         }
         entries.push(search.entry);
     }
     if let (Some(out), Some(format)) = (&args.out, format) {
-        let file = CornersFile::new(&target, args.refine, entries);
-        crate::files::write_result(out, format, &file, None)?;
+        files.add_result(out, format, &CornersFile::new(&target, args.refine, entries), None)?;
+    }
+    files.commit()?;
+    if let Some(out) = &args.out {
         println!("corners written to {}", out.display());
     }
     if let Some(dir) = &args.draw {

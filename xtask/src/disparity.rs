@@ -13,6 +13,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use parallax_block_matching::{BlockMatcher, CostFunction, MatcherConfig, Prefilter, SgmConfig, SgmPaths, SwapCheck};
 use parallax_composition::disparity::{self, FrameEvent};
+use parallax_composition::io::OutputSet;
 use parallax_composition::summary;
 
 /// Arguments of `cargo xtask disparity`.
@@ -126,6 +127,8 @@ fn run_sequence(
     lefts: Vec<PathBuf>,
     rights: Vec<PathBuf>,
 ) -> anyhow::Result<ExitCode> {
+    // where every frame goes is checked before any is decoded
+    disparity::sequence_outputs(&lefts, &rights, &args.out)?;
     // the first pair decides whether the sequence looks swapped
     let first = disparity::load_pair(&lefts[0], &rights[0])?;
     if let Some(code) = refuse_swapped(&first.check_swap(&matcher)?, args.allow_swapped, true) {
@@ -234,6 +237,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let size = pair.dimensions();
     let truth = args.gt.as_deref().map(|p| disparity::load_truth(p, args.gt_scale, size)).transpose()?;
     let mask = args.mask.as_deref().map(|p| disparity::load_mask(p, size)).transpose()?;
+    let stereo = if args.calib.is_empty() {
+        None
+    } else {
+        Some(crate::files::read_calibration(&args.calib)?.into_stereo(&args.calib[0].display().to_string())?)
+    };
     // a swapped pair gives a confident-looking wrong map: refuse it unless told otherwise
     if let Some(code) = refuse_swapped(&pair.check_swap(&matcher)?, args.allow_swapped, false) {
         return Ok(code);
@@ -242,7 +250,25 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let stats = matcher.last_stats();
     let mdes = (map.width() * map.height() * cfg.num_disparities) as f64 / seconds / 1e6;
     let lo = cfg.min_disparity as f32;
-    disparity::write_maps(&args.out, &map, (lo, lo + cfg.num_disparities as f32 - 1.0))?;
+    // every output is computed first and written as one set at the end
+    let mut files = OutputSet::new();
+    disparity::add_maps(&mut files, &args.out, &map, (lo, lo + cfg.num_disparities as f32 - 1.0))?;
+    disparity::add_confidence(&mut files, &args.out, &matcher, &map)?;
+    let evaluation = truth
+        .map(|t| parallax_block_matching::evaluate(&map, &t, mask.as_deref(), &[1.0, 2.0]))
+        .transpose()
+        .context("evaluating against the ground truth")?;
+    let depth = stereo
+        .map(|s| disparity::depth_from_rectification(&s, &map, &args.calib[0].display().to_string()))
+        .transpose()?;
+    let ply = args.out.join("points.ply");
+    if let Some(d) = &depth {
+        files.add(
+            &ply,
+            parallax_triangulation::ply_bytes(&d.cloud, parallax_triangulation::PlyFormat::BinaryLittleEndian)?,
+        );
+    }
+    files.commit()?;
     println!(
         "{}x{} {:?} cost {:?} block {} disparities [{}, {}) simd {:?}, median of {} runs",
         map.width(),
@@ -255,7 +281,6 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         matcher.simd(),
         args.runs
     );
-    disparity::write_confidence(&args.out, &matcher, &map)?;
     println!("{}", summary::match_stats(&stats));
     if stats.density < 0.5 {
         eprintln!(
@@ -265,16 +290,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         );
     }
     println!("wrote {}/disparity.pfm, disparity16.png, disparity_colour.png", args.out.display());
-    let evaluation = truth
-        .map(|t| parallax_block_matching::evaluate(&map, &t, mask.as_deref(), &[1.0, 2.0]))
-        .transpose()
-        .context("evaluating against the ground truth")?;
     println!("{}", summary::disparity_keys(&stats, evaluation.as_ref(), seconds, mdes));
-    if !args.calib.is_empty() {
-        let stereo = crate::files::read_calibration(&args.calib)?.into_stereo(&args.calib[0].display().to_string())?;
-        let depth = disparity::depth_from_rectification(&stereo, &map, &args.calib[0].display().to_string())?;
-        let ply = args.out.join("points.ply");
-        parallax_triangulation::write_ply(&ply, &depth.cloud, parallax_triangulation::PlyFormat::BinaryLittleEndian)?;
+    if let Some(depth) = depth {
         println!("wrote {}", ply.display());
         println!("points: {}", depth.cloud.len());
         println!("depth_min: {:.6}", depth.min);

@@ -193,9 +193,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         robot.len(),
         camera.len()
     );
+    // every output is gathered here and written as one set after the solvers ran
+    let mut files = parallax_composition::io::OutputSet::new();
     if let Some(path) = &args.save_camera_poses {
-        parallax_composition::io::write_ron(path, &camera)?;
-        println!("wrote camera poses to {}", path.display());
+        files.add_ron(path, &camera)?;
     }
     let methods = poses::parse_methods(&args.method)?;
     let config = HandEyeConfig {
@@ -239,11 +240,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     }
     let chosen = chosen_solution(&ok);
+    let mut wrote = Vec::new();
     if let (Some(out), Some(format)) = (&args.out, format) {
         let result = hand_eye_calibration(chosen.context("no solution to write")?);
         let native = HandEyeOutput::new(&result, &ok);
-        for p in crate::files::write_result(out, format, &native, Some(&Calibration::HandEye(result)))? {
-            println!("wrote {} ({})", p.display(), format.name());
+        for p in files.add_result(out, format, &native, Some(&Calibration::HandEye(result)))? {
+            wrote.push(format!("wrote {} ({})", p.display(), format.name()));
         }
     }
     if let Some(out) = &args.save_visp {
@@ -254,8 +256,15 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         } else {
             parallax_hand_eye::visp::pose_vector_yaml(&s.transform)
         };
-        std::fs::write(out, text).with_context(|| format!("writing {}", out.display()))?;
-        println!("wrote {} ({} of {})", out.display(), if emc { "eMc" } else { "ePc" }, s.method);
+        files.add(out, text);
+        wrote.push(format!("wrote {} ({} of {})", out.display(), if emc { "eMc" } else { "ePc" }, s.method));
+    }
+    files.commit()?;
+    if let Some(path) = &args.save_camera_poses {
+        println!("wrote camera poses to {}", path.display());
+    }
+    for line in wrote {
+        println!("{line}");
     }
     println!("{} of {} methods succeeded", ok.len(), ok.len() + failed);
     println!("succeeded: {}", ok.len());

@@ -129,13 +129,21 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     );
     println!("{}", parallax_composition::summary::measurement_table(&m));
     if let Some(out) = &args.out {
-        if out.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
-            let text = parallax_interop::native_string(&m, parallax_interop::Format::Json)?;
-            parallax_composition::io::write_atomic(out, text.as_bytes())?;
-        } else {
-            m.write(out).with_context(|| format!("writing {}", out.display()))?;
+        // the CSV form is two files (points, distances), written as a set
+        let mut files = parallax_composition::io::OutputSet::new();
+        let ext = out.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+        match ext.as_str() {
+            "json" => files.add(out, parallax_interop::native_string(&m, parallax_interop::Format::Json)?),
+            "csv" => {
+                let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+                files.add(out, m.points_csv());
+                files.add(out.with_file_name(format!("{stem}_distances.csv")), m.distances_csv());
+            }
+            _ => files.add(out, m.to_ron()?),
         }
-        println!("wrote {}", out.display());
+        for p in files.commit()? {
+            println!("wrote {}", p.display());
+        }
     }
     println!("{}", parallax_composition::summary::measurement_keys(&m));
     Ok(if parallax_composition::summary::flagged(&m) == 0 { ExitCode::SUCCESS } else { ExitCode::from(2) })

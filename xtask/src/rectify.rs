@@ -16,7 +16,7 @@ use anyhow::Context;
 use image::GenericImageView;
 
 use parallax_composition::images::{rectify_pair, side_by_side};
-use parallax_composition::io::save_png;
+use parallax_composition::io::OutputSet;
 use parallax_interop::{Calibration, RectificationMatrices, RectifiedRecord, StereoCalibration};
 use parallax_stereo_rectify::{ExtentMethod, Rectifier, RectifyConfig};
 
@@ -71,8 +71,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     parallax_composition::io::refuse_overwriting_inputs(&[&rect_path], &inputs)?;
     let stereo = crate::files::read_calibration(&args.calib)?.into_stereo(&args.calib[0].display().to_string())?;
     let rig = stereo.rig;
-    let left = image::open(&args.left).with_context(|| format!("reading image {}", args.left.display()))?;
-    let right = image::open(&args.right).with_context(|| format!("reading image {}", args.right.display()))?;
+    let left = parallax_composition::io::load_image(&args.left)?;
+    let right = parallax_composition::io::load_image(&args.right)?;
     for (what, img, path) in [("left", &left, &args.left), ("right", &right, &args.right)] {
         anyhow::ensure!(
             img.dimensions() == (rig.left.width, rig.left.height),
@@ -99,14 +99,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 
     let t1 = Instant::now();
     let pair = rectify_pair(&rectifier, &left, &right)?;
-    pair.save(&args.out)?;
     let (l, r) = pair.to_rgb8();
     let t_remap = t1.elapsed();
-    let side = side_by_side(&l, &r, rect.vertical, args.line_spacing);
-    save_png(&args.out.join("side_by_side.png"), &side)?;
+    // images and rectification file are written as one set
+    let mut files = OutputSet::new();
+    pair.add_to(&mut files, &args.out)?;
+    files.add_png(args.out.join("side_by_side.png"), &side_by_side(&l, &r, rect.vertical, args.line_spacing))?;
     let calibration = StereoCalibration { rectification: Some(RectificationMatrices::from(&rect)), ..stereo };
     let native = RectifiedRecord::of(&calibration, &rect);
-    let written = crate::files::write_result(&rect_path, format, &native, Some(&Calibration::Stereo(calibration)))?;
+    let written = files.add_result(&rect_path, format, &native, Some(&Calibration::Stereo(calibration)))?;
+    files.commit()?;
 
     println!("rectify: {} rig", if rect.vertical { "vertical" } else { "horizontal" });
     println!("  alpha {:?}, zero disparity {}, extents {:?}", config.alpha, config.zero_disparity, config.extents);

@@ -240,3 +240,31 @@ fn a_scene_beyond_the_memory_budget_is_refused_with_the_figures() {
     fails_naming(&r, &[&scene.estimated_bytes().to_string(), "budget", "40000x30000"]);
     assert_eq!(files_below(&dir), ["huge.ron"]);
 }
+
+#[test]
+fn a_calibration_disparity_cannot_use_stops_the_run_before_any_map_is_written() {
+    // the stereo fixtures' rig has no rectification: depth cannot be computed, so the maps the
+    // run would write with it must not appear either (they used to, before the refusal)
+    let dir = temp("disp-calib");
+    let calib = calibration_in(&dir);
+    let out = dir.join("out");
+    let (left, right) = (fixture("stereo-scene-easy/left.png"), fixture("stereo-scene-easy/right.png"));
+    let args = ["disparity", "--left", &left, "--right", &right, "--runs", "1", "--out", out.to_str().unwrap()];
+    let r = run(&[&args[..], &["--calib", calib.to_str().unwrap()]].concat());
+    fails_naming(&r, &["c.ron", "no rectification"]);
+    assert!(!out.exists(), "outputs written before the refusal: {:?}", files_below(&out));
+}
+
+#[test]
+fn a_sequence_written_into_its_own_folder_is_refused_before_any_frame() {
+    let dir = temp("seq-out");
+    for (name, src) in [("f1.png", "left.png"), ("f1r.png", "right.png")] {
+        std::fs::copy(root().join("fixtures/stereo-scene-easy").join(src), dir.join(name)).unwrap();
+    }
+    let before = std::fs::read(dir.join("f1.png")).unwrap();
+    let (l, r) = (format!("{}/f?.png", dir.display()), format!("{}/f?r.png", dir.display()));
+    let out = run(&["disparity", "--left", &l, "--right", &r, "--out", dir.to_str().unwrap()]);
+    fails_naming(&out, &["f1.png", "is also an input"]);
+    assert_eq!(std::fs::read(dir.join("f1.png")).unwrap(), before, "an input image was replaced");
+    assert_eq!(files_below(&dir), ["f1.png", "f1r.png"]);
+}

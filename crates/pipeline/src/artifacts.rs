@@ -4,8 +4,9 @@
 
 use std::path::Path;
 
+use crate::Result;
 use crate::chain::{ChainInput, ChainOutput};
-use crate::{Result, io};
+use crate::io::OutputSet;
 
 /// Two images side by side with horizontal lines every 40 px, so alignment can be judged by eye.
 pub fn side_by_side(l: &image::GrayImage, r: &image::GrayImage) -> image::RgbImage {
@@ -25,14 +26,19 @@ pub fn side_by_side(l: &image::GrayImage, r: &image::GrayImage) -> image::RgbIma
     img
 }
 
-/// Writes every result the chain produced into `dir`; returns the images written, as
+/// Adds every result the chain produced, as files in `dir`, to `set`; returns the images, as
 /// `(file name, caption)` for the report.
-pub fn write_artifacts(dir: &Path, input: &ChainInput, out: &ChainOutput) -> Result<Vec<(String, String)>> {
+pub fn add_artifacts(
+    set: &mut OutputSet,
+    dir: &Path,
+    input: &ChainInput,
+    out: &ChainOutput,
+) -> Result<Vec<(String, String)>> {
     let mut images = Vec::new();
     if let Some(&i) = out.views.index.first() {
         let grid = out.detections[i][0].as_ref().expect("kept views have both grids");
         let name = format!("corners-left-{i}.png");
-        io::save_png(&dir.join(&name), &parallax_corner_detection::draw_chessboard(&input.calibration[i][0], grid))?;
+        set.add_png(dir.join(&name), &parallax_corner_detection::draw_chessboard(&input.calibration[i][0], grid))?;
         images.push((name, format!("detected corners, left view {i}")));
     }
     if let Ok(c) = &out.calibration {
@@ -43,31 +49,31 @@ pub fn write_artifacts(dir: &Path, input: &ChainInput, out: &ChainOutput) -> Res
             rms_px: Some(c.rms_px),
             per_view_rms_px: c.per_view_rms_px.clone(),
         };
-        io::write_ron(&dir.join("calibration.ron"), &parallax_interop::StereoRecord::of(&calibration))?;
+        set.add_ron(dir.join("calibration.ron"), &parallax_interop::StereoRecord::of(&calibration))?;
         if let Some(r) = rectified {
-            io::write_ron(&dir.join("rectification.ron"), &parallax_interop::RectifiedRecord::of(&calibration, r))?;
+            set.add_ron(dir.join("rectification.ron"), &parallax_interop::RectifiedRecord::of(&calibration, r))?;
         }
     }
     if let Ok((l, r)) = &out.rectified_view {
-        io::save_png(&dir.join("rectified-pair.png"), &side_by_side(l, r))?;
+        set.add_png(dir.join("rectified-pair.png"), &side_by_side(l, r))?;
         let i = out.views.index.first().copied().unwrap_or(0);
         images.push(("rectified-pair.png".into(), format!("rectified calibration view {i} (lines every 40 px)")));
     }
     if let Ok(m) = &out.matched {
         if m.rectified_here {
-            io::save_png(&dir.join("rectified-left.png"), &m.left)?;
-            io::save_png(&dir.join("rectified-right.png"), &m.right)?;
+            set.add_png(dir.join("rectified-left.png"), &m.left)?;
+            set.add_png(dir.join("rectified-right.png"), &m.right)?;
         } else {
-            io::save_png(&dir.join("left-scene.png"), &m.left)?;
+            set.add_png(dir.join("left-scene.png"), &m.left)?;
             images.push(("left-scene.png".into(), "matched pair, left (as given, already rectified)".into()));
         }
-        io::write_atomic(&dir.join("disparity.pfm"), &parallax_block_matching::to_pfm(&m.disparity))?;
-        io::save_png(&dir.join("disparity.png"), &parallax_block_matching::false_colour(&m.disparity, None))?;
+        set.add(dir.join("disparity.pfm"), parallax_block_matching::to_pfm(&m.disparity));
+        set.add_png(dir.join("disparity.png"), &parallax_block_matching::false_colour(&m.disparity, None))?;
         images.push(("disparity.png".into(), "disparity (false colour, black = invalid)".into()));
     }
     if let Ok(cloud) = &out.cloud {
         let bytes = parallax_triangulation::ply_bytes(cloud, parallax_triangulation::PlyFormat::BinaryLittleEndian)?;
-        io::write_atomic(&dir.join("cloud.ply"), &bytes)?;
+        set.add(dir.join("cloud.ply"), bytes);
     }
     if let Ok(he) = &out.hand_eye {
         let s = &he.solution;
@@ -81,13 +87,13 @@ pub fn write_artifacts(dir: &Path, input: &ChainInput, out: &ChainOutput) -> Res
             result: parallax_interop::HandEyeRecord,
             solution: &'a parallax_hand_eye::HandEyeSolution,
         }
-        io::write_ron(
-            &dir.join("handeye.ron"),
+        set.add_ron(
+            dir.join("handeye.ron"),
             &HandEyeArtifact { result: parallax_interop::HandEyeRecord::of(&result), solution: s },
         )?;
     }
     if let Ok(m) = &out.measurement {
-        io::write_ron(&dir.join("measurement.ron"), &m.measurement)?;
+        set.add_ron(dir.join("measurement.ron"), &m.measurement)?;
     }
     Ok(images)
 }

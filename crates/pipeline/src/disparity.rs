@@ -47,22 +47,19 @@ impl StereoImages {
     }
 }
 
-fn open(path: &Path) -> Result<image::DynamicImage> {
-    image::open(path).map_err(|source| PipelineError::Image { path: path.to_path_buf(), source })
-}
-
 fn is_16_bit(img: &image::DynamicImage) -> bool {
     img.color().bytes_per_pixel() / img.color().channel_count() > 1
 }
 
-/// Loads a pair: 16-bit grey when either image has 16-bit channels, else 8-bit grey through
-/// [`crate::io::load_gray`]'s checks.
+/// Loads a pair through [`crate::io::load_image`]'s checks: 16-bit grey when either image has
+/// 16-bit channels, else 8-bit grey.
 pub fn load_pair(left: &Path, right: &Path) -> Result<StereoImages> {
-    if is_16_bit(&open(left)?) || is_16_bit(&open(right)?) {
-        Ok(StereoImages::U16(open(left)?.into_luma16(), open(right)?.into_luma16()))
+    let (l, r) = (crate::io::load_image(left)?, crate::io::load_image(right)?);
+    Ok(if is_16_bit(&l) || is_16_bit(&r) {
+        StereoImages::U16(l.into_luma16(), r.into_luma16())
     } else {
-        Ok(StereoImages::U8(crate::io::load_gray(left)?, crate::io::load_gray(right)?))
-    }
+        StereoImages::U8(l.into_luma8(), r.into_luma8())
+    })
 }
 
 /// Loads a ground-truth disparity: PFM, or a PNG of disparity x `scale` with 0 = unknown
@@ -93,7 +90,7 @@ fn read_truth(path: &Path, scale: f32) -> Result<DisparityMap> {
         })?;
         return Ok(parallax_block_matching::from_pfm(&bytes, &path.display().to_string())?);
     }
-    let img = open(path)?;
+    let img = crate::io::load_image(path)?;
     let (w, h) = (img.width() as usize, img.height() as usize);
     let values: Vec<u16> = if is_16_bit(&img) {
         img.into_luma16().into_raw()
@@ -170,18 +167,20 @@ pub fn image_sequence(left: &Path, right: &Path) -> Result<Option<(Vec<PathBuf>,
     Ok(Some((l, r)))
 }
 
-/// Writes a map as `<stem>.pfm` and `<stem>.png` (16-bit, 1/256 px) into `dir`, atomically.
+/// Writes a map as `<stem>.pfm` and `<stem>.png` (16-bit, 1/256 px) into `dir`, as a set.
 pub fn write_frame(dir: &Path, stem: &str, map: &DisparityMap) -> Result<()> {
-    crate::io::write_atomic(&dir.join(format!("{stem}.pfm")), &parallax_block_matching::to_pfm(map))?;
-    crate::io::save_png(&dir.join(format!("{stem}.png")), &parallax_block_matching::to_png16(map, 256.0))
+    let mut set = crate::io::OutputSet::new();
+    set.add(dir.join(format!("{stem}.pfm")), parallax_block_matching::to_pfm(map));
+    set.add_png(dir.join(format!("{stem}.png")), &parallax_block_matching::to_png16(map, 256.0))?;
+    set.commit().map(|_| ())
 }
 
-/// Writes a single map's files into `dir`: `disparity.pfm`, `disparity16.png` (1/256 px) and
-/// `disparity_colour.png` (false colour over `range`).
-pub fn write_maps(dir: &Path, map: &DisparityMap, range: (f32, f32)) -> Result<()> {
-    crate::io::write_atomic(&dir.join("disparity.pfm"), &parallax_block_matching::to_pfm(map))?;
-    crate::io::save_png(&dir.join("disparity16.png"), &parallax_block_matching::to_png16(map, 256.0))?;
-    crate::io::save_png(&dir.join("disparity_colour.png"), &parallax_block_matching::false_colour(map, Some(range)))
+/// Adds a single map's files in `dir` to `set`: `disparity.pfm`, `disparity16.png` (1/256 px)
+/// and `disparity_colour.png` (false colour over `range`).
+pub fn add_maps(set: &mut crate::io::OutputSet, dir: &Path, map: &DisparityMap, range: (f32, f32)) -> Result<()> {
+    set.add(dir.join("disparity.pfm"), parallax_block_matching::to_pfm(map));
+    set.add_png(dir.join("disparity16.png"), &parallax_block_matching::to_png16(map, 256.0))?;
+    set.add_png(dir.join("disparity_colour.png"), &parallax_block_matching::false_colour(map, Some(range)))
 }
 
 /// Matches a pair `runs` times after one warm-up run, reusing the output map as a video loop
@@ -201,12 +200,17 @@ pub fn match_timed(matcher: &mut BlockMatcher, pair: &StereoImages, runs: usize)
     Ok((map, crate::stats::median(times)))
 }
 
-/// Writes the matcher's confidence map of its last frame as `confidence.pfm` into `dir` (0
-/// where invalid), when the configuration asks for one; returns whether it did.
-pub fn write_confidence(dir: &Path, matcher: &BlockMatcher, map: &DisparityMap) -> Result<bool> {
+/// Adds the matcher's confidence map of its last frame as `confidence.pfm` in `dir` to `set`
+/// (0 where invalid), when the configuration asks for one; returns whether it did.
+pub fn add_confidence(
+    set: &mut crate::io::OutputSet,
+    dir: &Path,
+    matcher: &BlockMatcher,
+    map: &DisparityMap,
+) -> Result<bool> {
     let Some(conf) = matcher.confidence() else { return Ok(false) };
     let cmap = DisparityMap::from_data(map.width(), map.height(), conf.to_vec())?;
-    crate::io::write_atomic(&dir.join("confidence.pfm"), &parallax_block_matching::to_pfm(&cmap))?;
+    set.add(dir.join("confidence.pfm"), parallax_block_matching::to_pfm(&cmap));
     Ok(true)
 }
 
@@ -255,10 +259,34 @@ pub struct SequenceSummary {
     pub seconds: f64,
 }
 
-/// Matches a sequence of pairs into `out` (`<left stem>.pfm` and `.png` per frame): decoding
-/// on a prefetch thread (`prefetch` pairs ahead), matching on this thread, writing on a writer
-/// thread, all overlapped. `on_frame` hears of every frame in order. A frame that fails is
-/// counted and the run goes on; a failed write stops the run with its error.
+/// The files a sequence run writes into `out`: `<left stem>.pfm` and `<left stem>.png` per
+/// frame. Refuses two frames with the same stem (the second would replace the first's maps)
+/// and any output that is one of the input images (`--out` on the input folder).
+pub fn sequence_outputs(lefts: &[PathBuf], rights: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>> {
+    let mut stems: Vec<(String, &Path)> = Vec::with_capacity(lefts.len());
+    for l in lefts {
+        let stem = l.file_stem().map_or_else(|| "frame".into(), |s| s.to_string_lossy().into_owned());
+        if let Some((_, first)) = stems.iter().find(|(s, _)| *s == stem) {
+            return Err(PipelineError::Input(format!(
+                "{} and {} would both be written as {stem}.pfm / {stem}.png: give left images distinct names",
+                first.display(),
+                l.display()
+            )));
+        }
+        stems.push((stem, l));
+    }
+    let outputs: Vec<PathBuf> =
+        stems.iter().flat_map(|(s, _)| [out.join(format!("{s}.pfm")), out.join(format!("{s}.png"))]).collect();
+    let inputs: Vec<&PathBuf> = lefts.iter().chain(rights).collect();
+    crate::io::refuse_overwriting_inputs(&outputs, &inputs)?;
+    Ok(outputs)
+}
+
+/// Matches a sequence of pairs into `out` (`<left stem>.pfm` and `.png` per frame, checked by
+/// [`sequence_outputs`] before anything runs): decoding on a prefetch thread (`prefetch` pairs
+/// ahead), matching on this thread, writing on a writer thread, all overlapped. `on_frame`
+/// hears of every frame in order. A frame that fails is counted and the run goes on; a failed
+/// write stops the run with its error.
 pub fn run_sequence(
     matcher: BlockMatcher,
     lefts: Vec<PathBuf>,
@@ -267,6 +295,7 @@ pub fn run_sequence(
     prefetch: usize,
     mut on_frame: impl FnMut(&FrameEvent),
 ) -> Result<SequenceSummary> {
+    sequence_outputs(&lefts, &rights, out)?;
     std::fs::create_dir_all(out).map_err(|source| PipelineError::Io {
         what: "creating",
         path: out.to_path_buf(),
@@ -417,6 +446,18 @@ mod tests {
         let right = valid.iter().filter(|v| (**v - 7.0).abs() < 0.5).count();
         assert!(right as f64 > 0.95 * valid.len() as f64, "{right} of {} at the true shift 7", valid.len());
         assert!(out.join("left0.png").exists());
+        // the outputs of a sequence written into its own folder would replace its left images
+        let (l3, r3) = (dir.join("3.png"), dir.join("3r.png"));
+        l.save(&l3).unwrap();
+        r.save(&r3).unwrap();
+        let before = std::fs::read(&l3).unwrap();
+        let m = BlockMatcher::new(parallax_block_matching::MatcherConfig { num_disparities: 16, ..Default::default() });
+        let err = run_sequence(m.unwrap(), vec![l3.clone()], vec![r3], &dir, 1, |_| {}).unwrap_err().to_string();
+        assert!(err.contains("is also an input"), "{err}");
+        assert_eq!(std::fs::read(&l3).unwrap(), before);
+        // two left images with one stem would share their outputs
+        let err = sequence_outputs(&[dir.join("a/x.png"), dir.join("b/x.png")], &[], &out).unwrap_err().to_string();
+        assert!(err.contains("would both be written as x.pfm"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

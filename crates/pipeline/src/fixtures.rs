@@ -247,12 +247,14 @@ fn owned_folders(files: &[(PathBuf, Vec<u8>)]) -> Vec<PathBuf> {
     dirs
 }
 
-/// Writes every file (atomically) under `dir` and removes the files of the owned folders that are not generated any
-/// more (never anything outside them); returns how many were removed.
+/// Writes every file under `dir` as one set ([`crate::io::OutputSet`]) and then removes the files of the owned
+/// folders that are not generated any more (never anything outside them); returns how many were removed.
 pub fn write_fixtures(dir: &Path, files: &[(PathBuf, Vec<u8>)]) -> Result<usize> {
+    let mut set = crate::io::OutputSet::new();
     for (rel, bytes) in files {
-        crate::io::write_atomic(&dir.join(rel), bytes)?;
+        set.add(dir.join(rel), bytes.clone());
     }
+    set.commit()?;
     let mut removed = 0;
     for rel in list_files(dir)? {
         let owned = owned_folders(files).iter().any(|d| rel.starts_with(d));

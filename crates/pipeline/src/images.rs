@@ -49,14 +49,14 @@ fn rgb_of_16(img: &Image<Luma<u16>>) -> RgbImage {
 }
 
 impl RectifiedPair {
-    /// Writes `left_rectified.png` and `right_rectified.png` into `dir` (atomically, at the
-    /// pair's pixel type).
-    pub fn save(&self, dir: &Path) -> Result<()> {
+    /// Adds `left_rectified.png` and `right_rectified.png` in `dir` to `set` (at the pair's
+    /// pixel type).
+    pub fn add_to(&self, set: &mut crate::io::OutputSet, dir: &Path) -> Result<()> {
         let (l, r) = (dir.join("left_rectified.png"), dir.join("right_rectified.png"));
         match self {
-            Self::Luma8(a, b) => crate::io::save_png(&l, a).and_then(|()| crate::io::save_png(&r, b)),
-            Self::Luma16(a, b) => crate::io::save_png(&l, a).and_then(|()| crate::io::save_png(&r, b)),
-            Self::Rgb8(a, b) => crate::io::save_png(&l, a).and_then(|()| crate::io::save_png(&r, b)),
+            Self::Luma8(a, b) => set.add_png(l, a).and_then(|()| set.add_png(r, b)),
+            Self::Luma16(a, b) => set.add_png(l, a).and_then(|()| set.add_png(r, b)),
+            Self::Rgb8(a, b) => set.add_png(l, a).and_then(|()| set.add_png(r, b)),
         }
     }
 

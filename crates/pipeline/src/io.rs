@@ -13,24 +13,162 @@ fn io_err<'a>(what: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error)
 /// so a failed run never leaves a half-written result. Creates the parent directory. Refuses a
 /// `path` that is an existing directory, and removes the temporary file on every failure.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    if path.is_dir() {
-        return Err(PipelineError::Input(format!(
-            "{} is a directory: give a file name (e.g. {})",
-            path.display(),
-            path.join("result.ron").display()
-        )));
+    let mut set = OutputSet::new();
+    set.add(path, bytes.to_vec());
+    set.commit().map(|_| ())
+}
+
+/// The files one run writes, written as a set: nothing is written while they are gathered;
+/// [`OutputSet::commit`] checks every path (an existing directory, a path given twice), writes
+/// each file to a temporary file beside its destination, and only when all of them are complete
+/// renames them into place. A failure before the renames leaves no file, new or changed, and no
+/// temporary file. (A rename can still fail half-way — a full disk cannot make a rename fail, a
+/// permission change in the meantime can — and the error then names the files already replaced.)
+#[derive(Debug, Default)]
+pub struct OutputSet {
+    files: Vec<(PathBuf, Vec<u8>)>,
+}
+
+impl OutputSet {
+    /// An empty set.
+    pub fn new() -> Self {
+        Self::default()
     }
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(io_err("creating directory", dir))?;
-    let name = path.file_name().ok_or_else(|| PipelineError::Input(format!("{} has no file name", path.display())))?;
-    let tmp = dir.join(format!(".{}.tmp{}", name.to_string_lossy(), std::process::id()));
-    let result = std::fs::write(&tmp, bytes)
-        .map_err(io_err("writing", &tmp))
-        .and_then(|()| std::fs::rename(&tmp, path).map_err(io_err("renaming a temporary file to", path)));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
+
+    /// Adds a file (replacing what an earlier `add` gave the same path).
+    pub fn add(&mut self, path: impl Into<PathBuf>, bytes: impl Into<Vec<u8>>) {
+        let (path, bytes) = (path.into(), bytes.into());
+        match self.files.iter_mut().find(|(p, _)| *p == path) {
+            Some(f) => f.1 = bytes,
+            None => self.files.push((path, bytes)),
+        }
     }
-    result
+
+    /// Adds an image encoded as PNG.
+    pub fn add_png<P, C>(&mut self, path: impl Into<PathBuf>, img: &image::ImageBuffer<P, C>) -> Result<()>
+    where
+        P: image::PixelWithColorType,
+        [P::Subpixel]: image::EncodableLayout,
+        C: std::ops::Deref<Target = [P::Subpixel]>,
+    {
+        self.add(path, png_bytes(img)?);
+        Ok(())
+    }
+
+    /// Adds `value` as pretty RON.
+    pub fn add_ron<T: serde::Serialize>(&mut self, path: impl Into<PathBuf>, value: &T) -> Result<()> {
+        self.add(path, to_ron(value)?);
+        Ok(())
+    }
+
+    /// Adds a result in its format (see [`write_result`]); returns the paths it takes (two for
+    /// the calibration formats that write a file per camera).
+    pub fn add_result<T: serde::Serialize>(
+        &mut self,
+        path: &Path,
+        format: parallax_interop::Format,
+        native: &T,
+        calibration: Option<&parallax_interop::Calibration>,
+    ) -> Result<Vec<PathBuf>> {
+        use parallax_interop::Format;
+        let files = match (format, calibration) {
+            (Format::Ron | Format::Json, _) => {
+                vec![(path.to_path_buf(), parallax_interop::native_string(native, format)?)]
+            }
+            (_, Some(c)) => parallax_interop::render(c, format, path)?,
+            (_, None) => {
+                return Err(PipelineError::Input(format!(
+                    "{}: this result is written as ron or json, not {}",
+                    path.display(),
+                    format.name()
+                )));
+            }
+        };
+        let paths = files.iter().map(|f| f.0.clone()).collect();
+        for (p, text) in files {
+            self.add(p, text);
+        }
+        Ok(paths)
+    }
+
+    /// The bytes gathered for `path`, if any.
+    pub fn get(&self, path: &Path) -> Option<&[u8]> {
+        self.files.iter().find(|(p, _)| p == path).map(|(_, b)| b.as_slice())
+    }
+
+    /// The paths in the order they were added.
+    pub fn paths(&self) -> Vec<&Path> {
+        self.files.iter().map(|(p, _)| p.as_path()).collect()
+    }
+
+    /// Number of files.
+    pub fn len(&self) -> usize {
+        self.files.len()
+    }
+
+    /// Whether the set has no file.
+    pub fn is_empty(&self) -> bool {
+        self.files.is_empty()
+    }
+
+    /// Writes every file (see the type's description); returns the paths written.
+    pub fn commit(self) -> Result<Vec<PathBuf>> {
+        for (path, _) in &self.files {
+            if path.is_dir() {
+                return Err(PipelineError::Input(format!(
+                    "{} is a directory: give a file name (e.g. {})",
+                    path.display(),
+                    path.join("result.ron").display()
+                )));
+            }
+            if path.file_name().is_none() {
+                return Err(PipelineError::Input(format!("{} has no file name", path.display())));
+            }
+        }
+        let mut temps: Vec<PathBuf> = Vec::with_capacity(self.files.len());
+        // folders this commit creates, removed again (when empty) if it fails
+        let mut created: Vec<PathBuf> = Vec::new();
+        let remove = |temps: &[PathBuf], created: &[PathBuf]| {
+            for t in temps {
+                let _ = std::fs::remove_file(t);
+            }
+            for d in created.iter().rev() {
+                let _ = std::fs::remove_dir(d);
+            }
+        };
+        for (k, (path, bytes)) in self.files.iter().enumerate() {
+            let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+            let mut missing: Vec<PathBuf> =
+                dir.ancestors().take_while(|a| !a.exists()).map(Path::to_path_buf).collect();
+            missing.reverse();
+            created.extend(missing);
+            let name = path.file_name().unwrap_or_default().to_string_lossy();
+            // the index keeps two outputs of one set with the same name apart
+            let tmp = dir.join(format!(".{name}.tmp{}-{k}", std::process::id()));
+            let written = std::fs::create_dir_all(dir)
+                .map_err(io_err("creating directory", dir))
+                .and_then(|()| std::fs::write(&tmp, bytes).map_err(io_err("writing", &tmp)));
+            if let Err(e) = written {
+                let _ = std::fs::remove_file(&tmp);
+                remove(&temps, &created);
+                return Err(e);
+            }
+            temps.push(tmp);
+        }
+        for (k, ((path, _), tmp)) in self.files.iter().zip(&temps).enumerate() {
+            if let Err(source) = std::fs::rename(tmp, path) {
+                remove(&temps[k..], if k == 0 { &created } else { &[] });
+                let done: Vec<String> = self.files[..k].iter().map(|(p, _)| p.display().to_string()).collect();
+                let err = PipelineError::Io { what: "renaming a temporary file to", path: path.clone(), source };
+                return Err(if done.is_empty() {
+                    err
+                } else {
+                    PipelineError::Input(format!("{err}; already in place: {}", done.join(", ")))
+                });
+            }
+        }
+        Ok(self.files.into_iter().map(|(p, _)| p).collect())
+    }
 }
 
 /// Refuses a run whose output would replace one of its inputs (`measure --calib c.ron --out
@@ -97,31 +235,18 @@ pub fn read_ron<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
     ron::from_str(&text).map_err(|e| PipelineError::Format { path: path.to_path_buf(), message: e.to_string() })
 }
 
-/// Writes a result atomically: `native` as RON or JSON, or `calibration` in a calibration
-/// format (OpenCV, ROS, Kalibr; some write two files); a result that is no calibration is
-/// refused in those. Returns the files written.
+/// Writes a result as a set of files ([`OutputSet`]): `native` as RON or JSON, or
+/// `calibration` in a calibration format (OpenCV, ROS, Kalibr; some write two files); a result
+/// that is no calibration is refused in those. Returns the files written.
 pub fn write_result<T: serde::Serialize>(
     path: &Path,
     format: parallax_interop::Format,
     native: &T,
     calibration: Option<&parallax_interop::Calibration>,
 ) -> Result<Vec<PathBuf>> {
-    use parallax_interop::Format;
-    let files = match (format, calibration) {
-        (Format::Ron | Format::Json, _) => vec![(path.to_path_buf(), parallax_interop::native_string(native, format)?)],
-        (_, Some(c)) => parallax_interop::render(c, format, path)?,
-        (_, None) => {
-            return Err(PipelineError::Input(format!(
-                "{}: this result is written as ron or json, not {}",
-                path.display(),
-                format.name()
-            )));
-        }
-    };
-    for (p, text) in &files {
-        write_atomic(p, text.as_bytes())?;
-    }
-    Ok(files.into_iter().map(|f| f.0).collect())
+    let mut set = OutputSet::new();
+    set.add_result(path, format, native, calibration)?;
+    set.commit()
 }
 
 /// A fresh, empty directory under the system temp dir for a test (`name` and the process id).
@@ -269,6 +394,63 @@ mod tests {
         assert!(err.contains("is a directory"), "{err}");
         let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert_eq!(names.len(), 1, "{names:?}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// The files under `dir` (folders walked), relative, sorted.
+    fn listing(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> =
+            walk(dir).iter().map(|p| p.strip_prefix(dir).unwrap().display().to_string()).collect();
+        names.sort();
+        names
+    }
+
+    fn walk(dir: &Path) -> Vec<PathBuf> {
+        let mut out = Vec::new();
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                out.extend(walk(&p));
+            } else {
+                out.push(p);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn a_set_is_written_whole_or_not_at_all() {
+        let dir = test_dir("io-set");
+        std::fs::write(dir.join("old.txt"), b"before").unwrap();
+        // one destination cannot be created (its parent is a file): nothing of the set appears,
+        // the existing file is unchanged, no temporary file is left
+        let mut set = OutputSet::new();
+        set.add(dir.join("a.txt"), b"a".to_vec());
+        set.add(dir.join("old.txt"), b"after".to_vec());
+        set.add(dir.join("sub/b.txt"), b"b".to_vec());
+        set.add(dir.join("old.txt/c.txt"), b"c".to_vec());
+        assert!(set.commit().is_err());
+        assert_eq!(listing(&dir), ["old.txt"]);
+        assert!(!dir.join("sub").exists(), "a folder made for the set stayed behind");
+        assert_eq!(std::fs::read(dir.join("old.txt")).unwrap(), b"before");
+        // a directory among the destinations is refused before anything is written
+        std::fs::create_dir_all(dir.join("d.ron")).unwrap();
+        let mut set = OutputSet::new();
+        set.add(dir.join("a.txt"), b"a".to_vec());
+        set.add(dir.join("d.ron"), b"d".to_vec());
+        let err = set.commit().unwrap_err().to_string();
+        assert!(err.contains("d.ron is a directory"), "{err}");
+        assert!(!dir.join("a.txt").exists());
+        // the whole set when every file can be written
+        let mut set = OutputSet::new();
+        set.add(dir.join("a.txt"), b"a".to_vec());
+        set.add(dir.join("old.txt"), b"after".to_vec());
+        set.add(dir.join("sub/b.txt"), b"b".to_vec());
+        assert_eq!(set.get(&dir.join("sub/b.txt")), Some(&b"b"[..]));
+        let written = set.commit().unwrap();
+        assert_eq!(written.len(), 3);
+        assert_eq!(listing(&dir), ["a.txt", "old.txt", "sub/b.txt"]);
+        assert_eq!(std::fs::read(dir.join("old.txt")).unwrap(), b"after");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

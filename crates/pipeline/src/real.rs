@@ -128,9 +128,11 @@ pub fn run_real(inputs: RealInputs, out: &Path) -> Result<Report> {
         .collect();
     let output = run_chain(&input)?;
     check(&mut report, &inputs.board, &inputs.checks, &names, &output);
-    report.images = artifacts::write_artifacts(out, &input, &output)?;
+    let mut files = crate::io::OutputSet::new();
+    report.images = artifacts::add_artifacts(&mut files, out, &input, &output)?;
     report.sections = artifacts::pictures(&input, &output, Some(&names), None, &inputs.unit);
-    report.write(out)?;
+    report.add_to(&mut files, out)?;
+    files.commit()?;
     Ok(report)
 }
 

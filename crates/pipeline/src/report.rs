@@ -193,22 +193,20 @@ impl Report {
         s
     }
 
-    /// Writes `report.md`, `report.html` (self-contained: every image inline) and `report.ron`
-    /// into `dir`, and the picture files of [`Self::sections`]. The images listed in
-    /// [`Self::images`] must already be in `dir`.
-    pub fn write(&self, dir: &Path) -> Result<()> {
-        crate::plots::write_figures(dir, &self.sections)?;
-        crate::io::write_atomic(&dir.join("report.md"), self.markdown().as_bytes())?;
+    /// Adds `report.md`, `report.html` (self-contained: every image inline) and `report.ron`
+    /// in `dir` to `set`, and the picture files of [`Self::sections`]. The images listed in
+    /// [`Self::images`] must already be in `set`.
+    pub fn add_to(&self, set: &mut crate::io::OutputSet, dir: &Path) -> Result<()> {
+        crate::plots::add_figures(set, dir, &self.sections);
+        set.add(dir.join("report.md"), self.markdown());
         let html = self.html_with(|file| {
-            let bytes = std::fs::read(dir.join(file)).map_err(|source| crate::PipelineError::Io {
-                what: "reading image",
-                path: dir.join(file),
-                source,
+            let bytes = set.get(&dir.join(file)).ok_or_else(|| {
+                crate::PipelineError::Input(format!("the report lists {file}, which this run does not write"))
             })?;
             Ok(format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(bytes)))
         })?;
-        crate::io::write_atomic(&dir.join("report.html"), html.as_bytes())?;
-        crate::io::write_ron(&dir.join("report.ron"), self)
+        set.add(dir.join("report.html"), html);
+        set.add_ron(dir.join("report.ron"), self)
     }
 
     /// The HTML page with the images of [`Self::images`] referenced by file name (relative to

@@ -171,14 +171,16 @@ pub fn run_scene(name: &str, scene: &SceneDescription, out: &Path, corrupt: Opti
 
     let output = run_chain(&input)?;
     score(&mut report, scene, &truth, &output, &input);
-    report.images = artifacts::write_artifacts(out, &input, &output)?;
+    let mut files = crate::io::OutputSet::new();
+    report.images = artifacts::add_artifacts(&mut files, out, &input, &output)?;
     let truth_disparity = crate::plots::disparity::DisparityTruth {
         disparity: &truth.stereo_disparity,
         mask: Some(&truth.visible),
         bad_threshold_px: 2.0,
     };
     report.sections = artifacts::pictures(&input, &output, None, Some(truth_disparity), &scene.unit);
-    report.write(out)?;
+    report.add_to(&mut files, out)?;
+    files.commit()?;
     Ok(report)
 }
 

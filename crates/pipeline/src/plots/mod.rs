@@ -87,41 +87,29 @@ impl Pictures {
     }
 
     /// Writes every figure (`<name>.png`, and `<name>.svg` for vector plots) into `dir` and
-    /// `report.html` with the figures inline; returns the files written.
+    /// `report.html` with the figures inline, as one set; returns the files written.
     pub fn write(&self, dir: &Path) -> Result<Vec<std::path::PathBuf>> {
-        std::fs::create_dir_all(dir).map_err(|source| PipelineError::Io {
-            what: "creating directory",
-            path: dir.to_path_buf(),
-            source,
-        })?;
-        let mut files = write_figures(dir, &self.sections)?;
+        let mut set = crate::io::OutputSet::new();
+        add_figures(&mut set, dir, &self.sections);
         let html = format!(
             "{}<h1>{}</h1>{}</body></html>\n",
             html_head(&self.title),
             escape(&self.title),
             sections_html(&self.sections)
         );
-        let path = dir.join("report.html");
-        crate::io::write_atomic(&path, html.as_bytes())?;
-        files.push(path);
-        Ok(files)
+        set.add(dir.join("report.html"), html);
+        set.commit()
     }
 }
 
-/// Writes the figure files of `sections` into `dir`; returns the paths.
-pub fn write_figures(dir: &Path, sections: &[Section]) -> Result<Vec<std::path::PathBuf>> {
-    let mut files = Vec::new();
+/// Adds the figure files of `sections` in `dir` to `set`.
+pub fn add_figures(set: &mut crate::io::OutputSet, dir: &Path, sections: &[Section]) {
     for f in sections.iter().flat_map(|s| &s.figures) {
-        let png = dir.join(format!("{}.png", f.name));
-        crate::io::write_atomic(&png, &f.png)?;
-        files.push(png);
+        set.add(dir.join(format!("{}.png", f.name)), f.png.clone());
         if let Some(svg) = &f.svg {
-            let path = dir.join(format!("{}.svg", f.name));
-            crate::io::write_atomic(&path, svg.as_bytes())?;
-            files.push(path);
+            set.add(dir.join(format!("{}.svg", f.name)), svg.clone());
         }
     }
-    Ok(files)
 }
 
 /// HTML-escapes text.
