@@ -8,8 +8,9 @@ rig (OpenCV's joint calibration of the stereo chessboard, 640x480), alternating,
   python3 benches/scripts/rectifier_vs_opencv.py [rounds] [threads]
 
 OpenCV is timed for both map types it offers: CV_32FC1 (two float maps per camera) and
-CV_16SC2 (fixed-point 1/32 px, what `remap` uses fastest). Our build makes both the f32 maps
-and the fixed-point table per camera. Ratios are ours / OpenCV time (below 1: we are faster).
+CV_16SC2 (fixed-point 1/32 px, what `remap` uses fastest). Our build makes the fixed-point
+table per camera (1/256 px, with the exact positions of the border pixels); the f32 maps are
+built only when asked for. Ratios are ours / OpenCV time (below 1: we are faster).
 Both sides use the same number of threads (default 2). Say the machine load when quoting."""
 import cv2, numpy as np, subprocess, statistics, time, os, sys
 

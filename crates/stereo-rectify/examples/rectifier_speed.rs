@@ -1,4 +1,4 @@
-//! Prints the median time of `Rectifier::new` (both maps and their fixed-point tables, 640x480,
+//! Prints the median time of `Rectifier::new` (rectification and both fixed-point tables, 640x480,
 //! OpenCV's stereo chessboard rig) over `N` builds (argument, default 50), and of
 //! `Rectifier::rebuild` into the same rectifier (tables reused), for side-by-side runs with
 //! OpenCV's `initUndistortRectifyMap` (`benches/scripts/rectifier_vs_opencv.py`).

@@ -8,7 +8,8 @@
 //!   lookup tables ([`RemapTable`], `f32`, as `initUndistortRectifyMap`), built row-parallel.
 //! * [`remap`]: bilinear or nearest resampling with constant or replicated border, for any
 //!   `image` pixel with `u8` / `u16` channels (`Luma<u8>`, `Luma<u16>`, `Rgb<u8>`), rayon rows.
-//! * [`Rectifier`]: build once (rectification + both maps), then [`Rectifier::rectify_pair`];
+//! * [`Rectifier`]: build once (rectification + both fixed-point tables; the `f32` maps on
+//!   first use), then [`Rectifier::rectify_pair`];
 //!   [`Rectifier::rebuild`] re-rectifies a changed rig into the same tables (no allocation).
 //! * [`rectify_points`]: undistort → rotate → project single pixels (detected corners), no
 //!   image resampling.

@@ -1,39 +1,96 @@
 //! The build-once [`Rectifier`]: a rig's rectification and both maps.
 
+use std::sync::OnceLock;
+
 use parallax_camera_model::StereoRig;
 
-use crate::maps::{fill_map_and_fast_table, map_params, size_map_and_fast_table};
-use crate::remap::{FastBilinear, Image, Sample, remap_impl};
+use crate::maps::{MapRow, fill_fast_table, fill_map, map_params, size_fast_table};
+use crate::remap::{FastBilinear, Image, Sample, remap_fast};
 use crate::{Border, Interpolation, Rectification, RectifyConfig, RectifyError, RemapTable, Result, stereo_rectify};
 
-/// Rectifies image pairs of one rig: built once (rectification + both undistort/rectify maps),
+/// Rectifies image pairs of one rig: built once (rectification + both fixed-point tables),
 /// then applied to every frame with [`Rectifier::rectify_pair`].
-#[derive(Debug, Clone, PartialEq)]
+///
+/// The `f32` maps ([`Rectifier::left_map`], [`Rectifier::right_map`]) are built on first use
+/// and kept: resampling needs only the fixed-point tables (6 bytes per pixel against the 8 of
+/// a pair of `f32` maps), and the fresh pages of the maps were most of the cost of a build.
+#[derive(Debug, Clone)]
 pub struct Rectifier {
     rectification: Rectification,
-    left_map: RemapTable,
-    right_map: RemapTable,
-    left_fast: FastBilinear,
-    right_fast: FastBilinear,
+    left: Side,
+    right: Side,
     input_size: (u32, u32),
     interpolation: Interpolation,
 }
 
+/// One camera's part: the map's per-row formula, its fixed-point table, and the `f32` map once
+/// asked for.
+#[derive(Debug, Clone)]
+struct Side {
+    params: MapRow,
+    fast: FastBilinear,
+    map: OnceLock<RemapTable>,
+}
+
+/// The `f32` map of `params`.
+fn new_map(params: &MapRow, width: u32, height: u32) -> RemapTable {
+    let mut map = RemapTable::empty();
+    fill_map(params, width, height, &mut map);
+    map
+}
+
+impl Side {
+    fn map(&self, width: u32, height: u32) -> &RemapTable {
+        self.map.get_or_init(|| new_map(&self.params, width, height))
+    }
+
+    /// Builds the nearest-neighbour table (from the `f32` map, built first if needed).
+    fn fill_nearest(&mut self, width: u32, height: u32) {
+        let Side { params, fast, map } = self;
+        fast.fill_nearest(map.get_or_init(|| new_map(params, width, height)));
+    }
+
+    /// Builds the table (and the nearest-neighbour table, and refills the `f32` map in place
+    /// when one was built) for new parameters.
+    fn fill(&mut self, width: u32, height: u32, src: (u32, u32), nearest: bool) {
+        fill_fast_table(&self.params, width, height, src, &mut self.fast);
+        if let Some(map) = self.map.get_mut() {
+            fill_map(&self.params, width, height, map);
+        }
+        if nearest {
+            self.fill_nearest(width, height);
+        }
+    }
+}
+
+/// Equal when the rectification, the settings and the tables are: the `f32` maps are a
+/// function of those, built or not.
+impl PartialEq for Rectifier {
+    fn eq(&self, other: &Self) -> bool {
+        self.rectification == other.rectification
+            && self.input_size == other.input_size
+            && self.interpolation == other.interpolation
+            && [(&self.left, &other.left), (&self.right, &other.right)]
+                .iter()
+                .all(|(a, b)| a.params == b.params && a.fast == b.fast)
+    }
+}
+
 impl Rectifier {
-    /// Rectifies the rig ([`stereo_rectify`]) and builds both maps (bilinear by default).
+    /// Rectifies the rig ([`stereo_rectify`]) and builds both tables (bilinear by default).
     pub fn new(rig: &StereoRig, config: &RectifyConfig) -> Result<Self> {
         let rectification = stereo_rectify(rig, config)?;
         Self::from_rectification(rig, rectification)
     }
 
-    /// Builds the maps of an existing rectification of `rig`.
+    /// Builds the tables of an existing rectification of `rig`.
     pub fn from_rectification(rig: &StereoRig, rectification: Rectification) -> Result<Self> {
+        let (w, h) = (rectification.width, rectification.height);
+        let side = |params| Side { params, fast: FastBilinear::empty(), map: OnceLock::new() };
         let mut rectifier = Self {
             rectification,
-            left_map: RemapTable::empty(),
-            right_map: RemapTable::empty(),
-            left_fast: FastBilinear::empty(),
-            right_fast: FastBilinear::empty(),
+            left: side(map_params(&rig.left, rectification.r1, rectification.left_camera_matrix(), w, h)?),
+            right: side(map_params(&rig.right, rectification.r2, rectification.right_camera_matrix(), w, h)?),
             input_size: (rig.left.width, rig.left.height),
             interpolation: Interpolation::Bilinear,
         };
@@ -44,7 +101,8 @@ impl Rectifier {
     /// Re-rectifies `rig` (a new calibration, or new [`RectifyConfig`]) into this rectifier,
     /// reusing its tables: when the rectified size is unchanged nothing is allocated (no fresh
     /// pages to fault in, which is most of the cost of [`Self::new`]). The interpolation chosen
-    /// with [`Self::with_interpolation`] is kept. On error the rectifier is left unchanged.
+    /// with [`Self::with_interpolation`] is kept, and `f32` maps already built are rebuilt in
+    /// place. On error the rectifier is left unchanged.
     pub fn rebuild(&mut self, rig: &StereoRig, config: &RectifyConfig) -> Result<()> {
         let rectification = stereo_rectify(rig, config)?;
         self.rebuild_from_rectification(rig, rectification)
@@ -56,31 +114,15 @@ impl Rectifier {
         // every check first: the fill below cannot fail, so an error leaves `self` as it was
         let lp = map_params(&rig.left, rectification.r1, rectification.left_camera_matrix(), w, h)?;
         let rp = map_params(&rig.right, rectification.r2, rectification.right_camera_matrix(), w, h)?;
-        // each map and its fixed-point table in one pass (the table of a row is built while the
-        // row is in cache), for sources of the calibrated size
+        // for sources of the calibrated size
         let src = (rig.left.width, rig.left.height);
         let nearest = self.interpolation == Interpolation::Nearest;
-        // (re)size the tables on this thread: fresh buffers then come from this thread's malloc
-        // arena, whose freed blocks the next build reuses (allocated inside the rayon tasks they
-        // came from other threads' arenas and were returned to the OS on free: measured, every
-        // `new` then faulted in all 8.6 MB of a 640x480 pair's tables again)
-        size_map_and_fast_table(w, h, src, &mut self.left_map, &mut self.left_fast);
-        size_map_and_fast_table(w, h, src, &mut self.right_map, &mut self.right_fast);
-        let (lm, lf, rm, rf) = (&mut self.left_map, &mut self.left_fast, &mut self.right_map, &mut self.right_fast);
-        rayon::join(
-            || {
-                fill_map_and_fast_table(&lp, w, h, src, lm, lf);
-                if nearest {
-                    lf.fill_nearest(lm);
-                }
-            },
-            || {
-                fill_map_and_fast_table(&rp, w, h, src, rm, rf);
-                if nearest {
-                    rf.fill_nearest(rm);
-                }
-            },
-        );
+        (self.left.params, self.right.params) = (lp, rp);
+        // size the tables on this thread (see `size_fast_table`), then fill both in parallel
+        size_fast_table(w, h, src, &mut self.left.fast);
+        size_fast_table(w, h, src, &mut self.right.fast);
+        let (l, r) = (&mut self.left, &mut self.right);
+        rayon::join(|| l.fill(w, h, src, nearest), || r.fill(w, h, src, nearest));
         self.rectification = rectification;
         self.input_size = src;
         Ok(())
@@ -89,10 +131,11 @@ impl Rectifier {
     /// Chooses the interpolation of [`Self::rectify_pair`].
     pub fn with_interpolation(mut self, interpolation: Interpolation) -> Self {
         self.interpolation = interpolation;
-        if interpolation == Interpolation::Nearest && self.left_fast.nearest.is_none() {
+        if interpolation == Interpolation::Nearest && self.left.fast.nearest.is_none() {
             // nearest-neighbour offsets, built once (bilinear users do not pay for them)
-            let (lm, lf, rm, rf) = (&self.left_map, &mut self.left_fast, &self.right_map, &mut self.right_fast);
-            rayon::join(|| lf.fill_nearest(lm), || rf.fill_nearest(rm));
+            let (w, h) = (self.rectification.width, self.rectification.height);
+            let (l, r) = (&mut self.left, &mut self.right);
+            rayon::join(|| l.fill_nearest(w, h), || r.fill_nearest(w, h));
         }
         self
     }
@@ -102,14 +145,14 @@ impl Rectifier {
         &self.rectification
     }
 
-    /// The left map.
+    /// The left map (built on first use).
     pub fn left_map(&self) -> &RemapTable {
-        &self.left_map
+        self.left.map(self.rectification.width, self.rectification.height)
     }
 
-    /// The right map.
+    /// The right map (built on first use).
     pub fn right_map(&self) -> &RemapTable {
-        &self.right_map
+        self.right.map(self.rectification.width, self.rectification.height)
     }
 
     /// Rectifies a left/right pair (both images at the rig's calibrated size); the two images
@@ -133,8 +176,8 @@ impl Rectifier {
             }
         }
         let (l, r) = rayon::join(
-            || remap_impl(left, &self.left_map, Some(&self.left_fast), self.interpolation, border),
-            || remap_impl(right, &self.right_map, Some(&self.right_fast), self.interpolation, border),
+            || remap_fast(left, &self.left.fast, self.interpolation, border),
+            || remap_fast(right, &self.right.fast, self.interpolation, border),
         );
         Ok((l?, r?))
     }

@@ -106,14 +106,30 @@ where
     P: Pixel + Send + Sync,
     P::Subpixel: Sample,
 {
-    remap_impl(src, table, None, interpolation, border)
+    remap_impl(src, table, interpolation, border)
 }
 
-/// [`remap`] with an optional precomputed fixed-point table for the bilinear fast path.
-pub(crate) fn remap_impl<P>(
+/// The border handling of `border` for `c`-channel pixels: the fill value and whether edge
+/// pixels are replicated. Refuses channel counts outside 1..=4.
+fn border_parts<P>(border: Border<P>) -> Result<(Vec<P::Subpixel>, bool)>
+where
+    P: Pixel,
+    P::Subpixel: Sample,
+{
+    let c = P::CHANNEL_COUNT as usize;
+    if !(1..=4).contains(&c) {
+        return Err(RectifyError::Config(format!("remap supports 1 to 4 channels, the pixel type has {c}")));
+    }
+    Ok(match border {
+        Border::Constant(p) => (p.channels().to_vec(), false),
+        Border::Replicate => (vec![<P::Subpixel as Sample>::from_f32(0.0); c], true),
+    })
+}
+
+/// [`remap`] through the `f32` table.
+fn remap_impl<P>(
     src: &Image<P>,
     table: &RemapTable,
-    fast: Option<&FastBilinear>,
     interpolation: Interpolation,
     border: Border<P>,
 ) -> Result<Image<P>>
@@ -135,52 +151,89 @@ where
             table.map_y.len()
         )));
     }
-    let c = P::CHANNEL_COUNT as usize;
-    if !(1..=4).contains(&c) {
-        return Err(RectifyError::Config(format!("remap supports 1 to 4 channels, the pixel type has {c}")));
-    }
-    let zero = <P::Subpixel as Sample>::from_f32(0.0);
-    let (fill, replicate) = match border {
-        Border::Constant(p) => (p.channels().to_vec(), false),
-        Border::Replicate => (vec![zero; c], true),
-    };
-    let mut out: Vec<P::Subpixel> = vec![zero; n * c];
+    let (fill, replicate) = border_parts(border)?;
+    let c = fill.len();
+    let mut out: Vec<P::Subpixel> = vec![<P::Subpixel as Sample>::from_f32(0.0); n * c];
     let w = table.width as usize;
     let ctx = Ctx { raw: src.as_raw(), sw: sw as isize, sh: sh as isize, c, fill: &fill, replicate };
     out.par_chunks_mut(w * c).enumerate().for_each(|(v, row)| {
         let mx = &table.map_x[v * w..(v + 1) * w];
         let my = &table.map_y[v * w..(v + 1) * w];
-        match (interpolation, fast) {
-            (Interpolation::Bilinear, Some(f)) if f.source_size == (sw, sh) => {
-                let (idx, frac) = (&f.index[v * w..(v + 1) * w], &f.frac[v * w..(v + 1) * w]);
-                match c {
-                    1 => ctx.fast_row_gray(idx, frac, mx, my, row),
-                    3 => ctx.fast_row::<3>(idx, frac, mx, my, row),
-                    4 => ctx.fast_row::<4>(idx, frac, mx, my, row),
-                    _ => ctx.bilinear_row(mx, my, row),
-                }
-            }
+        match (interpolation, c) {
             (Interpolation::Bilinear, _) => ctx.bilinear_row(mx, my, row),
-            (Interpolation::Nearest, Some(FastBilinear { nearest: Some(near), source_size, .. }))
-                if *source_size == (sw, sh) =>
-            {
-                let near = &near[v * w..(v + 1) * w];
-                match c {
-                    1 => ctx.nearest_fast_row::<1>(near, mx, my, row),
-                    2 => ctx.nearest_fast_row::<2>(near, mx, my, row),
-                    3 => ctx.nearest_fast_row::<3>(near, mx, my, row),
-                    _ => ctx.nearest_fast_row::<4>(near, mx, my, row),
-                }
-            }
-            (Interpolation::Nearest, _) => match c {
-                1 => ctx.nearest_row::<1>(mx, my, row),
-                2 => ctx.nearest_row::<2>(mx, my, row),
-                3 => ctx.nearest_row::<3>(mx, my, row),
-                _ => ctx.nearest_row::<4>(mx, my, row),
-            },
+            (Interpolation::Nearest, 1) => ctx.nearest_row::<1>(mx, my, row),
+            (Interpolation::Nearest, 2) => ctx.nearest_row::<2>(mx, my, row),
+            (Interpolation::Nearest, 3) => ctx.nearest_row::<3>(mx, my, row),
+            (Interpolation::Nearest, _) => ctx.nearest_row::<4>(mx, my, row),
         }
     });
     ImageBuffer::from_raw(table.width, table.height, out)
+        .ok_or_else(|| RectifyError::SizeMismatch("remap output buffer".into()))
+}
+
+/// [`remap`] through a precompiled [`FastBilinear`] table (no `f32` map): bilinear in fixed
+/// point, nearest through [`FastBilinear::nearest`]; border pixels take the exact path from the
+/// table's border positions. The source must have the table's source size.
+pub(crate) fn remap_fast<P>(
+    src: &Image<P>,
+    fast: &FastBilinear,
+    interpolation: Interpolation,
+    border: Border<P>,
+) -> Result<Image<P>>
+where
+    P: Pixel + Send + Sync,
+    P::Subpixel: Sample,
+{
+    let (sw, sh) = src.dimensions();
+    if sw == 0 || sh == 0 {
+        return Err(RectifyError::Empty("source image"));
+    }
+    if (sw, sh) != fast.source_size {
+        return Err(RectifyError::SizeMismatch(format!(
+            "image is {sw}x{sh}, the table was built for {}x{}",
+            fast.source_size.0, fast.source_size.1
+        )));
+    }
+    let w = fast.width as usize;
+    let h = fast.border.len();
+    if w == 0 || fast.index.len() != w * h || fast.frac.len() != w * h {
+        return Err(RectifyError::SizeMismatch("fixed-point table".into()));
+    }
+    let near = match (interpolation, &fast.nearest) {
+        (Interpolation::Nearest, Some(t)) => Some(t),
+        (Interpolation::Nearest, None) => {
+            return Err(RectifyError::Config("nearest-neighbour table not built".into()));
+        }
+        (Interpolation::Bilinear, _) => None,
+    };
+    let (fill, replicate) = border_parts(border)?;
+    let c = fill.len();
+    let mut out: Vec<P::Subpixel> = vec![<P::Subpixel as Sample>::from_f32(0.0); w * h * c];
+    let ctx = Ctx { raw: src.as_raw(), sw: sw as isize, sh: sh as isize, c, fill: &fill, replicate };
+    out.par_chunks_mut(w * c).enumerate().for_each(|(v, row)| {
+        let rows = v * w..(v + 1) * w;
+        match near {
+            None => {
+                let (idx, frac, border) = (&fast.index[rows.clone()], &fast.frac[rows], fast.border[v].as_slice());
+                match c {
+                    1 => ctx.fast_row_gray(idx, frac, border, row),
+                    2 => ctx.fast_row::<2>(idx, frac, border, row),
+                    3 => ctx.fast_row::<3>(idx, frac, border, row),
+                    _ => ctx.fast_row::<4>(idx, frac, border, row),
+                }
+            }
+            Some(t) => {
+                let (idx, border) = (&t.index[rows], t.border[v].as_slice());
+                match c {
+                    1 => ctx.nearest_fast_row::<1>(idx, border, row),
+                    2 => ctx.nearest_fast_row::<2>(idx, border, row),
+                    3 => ctx.nearest_fast_row::<3>(idx, border, row),
+                    _ => ctx.nearest_fast_row::<4>(idx, border, row),
+                }
+            }
+        }
+    });
+    ImageBuffer::from_raw(fast.width, h as u32, out)
         .ok_or_else(|| RectifyError::SizeMismatch("remap output buffer".into()))
 }
 
@@ -217,14 +270,17 @@ impl<S: Sample> Ctx<'_, S> {
     }
 
     /// Fixed-point bilinear with precomputed offsets and 8-bit weights for the pixels whose
-    /// four neighbours are inside; the others go through [`Self::bilinear_px`].
+    /// four neighbours are inside; the others (`u32::MAX`) go through [`Self::bilinear_px`] at
+    /// the next of the row's `border` positions.
     #[inline(always)]
-    fn fast_row<const C: usize>(&self, idx: &[u32], frac: &[u16], mx: &[f32], my: &[f32], row: &mut [S]) {
+    fn fast_row<const C: usize>(&self, idx: &[u32], frac: &[u16], border: &[[f32; 2]], row: &mut [S]) {
         let sw = self.sw as usize;
+        let mut border = border.iter();
         for (i, dst) in row.chunks_exact_mut(C).enumerate() {
             let k = idx[i];
             if k == u32::MAX {
-                self.bilinear_px(mx[i], my[i], dst);
+                let [x, y] = border.next().copied().unwrap_or([f32::NAN; 2]);
+                self.bilinear_px(x, y, dst);
                 continue;
             }
             let o = k as usize * C;
@@ -240,16 +296,19 @@ impl<S: Sample> Ctx<'_, S> {
     /// [`Self::fast_row`] for one channel; 8-bit images on AVX2 CPUs take
     /// [`gray8_fast_row_avx2`] (same integer arithmetic, eight pixels per step).
     #[inline(always)]
-    fn fast_row_gray(&self, idx: &[u32], frac: &[u16], mx: &[f32], my: &[f32], row: &mut [S]) {
+    fn fast_row_gray(&self, idx: &[u32], frac: &[u16], border: &[[f32; 2]], row: &mut [S]) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2")
             && let Some(raw) = S::as_u8(self.raw)
             && raw.len() < i32::MAX as usize
         {
             let zero = S::from_u32(0);
-            let mut slow = |i: usize| {
+            // called for the border pixels only, in row order: the next border position
+            let mut positions = border.iter();
+            let mut slow = |_: usize| {
+                let [x, y] = positions.next().copied().unwrap_or([f32::NAN; 2]);
                 let mut t = [zero];
-                self.bilinear_px(mx[i], my[i], &mut t);
+                self.bilinear_px(x, y, &mut t);
                 t[0].to_u32() as u8
             };
             let out = S::as_u8_mut(row).expect("same channel type as the source");
@@ -257,7 +316,7 @@ impl<S: Sample> Ctx<'_, S> {
             unsafe { gray8_fast_row_avx2(raw, self.sw as usize, idx, frac, out, &mut slow) };
             return;
         }
-        self.fast_row::<1>(idx, frac, mx, my, row)
+        self.fast_row::<1>(idx, frac, border, row)
     }
 
     #[inline(always)]
@@ -310,12 +369,14 @@ impl<S: Sample> Ctx<'_, S> {
     }
 
     /// [`Self::nearest_row`] with the precomputed source offsets of [`FastBilinear::nearest`]
-    /// (`u32::MAX`: border handling per pixel).
+    /// (`u32::MAX`: border handling at the next of the row's `border` positions).
     #[inline(always)]
-    fn nearest_fast_row<const C: usize>(&self, near: &[u32], mx: &[f32], my: &[f32], row: &mut [S]) {
-        for (i, (dst, &k)) in row.chunks_exact_mut(C).zip(near).enumerate() {
+    fn nearest_fast_row<const C: usize>(&self, near: &[u32], border: &[[f32; 2]], row: &mut [S]) {
+        let mut border = border.iter();
+        for (dst, &k) in row.chunks_exact_mut(C).zip(near) {
             if k == u32::MAX {
-                self.nearest_px::<C>(mx[i], my[i], dst);
+                let [x, y] = border.next().copied().unwrap_or([f32::NAN; 2]);
+                self.nearest_px::<C>(x, y, dst);
             } else {
                 let o = k as usize * C;
                 dst.copy_from_slice(&self.raw[o..o + C]);
@@ -344,20 +405,33 @@ impl<S: Sample> Ctx<'_, S> {
 /// A [`RemapTable`] precompiled for one source size (as OpenCV's `convertMaps` to fixed point):
 /// per output pixel the offset of the top-left neighbour and the two fractions quantised to
 /// 1/256 px (OpenCV: 1/32 px); `u32::MAX` marks pixels that need border handling, which take
-/// the exact `f32` path. Value error against the `f32` path: ≤ 1 grey level.
+/// the exact `f32` path from [`FastBilinear::border`]. Value error against the `f32` path: ≤ 1
+/// grey level.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct FastBilinear {
     pub source_size: (u32, u32),
+    /// Output width (entries per row).
+    pub width: u32,
     pub index: Vec<u32>,
     pub frac: Vec<u16>,
-    /// Nearest-neighbour source pixel of every output pixel whose rounded position is inside
-    /// (`u32::MAX`: border handling), built on demand by [`FastBilinear::fill_nearest`].
-    pub nearest: Option<Vec<u32>>,
+    /// Per output row, the source positions of the pixels whose `index` is `u32::MAX`, in row
+    /// order: the only entries of the `f32` map the bilinear path needs.
+    pub border: Vec<Vec<[f32; 2]>>,
+    /// Nearest-neighbour table, built on demand by [`FastBilinear::fill_nearest`].
+    pub nearest: Option<NearestTable>,
+}
+
+/// Nearest-neighbour source pixel of every output pixel whose rounded position is inside
+/// (`u32::MAX`: border handling), and per row the source positions of those border pixels.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct NearestTable {
+    pub index: Vec<u32>,
+    pub border: Vec<Vec<[f32; 2]>>,
 }
 
 impl FastBilinear {
-    /// The table of an existing map (the reference of the fused build in
-    /// `maps::rectify_map_and_fast_table`, compared in its test).
+    /// The table of an existing map (the reference of the build without a map,
+    /// `maps::fill_fast_table`, compared in its test).
     #[cfg(test)]
     pub(crate) fn new(table: &RemapTable, source_width: u32, source_height: u32) -> Self {
         let (last_x, last_y) = (source_width as f32 - 1.0, source_height as f32 - 1.0);
@@ -366,54 +440,66 @@ impl FastBilinear {
             && source_width < 1 << 24
             && source_height < 1 << 24
             && table.width > 0;
-        // zeroed allocations are fresh pages mapped on first write: the rows below fault them in
-        // in parallel (a `u32::MAX` fill would touch every page on this thread first, which was
-        // most of the build time); every entry is written there
-        let mut index = if usable { vec![0u32; table.map_x.len()] } else { vec![u32::MAX; table.map_x.len()] };
-        let mut frac = vec![0u16; table.map_x.len()];
-        if usable {
-            let w = table.width as usize;
-            index.par_chunks_mut(w).zip(frac.par_chunks_mut(w)).enumerate().for_each(|(v, (k, f))| {
+        let n = table.map_x.len();
+        let mut index = if usable { vec![0u32; n] } else { vec![u32::MAX; n] };
+        let mut frac = vec![0u16; n];
+        let w = table.width as usize;
+        let mut border = vec![Vec::new(); table.height as usize];
+        index.par_chunks_mut(w).zip(frac.par_chunks_mut(w)).zip(border.par_iter_mut()).enumerate().for_each(
+            |(v, ((k, f), b))| {
                 let (mx, my) = (&table.map_x[v * w..(v + 1) * w], &table.map_y[v * w..(v + 1) * w]);
-                fast_table_row(mx, my, k, f, source_width, last_x, last_y);
-            });
-        }
-        Self { source_size: (source_width, source_height), index, frac, nearest: None }
+                if usable {
+                    fast_table_row(mx, my, k, f, b, source_width, last_x, last_y);
+                } else {
+                    b.extend(mx.iter().zip(my).map(|(&x, &y)| [x, y]));
+                }
+            },
+        );
+        Self { source_size: (source_width, source_height), width: table.width, index, frac, border, nearest: None }
     }
-}
 
-impl FastBilinear {
     /// A table with no entries, the starting point of buffers filled later.
     pub(crate) fn empty() -> Self {
-        Self { source_size: (0, 0), index: Vec::new(), frac: Vec::new(), nearest: None }
+        Self { source_size: (0, 0), width: 0, index: Vec::new(), frac: Vec::new(), border: Vec::new(), nearest: None }
     }
 
-    /// (Re)computes the nearest-neighbour offsets of `table` (the positions `remap`'s nearest
-    /// path rounds inside the source, half to even), reusing the buffer when it has the table's
-    /// size.
+    /// (Re)computes the nearest-neighbour table of `table` (the positions `remap`'s nearest
+    /// path rounds inside the source, half to even), reusing the buffers when they have the
+    /// table's size.
     pub(crate) fn fill_nearest(&mut self, table: &RemapTable) {
         let (sw, sh) = (self.source_size.0 as usize, self.source_size.1 as usize);
         let usable = (sw as u64) * (sh as u64) < u32::MAX as u64;
-        let near = self.nearest.get_or_insert_with(Vec::new);
-        if near.len() != table.map_x.len() {
-            *near = vec![0; table.map_x.len()];
+        let t = self.nearest.get_or_insert_with(|| NearestTable { index: Vec::new(), border: Vec::new() });
+        if t.index.len() != table.map_x.len() {
+            t.index = vec![0; table.map_x.len()];
         }
-        near.par_iter_mut().zip(table.map_x.par_iter().zip(&table.map_y)).for_each(|(k, (&x, &y))| {
-            *k = match nearest_inside(x, y, sw, sh) {
-                Some(o) if usable => o as u32,
-                _ => u32::MAX,
-            };
+        t.border.resize_with(table.height as usize, Vec::new);
+        let w = table.width as usize;
+        t.index.par_chunks_mut(w).zip(t.border.par_iter_mut()).enumerate().for_each(|(v, (near, border))| {
+            border.clear();
+            let (mx, my) = (&table.map_x[v * w..(v + 1) * w], &table.map_y[v * w..(v + 1) * w]);
+            for ((k, &x), &y) in near.iter_mut().zip(mx).zip(my) {
+                *k = match nearest_inside(x, y, sw, sh) {
+                    Some(o) if usable => o as u32,
+                    _ => {
+                        border.push([x, y]);
+                        u32::MAX
+                    }
+                };
+            }
         });
     }
 }
 
 /// One row of [`FastBilinear`]: branch-free (selects) so it vectorises, through an AVX2 copy
 /// when the CPU has it. The source sides must be below 2^24 (see the conversions).
+#[allow(clippy::too_many_arguments)] // one row of each of the table's parts, and the source's extent
 pub(crate) fn fast_table_row(
     mx: &[f32],
     my: &[f32],
     index: &mut [u32],
     frac: &mut [u16],
+    border: &mut Vec<[f32; 2]>,
     sw: u32,
     last_x: f32,
     last_y: f32,
@@ -446,12 +532,18 @@ pub(crate) fn fast_table_row(
     fn avx2(mx: &[f32], my: &[f32], index: &mut [u32], frac: &mut [u16], sw: u32, last_x: f32, last_y: f32) {
         imp(mx, my, index, frac, sw, last_x, last_y)
     }
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2.
-        return unsafe { avx2(mx, my, index, frac, sw, last_x, last_y) };
+    fn dispatch(mx: &[f32], my: &[f32], index: &mut [u32], frac: &mut [u16], sw: u32, last_x: f32, last_y: f32) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2.
+            return unsafe { avx2(mx, my, index, frac, sw, last_x, last_y) };
+        }
+        imp(mx, my, index, frac, sw, last_x, last_y)
     }
-    imp(mx, my, index, frac, sw, last_x, last_y)
+    dispatch(mx, my, index, frac, sw, last_x, last_y);
+    // the positions of the border pixels, for the exact path (the only part of the map kept)
+    border.clear();
+    border.extend(index.iter().zip(mx.iter().zip(my)).filter(|(k, _)| **k == u32::MAX).map(|(_, (&x, &y))| [x, y]));
 }
 
 /// The fixed-point bilinear blend of the four neighbours `[p00, p01, p10, p11]` with the

@@ -4,7 +4,7 @@
 mod common;
 
 use glam::DVec2;
-use image::{ImageBuffer, Luma, Pixel, Rgb};
+use image::{ImageBuffer, Luma, LumaA, Pixel, Rgb};
 use parallax_stereo_rectify::{
     Border, Image, Interpolation, Rectifier, RectifyConfig, RectifyError, RemapTable, Sample, init_undistort_map, remap,
 };
@@ -239,7 +239,10 @@ fn rebuilt_rectifier_equals_a_new_one() {
     let smaller = RectifyConfig { alpha: Some(1.0), new_size: Some((500, 300)), ..Default::default() };
     rectifier.rebuild(&h, &smaller).unwrap();
     assert_eq!(rectifier, Rectifier::new(&h, &smaller).unwrap().with_interpolation(Interpolation::Nearest));
+    // the f32 maps it had built are rebuilt in place, for the new size
     assert_eq!(rectifier.left_map().map_x.len(), 500 * 300);
+    assert_eq!(rectifier.left_map(), Rectifier::new(&h, &smaller).unwrap().left_map());
+    assert_eq!(rectifier.right_map(), Rectifier::new(&h, &smaller).unwrap().right_map());
     // the rebuilt rectifier resamples as the new one
     let mut rng = ChaCha8Rng::seed_from_u64(21);
     let img: Image<Luma<u8>> = ImageBuffer::from_fn(640, 480, |_, _| Luma([rng.random()]));
@@ -252,4 +255,34 @@ fn rebuilt_rectifier_equals_a_new_one() {
     broken.width = 0;
     assert!(rectifier.rebuild_from_rectification(&h, broken).is_err());
     assert_eq!(rectifier, before);
+}
+
+#[test]
+fn border_pixels_of_a_wide_view_resample_as_the_f32_maps() {
+    // alpha = 1 keeps every source pixel, so much of the output lies at or beyond the source's
+    // edge: those pixels take the exact path from the positions the table keeps for them (the
+    // f32 maps are not built for resampling). Two channels, both borders, against `remap` with
+    // the f32 maps.
+    let rig = common::horizontal_rig();
+    let rectifier = Rectifier::new(&rig, &RectifyConfig { alpha: Some(1.0), ..Default::default() }).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let left: Image<LumaA<u8>> = ImageBuffer::from_fn(640, 480, |_, _| LumaA([rng.random(), rng.random()]));
+    let right: Image<LumaA<u8>> = ImageBuffer::from_fn(640, 480, |u, v| LumaA([(u % 256) as u8, (v % 256) as u8]));
+    let map = rectifier.left_map();
+    let outside =
+        map.map_x.iter().zip(&map.map_y).filter(|&(&x, &y)| !(x >= 0.0 && y >= 0.0 && x < 639.0 && y < 479.0)).count();
+    assert!(outside > 10_000, "only {outside} border pixels: the test would not exercise the border path");
+    for border in [Border::Constant(LumaA([40, 200])), Border::Replicate] {
+        let (l, r) = rectifier.rectify_pair(&left, &right, border).unwrap();
+        for (fast, img, map) in [(&l, &left, rectifier.left_map()), (&r, &right, rectifier.right_map())] {
+            let exact = remap(img, map, Interpolation::Bilinear, border).unwrap();
+            let worst =
+                fast.as_raw().iter().zip(exact.as_raw()).map(|(&a, &b)| (a as i32 - b as i32).abs()).max().unwrap();
+            assert!(worst <= 1, "worst {worst} grey levels ({border:?})");
+        }
+        let nearest = rectifier.clone().with_interpolation(Interpolation::Nearest);
+        let (ln, rn) = nearest.rectify_pair(&left, &right, border).unwrap();
+        assert_eq!(ln, remap(&left, rectifier.left_map(), Interpolation::Nearest, border).unwrap());
+        assert_eq!(rn, remap(&right, rectifier.right_map(), Interpolation::Nearest, border).unwrap());
+    }
 }
