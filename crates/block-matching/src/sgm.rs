@@ -265,7 +265,7 @@ fn vertical(sc: &mut Scratch, nd: usize, sub: bool, isa: Isa) {
     #[cfg(target_arch = "x86_64")]
     if isa.avx2() {
         // SAFETY: `isa` only when the CPU has AVX2; lengths asserted inside.
-        unsafe { avx2::vertical(&mut sc.colsum, &sc.l_a, &sc.r_a, &sc.l_b, &sc.r_b, lanes(nd), sub) };
+        unsafe { avx2::vertical(&mut sc.colsum, &sc.l_a, &sc.r_a, &sc.l_b, &sc.r_b, lanes(nd), sub, 0) };
         return;
     }
     let _ = isa;
@@ -334,7 +334,7 @@ fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, isa: Isa) {
         unsafe { avx512::box_row(cost, colsum, w, r, ndq) };
     } else if isa.avx2() {
         // SAFETY: `isa` only when the CPU has AVX2; lengths asserted inside.
-        unsafe { avx2::box_row(cost, colsum, w, r, ndq) };
+        unsafe { avx2::box_row(cost, colsum, w, r, ndq, 0) };
     }
     if !isa.avx2() {
         let c0 = &mut cost[..ndq];
@@ -391,7 +391,7 @@ fn paths<const N: usize>(
     #[cfg(target_arch = "x86_64")]
     if isa.avx2() {
         // SAFETY: `isa` is set only when the CPU has AVX2; slice lengths are checked inside.
-        return unsafe { avx2::paths(c, prev, pmin, p2, p1, out, acc, tail, set) };
+        return unsafe { avx2::paths(c, prev, pmin, p2, p1, out, acc, tail, set, 0) };
     }
     let _ = (isa, tail);
     let mut m = [0u16; N];
@@ -741,26 +741,29 @@ mod avx2 {
 
     /// [`super::paths`] with 256-bit vectors: per 16-lane chunk of every path, the minimum of
     /// `L(d)`, `L(d ± 1) + P1` (saturating) and `min L + P2'`, minus `min L`, plus `C`; lanes
-    /// `d ≥ D` forced to `PAD` through `tail`.
+    /// `d ≥ D` forced to `PAD` through `tail`. Only lanes `from..Dq` (`from` a multiple of 16:
+    /// the AVX-512 kernel hands its last 16 lanes here); returns each path's minimum over them.
     ///
     /// # Safety
     /// The CPU must support AVX2. Lengths: `c`, `acc`, `tail` have `Dq` (a multiple of 16)
     /// entries, every `prev[i]` and `out[i]` `Dq + 2` (checked by assertions).
     #[inline]
     #[target_feature(enable = "avx2")]
+    #[allow(clippy::too_many_arguments)] // the step's inputs, outputs and lane range
     pub(super) unsafe fn paths<const N: usize>(
         c: &[u16],
         prev: [&[u16]; N],
         pmin: [u16; N],
         p2: [u16; N],
         p1: u16,
-        out: [&mut [u16]; N],
+        mut out: [&mut [u16]; N],
         acc: &mut [u16],
         tail: &[u16],
         set: bool,
+        from: usize,
     ) -> [u16; N] {
         let ndq = c.len();
-        assert!(ndq.is_multiple_of(16) && acc.len() == ndq && tail.len() == ndq);
+        assert!(ndq.is_multiple_of(16) && from.is_multiple_of(16) && acc.len() == ndq && tail.len() == ndq);
         for i in 0..N {
             assert!(prev[i].len() == ndq + 2 && out[i].len() == ndq + 2);
         }
@@ -772,9 +775,8 @@ mod avx2 {
             jump[i] = _mm256_set1_epi16(pmin[i].saturating_add(p2[i]) as i16);
             pm[i] = _mm256_set1_epi16(pmin[i] as i16);
         }
-        let outp: [*mut u16; N] = std::array::from_fn(|i| out[i].as_ptr() as *mut u16);
-        let _ = out;
-        for d in (0..ndq).step_by(16) {
+        let outp: [*mut u16; N] = std::array::from_fn(|i| out[i].as_mut_ptr());
+        for d in (from..ndq).step_by(16) {
             // SAFETY: (all loads and stores) d + 16 ≤ ndq, and the padded vectors have ndq + 2
             // entries, so offsets d .. d + 2 + 16 are inside (asserted above).
             unsafe {
@@ -830,12 +832,14 @@ mod avx2 {
     }
 
     /// [`super::vertical`]: `colsum[xp] += |l_a[xp] − r_a[base + d]|` (and, with `sub`,
-    /// `−= |l_b[xp] − r_b[base + d]|`), wrapping 16-bit lanes, `Dq` lanes per column.
+    /// `−= |l_b[xp] − r_b[base + d]|`), wrapping 16-bit lanes, lanes `from..Dq` of each column
+    /// (`from` a multiple of 16).
     ///
     /// # Safety
     /// The CPU must support AVX2 (lengths are asserted).
     #[inline]
     #[target_feature(enable = "avx2")]
+    #[allow(clippy::too_many_arguments)] // both row pairs, the lane count and range
     pub(super) unsafe fn vertical(
         colsum: &mut [u16],
         la: &[u16],
@@ -844,15 +848,17 @@ mod avx2 {
         rb: &[u16],
         ndq: usize,
         sub: bool,
+        from: usize,
     ) {
         let wp = la.len();
-        assert!(ndq.is_multiple_of(16) && colsum.len() >= wp * ndq && ra.len() + 1 >= wp + ndq);
+        assert!(ndq.is_multiple_of(16) && from.is_multiple_of(16));
+        assert!(colsum.len() >= wp * ndq && ra.len() + 1 >= wp + ndq);
         assert!(!sub || (lb.len() >= wp && rb.len() + 1 >= wp + ndq));
         for xp in 0..wp {
             let base = wp - 1 - xp;
             let lav = _mm256_set1_epi16(la[xp] as i16);
             let lbv = if sub { _mm256_set1_epi16(lb[xp] as i16) } else { _mm256_setzero_si256() };
-            for d in (0..ndq).step_by(16) {
+            for d in (from..ndq).step_by(16) {
                 // SAFETY: xp·ndq + d + 16 ≤ wp·ndq; base + d + 16 ≤ wp − 1 + ndq (asserted).
                 unsafe {
                     let p = colsum.as_mut_ptr().add(xp * ndq + d);
@@ -866,16 +872,18 @@ mod avx2 {
         }
     }
 
-    /// The box sums of a row: `cost[x] = Σ colsum[x ..= x + 2r]`, running along the row.
+    /// The box sums of a row: `cost[x] = Σ colsum[x ..= x + 2r]`, running along the row, for
+    /// lanes `from..Dq` (`from` a multiple of 16).
     ///
     /// # Safety
     /// The CPU must support AVX2 (lengths are asserted).
     #[inline]
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
-        assert!(ndq.is_multiple_of(16) && w > 0 && cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
+    pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize, from: usize) {
+        assert!(ndq.is_multiple_of(16) && from.is_multiple_of(16) && w > 0);
+        assert!(cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
         let (c, cs) = (cost.as_mut_ptr(), colsum.as_ptr());
-        for d in (0..ndq).step_by(16) {
+        for d in (from..ndq).step_by(16) {
             // SAFETY: offsets below (2r + 1)·ndq and w·ndq (asserted).
             unsafe {
                 let mut acc = _mm256_setzero_si256();
@@ -886,7 +894,7 @@ mod avx2 {
             }
         }
         for x in 1..w {
-            for d in (0..ndq).step_by(16) {
+            for d in (from..ndq).step_by(16) {
                 // SAFETY: x + 2r < w + 2r columns; x < w rows of cost (asserted).
                 unsafe {
                     let v = _mm256_sub_epi16(
@@ -990,7 +998,7 @@ mod avx2 {
 }
 
 /// The path steps, column sums and box sums with 512-bit vectors (32 disparities per vector; a
-/// last 16-lane chunk when `Dq` is not a multiple of 32 takes 256-bit vectors): the same
+/// last 16-lane chunk when `Dq` is not a multiple of 32 goes to the AVX2 kernel): the same
 /// integer operations as the AVX2 kernels, so the same results.
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
@@ -1009,7 +1017,7 @@ mod avx512 {
         pmin: [u16; N],
         p2: [u16; N],
         p1: u16,
-        out: [&mut [u16]; N],
+        mut out: [&mut [u16]; N],
         acc: &mut [u16],
         tail: &[u16],
         set: bool,
@@ -1027,8 +1035,7 @@ mod avx512 {
             jump[i] = _mm512_set1_epi16(pmin[i].saturating_add(p2[i]) as i16);
             pm[i] = _mm512_set1_epi16(pmin[i] as i16);
         }
-        let outp: [*mut u16; N] = std::array::from_fn(|i| out[i].as_ptr() as *mut u16);
-        let _ = out;
+        let outp: [*mut u16; N] = std::array::from_fn(|i| out[i].as_mut_ptr());
         let mut d = 0;
         while d + 32 <= ndq {
             // SAFETY: (all loads and stores) d + 32 ≤ ndq, and the padded vectors have ndq + 2
@@ -1054,41 +1061,20 @@ mod avx512 {
             }
             d += 32;
         }
-        // the 256-bit halves of the minima, and the last 16 lanes when Dq is an odd multiple of 16
-        let mut mh: [__m256i; N] = std::array::from_fn(|i| {
-            _mm256_min_epu16(_mm512_castsi512_si256(mv[i]), _mm512_extracti64x4_epi64::<1>(mv[i]))
+        let mut mins: [u16; N] = std::array::from_fn(|i| {
+            let h = _mm256_min_epu16(_mm512_castsi512_si256(mv[i]), _mm512_extracti64x4_epi64::<1>(mv[i]));
+            let m = _mm_min_epu16(_mm256_castsi256_si128(h), _mm256_extracti128_si256::<1>(h));
+            (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as u16
         });
         if d < ndq {
-            let p1h = _mm256_set1_epi16(p1 as i16);
-            // SAFETY: d + 16 = ndq here; offsets as above.
-            unsafe {
-                let cv = _mm256_loadu_si256(c.as_ptr().add(d) as *const __m256i);
-                let tv = _mm256_loadu_si256(tail.as_ptr().add(d) as *const __m256i);
-                let mut sum = if set {
-                    _mm256_setzero_si256()
-                } else {
-                    _mm256_loadu_si256(acc.as_ptr().add(d) as *const __m256i)
-                };
-                for i in 0..N {
-                    let (jh, pmh) = (_mm512_castsi512_si256(jump[i]), _mm512_castsi512_si256(pm[i]));
-                    let p = prev[i].as_ptr().add(d);
-                    let a = _mm256_loadu_si256(p as *const __m256i);
-                    let b = _mm256_loadu_si256(p.add(1) as *const __m256i);
-                    let e = _mm256_loadu_si256(p.add(2) as *const __m256i);
-                    let best =
-                        _mm256_min_epu16(_mm256_min_epu16(b, jh), _mm256_adds_epu16(_mm256_min_epu16(a, e), p1h));
-                    let v = _mm256_or_si256(_mm256_add_epi16(cv, _mm256_sub_epi16(best, pmh)), tv);
-                    _mm256_storeu_si256(outp[i].add(d + 1) as *mut __m256i, v);
-                    mh[i] = _mm256_min_epu16(mh[i], v);
-                    sum = _mm256_add_epi16(sum, v);
-                }
-                _mm256_storeu_si256(acc.as_mut_ptr().add(d) as *mut __m256i, sum);
+            // the last 16 lanes (Dq an odd multiple of 16): the AVX2 kernel, same operations
+            // SAFETY: the CPU has AVX2 (this function's features); d is a multiple of 16.
+            let last = unsafe { super::avx2::paths(c, prev, pmin, p2, p1, out, acc, tail, set, d) };
+            for (m, l) in mins.iter_mut().zip(last) {
+                *m = (*m).min(l);
             }
         }
-        std::array::from_fn(|i| {
-            let m = _mm_min_epu16(_mm256_castsi256_si128(mh[i]), _mm256_extracti128_si256::<1>(mh[i]));
-            (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as u16
-        })
+        mins
     }
 
     #[inline(always)]
@@ -1150,25 +1136,15 @@ mod avx512 {
                 }
                 d += 32;
             }
-            if d < ndq {
-                let (lah, lbh) = (_mm512_castsi512_si256(lav), _mm512_castsi512_si256(lbv));
-                let ad = |a: __m256i, b: __m256i| _mm256_or_si256(_mm256_subs_epu16(a, b), _mm256_subs_epu16(b, a));
-                // SAFETY: d + 16 = ndq: offsets as above.
-                unsafe {
-                    let p = colsum.as_mut_ptr().add(xp * ndq + d) as *mut __m256i;
-                    let r = _mm256_loadu_si256(ra.as_ptr().add(base + d) as *const __m256i);
-                    let mut v = _mm256_add_epi16(_mm256_loadu_si256(p), ad(lah, r));
-                    if sub {
-                        let r = _mm256_loadu_si256(rb.as_ptr().add(base + d) as *const __m256i);
-                        v = _mm256_sub_epi16(v, ad(lbh, r));
-                    }
-                    _mm256_storeu_si256(p, v);
-                }
-            }
+        }
+        if full < ndq {
+            // the last 16 lanes of every column: the AVX2 kernel, same operations
+            // SAFETY: the CPU has AVX2 (this function's features); full is a multiple of 16.
+            unsafe { super::avx2::vertical(colsum, la, ra, lb, rb, ndq, sub, full) };
         }
     }
 
-    /// [`super::avx2::box_row`] with 512-bit vectors (256-bit for a last 16-lane chunk).
+    /// [`super::avx2::box_row`] with 512-bit vectors (the AVX2 kernel for a last 16-lane chunk).
     ///
     /// # Safety
     /// The CPU must support AVX2 and AVX-512 F/BW/VL (lengths are asserted).
@@ -1176,54 +1152,36 @@ mod avx512 {
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
     pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
         assert!(ndq.is_multiple_of(16) && w > 0 && cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
-        let (c, cs) = (cost.as_mut_ptr(), colsum.as_ptr());
         let full = ndq / 32 * 32;
-        let mut d = 0;
-        while d < full {
-            // SAFETY: offsets below (2r + 1)·ndq and w·ndq (asserted).
-            unsafe {
-                let mut acc = _mm512_setzero_si512();
-                for xp in 0..=2 * r {
-                    acc = _mm512_add_epi16(acc, ld(cs.add(xp * ndq + d)));
-                }
-                st(c.add(d), acc);
-            }
-            d += 32;
-        }
-        if d < ndq {
-            // SAFETY: d + 16 = ndq: as above.
-            unsafe {
-                let mut acc = _mm256_setzero_si256();
-                for xp in 0..=2 * r {
-                    acc = _mm256_add_epi16(acc, _mm256_loadu_si256(cs.add(xp * ndq + d) as *const __m256i));
-                }
-                _mm256_storeu_si256(c.add(d) as *mut __m256i, acc);
-            }
-        }
-        for x in 1..w {
-            let mut d = 0;
-            while d < full {
-                // SAFETY: x + 2r < w + 2r columns; x < w rows of cost (asserted).
+        {
+            let (c, cs) = (cost.as_mut_ptr(), colsum.as_ptr());
+            for d in (0..full).step_by(32) {
+                // SAFETY: offsets below (2r + 1)·ndq and w·ndq (asserted).
                 unsafe {
-                    let v = _mm512_sub_epi16(
-                        _mm512_add_epi16(ld(c.add((x - 1) * ndq + d)), ld(cs.add((x + 2 * r) * ndq + d))),
-                        ld(cs.add((x - 1) * ndq + d)),
-                    );
-                    st(c.add(x * ndq + d), v);
-                }
-                d += 32;
-            }
-            if d < ndq {
-                // SAFETY: d + 16 = ndq: as above.
-                unsafe {
-                    let l = |p: *const u16| _mm256_loadu_si256(p as *const __m256i);
-                    let v = _mm256_sub_epi16(
-                        _mm256_add_epi16(l(c.add((x - 1) * ndq + d)), l(cs.add((x + 2 * r) * ndq + d))),
-                        l(cs.add((x - 1) * ndq + d)),
-                    );
-                    _mm256_storeu_si256(c.add(x * ndq + d) as *mut __m256i, v);
+                    let mut acc = _mm512_setzero_si512();
+                    for xp in 0..=2 * r {
+                        acc = _mm512_add_epi16(acc, ld(cs.add(xp * ndq + d)));
+                    }
+                    st(c.add(d), acc);
                 }
             }
+            for x in 1..w {
+                for d in (0..full).step_by(32) {
+                    // SAFETY: x + 2r < w + 2r columns; x < w rows of cost (asserted).
+                    unsafe {
+                        let v = _mm512_sub_epi16(
+                            _mm512_add_epi16(ld(c.add((x - 1) * ndq + d)), ld(cs.add((x + 2 * r) * ndq + d))),
+                            ld(cs.add((x - 1) * ndq + d)),
+                        );
+                        st(c.add(x * ndq + d), v);
+                    }
+                }
+            }
+        }
+        if full < ndq {
+            // the last 16 lanes: the AVX2 kernel, same operations (lanes are independent)
+            // SAFETY: the CPU has AVX2 (this function's features); full is a multiple of 16.
+            unsafe { super::avx2::box_row(cost, colsum, w, r, ndq, full) };
         }
     }
 }
