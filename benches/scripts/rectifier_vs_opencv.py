@@ -43,6 +43,25 @@ def opencv(mtype):
     return statistics.median(ts)
 
 
+def opencv_remap():
+    """Both maps as CV_16SC2 (OpenCV's fastest remap), then remap of two 8-bit grey images,
+    bilinear, constant border: the per-frame cost."""
+    R1, R2, P1, P2, Q, _, _ = cv2.stereoRectify(K1, D1, K2, D2, size, R, T, flags=cv2.CALIB_ZERO_DISPARITY, alpha=0)
+    a = cv2.initUndistortRectifyMap(K1, D1, R1, P1, size, cv2.CV_16SC2)
+    b = cv2.initUndistortRectifyMap(K2, D2, R2, P2, size, cv2.CV_16SC2)
+    u, v = np.meshgrid(np.arange(640, dtype=np.uint32), np.arange(480, dtype=np.uint32))
+    tex = lambda u, v: (((u * np.uint32(2654435761)) ^ (v * np.uint32(40503))) >> 9).astype(np.uint8)
+    left, right = tex(u, v), tex(u + 7, v)
+    def run():
+        return (cv2.remap(left, a[0], a[1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0),
+                cv2.remap(right, b[0], b[1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0))
+    run()
+    ts = []
+    for _ in range(N):
+        t = time.perf_counter(); m = run(); ts.append(time.perf_counter() - t)
+    return statistics.median(ts)
+
+
 def ours():
     env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
     out = subprocess.run([EX, str(N)], capture_output=True, text=True, env=env)
@@ -61,8 +80,12 @@ def ours():
 print(f"threads {threads}, load before: {os.getloadavg()}")
 ratios = {}
 for k in range(rounds):
-    o = ours(); c32 = opencv(cv2.CV_32FC1); c16 = opencv(cv2.CV_16SC2)
-    line = f"round {k}: opencv 32F {c32*1e3:6.3f} ms  16SC2 {c16*1e3:6.3f} ms"
+    o = ours(); c32 = opencv(cv2.CV_32FC1); c16 = opencv(cv2.CV_16SC2); crm = opencv_remap()
+    line = f"round {k}: opencv 32F {c32*1e3:6.3f} ms  16SC2 {c16*1e3:6.3f} ms  remap {crm*1e3:6.3f} ms"
+    if "remap_pair" in o:
+        t = o.pop("remap_pair")
+        line += f" | remap_pair {t*1e3:6.3f} ms (/remap {t/crm:4.2f})"
+        ratios.setdefault(("remap_pair", "remap"), []).append(t / crm)
     for name, t in o.items():
         line += f" | {name} {t*1e3:6.3f} ms (/32F {t/c32:4.2f}, /16SC2 {t/c16:4.2f})"
         ratios.setdefault((name, "32F"), []).append(t / c32)

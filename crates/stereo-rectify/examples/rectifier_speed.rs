@@ -1,7 +1,8 @@
 //! Prints the median time of `Rectifier::new` (rectification and both fixed-point tables, 640x480,
 //! OpenCV's stereo chessboard rig) over `N` builds (argument, default 50), and of
-//! `Rectifier::rebuild` into the same rectifier (tables reused), for side-by-side runs with
-//! OpenCV's `initUndistortRectifyMap` (`benches/scripts/rectifier_vs_opencv.py`).
+//! `Rectifier::rebuild` into the same rectifier (tables reused), and of `rectify_pair` on two
+//! 8-bit grey images, for side-by-side runs with OpenCV's `initUndistortRectifyMap` and `remap`
+//! (`benches/scripts/rectifier_vs_opencv.py`).
 
 use glam::DVec3;
 use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, StereoRig};
@@ -45,4 +46,17 @@ fn main() {
     }
     times.sort_by(f64::total_cmp);
     println!("rebuild: {:.6}", times[n / 2]);
+    // resampling a pair of 8-bit grey images (bilinear, constant border), the per-frame cost
+    let texture = |u: u32, v: u32| image::Luma([((u.wrapping_mul(2654435761) ^ v.wrapping_mul(40503)) >> 9) as u8]);
+    let left = image::GrayImage::from_fn(640, 480, texture);
+    let right = image::GrayImage::from_fn(640, 480, |u, v| texture(u + 7, v));
+    let border = parallax_stereo_rectify::Border::Constant(image::Luma([0u8]));
+    let mut times = Vec::with_capacity(n);
+    for _ in 0..n {
+        let t = std::time::Instant::now();
+        std::hint::black_box(r.rectify_pair(&left, &right, border).expect("remap"));
+        times.push(t.elapsed().as_secs_f64());
+    }
+    times.sort_by(f64::total_cmp);
+    println!("remap_pair: {:.6}", times[n / 2]);
 }
