@@ -1,14 +1,23 @@
-//! Sweeps the decision options on the Middlebury pairs (../shared/data/middlebury) and prints,
-//! per pair, bad-2 with missing = bad, bad-2 among the returned pixels and the density (nonocc
-//! mask): how the defaults were chosen.
-//! `cargo run --release -p parallax-block-matching --example middlebury_sweep [bm|sgm]`
+//! Sweeps matcher settings on the Middlebury pairs (../shared/data/middlebury, nonocc mask) and
+//! prints, per pair, bad-2 with missing = bad, bad-2 among the returned pixels and the density:
+//! how the defaults were chosen.
+//!
+//! `cargo run --release -p parallax-block-matching --example middlebury_sweep [MODE]`
+//!
+//! - `bm` (default) / `sgm`: the decision options (prefilter, uniqueness, speckle, confidence)
+//!   for block matching or semi-global matching;
+//! - `sgm-params 1`: the SGM costs and penalties (prefilter, block, P1, P2, P2 gamma);
+//! - `sgm-params 2`: paths and decisions around one choice of those, given by the environment
+//!   (`PF`=xsobel|rank5|rank7, `B`, `P1`, `P2`, `G`).
 
-use parallax_block_matching::{BlockMatcher, MatcherConfig, Method, Prefilter, evaluate, from_scaled};
+use parallax_block_matching::{
+    BlockMatcher, MatcherConfig, Method, Prefilter, SgmConfig, SgmPaths, evaluate, from_scaled,
+};
 
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/middlebury");
 
 fn main() {
-    let sgm = std::env::args().nth(1).as_deref() == Some("sgm");
+    let mode = std::env::args().nth(1).unwrap_or_else(|| "bm".into());
     let pairs = [("tsukuba", 16.0, 16), ("venus", 8.0, 32), ("teddy", 4.0, 64)];
     let mut data = Vec::new();
     for (name, scale, nd) in pairs {
@@ -23,8 +32,33 @@ fn main() {
         let truth = from_scaled(&gv, g.width() as usize, g.height() as usize, scale).unwrap();
         let mask: Vec<bool> =
             image::open(dir.join("nonocc.png")).unwrap().into_luma8().as_raw().iter().map(|&v| v > 128).collect();
-        data.push((name, nd, l.into_luma8(), r, truth, mask));
+        data.push((nd, l.into_luma8(), r, truth, mask));
     }
+    let configs = match mode.as_str() {
+        "bm" => decisions(Method::BlockMatching),
+        "sgm" => decisions(Method::Sgm),
+        "sgm-params" => sgm_params(std::env::args().nth(2).and_then(|s| s.parse().ok()).unwrap_or(1)),
+        other => {
+            eprintln!("unknown mode {other:?}: bm, sgm or sgm-params [1|2]");
+            std::process::exit(2);
+        }
+    };
+    println!("{:44} | per pair: bad2 (missing = bad) / bad2 returned / density", "config");
+    for (label, base) in configs {
+        let mut line = format!("{label:44} |");
+        for (nd, l, r, truth, mask) in &data {
+            let cfg = MatcherConfig { num_disparities: *nd, ..base.clone() };
+            let d = BlockMatcher::new(cfg).unwrap().compute(l, r).unwrap();
+            let e = evaluate(&d, truth, Some(mask), &[2.0]).unwrap();
+            line +=
+                &format!(" {:6.2} {:5.2} {:5.1} |", e.bad_at(2.0).unwrap(), e.bad_returned_at(2.0).unwrap(), e.density);
+        }
+        println!("{line}");
+    }
+}
+
+/// The decision options (and the dense preset) for one method.
+fn decisions(method: Method) -> Vec<(String, MatcherConfig)> {
     let mut configs: Vec<(String, MatcherConfig)> = vec![("dense".into(), MatcherConfig::dense())];
     let prefilters = [Prefilter::XSobel { cap: 31 }, Prefilter::Rank { size: 9 }, Prefilter::Rank { size: 7 }];
     for pf in prefilters {
@@ -36,7 +70,7 @@ fn main() {
                         uniqueness_ratio: uniq,
                         speckle_window_size: speckle,
                         min_confidence: conf,
-                        method: if sgm { Method::Sgm } else { Method::BlockMatching },
+                        method,
                         ..MatcherConfig::default()
                     };
                     configs.push((format!("{pf:?} u{uniq} sp{speckle} c{conf}"), cfg));
@@ -44,16 +78,63 @@ fn main() {
             }
         }
     }
-    println!("{:44} | per pair: bad2 (missing = bad) / bad2 returned / density", "config");
-    for (label, base) in configs {
-        let mut line = format!("{label:44} |");
-        for (_, nd, l, r, truth, mask) in &data {
-            let cfg = MatcherConfig { num_disparities: *nd, ..base.clone() };
-            let d = BlockMatcher::new(cfg).unwrap().compute(l, r).unwrap();
-            let e = evaluate(&d, truth, Some(mask), &[2.0]).unwrap();
-            line +=
-                &format!(" {:6.2} {:5.2} {:5.1} |", e.bad_at(2.0).unwrap(), e.bad_returned_at(2.0).unwrap(), e.density);
+    configs
+}
+
+/// The SGM parameters: costs and penalties (`stage` 1), or paths and decisions (2).
+fn sgm_params(stage: u32) -> Vec<(String, MatcherConfig)> {
+    let base =
+        MatcherConfig { method: Method::Sgm, speckle_window_size: 0, uniqueness_ratio: 10, ..Default::default() };
+    let mut configs: Vec<(String, MatcherConfig)> = Vec::new();
+    if stage == 1 {
+        for pf in [Prefilter::XSobel { cap: 31 }, Prefilter::Rank { size: 5 }] {
+            for block in [5, 7] {
+                for p1 in [4, 8, 16] {
+                    for k in [4, 8] {
+                        for gamma in [16, 48] {
+                            let sgm = SgmConfig { block, p1, p2: p1 * k, p2_gamma: gamma, ..SgmConfig::default() };
+                            configs.push((
+                                format!("{pf:?} b{block} p1 {p1} p2 {} g{gamma}", p1 * k),
+                                MatcherConfig { prefilter: pf, sgm, ..base.clone() },
+                            ));
+                        }
+                    }
+                }
+            }
         }
-        println!("{line}");
+    } else {
+        let pf: Prefilter = match std::env::var("PF").as_deref() {
+            Ok("xsobel") => Prefilter::XSobel { cap: 31 },
+            Ok("rank7") => Prefilter::Rank { size: 7 },
+            _ => Prefilter::Rank { size: 5 },
+        };
+        let get = |k: &str, d: u32| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
+        let sgm = SgmConfig {
+            block: get("B", 3) as usize,
+            p1: get("P1", 2),
+            p2: get("P2", 16),
+            p2_gamma: get("G", 16),
+            ..SgmConfig::default()
+        };
+        for paths in [SgmPaths::Five, SgmPaths::Eight] {
+            for uniq in [0, 5, 10, 15] {
+                for speckle in [0, 100] {
+                    for fill in [false, true] {
+                        configs.push((
+                            format!("{paths:?} u{uniq} sp{speckle} fill {fill}"),
+                            MatcherConfig {
+                                prefilter: pf,
+                                sgm: SgmConfig { paths, ..sgm },
+                                uniqueness_ratio: uniq,
+                                speckle_window_size: speckle,
+                                fill,
+                                ..base.clone()
+                            },
+                        ));
+                    }
+                }
+            }
+        }
     }
+    configs
 }
