@@ -109,21 +109,35 @@ where
     remap_impl(src, table, interpolation, border)
 }
 
-/// The border handling of `border` for `c`-channel pixels: the fill value and whether edge
-/// pixels are replicated. Refuses channel counts outside 1..=4.
-fn border_parts<P>(border: Border<P>) -> Result<(Vec<P::Subpixel>, bool)>
+/// The output of a resampling: `width x height` pixels of `src`'s type, each row filled in
+/// parallel by `row(ctx, v, pixels)` with `border`'s handling in `ctx`. Refuses an empty source
+/// and channel counts outside 1..=4.
+fn resample<P, F>(src: &Image<P>, width: u32, height: u32, border: Border<P>, row: F) -> Result<Image<P>>
 where
-    P: Pixel,
+    P: Pixel + Send + Sync,
     P::Subpixel: Sample,
+    F: Fn(&Ctx<'_, P::Subpixel>, usize, &mut [P::Subpixel]) + Sync,
 {
+    let (sw, sh) = src.dimensions();
+    if sw == 0 || sh == 0 {
+        return Err(RectifyError::Empty("source image"));
+    }
     let c = P::CHANNEL_COUNT as usize;
     if !(1..=4).contains(&c) {
         return Err(RectifyError::Config(format!("remap supports 1 to 4 channels, the pixel type has {c}")));
     }
-    Ok(match border {
+    let zero = <P::Subpixel as Sample>::from_f32(0.0);
+    let (fill, replicate) = match border {
         Border::Constant(p) => (p.channels().to_vec(), false),
-        Border::Replicate => (vec![<P::Subpixel as Sample>::from_f32(0.0); c], true),
-    })
+        Border::Replicate => (vec![zero; c], true),
+    };
+    let (w, h) = (width as usize, height as usize);
+    let mut out: Vec<P::Subpixel> = vec![zero; w * h * c];
+    let ctx = Ctx { raw: src.as_raw(), sw: sw as isize, sh: sh as isize, c, fill: &fill, replicate };
+    if w > 0 {
+        out.par_chunks_mut(w * c).enumerate().for_each(|(v, pixels)| row(&ctx, v, pixels));
+    }
+    ImageBuffer::from_raw(width, height, out).ok_or_else(|| RectifyError::SizeMismatch("remap output buffer".into()))
 }
 
 /// [`remap`] through the `f32` table.
@@ -137,10 +151,6 @@ where
     P: Pixel + Send + Sync,
     P::Subpixel: Sample,
 {
-    let (sw, sh) = src.dimensions();
-    if sw == 0 || sh == 0 {
-        return Err(RectifyError::Empty("source image"));
-    }
     let n = table.width as usize * table.height as usize;
     if table.map_x.len() != n || table.map_y.len() != n {
         return Err(RectifyError::SizeMismatch(format!(
@@ -151,24 +161,18 @@ where
             table.map_y.len()
         )));
     }
-    let (fill, replicate) = border_parts(border)?;
-    let c = fill.len();
-    let mut out: Vec<P::Subpixel> = vec![<P::Subpixel as Sample>::from_f32(0.0); n * c];
     let w = table.width as usize;
-    let ctx = Ctx { raw: src.as_raw(), sw: sw as isize, sh: sh as isize, c, fill: &fill, replicate };
-    out.par_chunks_mut(w * c).enumerate().for_each(|(v, row)| {
+    resample(src, table.width, table.height, border, |ctx, v, row| {
         let mx = &table.map_x[v * w..(v + 1) * w];
         let my = &table.map_y[v * w..(v + 1) * w];
-        match (interpolation, c) {
+        match (interpolation, ctx.c) {
             (Interpolation::Bilinear, _) => ctx.bilinear_row(mx, my, row),
             (Interpolation::Nearest, 1) => ctx.nearest_row::<1>(mx, my, row),
             (Interpolation::Nearest, 2) => ctx.nearest_row::<2>(mx, my, row),
             (Interpolation::Nearest, 3) => ctx.nearest_row::<3>(mx, my, row),
             (Interpolation::Nearest, _) => ctx.nearest_row::<4>(mx, my, row),
         }
-    });
-    ImageBuffer::from_raw(table.width, table.height, out)
-        .ok_or_else(|| RectifyError::SizeMismatch("remap output buffer".into()))
+    })
 }
 
 /// [`remap`] through a precompiled [`FastBilinear`] table (no `f32` map): bilinear in fixed
@@ -185,9 +189,6 @@ where
     P::Subpixel: Sample,
 {
     let (sw, sh) = src.dimensions();
-    if sw == 0 || sh == 0 {
-        return Err(RectifyError::Empty("source image"));
-    }
     if (sw, sh) != fast.source_size {
         return Err(RectifyError::SizeMismatch(format!(
             "image is {sw}x{sh}, the table was built for {}x{}",
@@ -196,7 +197,7 @@ where
     }
     let w = fast.width as usize;
     let h = fast.border.len();
-    if w == 0 || fast.index.len() != w * h || fast.frac.len() != w * h {
+    if fast.index.len() != w * h || fast.frac.len() != w * h {
         return Err(RectifyError::SizeMismatch("fixed-point table".into()));
     }
     let near = match (interpolation, &fast.nearest) {
@@ -206,16 +207,12 @@ where
         }
         (Interpolation::Bilinear, _) => None,
     };
-    let (fill, replicate) = border_parts(border)?;
-    let c = fill.len();
-    let mut out: Vec<P::Subpixel> = vec![<P::Subpixel as Sample>::from_f32(0.0); w * h * c];
-    let ctx = Ctx { raw: src.as_raw(), sw: sw as isize, sh: sh as isize, c, fill: &fill, replicate };
-    out.par_chunks_mut(w * c).enumerate().for_each(|(v, row)| {
+    resample(src, fast.width, h as u32, border, |ctx, v, row| {
         let rows = v * w..(v + 1) * w;
         match near {
             None => {
                 let (idx, frac, border) = (&fast.index[rows.clone()], &fast.frac[rows], fast.border[v].as_slice());
-                match c {
+                match ctx.c {
                     1 => ctx.fast_row_gray(idx, frac, border, row),
                     2 => ctx.fast_row::<2>(idx, frac, border, row),
                     3 => ctx.fast_row::<3>(idx, frac, border, row),
@@ -224,7 +221,7 @@ where
             }
             Some(t) => {
                 let (idx, border) = (&t.index[rows], t.border[v].as_slice());
-                match c {
+                match ctx.c {
                     1 => ctx.nearest_fast_row::<1>(idx, border, row),
                     2 => ctx.nearest_fast_row::<2>(idx, border, row),
                     3 => ctx.nearest_fast_row::<3>(idx, border, row),
@@ -232,9 +229,7 @@ where
                 }
             }
         }
-    });
-    ImageBuffer::from_raw(fast.width, h as u32, out)
-        .ok_or_else(|| RectifyError::SizeMismatch("remap output buffer".into()))
+    })
 }
 
 struct Ctx<'a, S> {
