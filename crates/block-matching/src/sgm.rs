@@ -265,7 +265,7 @@ fn vertical(sc: &mut Scratch, nd: usize, sub: bool, isa: Isa) {
     #[cfg(target_arch = "x86_64")]
     if isa.avx2() {
         // SAFETY: `isa` only when the CPU has AVX2; lengths asserted inside.
-        unsafe { avx2::vertical(&mut sc.colsum, &sc.l_a, &sc.r_a, &sc.l_b, &sc.r_b, lanes(nd), sub, 0) };
+        unsafe { avx2::vertical(&mut sc.colsum, &sc.l_a, &sc.r_a, &sc.l_b, &sc.r_b, lanes(nd), sub) };
         return;
     }
     let _ = isa;
@@ -334,7 +334,7 @@ fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, isa: Isa) {
         unsafe { avx512::box_row(cost, colsum, w, r, ndq) };
     } else if isa.avx2() {
         // SAFETY: `isa` only when the CPU has AVX2; lengths asserted inside.
-        unsafe { avx2::box_row(cost, colsum, w, r, ndq, 0) };
+        unsafe { avx2::box_row(cost, colsum, w, r, ndq) };
     }
     if !isa.avx2() {
         let c0 = &mut cost[..ndq];
@@ -391,7 +391,7 @@ fn paths<const N: usize>(
     #[cfg(target_arch = "x86_64")]
     if isa.avx2() {
         // SAFETY: `isa` is set only when the CPU has AVX2; slice lengths are checked inside.
-        return unsafe { avx2::paths(c, prev, pmin, p2, p1, out, acc, tail, set, 0) };
+        return unsafe { avx2::paths(c, prev, pmin, p2, p1, out, acc, tail, set) };
     }
     let _ = (isa, tail);
     let mut m = [0u16; N];
@@ -733,23 +733,353 @@ pub(crate) fn run_strip(
     strip(sh, pp, sc, out, conf, y0, y1, Isa::Scalar)
 }
 
-/// The path steps in AVX2 intrinsics, 16 disparities per vector: the compiler did not vectorise
-/// the scalar `step` (measured: teddy 450x375x64, five paths, ~150 ms, the inner loop scalar).
+/// The SGM kernels written once over the vector width ([`lanes::V16`]: 16 lanes of `u16` in
+/// 256 bits, 32 in 512) and compiled per instruction set by the thin `avx2` and `avx512`
+/// entry points below: the same integer operations at both widths, so the same results. The
+/// compiler did not vectorise the scalar path step (measured: teddy 450x375x64, five paths,
+/// ~150 ms, the inner loop scalar).
+#[cfg(target_arch = "x86_64")]
+mod lanes {
+    use std::arch::x86_64::*;
+
+    /// A vector of `u16` lanes and the operations the kernels use.
+    ///
+    /// # Safety
+    /// Every method must run on a CPU with the vector's instruction set, inlined (they are
+    /// `inline(always)`) into a function compiled for it; pointers must address `LANES`
+    /// readable (or writable) lanes.
+    pub(super) trait V16: Copy {
+        /// Lanes per vector.
+        const LANES: usize;
+        /// Loads `LANES` lanes from `p`.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn ld(p: *const u16) -> Self;
+        /// Stores `v` at `p`.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn st(p: *mut u16, v: Self);
+        /// `x` in every lane.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn splat(x: u16) -> Self;
+        /// Wrapping `a + b`.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn add(a: Self, b: Self) -> Self;
+        /// Wrapping `a − b`.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn sub(a: Self, b: Self) -> Self;
+        /// Saturating unsigned `a + b`.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn adds(a: Self, b: Self) -> Self;
+        /// Saturating unsigned `a − b`.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn subs(a: Self, b: Self) -> Self;
+        /// Unsigned minimum.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn min(a: Self, b: Self) -> Self;
+        /// Bitwise or.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn or(a: Self, b: Self) -> Self;
+        /// The smallest lane.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn hmin(self) -> u16;
+    }
+
+    /// One [`V16`] implementation per register width, from its intrinsics.
+    macro_rules! v16 {
+        ($name:ident, $reg:ty, $lanes:literal, $doc:literal, $ld:ident, $st:ident, $set1:ident, $add:ident,
+         $sub:ident, $adds:ident, $subs:ident, $min:ident, $or:ident, |$h:ident| $hmin:expr) => {
+            #[doc = $doc]
+            #[derive(Clone, Copy)]
+            pub(super) struct $name($reg);
+
+            impl V16 for $name {
+                const LANES: usize = $lanes;
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn ld(p: *const u16) -> Self {
+                    // SAFETY: the trait's contract (a full vector at p, the instruction set).
+                    unsafe { $name($ld(p as *const _)) }
+                }
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn st(p: *mut u16, v: Self) {
+                    // SAFETY: the trait's contract (a full vector at p, the instruction set).
+                    unsafe { $st(p as *mut _, v.0) }
+                }
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn splat(x: u16) -> Self {
+                    // SAFETY: the trait's contract (the instruction set).
+                    unsafe { $name($set1(x as i16)) }
+                }
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn add(a: Self, b: Self) -> Self {
+                    // SAFETY: the trait's contract (the instruction set).
+                    unsafe { $name($add(a.0, b.0)) }
+                }
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn sub(a: Self, b: Self) -> Self {
+                    // SAFETY: the trait's contract (the instruction set).
+                    unsafe { $name($sub(a.0, b.0)) }
+                }
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn adds(a: Self, b: Self) -> Self {
+                    // SAFETY: the trait's contract (the instruction set).
+                    unsafe { $name($adds(a.0, b.0)) }
+                }
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn subs(a: Self, b: Self) -> Self {
+                    // SAFETY: the trait's contract (the instruction set).
+                    unsafe { $name($subs(a.0, b.0)) }
+                }
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn min(a: Self, b: Self) -> Self {
+                    // SAFETY: the trait's contract (the instruction set).
+                    unsafe { $name($min(a.0, b.0)) }
+                }
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn or(a: Self, b: Self) -> Self {
+                    // SAFETY: the trait's contract (the instruction set).
+                    unsafe { $name($or(a.0, b.0)) }
+                }
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn hmin(self) -> u16 {
+                    let $h = self.0;
+                    // SAFETY: the trait's contract (the instruction set; AVX-512 implies AVX2).
+                    unsafe { $hmin }
+                }
+            }
+        };
+    }
+
+    v16!(
+        W256,
+        __m256i,
+        16,
+        "16 lanes (AVX2).",
+        _mm256_loadu_si256,
+        _mm256_storeu_si256,
+        _mm256_set1_epi16,
+        _mm256_add_epi16,
+        _mm256_sub_epi16,
+        _mm256_adds_epu16,
+        _mm256_subs_epu16,
+        _mm256_min_epu16,
+        _mm256_or_si256,
+        |v| {
+            let m = _mm_min_epu16(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
+            (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as u16
+        }
+    );
+    v16!(
+        W512,
+        __m512i,
+        32,
+        "32 lanes (AVX-512 BW).",
+        _mm512_loadu_si512,
+        _mm512_storeu_si512,
+        _mm512_set1_epi16,
+        _mm512_add_epi16,
+        _mm512_sub_epi16,
+        _mm512_adds_epu16,
+        _mm512_subs_epu16,
+        _mm512_min_epu16,
+        _mm512_or_si512,
+        |v| W256(_mm256_min_epu16(_mm512_castsi512_si256(v), _mm512_extracti64x4_epi64::<1>(v))).hmin()
+    );
+
+    /// `|a − b|` per lane.
+    ///
+    /// # Safety
+    /// [`V16`]'s contract.
+    #[inline(always)]
+    unsafe fn absdiff<V: V16>(a: V, b: V) -> V {
+        // SAFETY: the caller's (V16's contract).
+        unsafe { V::or(V::subs(a, b), V::subs(b, a)) }
+    }
+
+    /// [`super::paths`] on lanes `from..to` (multiples of `V::LANES`): per chunk of every path,
+    /// the minimum of `L(d)`, `L(d ± 1) + P1` (saturating) and `min L + P2'`, minus `min L`,
+    /// plus `C`; lanes `d ≥ D` forced to `PAD` through `tail`. Returns each path's minimum over
+    /// the lanes.
+    ///
+    /// # Safety
+    /// [`V16`]'s contract; `to ≤ Dq`, `c`, `acc`, `tail` have `Dq` entries and every `prev[i]`
+    /// and `out[i]` `Dq + 2` (the callers assert it).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // the step's inputs, outputs and lane range
+    pub(super) unsafe fn paths<V: V16, const N: usize>(
+        c: &[u16],
+        prev: [&[u16]; N],
+        pmin: [u16; N],
+        p2: [u16; N],
+        p1: u16,
+        out: [*mut u16; N],
+        acc: &mut [u16],
+        tail: &[u16],
+        set: bool,
+        (from, to): (usize, usize),
+    ) -> [u16; N] {
+        // SAFETY: (all loads and stores) d + LANES ≤ to ≤ Dq, and the padded vectors have
+        // Dq + 2 entries, so offsets d .. d + 2 + LANES are inside.
+        unsafe {
+            let p1v = V::splat(p1);
+            let jump: [V; N] = std::array::from_fn(|i| V::splat(pmin[i].saturating_add(p2[i])));
+            let pm: [V; N] = std::array::from_fn(|i| V::splat(pmin[i]));
+            let mut mv = [V::splat(u16::MAX); N];
+            let mut d = from;
+            while d < to {
+                let cv = V::ld(c.as_ptr().add(d));
+                let tv = V::ld(tail.as_ptr().add(d));
+                let mut sum = if set { V::splat(0) } else { V::ld(acc.as_ptr().add(d)) };
+                for i in 0..N {
+                    let p = prev[i].as_ptr().add(d);
+                    let (a, b, e) = (V::ld(p), V::ld(p.add(1)), V::ld(p.add(2)));
+                    // min(a + P1, e + P1) = min(a, e) + P1 (saturating addition is monotone)
+                    let best = V::min(V::min(b, jump[i]), V::adds(V::min(a, e), p1v));
+                    let v = V::or(V::add(cv, V::sub(best, pm[i])), tv);
+                    V::st(out[i].add(d + 1), v);
+                    mv[i] = V::min(mv[i], v);
+                    sum = V::add(sum, v);
+                }
+                V::st(acc.as_mut_ptr().add(d), sum);
+                d += V::LANES;
+            }
+            std::array::from_fn(|i| mv[i].hmin())
+        }
+    }
+
+    /// [`super::vertical`] on lanes `from..to` of every column: `colsum[xp] += |l_a[xp] −
+    /// r_a[base + d]|` (and, with `sub`, `−= |l_b[xp] − r_b[base + d]|`), wrapping lanes.
+    ///
+    /// # Safety
+    /// [`V16`]'s contract; the lengths the callers assert.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // both row pairs, the lane count and range
+    pub(super) unsafe fn vertical<V: V16>(
+        colsum: &mut [u16],
+        la: &[u16],
+        ra: &[u16],
+        lb: &[u16],
+        rb: &[u16],
+        ndq: usize,
+        sub: bool,
+        (from, to): (usize, usize),
+    ) {
+        let wp = la.len();
+        // SAFETY: xp·ndq + d + LANES ≤ wp·ndq; base + d + LANES ≤ wp − 1 + ndq (asserted by
+        // the callers).
+        unsafe {
+            for xp in 0..wp {
+                let base = wp - 1 - xp;
+                let lav = V::splat(la[xp]);
+                let lbv = if sub { V::splat(lb[xp]) } else { V::splat(0) };
+                let mut d = from;
+                while d < to {
+                    let p = colsum.as_mut_ptr().add(xp * ndq + d);
+                    let mut v = V::add(V::ld(p), absdiff(lav, V::ld(ra.as_ptr().add(base + d))));
+                    if sub {
+                        v = V::sub(v, absdiff(lbv, V::ld(rb.as_ptr().add(base + d))));
+                    }
+                    V::st(p, v);
+                    d += V::LANES;
+                }
+            }
+        }
+    }
+
+    /// The box sums of a row on lanes `from..to`: `cost[x] = Σ colsum[x ..= x + 2r]`, running
+    /// along the row.
+    ///
+    /// # Safety
+    /// [`V16`]'s contract; the lengths the callers assert.
+    #[inline(always)]
+    pub(super) unsafe fn box_row<V: V16>(
+        cost: &mut [u16],
+        colsum: &[u16],
+        w: usize,
+        r: usize,
+        ndq: usize,
+        (from, to): (usize, usize),
+    ) {
+        let (c, cs) = (cost.as_mut_ptr(), colsum.as_ptr());
+        // SAFETY: offsets below (w + 2r)·ndq in colsum and w·ndq in cost (asserted by the
+        // callers).
+        unsafe {
+            let mut d = from;
+            while d < to {
+                let mut acc = V::splat(0);
+                for xp in 0..=2 * r {
+                    acc = V::add(acc, V::ld(cs.add(xp * ndq + d)));
+                }
+                V::st(c.add(d), acc);
+                d += V::LANES;
+            }
+            for x in 1..w {
+                let mut d = from;
+                while d < to {
+                    let v = V::sub(
+                        V::add(V::ld(c.add((x - 1) * ndq + d)), V::ld(cs.add((x + 2 * r) * ndq + d))),
+                        V::ld(cs.add((x - 1) * ndq + d)),
+                    );
+                    V::st(c.add(x * ndq + d), v);
+                    d += V::LANES;
+                }
+            }
+        }
+    }
+}
+
+/// The kernels at 16 lanes per vector, and the decisions in AVX2 intrinsics.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use std::arch::x86_64::*;
 
-    /// [`super::paths`] with 256-bit vectors: per 16-lane chunk of every path, the minimum of
-    /// `L(d)`, `L(d ± 1) + P1` (saturating) and `min L + P2'`, minus `min L`, plus `C`; lanes
-    /// `d ≥ D` forced to `PAD` through `tail`. Only lanes `from..Dq` (`from` a multiple of 16:
-    /// the AVX-512 kernel hands its last 16 lanes here); returns each path's minimum over them.
+    use super::lanes::{self, W256};
+
+    /// [`lanes::paths`] on every lane.
     ///
     /// # Safety
     /// The CPU must support AVX2. Lengths: `c`, `acc`, `tail` have `Dq` (a multiple of 16)
     /// entries, every `prev[i]` and `out[i]` `Dq + 2` (checked by assertions).
-    #[inline]
     #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)] // the step's inputs, outputs and lane range
+    #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
     pub(super) unsafe fn paths<const N: usize>(
         c: &[u16],
         prev: [&[u16]; N],
@@ -760,86 +1090,22 @@ mod avx2 {
         acc: &mut [u16],
         tail: &[u16],
         set: bool,
-        from: usize,
     ) -> [u16; N] {
         let ndq = c.len();
-        assert!(ndq.is_multiple_of(16) && from.is_multiple_of(16) && acc.len() == ndq && tail.len() == ndq);
+        assert!(ndq.is_multiple_of(16) && acc.len() == ndq && tail.len() == ndq);
         for i in 0..N {
             assert!(prev[i].len() == ndq + 2 && out[i].len() == ndq + 2);
         }
-        let p1v = _mm256_set1_epi16(p1 as i16);
-        let mut mv = [_mm256_set1_epi16(-1); N];
-        let mut jump = [_mm256_setzero_si256(); N];
-        let mut pm = [_mm256_setzero_si256(); N];
-        for i in 0..N {
-            jump[i] = _mm256_set1_epi16(pmin[i].saturating_add(p2[i]) as i16);
-            pm[i] = _mm256_set1_epi16(pmin[i] as i16);
-        }
         let outp: [*mut u16; N] = std::array::from_fn(|i| out[i].as_mut_ptr());
-        for d in (from..ndq).step_by(16) {
-            // SAFETY: (all loads and stores) d + 16 ≤ ndq, and the padded vectors have ndq + 2
-            // entries, so offsets d .. d + 2 + 16 are inside (asserted above).
-            unsafe {
-                let cv = _mm256_loadu_si256(c.as_ptr().add(d) as *const __m256i);
-                let tv = _mm256_loadu_si256(tail.as_ptr().add(d) as *const __m256i);
-                let mut sum = if set {
-                    _mm256_setzero_si256()
-                } else {
-                    _mm256_loadu_si256(acc.as_ptr().add(d) as *const __m256i)
-                };
-                for i in 0..N {
-                    let p = prev[i].as_ptr().add(d);
-                    let a = _mm256_loadu_si256(p as *const __m256i);
-                    let b = _mm256_loadu_si256(p.add(1) as *const __m256i);
-                    let e = _mm256_loadu_si256(p.add(2) as *const __m256i);
-                    // min(a + P1, e + P1) = min(a, e) + P1 (saturating addition is monotone)
-                    let best =
-                        _mm256_min_epu16(_mm256_min_epu16(b, jump[i]), _mm256_adds_epu16(_mm256_min_epu16(a, e), p1v));
-                    let v = _mm256_or_si256(_mm256_add_epi16(cv, _mm256_sub_epi16(best, pm[i])), tv);
-                    _mm256_storeu_si256(outp[i].add(d + 1) as *mut __m256i, v);
-                    mv[i] = _mm256_min_epu16(mv[i], v);
-                    sum = _mm256_add_epi16(sum, v);
-                }
-                _mm256_storeu_si256(acc.as_mut_ptr().add(d) as *mut __m256i, sum);
-            }
-        }
-        std::array::from_fn(|i| {
-            let m = _mm_min_epu16(_mm256_castsi256_si128(mv[i]), _mm256_extracti128_si256::<1>(mv[i]));
-            (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as u16
-        })
+        // SAFETY: AVX2 (this function's features); lengths asserted above.
+        unsafe { lanes::paths::<W256, N>(c, prev, pmin, p2, p1, outp, acc, tail, set, (0, ndq)) }
     }
 
-    #[inline(always)]
-    /// # Safety
-    /// `p` must point to a full vector of readable lanes, and the CPU must support the module's target features.
-    unsafe fn ld(p: *const u16) -> __m256i {
-        // SAFETY: the caller guarantees 16 readable lanes at p.
-        unsafe { _mm256_loadu_si256(p as *const __m256i) }
-    }
-
-    #[inline(always)]
-    /// # Safety
-    /// `p` must point to a full vector of writable lanes, and the CPU must support the module's target features.
-    unsafe fn st(p: *mut u16, v: __m256i) {
-        // SAFETY: the caller guarantees 16 writable lanes at p.
-        unsafe { _mm256_storeu_si256(p as *mut __m256i, v) }
-    }
-
-    #[inline(always)]
-    fn absdiff(a: __m256i, b: __m256i) -> __m256i {
-        // SAFETY: only called from AVX2 functions (register operations).
-        unsafe { _mm256_or_si256(_mm256_subs_epu16(a, b), _mm256_subs_epu16(b, a)) }
-    }
-
-    /// [`super::vertical`]: `colsum[xp] += |l_a[xp] − r_a[base + d]|` (and, with `sub`,
-    /// `−= |l_b[xp] − r_b[base + d]|`), wrapping 16-bit lanes, lanes `from..Dq` of each column
-    /// (`from` a multiple of 16).
+    /// [`lanes::vertical`] on every lane.
     ///
     /// # Safety
     /// The CPU must support AVX2 (lengths are asserted).
-    #[inline]
     #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)] // both row pairs, the lane count and range
     pub(super) unsafe fn vertical(
         colsum: &mut [u16],
         la: &[u16],
@@ -848,63 +1114,39 @@ mod avx2 {
         rb: &[u16],
         ndq: usize,
         sub: bool,
-        from: usize,
     ) {
         let wp = la.len();
-        assert!(ndq.is_multiple_of(16) && from.is_multiple_of(16));
-        assert!(colsum.len() >= wp * ndq && ra.len() + 1 >= wp + ndq);
+        assert!(ndq.is_multiple_of(16) && colsum.len() >= wp * ndq && ra.len() + 1 >= wp + ndq);
         assert!(!sub || (lb.len() >= wp && rb.len() + 1 >= wp + ndq));
-        for xp in 0..wp {
-            let base = wp - 1 - xp;
-            let lav = _mm256_set1_epi16(la[xp] as i16);
-            let lbv = if sub { _mm256_set1_epi16(lb[xp] as i16) } else { _mm256_setzero_si256() };
-            for d in (from..ndq).step_by(16) {
-                // SAFETY: xp·ndq + d + 16 ≤ wp·ndq; base + d + 16 ≤ wp − 1 + ndq (asserted).
-                unsafe {
-                    let p = colsum.as_mut_ptr().add(xp * ndq + d);
-                    let mut v = _mm256_add_epi16(ld(p), absdiff(lav, ld(ra.as_ptr().add(base + d))));
-                    if sub {
-                        v = _mm256_sub_epi16(v, absdiff(lbv, ld(rb.as_ptr().add(base + d))));
-                    }
-                    st(p, v);
-                }
-            }
-        }
+        // SAFETY: AVX2 (this function's features); lengths asserted above.
+        unsafe { lanes::vertical::<W256>(colsum, la, ra, lb, rb, ndq, sub, (0, ndq)) }
     }
 
-    /// The box sums of a row: `cost[x] = Σ colsum[x ..= x + 2r]`, running along the row, for
-    /// lanes `from..Dq` (`from` a multiple of 16).
+    /// [`lanes::box_row`] on every lane.
     ///
     /// # Safety
     /// The CPU must support AVX2 (lengths are asserted).
-    #[inline]
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize, from: usize) {
-        assert!(ndq.is_multiple_of(16) && from.is_multiple_of(16) && w > 0);
-        assert!(cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
-        let (c, cs) = (cost.as_mut_ptr(), colsum.as_ptr());
-        for d in (from..ndq).step_by(16) {
-            // SAFETY: offsets below (2r + 1)·ndq and w·ndq (asserted).
-            unsafe {
-                let mut acc = _mm256_setzero_si256();
-                for xp in 0..=2 * r {
-                    acc = _mm256_add_epi16(acc, ld(cs.add(xp * ndq + d)));
-                }
-                st(c.add(d), acc);
-            }
-        }
-        for x in 1..w {
-            for d in (from..ndq).step_by(16) {
-                // SAFETY: x + 2r < w + 2r columns; x < w rows of cost (asserted).
-                unsafe {
-                    let v = _mm256_sub_epi16(
-                        _mm256_add_epi16(ld(c.add((x - 1) * ndq + d)), ld(cs.add((x + 2 * r) * ndq + d))),
-                        ld(cs.add((x - 1) * ndq + d)),
-                    );
-                    st(c.add(x * ndq + d), v);
-                }
-            }
-        }
+    pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
+        assert!(ndq.is_multiple_of(16) && w > 0 && cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
+        // SAFETY: AVX2 (this function's features); lengths asserted above.
+        unsafe { lanes::box_row::<W256>(cost, colsum, w, r, ndq, (0, ndq)) }
+    }
+
+    #[inline(always)]
+    /// # Safety
+    /// `p` must point to a full vector of readable lanes, and the CPU must support AVX2.
+    unsafe fn ld(p: *const u16) -> __m256i {
+        // SAFETY: the caller guarantees 16 readable lanes at p.
+        unsafe { _mm256_loadu_si256(p as *const __m256i) }
+    }
+
+    #[inline(always)]
+    /// # Safety
+    /// `p` must point to a full vector of writable lanes, and the CPU must support AVX2.
+    unsafe fn st(p: *mut u16, v: __m256i) {
+        // SAFETY: the caller guarantees 16 writable lanes at p.
+        unsafe { _mm256_storeu_si256(p as *mut __m256i, v) }
     }
 
     /// The smallest `S` over lanes `lo..=hi`, its first lane, and (when `need2`) the smallest
@@ -997,20 +1239,18 @@ mod avx2 {
     }
 }
 
-/// The path steps, column sums and box sums with 512-bit vectors (32 disparities per vector; a
-/// last 16-lane chunk when `Dq` is not a multiple of 32 goes to the AVX2 kernel): the same
-/// integer operations as the AVX2 kernels, so the same results.
+/// The kernels at 32 lanes per vector; a last 16-lane chunk (`Dq` an odd multiple of 16) at 16.
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
-    use std::arch::x86_64::*;
+    use super::lanes::{self, W256, W512};
 
-    /// [`super::avx2::paths`] with 512-bit vectors.
+    /// [`lanes::paths`]: 32-lane chunks, then a last 16-lane one.
     ///
     /// # Safety
     /// The CPU must support AVX2 and AVX-512 F/BW/VL. Lengths: `c`, `acc`, `tail` have `Dq` (a
     /// multiple of 16) entries, every `prev[i]` and `out[i]` `Dq + 2` (checked by assertions).
-    #[inline]
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
     pub(super) unsafe fn paths<const N: usize>(
         c: &[u16],
         prev: [&[u16]; N],
@@ -1027,84 +1267,20 @@ mod avx512 {
         for i in 0..N {
             assert!(prev[i].len() == ndq + 2 && out[i].len() == ndq + 2);
         }
-        let p1v = _mm512_set1_epi16(p1 as i16);
-        let mut mv = [_mm512_set1_epi16(-1); N];
-        let mut jump = [_mm512_setzero_si512(); N];
-        let mut pm = [_mm512_setzero_si512(); N];
-        for i in 0..N {
-            jump[i] = _mm512_set1_epi16(pmin[i].saturating_add(p2[i]) as i16);
-            pm[i] = _mm512_set1_epi16(pmin[i] as i16);
-        }
         let outp: [*mut u16; N] = std::array::from_fn(|i| out[i].as_mut_ptr());
-        let mut d = 0;
-        while d + 32 <= ndq {
-            // SAFETY: (all loads and stores) d + 32 ≤ ndq, and the padded vectors have ndq + 2
-            // entries, so offsets d .. d + 2 + 32 are inside (asserted above).
-            unsafe {
-                let cv = _mm512_loadu_si512(c.as_ptr().add(d) as *const _);
-                let tv = _mm512_loadu_si512(tail.as_ptr().add(d) as *const _);
-                let mut sum =
-                    if set { _mm512_setzero_si512() } else { _mm512_loadu_si512(acc.as_ptr().add(d) as *const _) };
-                for i in 0..N {
-                    let p = prev[i].as_ptr().add(d);
-                    let a = _mm512_loadu_si512(p as *const _);
-                    let b = _mm512_loadu_si512(p.add(1) as *const _);
-                    let e = _mm512_loadu_si512(p.add(2) as *const _);
-                    let best =
-                        _mm512_min_epu16(_mm512_min_epu16(b, jump[i]), _mm512_adds_epu16(_mm512_min_epu16(a, e), p1v));
-                    let v = _mm512_or_si512(_mm512_add_epi16(cv, _mm512_sub_epi16(best, pm[i])), tv);
-                    _mm512_storeu_si512(outp[i].add(d + 1) as *mut _, v);
-                    mv[i] = _mm512_min_epu16(mv[i], v);
-                    sum = _mm512_add_epi16(sum, v);
-                }
-                _mm512_storeu_si512(acc.as_mut_ptr().add(d) as *mut _, sum);
-            }
-            d += 32;
+        let full = ndq / 32 * 32;
+        // SAFETY: AVX-512 and AVX2 (this function's features); lengths asserted above.
+        unsafe {
+            let wide = lanes::paths::<W512, N>(c, prev, pmin, p2, p1, outp, acc, tail, set, (0, full));
+            let last = lanes::paths::<W256, N>(c, prev, pmin, p2, p1, outp, acc, tail, set, (full, ndq));
+            std::array::from_fn(|i| wide[i].min(last[i]))
         }
-        let mut mins: [u16; N] = std::array::from_fn(|i| {
-            let h = _mm256_min_epu16(_mm512_castsi512_si256(mv[i]), _mm512_extracti64x4_epi64::<1>(mv[i]));
-            let m = _mm_min_epu16(_mm256_castsi256_si128(h), _mm256_extracti128_si256::<1>(h));
-            (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as u16
-        });
-        if d < ndq {
-            // the last 16 lanes (Dq an odd multiple of 16): the AVX2 kernel, same operations
-            // SAFETY: the CPU has AVX2 (this function's features); d is a multiple of 16.
-            let last = unsafe { super::avx2::paths(c, prev, pmin, p2, p1, out, acc, tail, set, d) };
-            for (m, l) in mins.iter_mut().zip(last) {
-                *m = (*m).min(l);
-            }
-        }
-        mins
     }
 
-    #[inline(always)]
-    /// # Safety
-    /// `p` must point to 32 readable lanes, and the CPU must support AVX-512 F/BW.
-    unsafe fn ld(p: *const u16) -> __m512i {
-        // SAFETY: the caller guarantees 32 readable lanes at p.
-        unsafe { _mm512_loadu_si512(p as *const _) }
-    }
-
-    #[inline(always)]
-    /// # Safety
-    /// `p` must point to 32 writable lanes, and the CPU must support AVX-512 F/BW.
-    unsafe fn st(p: *mut u16, v: __m512i) {
-        // SAFETY: the caller guarantees 32 writable lanes at p.
-        unsafe { _mm512_storeu_si512(p as *mut _, v) }
-    }
-
-    #[inline(always)]
-    fn absdiff(a: __m512i, b: __m512i) -> __m512i {
-        // SAFETY: only called from AVX-512 functions (register operations).
-        unsafe { _mm512_or_si512(_mm512_subs_epu16(a, b), _mm512_subs_epu16(b, a)) }
-    }
-
-    /// [`super::avx2::vertical`] with 512-bit vectors (the last 16 lanes of a column through
-    /// the AVX2 kernel's arithmetic on 256-bit vectors when `Dq` is an odd multiple of 16).
+    /// [`lanes::vertical`]: 32-lane chunks, then a last 16-lane one.
     ///
     /// # Safety
     /// The CPU must support AVX2 and AVX-512 F/BW/VL (lengths are asserted).
-    #[inline]
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
     pub(super) unsafe fn vertical(
         colsum: &mut [u16],
@@ -1119,69 +1295,25 @@ mod avx512 {
         assert!(ndq.is_multiple_of(16) && colsum.len() >= wp * ndq && ra.len() + 1 >= wp + ndq);
         assert!(!sub || (lb.len() >= wp && rb.len() + 1 >= wp + ndq));
         let full = ndq / 32 * 32;
-        for xp in 0..wp {
-            let base = wp - 1 - xp;
-            let lav = _mm512_set1_epi16(la[xp] as i16);
-            let lbv = if sub { _mm512_set1_epi16(lb[xp] as i16) } else { _mm512_setzero_si512() };
-            let mut d = 0;
-            while d < full {
-                // SAFETY: xp·ndq + d + 32 ≤ wp·ndq; base + d + 32 ≤ wp − 1 + ndq (asserted).
-                unsafe {
-                    let p = colsum.as_mut_ptr().add(xp * ndq + d);
-                    let mut v = _mm512_add_epi16(ld(p), absdiff(lav, ld(ra.as_ptr().add(base + d))));
-                    if sub {
-                        v = _mm512_sub_epi16(v, absdiff(lbv, ld(rb.as_ptr().add(base + d))));
-                    }
-                    st(p, v);
-                }
-                d += 32;
-            }
-        }
-        if full < ndq {
-            // the last 16 lanes of every column: the AVX2 kernel, same operations
-            // SAFETY: the CPU has AVX2 (this function's features); full is a multiple of 16.
-            unsafe { super::avx2::vertical(colsum, la, ra, lb, rb, ndq, sub, full) };
+        // SAFETY: AVX-512 and AVX2 (this function's features); lengths asserted above.
+        unsafe {
+            lanes::vertical::<W512>(colsum, la, ra, lb, rb, ndq, sub, (0, full));
+            lanes::vertical::<W256>(colsum, la, ra, lb, rb, ndq, sub, (full, ndq));
         }
     }
 
-    /// [`super::avx2::box_row`] with 512-bit vectors (the AVX2 kernel for a last 16-lane chunk).
+    /// [`lanes::box_row`]: 32-lane chunks, then a last 16-lane one.
     ///
     /// # Safety
     /// The CPU must support AVX2 and AVX-512 F/BW/VL (lengths are asserted).
-    #[inline]
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
     pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
         assert!(ndq.is_multiple_of(16) && w > 0 && cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
         let full = ndq / 32 * 32;
-        {
-            let (c, cs) = (cost.as_mut_ptr(), colsum.as_ptr());
-            for d in (0..full).step_by(32) {
-                // SAFETY: offsets below (2r + 1)·ndq and w·ndq (asserted).
-                unsafe {
-                    let mut acc = _mm512_setzero_si512();
-                    for xp in 0..=2 * r {
-                        acc = _mm512_add_epi16(acc, ld(cs.add(xp * ndq + d)));
-                    }
-                    st(c.add(d), acc);
-                }
-            }
-            for x in 1..w {
-                for d in (0..full).step_by(32) {
-                    // SAFETY: x + 2r < w + 2r columns; x < w rows of cost (asserted).
-                    unsafe {
-                        let v = _mm512_sub_epi16(
-                            _mm512_add_epi16(ld(c.add((x - 1) * ndq + d)), ld(cs.add((x + 2 * r) * ndq + d))),
-                            ld(cs.add((x - 1) * ndq + d)),
-                        );
-                        st(c.add(x * ndq + d), v);
-                    }
-                }
-            }
-        }
-        if full < ndq {
-            // the last 16 lanes: the AVX2 kernel, same operations (lanes are independent)
-            // SAFETY: the CPU has AVX2 (this function's features); full is a multiple of 16.
-            unsafe { super::avx2::box_row(cost, colsum, w, r, ndq, full) };
+        // SAFETY: AVX-512 and AVX2 (this function's features); lengths asserted above.
+        unsafe {
+            lanes::box_row::<W512>(cost, colsum, w, r, ndq, (0, full));
+            lanes::box_row::<W256>(cost, colsum, w, r, ndq, (full, ndq));
         }
     }
 }
