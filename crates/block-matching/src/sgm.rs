@@ -1078,6 +1078,7 @@ mod avx2 {
     /// # Safety
     /// The CPU must support AVX2. Lengths: `c`, `acc`, `tail` have `Dq` (a multiple of 16)
     /// entries, every `prev[i]` and `out[i]` `Dq + 2` (checked by assertions).
+    #[inline]
     #[target_feature(enable = "avx2")]
     #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
     pub(super) unsafe fn paths<const N: usize>(
@@ -1105,6 +1106,7 @@ mod avx2 {
     ///
     /// # Safety
     /// The CPU must support AVX2 (lengths are asserted).
+    #[inline]
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn vertical(
         colsum: &mut [u16],
@@ -1126,6 +1128,7 @@ mod avx2 {
     ///
     /// # Safety
     /// The CPU must support AVX2 (lengths are asserted).
+    #[inline]
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
         assert!(ndq.is_multiple_of(16) && w > 0 && cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
@@ -1249,6 +1252,7 @@ mod avx512 {
     /// # Safety
     /// The CPU must support AVX2 and AVX-512 F/BW/VL. Lengths: `c`, `acc`, `tail` have `Dq` (a
     /// multiple of 16) entries, every `prev[i]` and `out[i]` `Dq + 2` (checked by assertions).
+    #[inline]
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
     #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
     pub(super) unsafe fn paths<const N: usize>(
@@ -1272,6 +1276,9 @@ mod avx512 {
         // SAFETY: AVX-512 and AVX2 (this function's features); lengths asserted above.
         unsafe {
             let wide = lanes::paths::<W512, N>(c, prev, pmin, p2, p1, outp, acc, tail, set, (0, full));
+            if full == ndq {
+                return wide; // (per pixel and path group: no empty tail call's set-up and reductions)
+            }
             let last = lanes::paths::<W256, N>(c, prev, pmin, p2, p1, outp, acc, tail, set, (full, ndq));
             std::array::from_fn(|i| wide[i].min(last[i]))
         }
@@ -1281,6 +1288,7 @@ mod avx512 {
     ///
     /// # Safety
     /// The CPU must support AVX2 and AVX-512 F/BW/VL (lengths are asserted).
+    #[inline]
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
     pub(super) unsafe fn vertical(
         colsum: &mut [u16],
@@ -1298,7 +1306,9 @@ mod avx512 {
         // SAFETY: AVX-512 and AVX2 (this function's features); lengths asserted above.
         unsafe {
             lanes::vertical::<W512>(colsum, la, ra, lb, rb, ndq, sub, (0, full));
-            lanes::vertical::<W256>(colsum, la, ra, lb, rb, ndq, sub, (full, ndq));
+            if full < ndq {
+                lanes::vertical::<W256>(colsum, la, ra, lb, rb, ndq, sub, (full, ndq));
+            }
         }
     }
 
@@ -1306,6 +1316,7 @@ mod avx512 {
     ///
     /// # Safety
     /// The CPU must support AVX2 and AVX-512 F/BW/VL (lengths are asserted).
+    #[inline]
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
     pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
         assert!(ndq.is_multiple_of(16) && w > 0 && cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
@@ -1313,7 +1324,9 @@ mod avx512 {
         // SAFETY: AVX-512 and AVX2 (this function's features); lengths asserted above.
         unsafe {
             lanes::box_row::<W512>(cost, colsum, w, r, ndq, (0, full));
-            lanes::box_row::<W256>(cost, colsum, w, r, ndq, (full, ndq));
+            if full < ndq {
+                lanes::box_row::<W256>(cost, colsum, w, r, ndq, (full, ndq));
+            }
         }
     }
 }
