@@ -74,8 +74,15 @@ fn scaling_every_translation_by_1000_scales_only_the_translation() {
             };
             let a = calibrate(&s.g, &s.c, Method::Refined, &given(0.001)).unwrap();
             let b = calibrate(&g_mm, &c_mm, Method::Refined, &given(1.0)).unwrap();
-            assert!(a.transform.distance(&b.transform).0 < 1e-9);
-            assert!((a.transform.translation * 1000.0 - b.transform.translation).length() <= 1e-9 * b.length_scale);
+            // equal up to where the solver stops: its relative cost tolerance 1e-15 lets the
+            // parameters settle anywhere within ~√1e-15 ≈ 3e-8 of the minimum, and rounding
+            // differs between the two units (measured: 1.3e-9 rad)
+            let (dr, dt) = (
+                a.transform.distance(&b.transform).0,
+                (a.transform.translation * 1000.0 - b.transform.translation).length(),
+            );
+            assert!(dr < 1e-7, "{dr} rad");
+            assert!(dt <= 1e-7 * b.length_scale, "{dt} mm");
         }
     }
 }
