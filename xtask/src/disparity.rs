@@ -266,7 +266,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         files.add(
             &ply,
             parallax_triangulation::ply_bytes(&d.cloud, parallax_triangulation::PlyFormat::BinaryLittleEndian)?,
-        );
+        )?;
     }
     files.commit()?;
     println!(

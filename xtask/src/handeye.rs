@@ -256,7 +256,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         } else {
             parallax_hand_eye::visp::pose_vector_yaml(&s.transform)
         };
-        files.add(out, text);
+        files.add(out, text)?;
         wrote.push(format!("wrote {} ({} of {})", out.display(), if emc { "eMc" } else { "ePc" }, s.method));
     }
     files.commit()?;

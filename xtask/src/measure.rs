@@ -133,13 +133,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         let mut files = parallax_composition::io::OutputSet::new();
         let ext = out.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
         match ext.as_str() {
-            "json" => files.add(out, parallax_interop::native_string(&m, parallax_interop::Format::Json)?),
+            "json" => files.add(out, parallax_interop::native_string(&m, parallax_interop::Format::Json)?)?,
             "csv" => {
                 let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-                files.add(out, m.points_csv());
-                files.add(out.with_file_name(format!("{stem}_distances.csv")), m.distances_csv());
+                files.add(out, m.points_csv())?;
+                files.add(out.with_file_name(format!("{stem}_distances.csv")), m.distances_csv())?;
             }
-            _ => files.add(out, m.to_ron()?),
+            _ => files.add(out, m.to_ron()?)?,
         }
         for p in files.commit()? {
             println!("wrote {}", p.display());

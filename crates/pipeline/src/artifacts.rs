@@ -67,13 +67,13 @@ pub fn add_artifacts(
             set.add_png(dir.join("left-scene.png"), &m.left)?;
             images.push(("left-scene.png".into(), "matched pair, left (as given, already rectified)".into()));
         }
-        set.add(dir.join("disparity.pfm"), parallax_block_matching::to_pfm(&m.disparity));
+        set.add(dir.join("disparity.pfm"), parallax_block_matching::to_pfm(&m.disparity))?;
         set.add_png(dir.join("disparity.png"), &parallax_block_matching::false_colour(&m.disparity, None))?;
         images.push(("disparity.png".into(), "disparity (false colour, black = invalid)".into()));
     }
     if let Ok(cloud) = &out.cloud {
         let bytes = parallax_triangulation::ply_bytes(cloud, parallax_triangulation::PlyFormat::BinaryLittleEndian)?;
-        set.add(dir.join("cloud.ply"), bytes);
+        set.add(dir.join("cloud.ply"), bytes)?;
     }
     if let Ok(he) = &out.hand_eye {
         let s = &he.solution;

@@ -170,7 +170,7 @@ pub fn image_sequence(left: &Path, right: &Path) -> Result<Option<(Vec<PathBuf>,
 /// Writes a map as `<stem>.pfm` and `<stem>.png` (16-bit, 1/256 px) into `dir`, as a set.
 pub fn write_frame(dir: &Path, stem: &str, map: &DisparityMap) -> Result<()> {
     let mut set = crate::io::OutputSet::new();
-    set.add(dir.join(format!("{stem}.pfm")), parallax_block_matching::to_pfm(map));
+    set.add(dir.join(format!("{stem}.pfm")), parallax_block_matching::to_pfm(map))?;
     set.add_png(dir.join(format!("{stem}.png")), &parallax_block_matching::to_png16(map, 256.0))?;
     set.commit().map(|_| ())
 }
@@ -178,7 +178,7 @@ pub fn write_frame(dir: &Path, stem: &str, map: &DisparityMap) -> Result<()> {
 /// Adds a single map's files in `dir` to `set`: `disparity.pfm`, `disparity16.png` (1/256 px)
 /// and `disparity_colour.png` (false colour over `range`).
 pub fn add_maps(set: &mut crate::io::OutputSet, dir: &Path, map: &DisparityMap, range: (f32, f32)) -> Result<()> {
-    set.add(dir.join("disparity.pfm"), parallax_block_matching::to_pfm(map));
+    set.add(dir.join("disparity.pfm"), parallax_block_matching::to_pfm(map))?;
     set.add_png(dir.join("disparity16.png"), &parallax_block_matching::to_png16(map, 256.0))?;
     set.add_png(dir.join("disparity_colour.png"), &parallax_block_matching::false_colour(map, Some(range)))
 }
@@ -210,7 +210,7 @@ pub fn add_confidence(
 ) -> Result<bool> {
     let Some(conf) = matcher.confidence() else { return Ok(false) };
     let cmap = DisparityMap::from_data(map.width(), map.height(), conf.to_vec())?;
-    set.add(dir.join("confidence.pfm"), parallax_block_matching::to_pfm(&cmap));
+    set.add(dir.join("confidence.pfm"), parallax_block_matching::to_pfm(&cmap))?;
     Ok(true)
 }
 

@@ -252,7 +252,7 @@ fn owned_folders(files: &[(PathBuf, Vec<u8>)]) -> Vec<PathBuf> {
 pub fn write_fixtures(dir: &Path, files: &[(PathBuf, Vec<u8>)]) -> Result<usize> {
     let mut set = crate::io::OutputSet::new();
     for (rel, bytes) in files {
-        set.add(dir.join(rel), bytes.clone());
+        set.add(dir.join(rel), bytes)?;
     }
     set.commit()?;
     let mut removed = 0;

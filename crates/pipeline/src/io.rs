@@ -14,19 +14,24 @@ fn io_err<'a>(what: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error)
 /// `path` that is an existing directory, and removes the temporary file on every failure.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let mut set = OutputSet::new();
-    set.add(path, bytes.to_vec());
+    set.add(path, bytes)?;
     set.commit().map(|_| ())
 }
 
-/// The files one run writes, written as a set: nothing is written while they are gathered;
-/// [`OutputSet::commit`] checks every path (an existing directory, a path given twice), writes
-/// each file to a temporary file beside its destination, and only when all of them are complete
-/// renames them into place. A failure before the renames leaves no file, new or changed, and no
-/// temporary file. (A rename can still fail half-way — a full disk cannot make a rename fail, a
-/// permission change in the meantime can — and the error then names the files already replaced.)
+/// The files one run writes, written as a set: each file is staged as it is added, in a hidden
+/// temporary file beside its destination (so a run holds no image in memory to write it later),
+/// and only [`OutputSet::commit`] renames them all into place. A set dropped without a commit
+/// (an error, a refusal, a panic) removes its temporary files and the folders it made, so a
+/// failed run leaves no file, new or changed. Adding refuses a destination that is an existing
+/// directory or has no file name. (A rename can still fail half-way — a permission change in
+/// the meantime — and the error then names the files already replaced.)
 #[derive(Debug, Default)]
 pub struct OutputSet {
-    files: Vec<(PathBuf, Vec<u8>)>,
+    /// Destination and its staged temporary file, in the order added.
+    files: Vec<(PathBuf, PathBuf)>,
+    /// Folders made for the set, outermost first.
+    created: Vec<PathBuf>,
+    committed: bool,
 }
 
 impl OutputSet {
@@ -35,34 +40,61 @@ impl OutputSet {
         Self::default()
     }
 
-    /// Adds a file (replacing what an earlier `add` gave the same path).
-    pub fn add(&mut self, path: impl Into<PathBuf>, bytes: impl Into<Vec<u8>>) {
-        let (path, bytes) = (path.into(), bytes.into());
-        match self.files.iter_mut().find(|(p, _)| *p == path) {
-            Some(f) => f.1 = bytes,
-            None => self.files.push((path, bytes)),
+    /// Stages a file (replacing what an earlier `add` gave the same path).
+    pub fn add(&mut self, path: impl Into<PathBuf>, bytes: impl AsRef<[u8]>) -> Result<()> {
+        let path = path.into();
+        if path.is_dir() {
+            return Err(PipelineError::Input(format!(
+                "{} is a directory: give a file name (e.g. {})",
+                path.display(),
+                path.join("result.ron").display()
+            )));
         }
+        let name = path
+            .file_name()
+            .ok_or_else(|| PipelineError::Input(format!("{} has no file name", path.display())))?
+            .to_string_lossy()
+            .into_owned();
+        let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new(".")).to_path_buf();
+        let mut missing: Vec<PathBuf> = dir.ancestors().take_while(|a| !a.exists()).map(Path::to_path_buf).collect();
+        missing.reverse();
+        std::fs::create_dir_all(&dir).map_err(io_err("creating directory", &dir))?;
+        self.created.extend(missing);
+        let k = match self.files.iter().position(|(p, _)| *p == path) {
+            Some(k) => k,
+            None => {
+                // the index keeps two outputs of one set with the same name apart
+                let tmp = dir.join(format!(".{name}.tmp{}-{}", std::process::id(), self.files.len()));
+                self.files.push((path, tmp));
+                self.files.len() - 1
+            }
+        };
+        let tmp = &self.files[k].1;
+        if let Err(e) = std::fs::write(tmp, bytes.as_ref()).map_err(io_err("writing", tmp)) {
+            let _ = std::fs::remove_file(tmp);
+            self.files.remove(k);
+            return Err(e);
+        }
+        Ok(())
     }
 
-    /// Adds an image encoded as PNG.
+    /// Stages an image encoded as PNG.
     pub fn add_png<P, C>(&mut self, path: impl Into<PathBuf>, img: &image::ImageBuffer<P, C>) -> Result<()>
     where
         P: image::PixelWithColorType,
         [P::Subpixel]: image::EncodableLayout,
         C: std::ops::Deref<Target = [P::Subpixel]>,
     {
-        self.add(path, png_bytes(img)?);
-        Ok(())
+        self.add(path, png_bytes(img)?)
     }
 
-    /// Adds `value` as pretty RON.
+    /// Stages `value` as pretty RON.
     pub fn add_ron<T: serde::Serialize>(&mut self, path: impl Into<PathBuf>, value: &T) -> Result<()> {
-        self.add(path, to_ron(value)?);
-        Ok(())
+        self.add(path, to_ron(value)?)
     }
 
-    /// Adds a result in its format (see [`write_result`]); returns the paths it takes (two for
-    /// the calibration formats that write a file per camera).
+    /// Stages a result in its format (see [`write_result`]); returns the paths it takes (two
+    /// for the calibration formats that write a file per camera).
     pub fn add_result<T: serde::Serialize>(
         &mut self,
         path: &Path,
@@ -86,14 +118,15 @@ impl OutputSet {
         };
         let paths = files.iter().map(|f| f.0.clone()).collect();
         for (p, text) in files {
-            self.add(p, text);
+            self.add(p, text)?;
         }
         Ok(paths)
     }
 
-    /// The bytes gathered for `path`, if any.
-    pub fn get(&self, path: &Path) -> Option<&[u8]> {
-        self.files.iter().find(|(p, _)| p == path).map(|(_, b)| b.as_slice())
+    /// The bytes staged for `path`, if any.
+    pub fn get(&self, path: &Path) -> Option<Vec<u8>> {
+        let (_, tmp) = self.files.iter().find(|(p, _)| p == path)?;
+        std::fs::read(tmp).ok()
     }
 
     /// The paths in the order they were added.
@@ -111,63 +144,37 @@ impl OutputSet {
         self.files.is_empty()
     }
 
-    /// Writes every file (see the type's description); returns the paths written.
-    pub fn commit(self) -> Result<Vec<PathBuf>> {
-        for (path, _) in &self.files {
-            if path.is_dir() {
-                return Err(PipelineError::Input(format!(
-                    "{} is a directory: give a file name (e.g. {})",
-                    path.display(),
-                    path.join("result.ron").display()
-                )));
-            }
-            if path.file_name().is_none() {
-                return Err(PipelineError::Input(format!("{} has no file name", path.display())));
-            }
-        }
-        let mut temps: Vec<PathBuf> = Vec::with_capacity(self.files.len());
-        // folders this commit creates, removed again (when empty) if it fails
-        let mut created: Vec<PathBuf> = Vec::new();
-        let remove = |temps: &[PathBuf], created: &[PathBuf]| {
-            for t in temps {
-                let _ = std::fs::remove_file(t);
-            }
-            for d in created.iter().rev() {
-                let _ = std::fs::remove_dir(d);
-            }
-        };
-        for (k, (path, bytes)) in self.files.iter().enumerate() {
-            let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-            let mut missing: Vec<PathBuf> =
-                dir.ancestors().take_while(|a| !a.exists()).map(Path::to_path_buf).collect();
-            missing.reverse();
-            created.extend(missing);
-            let name = path.file_name().unwrap_or_default().to_string_lossy();
-            // the index keeps two outputs of one set with the same name apart
-            let tmp = dir.join(format!(".{name}.tmp{}-{k}", std::process::id()));
-            let written = std::fs::create_dir_all(dir)
-                .map_err(io_err("creating directory", dir))
-                .and_then(|()| std::fs::write(&tmp, bytes).map_err(io_err("writing", &tmp)));
-            if let Err(e) = written {
-                let _ = std::fs::remove_file(&tmp);
-                remove(&temps, &created);
-                return Err(e);
-            }
-            temps.push(tmp);
-        }
-        for (k, ((path, _), tmp)) in self.files.iter().zip(&temps).enumerate() {
+    /// Renames every staged file into place; returns the paths written.
+    pub fn commit(mut self) -> Result<Vec<PathBuf>> {
+        for k in 0..self.files.len() {
+            let (path, tmp) = &self.files[k];
             if let Err(source) = std::fs::rename(tmp, path) {
-                remove(&temps[k..], if k == 0 { &created } else { &[] });
-                let done: Vec<String> = self.files[..k].iter().map(|(p, _)| p.display().to_string()).collect();
                 let err = PipelineError::Io { what: "renaming a temporary file to", path: path.clone(), source };
-                return Err(if done.is_empty() {
-                    err
-                } else {
-                    PipelineError::Input(format!("{err}; already in place: {}", done.join(", ")))
-                });
+                let done: Vec<String> = self.files.drain(..k).map(|(p, _)| p.display().to_string()).collect();
+                if !done.is_empty() {
+                    self.created.clear(); // they hold files now
+                    return Err(PipelineError::Input(format!("{err}; already in place: {}", done.join(", "))));
+                }
+                return Err(err);
             }
         }
-        Ok(self.files.into_iter().map(|(p, _)| p).collect())
+        self.committed = true;
+        Ok(std::mem::take(&mut self.files).into_iter().map(|(p, _)| p).collect())
+    }
+}
+
+impl Drop for OutputSet {
+    /// Without a commit: the staged files and the folders made for them go.
+    fn drop(&mut self) {
+        if self.committed {
+            return;
+        }
+        for (_, tmp) in &self.files {
+            let _ = std::fs::remove_file(tmp);
+        }
+        for d in self.created.iter().rev() {
+            let _ = std::fs::remove_dir(d);
+        }
     }
 }
 
@@ -422,35 +429,42 @@ mod tests {
     fn a_set_is_written_whole_or_not_at_all() {
         let dir = test_dir("io-set");
         std::fs::write(dir.join("old.txt"), b"before").unwrap();
-        // one destination cannot be created (its parent is a file): nothing of the set appears,
-        // the existing file is unchanged, no temporary file is left
-        let mut set = OutputSet::new();
-        set.add(dir.join("a.txt"), b"a".to_vec());
-        set.add(dir.join("old.txt"), b"after".to_vec());
-        set.add(dir.join("sub/b.txt"), b"b".to_vec());
-        set.add(dir.join("old.txt/c.txt"), b"c".to_vec());
-        assert!(set.commit().is_err());
+        // a run that fails after staging (here: a destination whose parent is a file): nothing
+        // of the set appears, the existing file is unchanged, no temporary file or folder is left
+        {
+            let mut set = OutputSet::new();
+            set.add(dir.join("a.txt"), b"a").unwrap();
+            set.add(dir.join("old.txt"), b"after").unwrap();
+            set.add(dir.join("sub/deeper/b.txt"), b"b").unwrap();
+            assert!(set.add(dir.join("old.txt/c.txt"), b"c").is_err());
+            assert_eq!(set.len(), 3);
+            // the staged files are hidden beside their destinations until the commit
+            assert!(listing(&dir).iter().any(|n| n.starts_with(".a.txt.tmp")), "{:?}", listing(&dir));
+        }
         assert_eq!(listing(&dir), ["old.txt"]);
         assert!(!dir.join("sub").exists(), "a folder made for the set stayed behind");
         assert_eq!(std::fs::read(dir.join("old.txt")).unwrap(), b"before");
-        // a directory among the destinations is refused before anything is written
+        // a directory as a destination is refused when added
         std::fs::create_dir_all(dir.join("d.ron")).unwrap();
         let mut set = OutputSet::new();
-        set.add(dir.join("a.txt"), b"a".to_vec());
-        set.add(dir.join("d.ron"), b"d".to_vec());
-        let err = set.commit().unwrap_err().to_string();
+        set.add(dir.join("a.txt"), b"a").unwrap();
+        let err = set.add(dir.join("d.ron"), b"d").unwrap_err().to_string();
         assert!(err.contains("d.ron is a directory"), "{err}");
+        drop(set);
         assert!(!dir.join("a.txt").exists());
-        // the whole set when every file can be written
+        std::fs::remove_dir(dir.join("d.ron")).unwrap();
+        // the whole set when every file can be written (a path added twice keeps the last bytes)
         let mut set = OutputSet::new();
-        set.add(dir.join("a.txt"), b"a".to_vec());
-        set.add(dir.join("old.txt"), b"after".to_vec());
-        set.add(dir.join("sub/b.txt"), b"b".to_vec());
-        assert_eq!(set.get(&dir.join("sub/b.txt")), Some(&b"b"[..]));
+        set.add(dir.join("a.txt"), b"first").unwrap();
+        set.add(dir.join("old.txt"), b"after").unwrap();
+        set.add(dir.join("sub/b.txt"), b"b").unwrap();
+        set.add(dir.join("a.txt"), b"a").unwrap();
+        assert_eq!(set.get(&dir.join("sub/b.txt")).as_deref(), Some(&b"b"[..]));
         let written = set.commit().unwrap();
         assert_eq!(written.len(), 3);
         assert_eq!(listing(&dir), ["a.txt", "old.txt", "sub/b.txt"]);
         assert_eq!(std::fs::read(dir.join("old.txt")).unwrap(), b"after");
+        assert_eq!(std::fs::read(dir.join("a.txt")).unwrap(), b"a");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -197,15 +197,15 @@ impl Report {
     /// in `dir` to `set`, and the picture files of [`Self::sections`]. The images listed in
     /// [`Self::images`] must already be in `set`.
     pub fn add_to(&self, set: &mut crate::io::OutputSet, dir: &Path) -> Result<()> {
-        crate::plots::add_figures(set, dir, &self.sections);
-        set.add(dir.join("report.md"), self.markdown());
+        crate::plots::add_figures(set, dir, &self.sections)?;
+        set.add(dir.join("report.md"), self.markdown())?;
         let html = self.html_with(|file| {
             let bytes = set.get(&dir.join(file)).ok_or_else(|| {
                 crate::PipelineError::Input(format!("the report lists {file}, which this run does not write"))
             })?;
             Ok(format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(bytes)))
         })?;
-        set.add(dir.join("report.html"), html);
+        set.add(dir.join("report.html"), html)?;
         set.add_ron(dir.join("report.ron"), self)
     }
 

@@ -90,26 +90,27 @@ impl Pictures {
     /// `report.html` with the figures inline, as one set; returns the files written.
     pub fn write(&self, dir: &Path) -> Result<Vec<std::path::PathBuf>> {
         let mut set = crate::io::OutputSet::new();
-        add_figures(&mut set, dir, &self.sections);
+        add_figures(&mut set, dir, &self.sections)?;
         let html = format!(
             "{}<h1>{}</h1>{}</body></html>\n",
             html_head(&self.title),
             escape(&self.title),
             sections_html(&self.sections)
         );
-        set.add(dir.join("report.html"), html);
+        set.add(dir.join("report.html"), html)?;
         set.commit()
     }
 }
 
 /// Adds the figure files of `sections` in `dir` to `set`.
-pub fn add_figures(set: &mut crate::io::OutputSet, dir: &Path, sections: &[Section]) {
+pub fn add_figures(set: &mut crate::io::OutputSet, dir: &Path, sections: &[Section]) -> Result<()> {
     for f in sections.iter().flat_map(|s| &s.figures) {
-        set.add(dir.join(format!("{}.png", f.name)), f.png.clone());
+        set.add(dir.join(format!("{}.png", f.name)), &f.png)?;
         if let Some(svg) = &f.svg {
-            set.add(dir.join(format!("{}.svg", f.name)), svg.clone());
+            set.add(dir.join(format!("{}.svg", f.name)), svg)?;
         }
     }
+    Ok(())
 }
 
 /// HTML-escapes text.
