@@ -99,8 +99,20 @@ pub struct ImageCorners {
     /// chessboard; absent for chessboards.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub observation: Option<TargetObservation>,
-    /// Detection + refinement time, milliseconds.
+    /// Detection + refinement time, milliseconds (finite and not negative: checked when read).
+    #[serde(deserialize_with = "finite_time_ms")]
     pub time_ms: f64,
+}
+
+/// A detection time read from a file: a finite, non-negative number of milliseconds (a NaN
+/// would also make a file unequal to itself).
+fn finite_time_ms<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<f64, D::Error> {
+    let v = f64::deserialize(d)?;
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(serde::de::Error::custom(format!("time_ms must be a finite, non-negative number of milliseconds, got {v}")))
+    }
 }
 
 /// A corners file (written by `cargo xtask corners --out`, read back by
@@ -475,5 +487,21 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("no charuco:5x4") && err.contains("aprilgrid:"), "{err}");
+    }
+
+    #[test]
+    fn a_corners_file_with_a_time_that_is_no_time_is_refused() {
+        // found by the corners_file fuzz target: `time_ms: NaN` parsed, and the file was then
+        // unequal to itself read back
+        let entry = |t: &str| {
+            format!(
+                "(cols: 2, rows: 2, refinement: Saddle, images: [(image: \"a.png\", width: 8, height: 6, grid: None, time_ms: {t})])"
+            )
+        };
+        assert_eq!(ron::from_str::<CornersFile>(&entry("3.5")).unwrap().images[0].time_ms, 3.5);
+        for bad in ["NaN", "inf", "-1.0"] {
+            let err = ron::from_str::<CornersFile>(&entry(bad)).unwrap_err().to_string();
+            assert!(err.contains("time_ms must be a finite, non-negative number"), "{bad}: {err}");
+        }
     }
 }
