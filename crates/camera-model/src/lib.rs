@@ -54,7 +54,7 @@ pub use fisheye::{
 pub use model::CameraModel;
 pub use projection::{ProjectionJacobians, UNDISTORT_MAX_ITERATIONS, UNDISTORT_TOLERANCE};
 pub use stereo::{ProjectionMatrix, StereoRig, skew_symmetric};
-pub use target::{Chessboard, CornerGrid};
+pub use target::{Chessboard, CornerGrid, MAX_TARGET_POINTS};
 pub use targets::{
     ACCEPTED_FORMS, AprilGrid, CharucoBoard, CircleGrid, MarkerDictionary, SingleMarker, TargetDescription,
     TargetError, TargetObservation, dictionary_names,

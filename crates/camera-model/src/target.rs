@@ -9,6 +9,7 @@ use crate::{CameraModelError, Result};
 /// size. Its frame has the origin at the first inner corner, `x` along a row, `y` along a
 /// column, `z` into the board (so `z = 0` on the board), as OpenCV's object points.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "ChessboardRaw")]
 pub struct Chessboard {
     /// Inner corners per row (OpenCV's `patternSize.width`), at least 2.
     pub cols: usize,
@@ -18,8 +19,28 @@ pub struct Chessboard {
     pub square_size: f64,
 }
 
+/// Most points a target may number (ids are `u32`, and no real target comes near: a 1000 x
+/// 1000 grid is 10^6); a larger description is a typo or a corrupt file.
+pub const MAX_TARGET_POINTS: usize = 1 << 20;
+
+/// A chessboard as read from a file, checked by [`Chessboard::new`] on the way in.
+#[derive(Deserialize)]
+struct ChessboardRaw {
+    cols: usize,
+    rows: usize,
+    square_size: f64,
+}
+
+impl TryFrom<ChessboardRaw> for Chessboard {
+    type Error = CameraModelError;
+    fn try_from(r: ChessboardRaw) -> Result<Self> {
+        Chessboard::new(r.cols, r.rows, r.square_size)
+    }
+}
+
 impl Chessboard {
-    /// A validated board: at least 2x2 inner corners and a positive, finite square size.
+    /// A validated board: at least 2x2 and at most [`MAX_TARGET_POINTS`] inner corners, and a
+    /// positive, finite square size.
     pub fn new(cols: usize, rows: usize, square_size: f64) -> Result<Self> {
         let board = Self { cols, rows, square_size };
         board.validate()?;
@@ -31,6 +52,12 @@ impl Chessboard {
         if self.cols < 2 || self.rows < 2 {
             return Err(CameraModelError::InvalidBoard(format!(
                 "needs at least 2x2 inner corners, got {}x{}",
+                self.cols, self.rows
+            )));
+        }
+        if self.cols.checked_mul(self.rows).is_none_or(|n| n > MAX_TARGET_POINTS) {
+            return Err(CameraModelError::InvalidBoard(format!(
+                "at most {MAX_TARGET_POINTS} inner corners, got {}x{}",
                 self.cols, self.rows
             )));
         }

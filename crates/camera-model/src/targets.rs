@@ -340,6 +340,9 @@ impl CircleGrid {
         if cols < 2 || rows < 2 || (asymmetric && rows < 3) {
             return Err(invalid(format!("needs at least 2x2 circles (3 rows when asymmetric), got {cols}x{rows}")));
         }
+        if cols.checked_mul(rows).is_none_or(|n| n > crate::target::MAX_TARGET_POINTS) {
+            return Err(invalid(format!("at most {} circles, got {cols}x{rows}", crate::target::MAX_TARGET_POINTS)));
+        }
         if !(spacing.is_finite() && spacing > 0.0) {
             return Err(invalid(format!("spacing must be positive and finite, got {spacing}")));
         }
@@ -816,6 +819,24 @@ mod tests {
         assert!(d.bit(0, 0, 0) && !d.bit(0, 0, 1) && d.bit(0, 0, 2) && d.bit(0, 0, 3) && !d.bit(0, 1, 0));
         assert_eq!(d.max_correction_bits(), 1);
         assert!(CharucoBoard::new(20, 20, 1.0, 0.7, d, false).is_err(), "200 markers from a 50-marker dictionary");
+    }
+
+    #[test]
+    fn targets_beyond_the_point_limit_and_unchecked_records_are_refused() {
+        // found by the target_file fuzz target: "acircles:40004x400000000400000:20" parsed, and its
+        // point count (1.6e19) no longer fit the u32 point ids
+        for s in ["acircles:40004x400000000400000:20", "chessboard:2000x1000:1", "circles:1025x1025:2:1"] {
+            let err = s.parse::<TargetDescription>().unwrap_err().to_string();
+            assert!(err.contains(&format!("at most {}", crate::MAX_TARGET_POINTS)), "{s}: {err}");
+        }
+        assert!("chessboard:1024x1024:1".parse::<TargetDescription>().is_ok());
+        // a chessboard record is checked when read, as every other target is
+        let err = ron::from_str::<TargetDescription>("Chessboard((cols: 0, rows: 0, square_size: -1.0))")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("at least 2x2"), "{err}");
+        let ok: TargetDescription = ron::from_str("Chessboard((cols: 9, rows: 6, square_size: 25.0))").unwrap();
+        assert_eq!(ok, "chessboard:9x6:25".parse().unwrap());
     }
 
     #[test]
