@@ -805,8 +805,8 @@ mod lanes {
 
     /// One [`V16`] implementation per register width, from its intrinsics.
     macro_rules! v16 {
-        ($name:ident, $reg:ty, $lanes:literal, $doc:literal, $ld:ident, $st:ident, $set1:ident, $add:ident,
-         $sub:ident, $adds:ident, $subs:ident, $min:ident, $or:ident, |$h:ident| $hmin:expr) => {
+        ($name:ident, $reg:ty, $lanes:literal, $doc:literal, $ld:ident, $st:ident, $set1:ident,
+         $($op:ident: $intrinsic:ident),+; |$h:ident| $hmin:expr) => {
             #[doc = $doc]
             #[derive(Clone, Copy)]
             pub(super) struct $name($reg);
@@ -834,48 +834,15 @@ mod lanes {
                     // SAFETY: the trait's contract (the instruction set).
                     unsafe { $name($set1(x as i16)) }
                 }
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn add(a: Self, b: Self) -> Self {
-                    // SAFETY: the trait's contract (the instruction set).
-                    unsafe { $name($add(a.0, b.0)) }
-                }
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn sub(a: Self, b: Self) -> Self {
-                    // SAFETY: the trait's contract (the instruction set).
-                    unsafe { $name($sub(a.0, b.0)) }
-                }
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn adds(a: Self, b: Self) -> Self {
-                    // SAFETY: the trait's contract (the instruction set).
-                    unsafe { $name($adds(a.0, b.0)) }
-                }
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn subs(a: Self, b: Self) -> Self {
-                    // SAFETY: the trait's contract (the instruction set).
-                    unsafe { $name($subs(a.0, b.0)) }
-                }
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn min(a: Self, b: Self) -> Self {
-                    // SAFETY: the trait's contract (the instruction set).
-                    unsafe { $name($min(a.0, b.0)) }
-                }
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn or(a: Self, b: Self) -> Self {
-                    // SAFETY: the trait's contract (the instruction set).
-                    unsafe { $name($or(a.0, b.0)) }
-                }
+                $(
+                    /// # Safety
+                    /// The trait's contract.
+                    #[inline(always)]
+                    unsafe fn $op(a: Self, b: Self) -> Self {
+                        // SAFETY: the trait's contract (the instruction set).
+                        unsafe { $name($intrinsic(a.0, b.0)) }
+                    }
+                )+
                 /// # Safety
                 /// The trait's contract.
                 #[inline(always)]
@@ -889,38 +856,18 @@ mod lanes {
     }
 
     v16!(
-        W256,
-        __m256i,
-        16,
-        "16 lanes (AVX2).",
-        _mm256_loadu_si256,
-        _mm256_storeu_si256,
-        _mm256_set1_epi16,
-        _mm256_add_epi16,
-        _mm256_sub_epi16,
-        _mm256_adds_epu16,
-        _mm256_subs_epu16,
-        _mm256_min_epu16,
-        _mm256_or_si256,
+        W256, __m256i, 16, "16 lanes (AVX2).", _mm256_loadu_si256, _mm256_storeu_si256, _mm256_set1_epi16,
+        add: _mm256_add_epi16, sub: _mm256_sub_epi16, adds: _mm256_adds_epu16, subs: _mm256_subs_epu16,
+        min: _mm256_min_epu16, or: _mm256_or_si256;
         |v| {
             let m = _mm_min_epu16(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
             (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as u16
         }
     );
     v16!(
-        W512,
-        __m512i,
-        32,
-        "32 lanes (AVX-512 BW).",
-        _mm512_loadu_si512,
-        _mm512_storeu_si512,
-        _mm512_set1_epi16,
-        _mm512_add_epi16,
-        _mm512_sub_epi16,
-        _mm512_adds_epu16,
-        _mm512_subs_epu16,
-        _mm512_min_epu16,
-        _mm512_or_si512,
+        W512, __m512i, 32, "32 lanes (AVX-512 BW).", _mm512_loadu_si512, _mm512_storeu_si512, _mm512_set1_epi16,
+        add: _mm512_add_epi16, sub: _mm512_sub_epi16, adds: _mm512_adds_epu16, subs: _mm512_subs_epu16,
+        min: _mm512_min_epu16, or: _mm512_or_si512;
         |v| W256(_mm256_min_epu16(_mm512_castsi512_si256(v), _mm512_extracti64x4_epi64::<1>(v))).hmin()
     );
 
