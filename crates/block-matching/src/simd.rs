@@ -448,24 +448,28 @@ macro_rules! kernel {
                     }
                 }};
             }
-            // Every `step` call below: `p` holds this band's buffers, sized by
-            // `Scratch16::resize`, and x < w.
+            // With a known chunk count the running box sums live in registers from column to
+            // column (`bxr`; still stored to `bx` for the decisions, but never loaded back, so
+            // no column waits on a store-to-load forward of the one before it). Every `step`
+            // call below: `p` holds this band's buffers, sized by `Scratch16::resize`, and
+            // x < w.
+            let mut bxr = [splat(E::ZERO); MAX_NCH];
             let (lo, hi) = range(0);
             // SAFETY: see above (x = 0).
-            record!(0, unsafe { step::<VERT, SQ, false, true, NCH, LR>(&p, 0, lo, hi) });
+            record!(0, unsafe { step::<VERT, SQ, false, true, NCH, LR>(&p, &mut bxr, 0, lo, hi) });
             for x in 1..xa.max(1).min(w) {
                 let (lo, hi) = range(x);
                 // SAFETY: see above.
-                record!(x, unsafe { step::<VERT, SQ, true, true, NCH, LR>(&p, x, lo, hi) });
+                record!(x, unsafe { step::<VERT, SQ, true, true, NCH, LR>(&p, &mut bxr, x, lo, hi) });
             }
             for x in xa.max(1)..xb {
                 // SAFETY: see above.
-                record!(x, unsafe { step::<VERT, SQ, true, false, NCH, LR>(&p, x, 0, nd as i64 - 1) });
+                record!(x, unsafe { step::<VERT, SQ, true, false, NCH, LR>(&p, &mut bxr, x, 0, nd as i64 - 1) });
             }
             for x in xb.max(xa).max(1)..w {
                 let (lo, hi) = range(x);
                 // SAFETY: see above.
-                record!(x, unsafe { step::<VERT, SQ, true, true, NCH, LR>(&p, x, lo, hi) });
+                record!(x, unsafe { step::<VERT, SQ, true, true, NCH, LR>(&p, &mut bxr, x, lo, hi) });
             }
             decide_row(sh, sc, y, stats);
             // the lanes still held are final: lane k is the pixel u = w − 1 − dmin − k
@@ -527,6 +531,7 @@ macro_rules! kernel {
             const LR: bool,
         >(
             p: &Ptrs<E>,
+            bxr: &mut [V; MAX_NCH],
             x: usize,
             lo: i64,
             hi: i64,
@@ -542,12 +547,13 @@ macro_rules! kernel {
             let base = p.wp - 1 - xp;
             let mut minv = splat(E::MAX);
             let mut idxv = splat(E::MAX);
+            let ramp = ramp();
             for ci in 0..ndp / L {
                 let c = ci * L;
                 // SAFETY: column offsets as in `add_row` (xp < wp, x − 1 < wp); box, mask and
                 // index and right-state buffers have ndp entries.
                 unsafe {
-                    let dv = ld(p.dv.add(c));
+                    let dv = if NCH > 0 { add(ramp, splat(E::from_usize(c))) } else { ld(p.dv.add(c)) };
                     // lanes past num_disparities (only in the last chunk) and, at the borders,
                     // outside the searchable range are forced to the sentinel
                     let mut m = splat(E::ZERO);
@@ -568,11 +574,19 @@ macro_rules! kernel {
                             v = add(v, t);
                             st(q, v);
                         }
-                        let b = add(ld(p.bx.add(c)), sub(v, ld(p.cs.add((x - 1) * ndp + c))));
+                        let prev = if NCH > 0 { bxr[ci] } else { ld(p.bx.add(c)) };
+                        let b = add(prev, sub(v, ld(p.cs.add((x - 1) * ndp + c))));
                         st(p.bx.add(c), b);
+                        if NCH > 0 {
+                            bxr[ci] = b;
+                        }
                         b
                     } else {
-                        ld(p.bx.add(c))
+                        let b = ld(p.bx.add(c));
+                        if NCH > 0 {
+                            bxr[ci] = b;
+                        }
+                        b
                     };
                     let bm = or(b, m);
                     min_update(&mut minv, &mut idxv, bm, dv);
@@ -599,6 +613,10 @@ macro_rules! kernel {
         }
     };
 }
+
+/// The largest chunk count `row_n` gives the kernel as a constant (and the size of the
+/// register copy of the box sums).
+const MAX_NCH: usize = 16;
 
 /// Raw views of one band's buffers for the kernel's inner step.
 struct Ptrs<E> {
@@ -726,6 +744,12 @@ macro_rules! lanes16 {
         fn splat_px(v: u16) -> V {
             splat(v)
         }
+        /// The lane indices `0, 1, …, L − 1`.
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn ramp() -> V {
+            _mm256_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)
+        }
         /// A range bound as a signed lane (−1 stays −1, large values saturate).
         #[inline]
         #[target_feature(enable = $feat)]
@@ -839,6 +863,12 @@ macro_rules! lanes32 {
         fn splat_px(v: u16) -> V {
             _mm256_set1_epi32(v as i32)
         }
+        /// The lane indices `0, 1, …, L − 1`.
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn ramp() -> V {
+            _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)
+        }
         /// A range bound as a signed lane (−1 stays −1, large values saturate).
         #[inline]
         #[target_feature(enable = $feat)]
@@ -926,7 +956,7 @@ macro_rules! kernel_module {
         mod $name {
             use std::arch::x86_64::*;
 
-            use super::{Lane, Ptrs, Scratch, decide_row};
+            use super::{Lane, MAX_NCH, Ptrs, Scratch, decide_row};
             use crate::engine::{MatchStats, Shared, conf_row, finish_row, load_rows};
 
             $lanes!($feat);

@@ -1,6 +1,8 @@
 //! Per-pixel lookup tables: undistort + rectify maps (as OpenCV's `initUndistortRectifyMap`),
 //! undistort-only maps and homography maps.
 
+use std::sync::Mutex;
+
 use glam::{DMat3, DVec2, DVec3};
 use parallax_camera_model::Camera;
 use rayon::prelude::*;
@@ -67,8 +69,15 @@ fn check_size(width: u32, height: u32) -> Result<()> {
     if width == 0 || height == 0 {
         return Err(RectifyError::Config(format!("map size must be non-zero, got {width}x{height}")));
     }
+    if width > MAX_SIDE || height > MAX_SIDE {
+        return Err(RectifyError::Config(format!("map sides must be at most {MAX_SIDE}, got {width}x{height}")));
+    }
     Ok(())
 }
+
+/// The largest side of a map: columns are converted to `f64` through `i32`, which vectorises
+/// (there is no vector conversion from unsigned integers before AVX-512).
+const MAX_SIDE: u32 = 1 << 30;
 
 /// The undistort + rectify map of one camera, as OpenCV's `initUndistortRectifyMap(K, D, R,
 /// newK, size, CV_32FC1)`: output pixel `p` ← ray `(newK · R)⁻¹ p`, distorted and projected
@@ -113,16 +122,73 @@ fn sized<T: Copy + Default>(v: &mut Vec<T>, n: usize) {
     }
 }
 
+/// Buffers of dropped tables ([`crate::remap::FastBilinear`]'s `Drop`), kept for the next
+/// table of the same size: a rectifier built after another was dropped (a rig re-calibrated
+/// in a loop, a new rectifier per session) reuses their pages instead of faulting fresh ones
+/// in, which measured as more than half of [`crate::Rectifier::new`] on a 640x480 rig (2.4–2.8
+/// ms against 0.85–1.2 ms for a rebuild into existing tables). At most [`SPARE_COUNT`]
+/// buffers of each kind (one rectifier's two tables) and [`SPARE_BYTES`] bytes are kept; the
+/// oldest go first.
+pub(crate) struct Spares<T>(Mutex<Vec<Vec<T>>>);
+
+/// Buffers kept per kind by [`Spares`].
+const SPARE_COUNT: usize = 2;
+/// Bytes kept per kind by [`Spares`].
+const SPARE_BYTES: usize = 48 << 20;
+
+impl<T> Spares<T> {
+    const fn new() -> Self {
+        Self(Mutex::new(Vec::new()))
+    }
+
+    fn list(&self) -> std::sync::MutexGuard<'_, Vec<Vec<T>>> {
+        // a panic while holding the lock leaves a valid list of buffers
+        self.0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Keeps `v` (unless it is empty or larger than the budget).
+    pub(crate) fn give(&self, v: Vec<T>) {
+        let bytes = |v: &Vec<T>| v.capacity() * size_of::<T>();
+        if v.is_empty() || bytes(&v) > SPARE_BYTES {
+            return;
+        }
+        let mut list = self.list();
+        list.push(v);
+        while list.len() > SPARE_COUNT || list.iter().map(bytes).sum::<usize>() > SPARE_BYTES {
+            list.remove(0);
+        }
+    }
+
+    /// A kept buffer of exactly `n` entries (old contents: the caller overwrites them all).
+    fn take(&self, n: usize) -> Option<Vec<T>> {
+        let mut list = self.list();
+        let i = list.iter().rposition(|v| v.len() == n)?;
+        Some(list.remove(i))
+    }
+}
+
+pub(crate) static SPARE_INDEX: Spares<u32> = Spares::new();
+pub(crate) static SPARE_FRAC: Spares<u16> = Spares::new();
+
+/// [`sized`], taking a kept buffer of `n` entries from `spares` first; a buffer replaced goes
+/// to `spares`.
+fn sized_from<T: Copy + Default>(v: &mut Vec<T>, n: usize, spares: &Spares<T>) {
+    if v.len() != n {
+        let old = std::mem::replace(v, spares.take(n).unwrap_or_else(|| vec![T::default(); n]));
+        spares.give(old);
+    }
+}
+
 /// Gives `fast` the buffers of a `width x height` table for a `source` size (kept when they
-/// have that size already). [`fill_fast_table`] does this itself; calling it first on the
-/// thread that owns the rectifier makes fresh buffers come from that thread's malloc arena,
-/// whose freed blocks the next build reuses (allocated inside rayon tasks they came from other
-/// threads' arenas and were returned to the OS on free: measured, every build then faulted all
-/// its pages in again).
+/// have that size already, else a dropped table's buffers of that size when there are some,
+/// see [`Spares`]). [`fill_fast_table`] does this itself; calling it first on the thread that
+/// owns the rectifier makes fresh buffers come from that thread's malloc arena (allocated
+/// inside rayon tasks they came from other threads' arenas and were returned to the OS on
+/// free: measured, every build then faulted all its pages in again).
 pub(crate) fn size_fast_table(width: u32, height: u32, source: (u32, u32), fast: &mut crate::remap::FastBilinear) {
     let n = width as usize * height as usize;
-    sized(&mut fast.index, n);
-    sized(&mut fast.frac, n);
+    sized_from(&mut fast.index, n, &SPARE_INDEX);
+    sized_from(&mut fast.frac, n, &SPARE_FRAC);
     fast.border.resize_with(height as usize, Vec::new);
     (fast.width, fast.source_size) = (width, source);
 }
@@ -248,16 +314,30 @@ pub(crate) struct MapRow {
 
 impl MapRow {
     /// Row `v`. Written as one straight-line loop (no calls, a select for invalid pixels) so the
-    /// compiler vectorises it, and run through an AVX2 copy when the CPU has it (4 lanes of f64
-    /// instead of the baseline's 2; same operations, so the same bits); the formula is
-    /// camera-model's `Distortion::distort`.
+    /// compiler vectorises it, and run through a copy compiled for AVX-512 (F/VL: 32 vector
+    /// registers, so the dozen constants stay in registers instead of being reloaded from the
+    /// stack) or AVX2 when the CPU has it. Every copy
+    /// runs the same operations in the same order (no fused multiply-add), so all give the same
+    /// bits (`every_instruction_set_gives_the_same_row`); the formula is camera-model's
+    /// `Distortion::distort`.
     fn row(&self, v: usize, mx: &mut [f32], my: &mut [f32]) {
+        #[cfg(target_arch = "x86_64")]
+        let isa = Some(RowIsa::detect()).filter(|&i| i != RowIsa::Baseline);
+        #[cfg(not(target_arch = "x86_64"))]
+        let isa = None;
+        self.row_with(isa, v, mx, my);
+    }
+
+    /// [`Self::row`] with the copy for `isa` (`None`: the baseline); `false` (nothing written)
+    /// when the CPU cannot run it.
+    fn row_with(&self, isa: Option<RowIsa>, v: usize, mx: &mut [f32], my: &mut [f32]) -> bool {
         #[inline(always)]
         fn imp(p: &MapRow, v: usize, mx: &mut [f32], my: &mut [f32]) {
             let [k1, k2, p1, p2, k3, k4, k5, k6] = p.dist;
             let base = p.ir * DVec3::new(0.0, v as f64, 1.0);
             for (u, (ox, oy)) in mx.iter_mut().zip(my.iter_mut()).enumerate() {
-                let h = base + p.step * u as f64;
+                // (u < MAX_SIDE < 2^31, asserted below)
+                let h = base + p.step * (u as i32) as f64;
                 let iw = 1.0 / h.z;
                 let (x, y) = (h.x * iw, h.y * iw);
                 let (x2, y2, xy) = (x * x, y * y, x * y);
@@ -281,17 +361,137 @@ impl MapRow {
             imp(p, v, mx, my)
         }
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2.
-            return unsafe { avx2(self, v, mx, my) };
+        #[target_feature(enable = "avx2,avx512f,avx512vl")]
+        fn avx512(p: &MapRow, v: usize, mx: &mut [f32], my: &mut [f32]) {
+            imp(p, v, mx, my)
         }
-        imp(self, v, mx, my)
+        assert!(mx.len() <= MAX_SIDE as usize, "rows are checked by `check_size`");
+        #[cfg(target_arch = "x86_64")]
+        match isa {
+            // SAFETY: `detect` found AVX-512 F/VL and AVX2 on this CPU.
+            Some(RowIsa::Avx512) if RowIsa::detect() == RowIsa::Avx512 => unsafe { avx512(self, v, mx, my) },
+            // SAFETY: `detect` found AVX2 on this CPU.
+            Some(RowIsa::Avx2) if RowIsa::detect() != RowIsa::Baseline => unsafe { avx2(self, v, mx, my) },
+            None => imp(self, v, mx, my),
+            _ => return false,
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        match isa {
+            None => imp(self, v, mx, my),
+            _ => return false,
+        }
+        true
+    }
+}
+
+/// The instruction sets [`MapRow::row`] has a copy for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum RowIsa {
+    Baseline,
+    Avx2,
+    Avx512,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl RowIsa {
+    fn detect() -> Self {
+        use std::arch::is_x86_feature_detected as has;
+        if has!("avx2") && has!("avx512f") && has!("avx512vl") {
+            Self::Avx512
+        } else if has!("avx2") {
+            Self::Avx2
+        } else {
+            Self::Baseline
+        }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The spares keep the newest buffers within their budget and hand out only exact sizes.
+    #[test]
+    fn spares_keep_the_newest_buffers_of_their_budget() {
+        let spares = Spares::<u32>::new();
+        let (a, b, c) = (vec![1u32; 100], vec![2u32; 100], vec![3u32; 50]);
+        let (pb, pc) = (b.as_ptr(), c.as_ptr());
+        spares.give(a);
+        spares.give(b);
+        spares.give(c); // three buffers: the oldest (a) goes
+        assert_eq!(spares.take(100).map(|v| v.as_ptr()), Some(pb));
+        assert!(spares.take(100).is_none(), "a was dropped, b taken");
+        assert!(spares.take(49).is_none() && spares.take(51).is_none(), "only exact sizes");
+        assert_eq!(spares.take(50).map(|v| v.as_ptr()), Some(pc));
+        spares.give(Vec::new());
+        spares.give(vec![0u32; SPARE_BYTES / 4 + 1]); // over the budget alone
+        assert!(spares.list().is_empty());
+    }
+
+    /// Tables built into the buffers of dropped tables (old contents of another rig) equal
+    /// tables built into fresh buffers.
+    #[test]
+    fn a_table_in_reused_buffers_equals_a_fresh_one() {
+        use parallax_camera_model::{Distortion, Intrinsics};
+        let cam = |k1| {
+            Camera::new(
+                Intrinsics::new(536.32, 536.32, 341.84, 235.60),
+                Distortion::new(k1, 0.0128, 0.00171, -0.00045, 0.1330),
+                640,
+                480,
+            )
+            .unwrap()
+        };
+        let k =
+            DMat3::from_cols(DVec3::new(520.0, 0.0, 0.0), DVec3::new(0.0, 520.0, 0.0), DVec3::new(330.0, 245.0, 1.0));
+        // a size no other test uses, so these are the buffers taken (as far as the shared
+        // spares allow: the assertion holds either way)
+        let (w, h) = (333, 217);
+        for (k1, angle) in [(-0.27, 0.01), (-0.1, -0.2), (0.05, 0.3)] {
+            let params = map_params(&cam(k1), DMat3::from_rotation_y(angle), k, w, h).unwrap();
+            let mut fast = crate::remap::FastBilinear::empty();
+            fill_fast_table(&params, w, h, (640, 480), &mut fast);
+            let reference = init_undistort_rectify_map(&cam(k1), DMat3::from_rotation_y(angle), k, w, h).unwrap();
+            assert_eq!(fast, crate::remap::FastBilinear::new(&reference, 640, 480));
+        }
+    }
+
+    /// Every copy of the row formula the CPU can run gives the baseline's bits (a rational
+    /// model too, and rows with pixels behind the camera).
+    #[test]
+    fn every_instruction_set_gives_the_same_row() {
+        use parallax_camera_model::{Distortion, Intrinsics};
+        let dists = [
+            Distortion::new(-0.2714, 0.0128, 0.00171, -0.00045, 0.1330),
+            Distortion::from_array([-0.28, 0.07, 0.001, -0.002, 0.01, 0.05, -0.01, 0.002]),
+        ];
+        for (i, dist) in dists.into_iter().enumerate() {
+            let cam = Camera::new(Intrinsics::new(536.32, 536.32, 341.84, 235.60), dist, 640, 480).unwrap();
+            // a strong rotation for the second model: part of the view is behind the camera
+            let r = DMat3::from_rotation_y(if i == 0 { 0.01 } else { 1.4 }) * DMat3::from_rotation_x(-0.004);
+            let k = DMat3::from_cols(
+                DVec3::new(520.0, 0.0, 0.0),
+                DVec3::new(0.0, 520.0, 0.0),
+                DVec3::new(330.0, 245.0, 1.0),
+            );
+            let p = map_params(&cam, r, k, 653, 480).unwrap();
+            let (mut bx, mut by) = (vec![0f32; 653], vec![0f32; 653]);
+            let (mut ax, mut ay) = (vec![0f32; 653], vec![0f32; 653]);
+            let mut nan = 0;
+            for v in [0, 1, 240, 479] {
+                // the baseline: the formula with no instruction set enabled
+                p.row_with(None, v, &mut bx, &mut by);
+                nan += bx.iter().filter(|x| x.is_nan()).count();
+                for isa in [RowIsa::Avx2, RowIsa::Avx512] {
+                    if p.row_with(Some(isa), v, &mut ax, &mut ay) {
+                        let same = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(a, b)| a.to_bits() == b.to_bits());
+                        assert!(same(&ax, &bx) && same(&ay, &by), "{isa:?}, model {i}, row {v}");
+                    }
+                }
+            }
+            assert_eq!(nan > 0, i == 1, "the second model has pixels behind the camera");
+        }
+    }
 
     #[test]
     fn the_table_built_without_the_map_equals_the_table_of_the_map() {

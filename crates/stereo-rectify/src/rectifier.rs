@@ -14,6 +14,9 @@ use crate::{Border, Interpolation, Rectification, RectifyConfig, RectifyError, R
 /// The `f32` maps ([`Rectifier::left_map`], [`Rectifier::right_map`]) are built on first use
 /// and kept: resampling needs only the fixed-point tables (6 bytes per pixel against the 8 of
 /// a pair of `f32` maps), and the fresh pages of the maps were most of the cost of a build.
+/// For the same reason the tables of a dropped rectifier are kept (at most two per kind and 48
+/// MiB in the process) and a later rectifier of the same size builds into them;
+/// [`Rectifier::rebuild`] reuses this rectifier's own.
 #[derive(Debug, Clone)]
 pub struct Rectifier {
     rectification: Rectification,

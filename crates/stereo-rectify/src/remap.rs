@@ -416,6 +416,15 @@ pub(crate) struct FastBilinear {
     pub nearest: Option<NearestTable>,
 }
 
+/// The index and fraction buffers go to the spares of the next table of their size
+/// ([`crate::maps::Spares`]).
+impl Drop for FastBilinear {
+    fn drop(&mut self) {
+        crate::maps::SPARE_INDEX.give(std::mem::take(&mut self.index));
+        crate::maps::SPARE_FRAC.give(std::mem::take(&mut self.frac));
+    }
+}
+
 /// Nearest-neighbour source pixel of every output pixel whose rounded position is inside
 /// (`u32::MAX`: border handling), and per row the source positions of those border pixels.
 #[derive(Debug, Clone, PartialEq)]
