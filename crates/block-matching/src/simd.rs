@@ -132,6 +132,7 @@ pub(crate) struct Scratch<E: Lane> {
     /// Disparities per column, rounded up to the lane count.
     ndp: usize,
     colsum: Vec<E>,
+    /// The box sums of the last [`RING`] columns (column `x` in slot `x % RING`).
     boxs: Vec<E>,
     l_in: Vec<u16>,
     l_out: Vec<u16>,
@@ -165,7 +166,7 @@ impl<E: Lane> Scratch<E> {
         let wp = w + 2 * r;
         self.ndp = ndp;
         self.colsum.resize(wp * ndp, E::ZERO);
-        self.boxs.resize(ndp, E::ZERO);
+        self.boxs.resize(RING * ndp, E::ZERO);
         self.l_in.resize(wp, 0);
         self.l_out.resize(wp, 0);
         // the reversed right rows are read at (wp − 1 − xp) + d for d < ndp
@@ -421,6 +422,21 @@ macro_rules! kernel {
             let need_c2 = sh.uniq > 0 || sh.conf;
             let bxp = p.bx as *const E;
             let (keys, cm, cp, c2) = (sc.keys.as_mut_ptr(), sc.cm.as_mut_ptr(), sc.cp.as_mut_ptr(), sc.c2.as_mut_ptr());
+            // the costs beside the winner of column `x`, read LAG columns later (see `LAG`)
+            macro_rules! beside {
+                ($x:expr) => {{
+                    let x = $x;
+                    // SAFETY: x < w = keys.len() = cm.len() = cp.len(); the slot of x (still
+                    // holding x: fewer than RING columns later) has ndp entries, indices are
+                    // clamped to them.
+                    unsafe {
+                        let kb = E::key_d(*keys.add(x)) as usize;
+                        let slot = bxp.add((x % RING) * ndp);
+                        *cm.add(x) = *slot.add(kb.wrapping_sub(1).min(ndp - 1));
+                        *cp.add(x) = *slot.add((kb + 1).min(ndp - 1));
+                    }
+                }};
+            }
             // the winner's key and the costs beside it for the sub-pixel fit (clamped reads; used
             // only when the winner is inside the range); the uniqueness rule and the confidence
             // need the best non-adjacent cost, one more pass over the box sums
@@ -428,20 +444,19 @@ macro_rules! kernel {
                 ($x:expr, $key:expr) => {{
                     let (x, key) = ($x, $key);
                     let kb = E::key_d(key) as usize;
-                    // SAFETY: x < w = keys.len() = cm.len() = cp.len(); indices clamped to ndp.
-                    unsafe {
-                        *keys.add(x) = key;
-                        *cm.add(x) = *bxp.add(kb.wrapping_sub(1).min(ndp - 1));
-                        *cp.add(x) = *bxp.add((kb + 1).min(ndp - 1));
+                    // SAFETY: x < w = keys.len().
+                    unsafe { *keys.add(x) = key };
+                    if x >= LAG {
+                        beside!(x - LAG);
                     }
                     if need_c2 {
                         let (lo, hi) = range(x);
                         let v = if E::key_cost(key) == E::MAX.to_u64() || lo > hi {
                             E::MAX
                         } else {
-                            // SAFETY: `p` holds this band's buffers; the box sums of x are in
-                            // place until the next `step`.
-                            unsafe { second(&p, kb, lo, hi) }
+                            // SAFETY: `p` holds this band's buffers; slot x % RING holds the
+                            // box sums of x.
+                            unsafe { second(&p, bxp.add((x % RING) * ndp), kb, lo, hi) }
                         };
                         // SAFETY: x < w = c2.len().
                         unsafe { *c2.add(x) = v };
@@ -471,6 +486,9 @@ macro_rules! kernel {
                 // SAFETY: see above.
                 record!(x, unsafe { step::<VERT, SQ, true, true, NCH, LR>(&p, &mut bxr, x, lo, hi) });
             }
+            for x in w.saturating_sub(LAG)..w {
+                beside!(x);
+            }
             decide_row(sh, sc, y, stats);
             // the lanes still held are final: lane k is the pixel u = w − 1 − dmin − k
             for k in 0..ndp {
@@ -486,14 +504,14 @@ macro_rules! kernel {
             });
         }
 
-        /// The smallest box sum of the current column over the searchable range `[lo, hi]`
-        /// minus the winner `kb` and its two neighbours (`E::MAX` when none is left).
+        /// The smallest box sum `bx` (the current column's slot) over the searchable range
+        /// `[lo, hi]` minus the winner `kb` and its two neighbours (`E::MAX` when none is left).
         ///
         /// # Safety
-        /// `p` holds the band's buffers sized by `Scratch::resize`.
+        /// `p` holds the band's buffers sized by `Scratch::resize`; `bx` is one of its slots.
         #[inline]
         #[target_feature(enable = $feat)]
-        unsafe fn second(p: &Ptrs<E>, kb: usize, lo: i64, hi: i64) -> E {
+        unsafe fn second(p: &Ptrs<E>, bx: *const E, kb: usize, lo: i64, hi: i64) -> E {
             let (lov, hiv) = (splat_i(lo), splat_i(hi));
             let (nlo, nhi) = (splat_i(kb as i64 - 1), splat_i(kb as i64 + 1));
             let ones = splat(E::MAX);
@@ -508,7 +526,7 @@ macro_rules! kernel {
                     }
                     // lanes kb − 1 ..= kb + 1 are not candidates
                     m = or(m, _mm256_andnot_si256(outside(dv, nlo, nhi), ones));
-                    acc = umin(acc, or(ld(p.bx.add(c)), m));
+                    acc = umin(acc, or(ld(bx.add(c)), m));
                 }
             }
             hmin_lane(acc)
@@ -548,6 +566,10 @@ macro_rules! kernel {
             let mut minv = splat(E::MAX);
             let mut idxv = splat(E::MAX);
             let ramp = ramp();
+            // this column's slot of box sums and the one before (see `RING`)
+            let (slot, prev_slot) = ((x % RING) * ndp, ((x + RING - 1) % RING) * ndp);
+            // SAFETY: both slots are inside the RING · ndp box sums.
+            let (bx, bx_prev) = unsafe { (p.bx.add(slot), p.bx.add(prev_slot)) };
             for ci in 0..ndp / L {
                 let c = ci * L;
                 // SAFETY: column offsets as in `add_row` (xp < wp, x − 1 < wp); box, mask and
@@ -574,15 +596,15 @@ macro_rules! kernel {
                             v = add(v, t);
                             st(q, v);
                         }
-                        let prev = if NCH > 0 { bxr[ci] } else { ld(p.bx.add(c)) };
+                        let prev = if NCH > 0 { bxr[ci] } else { ld(bx_prev.add(c)) };
                         let b = add(prev, sub(v, ld(p.cs.add((x - 1) * ndp + c))));
-                        st(p.bx.add(c), b);
+                        st(bx.add(c), b);
                         if NCH > 0 {
                             bxr[ci] = b;
                         }
                         b
                     } else {
-                        let b = ld(p.bx.add(c));
+                        let b = ld(bx.add(c));
                         if NCH > 0 {
                             bxr[ci] = b;
                         }
@@ -613,6 +635,15 @@ macro_rules! kernel {
         }
     };
 }
+
+/// Columns of box sums kept (see [`LAG`]).
+const RING: usize = 8;
+/// How many columns later the costs beside a column's winner (for its sub-pixel fit) are read
+/// from the box sums: read at once, the two narrow loads hit the vector stores just made at
+/// other offsets, which do not forward to them, and the column waited for the stores to
+/// reach the cache (measured: the sample right after those loads carried ~13 % of the
+/// kernel's time on teddy).
+const LAG: usize = RING - 1;
 
 /// The largest chunk count `row_n` gives the kernel as a constant (and the size of the
 /// register copy of the box sums).
@@ -956,7 +987,7 @@ macro_rules! kernel_module {
         mod $name {
             use std::arch::x86_64::*;
 
-            use super::{Lane, MAX_NCH, Ptrs, Scratch, decide_row};
+            use super::{LAG, Lane, MAX_NCH, Ptrs, RING, Scratch, decide_row};
             use crate::engine::{MatchStats, Shared, conf_row, finish_row, load_rows};
 
             $lanes!($feat);
