@@ -1089,6 +1089,17 @@ pub(crate) fn finish_row(
     right_winner: impl Fn(usize, usize) -> u32,
 ) {
     let dmin = sh.dmin;
+    if sh.lr.is_none() && !sh.conf {
+        // nothing rejected here: a branch-free select (the compiler vectorises it; the general
+        // loop below mispredicted on every textureless pixel). `dmin + k` is an integer below
+        // 2^24 in magnitude, exact in f32, and one f32 addition rounds the sum as the general
+        // loop's f64 sum rounded to f32 does.
+        let dm = dmin as f32;
+        for ((o, &k), &s) in out.iter_mut().zip(&best[..sh.w]).zip(&sub[..sh.w]) {
+            *o = if k < 0 { DisparityMap::INVALID } else { (dm + k as f32) + s };
+        }
+        return;
+    }
     if sh.conf {
         conf.fill(0.0);
     }
