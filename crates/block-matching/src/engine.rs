@@ -1067,14 +1067,12 @@ fn row_decisions<A: Acc, const K: u8>(
         }
     }
     let rk = &sc.rk;
-    finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, |x, k| {
-        rk[w - 1 - (x as i64 - dmin - k as i64) as usize]
-    });
+    finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, |u| rk[w - 1 - u]);
 }
 
 /// Writes the row's disparities from the winners `best` (−1 = none) and sub-pixel offsets `sub`,
-/// applying the left–right check (`right_winner(x, k)` is the right image's own winner at the
-/// pixel matched with `x` at candidate `k`), the confidence (from the cost-curve `ratio`, when
+/// applying the left–right check (`right_winner(u)` is the right image's own winner at right
+/// pixel `u`, `0 ≤ u < w`; `x` at candidate `k` is matched with `u = x − dmin − k`), the confidence (from the cost-curve `ratio`, when
 /// `sh.conf`; written to `conf`, else empty) and its threshold, and the fill of the rejects.
 /// `sub` is reused as scratch by the fill.
 #[inline(always)]
@@ -1086,51 +1084,53 @@ pub(crate) fn finish_row(
     out: &mut [f32],
     conf: &mut [f32],
     st: &mut MatchStats,
-    right_winner: impl Fn(usize, usize) -> u32,
+    right_winner: impl Fn(usize) -> u32,
 ) {
     let dmin = sh.dmin;
     if sh.lr.is_none() && !sh.conf {
-        // nothing rejected here: a branch-free select (the compiler vectorises it; the general
-        // loop below mispredicted on every textureless pixel). `dmin + k` is an integer below
-        // 2^24 in magnitude, exact in f32, and one f32 addition rounds the sum as the general
-        // loop's f64 sum rounded to f32 does.
+        // nothing rejected here: a select the compiler vectorises (see below for the sum)
         let dm = dmin as f32;
         for ((o, &k), &s) in out.iter_mut().zip(&best[..sh.w]).zip(&sub[..sh.w]) {
             *o = if k < 0 { DisparityMap::INVALID } else { (dm + k as f32) + s };
         }
         return;
     }
-    if sh.conf {
-        conf.fill(0.0);
-    }
-    // a left–right or confidence reject is marked +inf until it is filled or invalidated
+    // a left–right or confidence reject is marked +inf until it is filled or invalidated.
+    // Branch-free per pixel (selects and counts of booleans; which pixels are rejected is
+    // data, and branches on it mispredicted): the right winner is read for every pixel, at a
+    // clamped position for those without a winner (read and ignored).
+    let (w, dm) = (sh.w as i64, dmin as f32);
     for x in 0..sh.w {
         let k = best[x];
-        if k < 0 {
-            out[x] = DisparityMap::INVALID;
-            continue;
-        }
+        let valid = k >= 0;
+        let kk = k.max(0) as i64;
+        let mut reject = false;
         let mut lr_factor = 1.0f32;
         if let Some(tol) = sh.lr {
-            let kr = right_winner(x, k as usize);
-            let diff = (kr as i64 - k as i64).unsigned_abs();
-            if diff > tol as u64 {
-                out[x] = f32::INFINITY;
-                st.lr_inconsistent += 1;
-                continue;
-            }
+            let u = (x as i64 - dmin - kk).clamp(0, w - 1) as usize;
+            let diff = (right_winner(u) as i64 - kk).unsigned_abs();
+            let bad = valid & (diff > tol as u64);
+            st.lr_inconsistent += bad as usize;
+            reject = bad;
             lr_factor = 1.0 / (1.0 + diff as f32);
         }
         if sh.conf {
             let c = ratio[x] * lr_factor;
-            if c < sh.min_conf {
-                out[x] = f32::INFINITY;
-                st.low_confidence += 1;
-                continue;
-            }
-            conf[x] = c;
+            let low = valid & !reject & (c < sh.min_conf);
+            st.low_confidence += low as usize;
+            reject |= low;
+            conf[x] = if valid & !reject { c } else { 0.0 };
         }
-        out[x] = ((dmin + k as i64) as f64 + sub[x] as f64) as f32;
+        // `dmin + k` is an integer below 2^24 in magnitude, exact in f32: one f32 addition
+        // rounds the sum as an f64 sum rounded to f32 would
+        let v = (dm + kk as f32) + sub[x];
+        out[x] = if !valid {
+            DisparityMap::INVALID
+        } else if reject {
+            f32::INFINITY
+        } else {
+            v
+        };
     }
     if sh.fill {
         fill_rejected(out, sub, st);

@@ -598,9 +598,7 @@ fn decide_row(
         }
     }
     let rk = &sc.rk;
-    finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, |x, k| {
-        rk[w - 1 - (x as i64 - dmin - k as i64) as usize] as u32
-    });
+    finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, |u| rk[w - 1 - u] as u32);
 }
 
 /// Rows `y0..y1` of one strip.

@@ -498,8 +498,8 @@ macro_rules! kernel {
                 }
             }
             let rkf = &sc.rkf;
-            finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, stats, |x, k| {
-                let v = rkf[(x as i64 - dmin - k as i64) as usize];
+            finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, stats, |u| {
+                let v = rkf[u];
                 if v == E::MAX { u32::MAX } else { v.to_u64() as u32 }
             });
         }
