@@ -416,10 +416,19 @@ fn fast_equals_naive_with_several_disparity_chunks() {
     // the vectorised SAD path works on 16 or 32 disparities per chunk: ranges that span several
     // chunks, end inside one, and start off zero, with and without the decision options
     let mut case = 0;
-    // (the last two search ranges lie mostly or wholly outside the 112-pixel rows)
-    for (nd, dmin, block) in
-        [(16, 0, 9), (33, -3, 5), (64, 5, 9), (47, 0, 15), (70, -20, 3), (40, -130, 5), (20, 105, 3)]
-    {
+    // (the last four search ranges lie mostly or wholly outside the 112-pixel rows; 90 and
+    // 220 disparities make 6 and 14 chunks of 16 lanes, counts with their own kernel instances)
+    for (nd, dmin, block) in [
+        (16, 0, 9),
+        (33, -3, 5),
+        (64, 5, 9),
+        (47, 0, 15),
+        (70, -20, 3),
+        (40, -130, 5),
+        (20, 105, 3),
+        (90, 0, 5),
+        (220, -100, 7),
+    ] {
         for (uniq, lr, subpixel, min_confidence) in [
             (0, Some(1), Subpixel::Auto, 0.0),
             (10, None, Subpixel::Parabola, 0.0),
