@@ -167,30 +167,51 @@ pub fn rank_transform_into(src: &[u16], width: usize, height: usize, size: usize
         return;
     }
     let r = size / 2;
+    let wp = width + 2 * r;
     let clamp_y = |y: isize| y.clamp(0, height as isize - 1) as usize;
     out.par_chunks_mut(width * ROWS_PER_TASK).enumerate().for_each(|(t, block)| {
-        let mut pad = vec![0u16; width + 2 * r];
+        // the window's rows, clamp-padded, one after the other
+        let mut pads = vec![0u16; size * wp];
         for (i, o) in block.chunks_exact_mut(width).enumerate() {
             let y = t * ROWS_PER_TASK + i;
-            let centre = &src[y * width..][..width];
-            o.fill(0);
-            for dy in -(r as isize)..=r as isize {
-                let row = &src[clamp_y(y as isize + dy) * width..][..width];
+            for (j, pad) in pads.chunks_exact_mut(wp).enumerate() {
+                let row = &src[clamp_y(y as isize + j as isize - r as isize) * width..][..width];
                 pad[..r].fill(row[0]);
                 pad[r..r + width].copy_from_slice(row);
                 pad[r + width..].fill(row[width - 1]);
-                for k in 0..size {
-                    count_darker(o, centre, &pad[k..k + width]);
-                }
             }
+            rank_row(o, &src[y * width..][..width], &pads, size);
         }
     });
 }
 
 with_avx2! {
-    fn count_darker(count: &mut [u16], centre: &[u16], other: &[u16]) {
-        for ((c, &v), &o) in count.iter_mut().zip(centre).zip(other) {
-            *c += (o < v) as u16;
+    fn rank_row(count: &mut [u16], centre: &[u16], pads: &[u16], size: usize) {
+        // 16 pixels at a time with their counts held in one vector across the whole window
+        // (counting one window offset at a time over the row loaded and stored every count
+        // size² times: measured 2.3 ms of an 11 ms default teddy frame on one thread)
+        let w = count.len();
+        let wp = pads.len() / size;
+        let full = w / 16 * 16;
+        for x0 in (0..full).step_by(16) {
+            let c: [u16; 16] = centre[x0..x0 + 16].try_into().expect("16 pixels");
+            let mut acc = [0u16; 16];
+            for pad in pads.chunks_exact(wp) {
+                for k in 0..size {
+                    let o: [u16; 16] = pad[x0 + k..x0 + k + 16].try_into().expect("16 pixels");
+                    for l in 0..16 {
+                        acc[l] += (o[l] < c[l]) as u16;
+                    }
+                }
+            }
+            count[x0..x0 + 16].copy_from_slice(&acc);
+        }
+        for x in full..w {
+            let mut n = 0;
+            for pad in pads.chunks_exact(wp) {
+                n += pad[x..x + size].iter().filter(|&&o| o < centre[x]).count() as u16;
+            }
+            count[x] = n;
         }
     }
 }
