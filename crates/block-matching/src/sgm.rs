@@ -740,6 +740,43 @@ pub(crate) fn run_strip(
 mod lanes {
     use std::arch::x86_64::*;
 
+    /// Checks the lengths [`paths`] needs (the entry points of both instruction sets assert
+    /// them here before any unchecked access) and returns the output pointers.
+    pub(super) fn paths_checked<const N: usize>(
+        c: &[u16],
+        prev: &[&[u16]; N],
+        out: &mut [&mut [u16]; N],
+        acc: &[u16],
+        tail: &[u16],
+    ) -> [*mut u16; N] {
+        let ndq = c.len();
+        assert!(ndq.is_multiple_of(16) && acc.len() == ndq && tail.len() == ndq);
+        for i in 0..N {
+            assert!(prev[i].len() == ndq + 2 && out[i].len() == ndq + 2);
+        }
+        std::array::from_fn(|i| out[i].as_mut_ptr())
+    }
+
+    /// Checks the lengths [`vertical`] needs (as [`paths_checked`]).
+    pub(super) fn vertical_checked(
+        colsum: &[u16],
+        la: &[u16],
+        ra: &[u16],
+        lb: &[u16],
+        rb: &[u16],
+        ndq: usize,
+        sub: bool,
+    ) {
+        let wp = la.len();
+        assert!(ndq.is_multiple_of(16) && colsum.len() >= wp * ndq && ra.len() + 1 >= wp + ndq);
+        assert!(!sub || (lb.len() >= wp && rb.len() + 1 >= wp + ndq));
+    }
+
+    /// Checks the lengths [`box_row`] needs (as [`paths_checked`]).
+    pub(super) fn box_row_checked(cost: &[u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
+        assert!(ndq.is_multiple_of(16) && w > 0 && cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
+    }
+
     /// A vector of `u16` lanes and the operations the kernels use.
     ///
     /// # Safety
@@ -1038,11 +1075,7 @@ mod avx2 {
         set: bool,
     ) -> [u16; N] {
         let ndq = c.len();
-        assert!(ndq.is_multiple_of(16) && acc.len() == ndq && tail.len() == ndq);
-        for i in 0..N {
-            assert!(prev[i].len() == ndq + 2 && out[i].len() == ndq + 2);
-        }
-        let outp: [*mut u16; N] = std::array::from_fn(|i| out[i].as_mut_ptr());
+        let outp = lanes::paths_checked(c, &prev, &mut out, acc, tail);
         // SAFETY: AVX2 (this function's features); lengths asserted above.
         unsafe { lanes::paths::<W256, N>(c, prev, pmin, p2, p1, outp, acc, tail, set, (0, ndq)) }
     }
@@ -1062,9 +1095,7 @@ mod avx2 {
         ndq: usize,
         sub: bool,
     ) {
-        let wp = la.len();
-        assert!(ndq.is_multiple_of(16) && colsum.len() >= wp * ndq && ra.len() + 1 >= wp + ndq);
-        assert!(!sub || (lb.len() >= wp && rb.len() + 1 >= wp + ndq));
+        lanes::vertical_checked(colsum, la, ra, lb, rb, ndq, sub);
         // SAFETY: AVX2 (this function's features); lengths asserted above.
         unsafe { lanes::vertical::<W256>(colsum, la, ra, lb, rb, ndq, sub, (0, ndq)) }
     }
@@ -1076,7 +1107,7 @@ mod avx2 {
     #[inline]
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
-        assert!(ndq.is_multiple_of(16) && w > 0 && cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
+        lanes::box_row_checked(cost, colsum, w, r, ndq);
         // SAFETY: AVX2 (this function's features); lengths asserted above.
         unsafe { lanes::box_row::<W256>(cost, colsum, w, r, ndq, (0, ndq)) }
     }
@@ -1212,11 +1243,7 @@ mod avx512 {
         set: bool,
     ) -> [u16; N] {
         let ndq = c.len();
-        assert!(ndq.is_multiple_of(16) && acc.len() == ndq && tail.len() == ndq);
-        for i in 0..N {
-            assert!(prev[i].len() == ndq + 2 && out[i].len() == ndq + 2);
-        }
-        let outp: [*mut u16; N] = std::array::from_fn(|i| out[i].as_mut_ptr());
+        let outp = lanes::paths_checked(c, &prev, &mut out, acc, tail);
         let full = ndq / 32 * 32;
         // SAFETY: AVX-512 and AVX2 (this function's features); lengths asserted above.
         unsafe {
@@ -1244,9 +1271,7 @@ mod avx512 {
         ndq: usize,
         sub: bool,
     ) {
-        let wp = la.len();
-        assert!(ndq.is_multiple_of(16) && colsum.len() >= wp * ndq && ra.len() + 1 >= wp + ndq);
-        assert!(!sub || (lb.len() >= wp && rb.len() + 1 >= wp + ndq));
+        lanes::vertical_checked(colsum, la, ra, lb, rb, ndq, sub);
         let full = ndq / 32 * 32;
         // SAFETY: AVX-512 and AVX2 (this function's features); lengths asserted above.
         unsafe {
@@ -1264,7 +1289,7 @@ mod avx512 {
     #[inline]
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
     pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
-        assert!(ndq.is_multiple_of(16) && w > 0 && cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
+        lanes::box_row_checked(cost, colsum, w, r, ndq);
         let full = ndq / 32 * 32;
         // SAFETY: AVX-512 and AVX2 (this function's features); lengths asserted above.
         unsafe {
