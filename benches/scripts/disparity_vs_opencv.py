@@ -10,7 +10,8 @@ Pairs: Middlebury teddy (../shared) and teddy resized to 626x555 (96 disparities
 (224). BM: StereoBM 9x9 uniqueness 0 against ours with the same options (x-Sobel, texture 10,
 uniqueness 0, no left-right check, no speckle filter). SGM: StereoSGBM 3-way (block 5, P1 200,
 P2 800, disp12MaxDiff 1, uniqueness 10) against the SGM measurement preset without texture and
-speckle filters. Both sides use 2 threads (THREADS=n to change). Say the machine load when quoting
+speckle filters, on three paths (left-to-right, right-to-left, down: 3-way's directions;
+SGM_PATHS=5 or 8 for ours with more). Both sides use 2 threads (THREADS=n to change). Say the machine load when quoting
 the ratios. XTASK=path times another build of xtask (e.g. a copy of the previous one)."""
 import cv2, numpy as np, subprocess, statistics, time, os, sys
 THREADS = int(os.environ.get("THREADS", "2"))
@@ -51,7 +52,7 @@ def ours(pl, pr, nd, XT=XT):
     if mode == "bm":
         extra = ["--prefilter", "xsobel", "--uniqueness", "0", "--lr-max-diff", "-1", "--speckle-window", "0", "--texture", "10", "--block", "9"]
     else:
-        extra = ["--method", "sgm", "--uniqueness", "10", "--lr-max-diff", "1", "--speckle-window", "0", "--texture", "0"]
+        extra = ["--method", "sgm", "--sgm-paths", os.environ.get("SGM_PATHS", "3"), "--uniqueness", "10", "--lr-max-diff", "1", "--speckle-window", "0", "--texture", "0"]
     out = subprocess.run([XT, "disparity", "--left", pl, "--right", pr, "--disparities", str(nd), "--runs", str(N), "--out", os.path.join(OUT, "o"), "--allow-swapped", "--threads", str(THREADS)] + extra, capture_output=True, text=True)
     for line in out.stdout.splitlines():
         if line.startswith("seconds:"):
@@ -67,7 +68,7 @@ def cv(l, r, nd):
     for _ in range(N):
         t = time.perf_counter(); m.compute(l, r); ts.append(time.perf_counter() - t)
     return statistics.median(ts)
-print(f"mode {mode}, threads {THREADS}, load before: {os.getloadavg()}")
+print(f"mode {mode}, threads {THREADS}" + (f", our paths {os.environ.get('SGM_PATHS', '3')}" if mode == "sgm" else "") + f", load before: {os.getloadavg()}")
 for w, h, nd, l, r, pl, pr in pairs:
     ratios, before = [], []
     for k in range(rounds):

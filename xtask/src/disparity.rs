@@ -33,7 +33,8 @@ pub struct Args {
     /// 5x5 window; see --sgm-paths).
     #[arg(long, default_value = "bm")]
     method: String,
-    /// Semi-global matching paths: 5 (one pass, default) or 8.
+    /// Semi-global matching paths: 3 (one pass: left-to-right, right-to-left, down; OpenCV
+    /// SGBM 3-way's directions), 5 (one pass, adds both diagonals from above; default) or 8.
     #[arg(long, default_value_t = 5)]
     sgm_paths: u32,
     /// Matching cost: sad, ssd or ncc.
@@ -194,9 +195,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         (true, true) => MatcherConfig::sgm_dense(),
     };
     let paths = match args.sgm_paths {
+        3 => SgmPaths::Three,
         5 => SgmPaths::Five,
         8 => SgmPaths::Eight,
-        n => anyhow::bail!("--sgm-paths must be 5 or 8 (got {n})"),
+        n => anyhow::bail!("--sgm-paths must be 3, 5 or 8 (got {n})"),
     };
     let prefilter = match args.prefilter.as_deref().map(str::to_ascii_lowercase) {
         None => d.prefilter,

@@ -16,8 +16,9 @@
 //!
 //! Scheduling (bounded memory, parallel): the image is cut into strips of `strip` rows, each run
 //! by one rayon task with its own buffers. Paths from above start `overlap` rows above the
-//! strip; with eight paths, the three paths from below start `overlap` rows below it. Five
-//! paths (left→right, right→left, and from the top, top-left and top-right) need one pass and
+//! strip; with eight paths, the three paths from below start `overlap` rows below it. Three
+//! paths (left→right, right→left, from the top) and five (adding top-left and top-right) need
+//! one pass and
 //! `≈ 9 · W · Dq · 2` bytes per task (`Dq`: `D` rounded up to 16 lanes); eight paths add a
 //! backward pass (bottom, bottom-left, bottom-right) over the strip's stored forward sums:
 //! `≈ (strip + 9) · W · Dq · 2` bytes per task, where the strip height is capped so this stays
@@ -25,9 +26,9 @@
 //!
 //! Every step is exact 16-bit integer arithmetic (the run refuses costs whose sums could
 //! exceed 16 bits). The path steps, column sums, box sums, winner search and right-image
-//! minima run in AVX2 intrinsics when the CPU has AVX2 (module `avx2`); with AVX-512 F/BW/VL the
-//! path steps, column sums and box sums take 512-bit vectors (module `avx512`); plain loops
-//! otherwise. The level is chosen once per strip. The naive reference in
+//! minima are written once over the vector width (module `lanes`) and run on 256-bit vectors
+//! when the CPU has AVX2 (module `avx2`) or 512-bit ones with AVX-512 F/BW/VL (module `avx512`;
+//! the decisions at 256 bits when `Dq` is an odd multiple of 16); plain loops otherwise. The level is chosen once per strip. The naive reference in
 //! `tests/sgm_vs_naive.rs` implements the same definition directly on a full cost volume and
 //! every level must match it exactly.
 
@@ -71,6 +72,7 @@ impl<'a> SgmParams<'a> {
         let cmax = n * max_pixel;
         let (p1, p2) = (cfg.p1 as u64 * n, cfg.p2 as u64 * n);
         let npaths = match cfg.paths {
+            SgmPaths::Three => 3,
             SgmPaths::Five => 5,
             SgmPaths::Eight => 8,
         };
@@ -426,6 +428,7 @@ fn forward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: b
     let [vc0, vc1, vc2] = vc;
     let [mc0, mc1, mc2] = mc;
     let zero = &sc.zero[..];
+    let three = pp.paths == SgmPaths::Three;
     let (mut pmin, mut rpmin) = (0, 0);
     for x in 0..w {
         let xr = w - 1 - x;
@@ -438,33 +441,40 @@ fn forward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: b
         } else {
             (&vp[0][x * ndp..][..ndp], mp[0][x], pp.p2_between(row[x], above[x]))
         };
-        let (l, lm, lp2) = if first || x == 0 {
+        let (l, lm, lp2) = if three || first || x == 0 {
             (zero, 0, pp.p2)
         } else {
             (&vp[1][(x - 1) * ndp..][..ndp], mp[1][x - 1], pp.p2_between(row[x], above[x - 1]))
         };
-        let (r, rm, rp2) = if first || x + 1 == w {
+        let (r, rm, rp2) = if three || first || x + 1 == w {
             (zero, 0, pp.p2)
         } else {
             (&vp[2][(x + 1) * ndp..][..ndp], mp[2][x + 1], pp.p2_between(row[x], above[x + 1]))
         };
-        let outs =
-            [&mut sc.hcur[..], &mut vc0[x * ndp..][..ndp], &mut vc1[x * ndp..][..ndp], &mut vc2[x * ndp..][..ndp]];
-        let m = paths::<4>(
-            isa,
-            c,
-            [h, t, l, r],
-            [hm, tm, lm, rm],
-            [hp2, tp2, lp2, rp2],
-            pp.p1,
-            outs,
-            acc,
-            &sc.tail,
-            nd,
-            x <= xr,
-        );
-        pmin = m[0];
-        (mc0[x], mc1[x], mc2[x]) = (m[1], m[2], m[3]);
+        if three {
+            let outs = [&mut sc.hcur[..], &mut vc0[x * ndp..][..ndp]];
+            let m = paths::<2>(isa, c, [h, t], [hm, tm], [hp2, tp2], pp.p1, outs, acc, &sc.tail, nd, x <= xr);
+            pmin = m[0];
+            mc0[x] = m[1];
+        } else {
+            let outs =
+                [&mut sc.hcur[..], &mut vc0[x * ndp..][..ndp], &mut vc1[x * ndp..][..ndp], &mut vc2[x * ndp..][..ndp]];
+            let m = paths::<4>(
+                isa,
+                c,
+                [h, t, l, r],
+                [hm, tm, lm, rm],
+                [hp2, tp2, lp2, rp2],
+                pp.p1,
+                outs,
+                acc,
+                &sc.tail,
+                nd,
+                x <= xr,
+            );
+            pmin = m[0];
+            (mc0[x], mc1[x], mc2[x]) = (m[1], m[2], m[3]);
+        }
         std::mem::swap(&mut sc.hprev, &mut sc.hcur);
         // right → left at xr
         let (prev, m, p2) =
@@ -542,6 +552,8 @@ fn decide_row(
     let (w, nd, dmin) = (sh.w, sh.nd, sh.dmin);
     let ndq = lanes(nd);
     let need2 = sh.uniq > 0 || sh.conf;
+    // 32-lane decisions when the chunks are whole
+    let wide = isa == Isa::Avx512 && ndq.is_multiple_of(32);
     sc.rc.fill(u16::MAX);
     sc.rk.fill(u16::MAX);
     for x in 0..w {
@@ -557,13 +569,19 @@ fn decide_row(
         let s = &sc.acc[x * ndq..][..ndq];
         let j0 = (w as i64 - 1 - xd + lo as i64) as usize;
         let len = hi - lo + 1;
-        #[cfg(target_arch = "x86_64")]
-        if isa.avx2() {
-            // SAFETY: `isa` only when the CPU has AVX2; the slices have equal lengths.
-            unsafe { avx2::right_update(&s[lo..=hi], &mut sc.rc[j0..][..len], &mut sc.rk[j0..][..len], lo) };
-        }
-        if !isa.avx2() {
-            right_update16(&s[lo..=hi], &mut sc.rc[j0..][..len], &mut sc.rk[j0..][..len], lo);
+        if sh.lr.is_some() {
+            let (c, rc, rk) = (&s[lo..=hi], &mut sc.rc[j0..][..len], &mut sc.rk[j0..][..len]);
+            #[cfg(target_arch = "x86_64")]
+            if isa == Isa::Avx512 {
+                // SAFETY: `Isa::Avx512` only when the CPU has AVX-512 F/BW/VL; lengths asserted inside.
+                unsafe { avx512::right_update(c, rc, rk, lo) };
+            } else if isa.avx2() {
+                // SAFETY: `isa` only when the CPU has AVX2; lengths asserted inside.
+                unsafe { avx2::right_update(c, rc, rk, lo) };
+            }
+            if !isa.avx2() {
+                right_update16(c, rc, rk, lo);
+            }
         }
         if sh.texture_ok.is_some_and(|t| !t[y * w + x]) {
             sc.best[x] = -1;
@@ -572,15 +590,21 @@ fn decide_row(
         }
         #[cfg(target_arch = "x86_64")]
         if isa.avx2() {
-            // SAFETY: as above; `s` has Dq lanes, lo ≤ hi < D.
-            let (m, kb, c2) = unsafe { avx2::wta(s, lo, hi, need2) };
+            let (m, kb, c2) = if wide {
+                // SAFETY: `Isa::Avx512` only when the CPU has AVX-512 F/BW/VL; `s` has Dq (a
+                // multiple of 32) lanes, lo ≤ hi < D (asserted inside).
+                unsafe { avx512::wta(s, lo, hi, need2) }
+            } else {
+                // SAFETY: `isa` only when the CPU has AVX2; `s` has Dq lanes, lo ≤ hi < D
+                // (asserted inside).
+                unsafe { avx2::wta(s, lo, hi, need2) }
+            };
             let t = (m as u32 + m as u32 * sh.uniq / 100).min(u16::MAX as u32) as u16;
-            if sh.uniq > 0 && c2 != u16::MAX && c2 <= t {
-                sc.best[x] = -1;
-                st.not_unique += 1;
-                continue;
-            }
-            sc.best[x] = kb as i32;
+            // selects, not branches: whether a pixel is unique is data (a branch on it
+            // mispredicted)
+            let not_unique = (sh.uniq > 0) & (c2 != u16::MAX) & (c2 <= t);
+            st.not_unique += not_unique as usize;
+            sc.best[x] = if not_unique { -1 } else { kb as i32 };
             sc.sub[x] = subpixel_offset(&s[..nd], lo, hi, kb, sh.subpixel);
             sc.ratio[x] = if sh.conf { curve_ratio(m as f64, (c2 != u16::MAX).then_some(c2 as f64)) } else { 0.0 };
             continue;
@@ -689,8 +713,7 @@ unsafe fn strip_avx512(
     strip(sh, pp, sc, out, conf, y0, y1, Isa::Avx512)
 }
 
-/// The instruction set of a run: the path steps, column sums and box sums have AVX-512 and
-/// AVX2 kernels, the decisions AVX2 ones (used at both levels).
+/// The instruction set of a run: every kernel has an AVX-512 and an AVX2 instance.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Isa {
     Scalar,
@@ -836,12 +859,42 @@ mod lanes {
         /// # Safety
         /// The trait's contract.
         unsafe fn hmin(self) -> u16;
+        /// Lanes moved up by one: lane `k` of the result is lane `k − 1` of `self`, lane 0 the
+        /// last lane of `before`.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn up(self, before: Self) -> Self;
+        /// Lanes moved down by one: lane `k` of the result is lane `k + 1` of `self`, the last
+        /// lane lane 0 of `after`.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn down(self, after: Self) -> Self;
+        /// All ones in the lanes where `a < b` (unsigned), zero elsewhere.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn less(a: Self, b: Self) -> Self;
+        /// `a` in the lanes where `m` is all ones, `b` where it is zero.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn select(m: Self, a: Self, b: Self) -> Self;
+        /// The first lane where `a == b`, `LANES` if none.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn first_eq(a: Self, b: Self) -> usize;
     }
 
     /// One [`V16`] implementation per register width, from its intrinsics.
     macro_rules! v16 {
         ($name:ident, $reg:ty, $lanes:literal, $doc:literal, $ld:ident, $st:ident, $set1:ident,
-         $($op:ident: $intrinsic:ident),+; |$h:ident| $hmin:expr) => {
+         $($op:ident: $intrinsic:ident),+; |$h:ident| $hmin:expr;
+         |$u:ident, $ub:ident| $up:expr; |$dn:ident, $da:ident| $down:expr;
+         |$la:ident, $lb:ident| $less:expr; |$sm:ident, $sa:ident, $sb:ident| $select:expr;
+         |$ea:ident, $eb:ident| $first_eq:expr) => {
             #[doc = $doc]
             #[derive(Clone, Copy)]
             pub(super) struct $name($reg);
@@ -886,6 +939,46 @@ mod lanes {
                     // SAFETY: the trait's contract (the instruction set; AVX-512 implies AVX2).
                     unsafe { $hmin }
                 }
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn up(self, before: Self) -> Self {
+                    let ($u, $ub) = (self.0, before.0);
+                    // SAFETY: the trait's contract (the instruction set).
+                    $name(unsafe { $up })
+                }
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn down(self, after: Self) -> Self {
+                    let ($dn, $da) = (self.0, after.0);
+                    // SAFETY: the trait's contract (the instruction set).
+                    $name(unsafe { $down })
+                }
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn less(a: Self, b: Self) -> Self {
+                    let ($la, $lb) = (a.0, b.0);
+                    // SAFETY: the trait's contract (the instruction set).
+                    $name(unsafe { $less })
+                }
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn select(m: Self, a: Self, b: Self) -> Self {
+                    let ($sm, $sa, $sb) = (m.0, a.0, b.0);
+                    // SAFETY: the trait's contract (the instruction set).
+                    $name(unsafe { $select })
+                }
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn first_eq(a: Self, b: Self) -> usize {
+                    let ($ea, $eb) = (a.0, b.0);
+                    // SAFETY: the trait's contract (the instruction set).
+                    unsafe { $first_eq }
+                }
             }
         };
     }
@@ -897,14 +990,56 @@ mod lanes {
         |v| {
             let m = _mm_min_epu16(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
             (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as u16
+        };
+        // [before.hi, v.lo] then per 128-bit half the last 2 bytes of the first operand's
+        // half and the first 14 of the second's
+        |v, b| _mm256_alignr_epi8::<14>(v, _mm256_permute2x128_si256::<0x21>(b, v));
+        |v, a| _mm256_alignr_epi8::<2>(_mm256_permute2x128_si256::<0x21>(v, a), v);
+        // a < b ⟺ max(a, b) ≠ a
+        |a, b| _mm256_xor_si256(_mm256_cmpeq_epi16(_mm256_max_epu16(a, b), a), _mm256_set1_epi16(-1));
+        |m, a, b| _mm256_blendv_epi8(b, a, m);
+        |a, b| {
+            // two mask bits per 16-bit lane
+            let bits = _mm256_movemask_epi8(_mm256_cmpeq_epi16(a, b)) as u32;
+            if bits == 0 { 16 } else { bits.trailing_zeros() as usize / 2 }
         }
     );
     v16!(
         W512, __m512i, 32, "32 lanes (AVX-512 BW).", _mm512_loadu_si512, _mm512_storeu_si512, _mm512_set1_epi16,
         add: _mm512_add_epi16, sub: _mm512_sub_epi16, adds: _mm512_adds_epu16, subs: _mm512_subs_epu16,
         min: _mm512_min_epu16, or: _mm512_or_si512;
-        |v| W256(_mm256_min_epu16(_mm512_castsi512_si256(v), _mm512_extracti64x4_epi64::<1>(v))).hmin()
+        |v| W256(_mm256_min_epu16(_mm512_castsi512_si256(v), _mm512_extracti64x4_epi64::<1>(v))).hmin();
+        // one two-source permutation (indices ≥ 32 select from the second operand)
+        |v, b| _mm512_permutex2var_epi16(b, _mm512_loadu_si512(UP.as_ptr() as *const _), v);
+        |v, a| _mm512_permutex2var_epi16(v, _mm512_loadu_si512(DOWN.as_ptr() as *const _), a);
+        |a, b| _mm512_movm_epi16(_mm512_cmplt_epu16_mask(a, b));
+        |m, a, b| _mm512_mask_blend_epi16(_mm512_movepi16_mask(m), b, a);
+        |a, b| {
+            let bits = _mm512_cmpeq_epi16_mask(a, b);
+            if bits == 0 { 32 } else { bits.trailing_zeros() as usize }
+        }
     );
+
+    /// Lane indices of [`W512::up`]: lane 31 of `before`, then lanes 0..31 of the vector.
+    static UP: [u16; 32] = {
+        let mut t = [0u16; 32];
+        let mut k = 0;
+        while k < 32 {
+            t[k] = if k == 0 { 31 } else { 32 + k as u16 - 1 };
+            k += 1;
+        }
+        t
+    };
+    /// Lane indices of [`W512::down`]: lanes 1..32 of the vector, then lane 0 of `after`.
+    static DOWN: [u16; 32] = {
+        let mut t = [0u16; 32];
+        let mut k = 0;
+        while k < 32 {
+            t[k] = k as u16 + 1;
+            k += 1;
+        }
+        t
+    };
 
     /// `|a − b|` per lane.
     ///
@@ -938,27 +1073,41 @@ mod lanes {
         set: bool,
         (from, to): (usize, usize),
     ) -> [u16; N] {
+        // Each predecessor chunk is loaded once, at the offset its own step stored it (slot
+        // d + 1: a store the horizontal path's next pixel reads at once is forwarded only to a
+        // load at its own address, and a 64-byte vector at slot d or d + 2 splits cache lines);
+        // its neighbours d ∓ 1 come from the chunks on either side through lane moves.
         // SAFETY: (all loads and stores) d + LANES ≤ to ≤ Dq, and the padded vectors have
-        // Dq + 2 entries, so offsets d .. d + 2 + LANES are inside.
+        // Dq + 2 entries: slots from ..= to + 1 and d + 1 .. d + 1 + LANES are inside.
         unsafe {
+            let ndq = c.len();
             let p1v = V::splat(p1);
+            let pad = V::splat(super::PAD);
             let jump: [V; N] = std::array::from_fn(|i| V::splat(pmin[i].saturating_add(p2[i])));
             let pm: [V; N] = std::array::from_fn(|i| V::splat(pmin[i]));
             let mut mv = [V::splat(u16::MAX); N];
+            // the lanes just outside from..to: slot `from` and slot `to + 1` (PAD at the ends)
+            let mut before: [V; N] =
+                std::array::from_fn(|i| if from == 0 { pad } else { V::splat(*prev[i].get_unchecked(from)) });
+            let last: [V; N] =
+                std::array::from_fn(|i| if to == ndq { pad } else { V::splat(*prev[i].get_unchecked(to + 1)) });
+            let mut cur: [V; N] = std::array::from_fn(|i| V::ld(prev[i].as_ptr().add(from + 1)));
             let mut d = from;
             while d < to {
                 let cv = V::ld(c.as_ptr().add(d));
                 let tv = V::ld(tail.as_ptr().add(d));
                 let mut sum = if set { V::splat(0) } else { V::ld(acc.as_ptr().add(d)) };
+                let more = d + V::LANES < to;
                 for i in 0..N {
-                    let p = prev[i].as_ptr().add(d);
-                    let (a, b, e) = (V::ld(p), V::ld(p.add(1)), V::ld(p.add(2)));
+                    let next = if more { V::ld(prev[i].as_ptr().add(d + 1 + V::LANES)) } else { last[i] };
+                    let (a, b, e) = (cur[i].up(before[i]), cur[i], cur[i].down(next));
                     // min(a + P1, e + P1) = min(a, e) + P1 (saturating addition is monotone)
                     let best = V::min(V::min(b, jump[i]), V::adds(V::min(a, e), p1v));
                     let v = V::or(V::add(cv, V::sub(best, pm[i])), tv);
                     V::st(out[i].add(d + 1), v);
                     mv[i] = V::min(mv[i], v);
                     sum = V::add(sum, v);
+                    (before[i], cur[i]) = (cur[i], next);
                 }
                 V::st(acc.as_mut_ptr().add(d), sum);
                 d += V::LANES;
@@ -1046,12 +1195,128 @@ mod lanes {
             }
         }
     }
+
+    /// Lane masks: 32 all-ones lanes, 32 zero lanes, 32 all-ones lanes. Loaded at `32 − n`:
+    /// ones in the first `n` lanes; at `64 − n`: ones from lane `n` on (`n ≤ 32`).
+    static EDGES: [u16; 96] = {
+        let mut t = [0u16; 96];
+        let mut k = 0;
+        while k < 96 {
+            t[k] = if k < 32 || k >= 64 { u16::MAX } else { 0 };
+            k += 1;
+        }
+        t
+    };
+    /// Three all-ones lanes at 32..35 among zeros. Loaded at `33 + d − kb` (clamped to
+    /// `0..=67 − LANES`, where it is all zeros): ones in the lanes of candidates `kb − 1 ..= kb + 1`
+    /// of the chunk starting at candidate `d`.
+    static NEAR: [u16; 67] = {
+        let mut t = [0u16; 67];
+        t[32] = u16::MAX;
+        t[33] = u16::MAX;
+        t[34] = u16::MAX;
+        t
+    };
+    /// Lane numbers `0..32`.
+    static RAMP: [u16; 32] = {
+        let mut t = [0u16; 32];
+        let mut k = 0;
+        while k < 32 {
+            t[k] = k as u16;
+            k += 1;
+        }
+        t
+    };
+
+    /// All ones in the lanes of the chunk starting at candidate `d` that lie outside `lo..=hi`.
+    ///
+    /// # Safety
+    /// [`V16`]'s contract.
+    #[inline(always)]
+    unsafe fn outside<V: V16>(d: usize, lo: usize, hi: usize) -> V {
+        let below = lo.saturating_sub(d).min(V::LANES);
+        let within = (hi + 1).saturating_sub(d).min(V::LANES);
+        // SAFETY: offsets 32 − below ≥ 0 and 64 − within ≥ 32, plus LANES ≤ 32 lanes, stay
+        // inside the 96 lanes of EDGES.
+        unsafe { V::or(V::ld(EDGES.as_ptr().add(32 - below)), V::ld(EDGES.as_ptr().add(64 - within))) }
+    }
+
+    /// Checks the lengths [`wta`] needs (as [`paths_checked`]).
+    pub(super) fn wta_checked<V: V16>(s: &[u16], lo: usize, hi: usize) {
+        assert!(V::LANES <= 32 && s.len().is_multiple_of(V::LANES) && lo <= hi && hi < s.len() && s.len() < 1 << 15);
+    }
+
+    /// The smallest `S` over candidates `lo..=hi`, its first candidate, and (when `need2`) the
+    /// smallest over the same candidates minus the winner and its two neighbours (`u16::MAX`:
+    /// none). Lanes outside `lo..=hi` (and the padding lanes past `D`) read as `u16::MAX`,
+    /// which no sum reaches (the run refuses sums that could).
+    ///
+    /// # Safety
+    /// [`V16`]'s contract; the lengths [`wta_checked`] asserts.
+    #[inline(always)]
+    pub(super) unsafe fn wta<V: V16>(s: &[u16], lo: usize, hi: usize, need2: bool) -> (u16, usize, u16) {
+        let (c0, c1) = (lo / V::LANES * V::LANES, (hi / V::LANES + 1) * V::LANES);
+        // SAFETY: chunks d .. d + LANES ≤ c1 ≤ s.len(); NEAR offsets clamped to 0..=67 − LANES.
+        unsafe {
+            let at = |d: usize| V::or(V::ld(s.as_ptr().add(d)), outside::<V>(d, lo, hi));
+            let mut mv = V::splat(u16::MAX);
+            let mut d = c0;
+            while d < c1 {
+                mv = V::min(mv, at(d));
+                d += V::LANES;
+            }
+            let m = mv.hmin();
+            // the first chunk holding the minimum, without a branch on which one it is (a
+            // data-dependent exit mispredicted)
+            let (mut kb, mvv) = (usize::MAX, V::splat(m));
+            let mut d = c0;
+            while d < c1 {
+                let k = V::first_eq(at(d), mvv);
+                kb = kb.min(if k < V::LANES { d + k } else { usize::MAX });
+                d += V::LANES;
+            }
+            if !need2 {
+                return (m, kb, u16::MAX);
+            }
+            let mut m2 = V::splat(u16::MAX);
+            let mut d = c0;
+            while d < c1 {
+                let o = (33 + d as isize - kb as isize).clamp(0, 67 - V::LANES as isize) as usize;
+                m2 = V::min(m2, V::or(at(d), V::ld(NEAR.as_ptr().add(o))));
+                d += V::LANES;
+            }
+            (m, kb, m2.hmin())
+        }
+    }
+
+    /// [`super::right_update16`] in chunks of `LANES` (strictly smaller wins: first wins),
+    /// the last partial chunk lane by lane.
+    ///
+    /// # Safety
+    /// [`V16`]'s contract; the three slices have the same length (the callers assert it).
+    #[inline(always)]
+    pub(super) unsafe fn right_update<V: V16>(c: &[u16], rc: &mut [u16], rk: &mut [u16], lo: usize) {
+        let n = c.len();
+        let mut t = 0;
+        // SAFETY: t + LANES ≤ n for all three slices; RAMP has 32 ≥ LANES lanes.
+        unsafe {
+            let ramp = V::ld(RAMP.as_ptr());
+            while t + V::LANES <= n {
+                let v = V::ld(c.as_ptr().add(t));
+                let r = V::ld(rc.as_ptr().add(t));
+                let k = V::add(ramp, V::splat((lo + t) as u16));
+                V::st(rc.as_mut_ptr().add(t), V::min(r, v));
+                V::st(rk.as_mut_ptr().add(t), V::select(V::less(v, r), k, V::ld(rk.as_ptr().add(t))));
+                t += V::LANES;
+            }
+        }
+        super::right_update16(&c[t..], &mut rc[t..], &mut rk[t..], lo + t);
+    }
 }
 
-/// The kernels at 16 lanes per vector, and the decisions in AVX2 intrinsics.
+/// The kernels at 16 lanes per vector.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use std::arch::x86_64::*;
 
     use super::lanes::{self, W256};
 
@@ -1112,24 +1377,7 @@ mod avx2 {
         unsafe { lanes::box_row::<W256>(cost, colsum, w, r, ndq, (0, ndq)) }
     }
 
-    #[inline(always)]
-    /// # Safety
-    /// `p` must point to a full vector of readable lanes, and the CPU must support AVX2.
-    unsafe fn ld(p: *const u16) -> __m256i {
-        // SAFETY: the caller guarantees 16 readable lanes at p.
-        unsafe { _mm256_loadu_si256(p as *const __m256i) }
-    }
-
-    #[inline(always)]
-    /// # Safety
-    /// `p` must point to a full vector of writable lanes, and the CPU must support AVX2.
-    unsafe fn st(p: *mut u16, v: __m256i) {
-        // SAFETY: the caller guarantees 16 writable lanes at p.
-        unsafe { _mm256_storeu_si256(p as *mut __m256i, v) }
-    }
-
-    /// The smallest `S` over lanes `lo..=hi`, its first lane, and (when `need2`) the smallest
-    /// over the same lanes minus the winner and its two neighbours (`u16::MAX`: none).
+    /// [`lanes::wta`] at 16 lanes.
     ///
     /// # Safety
     /// The CPU must support AVX2; `s.len()` is a multiple of 16 and `lo ≤ hi < s.len()`
@@ -1137,84 +1385,21 @@ mod avx2 {
     #[inline]
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn wta(s: &[u16], lo: usize, hi: usize, need2: bool) -> (u16, usize, u16) {
-        let ndq = s.len();
-        assert!(ndq.is_multiple_of(16) && lo <= hi && hi < ndq && ndq < 1 << 15);
-        let ramp = _mm256_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-        let (lov, hiv) = (_mm256_set1_epi16(lo as i16), _mm256_set1_epi16(hi as i16));
-        let ones = _mm256_set1_epi16(-1);
-        let outside =
-            |dv: __m256i, a: __m256i, b: __m256i| _mm256_or_si256(_mm256_cmpgt_epi16(a, dv), _mm256_cmpgt_epi16(dv, b));
-        let (c0, c1) = (lo / 16 * 16, hi / 16 * 16 + 16);
-        let mut mv = ones;
-        for d in (c0..c1).step_by(16) {
-            // SAFETY: d + 16 ≤ c1 ≤ ndq.
-            unsafe {
-                let dv = _mm256_add_epi16(ramp, _mm256_set1_epi16(d as i16));
-                mv = _mm256_min_epu16(mv, _mm256_or_si256(ld(s.as_ptr().add(d)), outside(dv, lov, hiv)));
-            }
-        }
-        let hmin = |v: __m256i| {
-            let m = _mm_min_epu16(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
-            (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as u16
-        };
-        let m = hmin(mv);
-        let mut kb = hi;
-        let mvv = _mm256_set1_epi16(m as i16);
-        for d in (c0..c1).step_by(16) {
-            // SAFETY: as above.
-            unsafe {
-                let dv = _mm256_add_epi16(ramp, _mm256_set1_epi16(d as i16));
-                let v = _mm256_or_si256(ld(s.as_ptr().add(d)), outside(dv, lov, hiv));
-                let bits = _mm256_movemask_epi8(_mm256_cmpeq_epi16(v, mvv)) as u32;
-                if bits != 0 {
-                    kb = d + bits.trailing_zeros() as usize / 2;
-                    break;
-                }
-            }
-        }
-        if !need2 {
-            return (m, kb, u16::MAX);
-        }
-        let (nlo, nhi) = (_mm256_set1_epi16(kb as i16 - 1), _mm256_set1_epi16(kb as i16 + 1));
-        let mut m2 = ones;
-        for d in (c0..c1).step_by(16) {
-            // SAFETY: as above.
-            unsafe {
-                let dv = _mm256_add_epi16(ramp, _mm256_set1_epi16(d as i16));
-                let near = _mm256_andnot_si256(outside(dv, nlo, nhi), ones);
-                let mask = _mm256_or_si256(outside(dv, lov, hiv), near);
-                m2 = _mm256_min_epu16(m2, _mm256_or_si256(ld(s.as_ptr().add(d)), mask));
-            }
-        }
-        (m, kb, hmin(m2))
+        lanes::wta_checked::<W256>(s, lo, hi);
+        // SAFETY: AVX2 (this function's features); lengths asserted above.
+        unsafe { lanes::wta::<W256>(s, lo, hi, need2) }
     }
 
-    /// [`super::right_update16`] in 16-lane chunks (strictly smaller wins: first wins).
+    /// [`lanes::right_update`] at 16 lanes.
     ///
     /// # Safety
     /// The CPU must support AVX2; the three slices have the same length (asserted).
     #[inline]
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn right_update(c: &[u16], rc: &mut [u16], rk: &mut [u16], lo: usize) {
-        let n = c.len();
-        assert!(rc.len() == n && rk.len() == n);
-        let ramp = _mm256_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-        let ones = _mm256_set1_epi16(-1);
-        let mut t = 0;
-        while t + 16 <= n {
-            // SAFETY: t + 16 ≤ n for all three slices.
-            unsafe {
-                let v = ld(c.as_ptr().add(t));
-                let r = ld(rc.as_ptr().add(t));
-                // v < r ⟺ not (max(r, v) == v)
-                let better = _mm256_andnot_si256(_mm256_cmpeq_epi16(_mm256_max_epu16(r, v), v), ones);
-                let k = _mm256_add_epi16(ramp, _mm256_set1_epi16((lo + t) as i16));
-                st(rc.as_mut_ptr().add(t), _mm256_min_epu16(r, v));
-                st(rk.as_mut_ptr().add(t), _mm256_blendv_epi8(ld(rk.as_ptr().add(t)), k, better));
-            }
-            t += 16;
-        }
-        super::right_update16(&c[t..], &mut rc[t..], &mut rk[t..], lo + t);
+        assert!(rc.len() == c.len() && rk.len() == c.len());
+        // SAFETY: AVX2 (this function's features); lengths asserted above.
+        unsafe { lanes::right_update::<W256>(c, rc, rk, lo) }
     }
 }
 
@@ -1297,6 +1482,116 @@ mod avx512 {
             if full < ndq {
                 lanes::box_row::<W256>(cost, colsum, w, r, ndq, (full, ndq));
             }
+        }
+    }
+
+    /// [`lanes::wta`] at 32 lanes (`s.len()` a multiple of 32).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and AVX-512 F/BW/VL; `s.len()` is a multiple of 32 and
+    /// `lo ≤ hi < s.len()` (asserted).
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    pub(super) unsafe fn wta(s: &[u16], lo: usize, hi: usize, need2: bool) -> (u16, usize, u16) {
+        lanes::wta_checked::<W512>(s, lo, hi);
+        // SAFETY: AVX-512 (this function's features); lengths asserted above.
+        unsafe { lanes::wta::<W512>(s, lo, hi, need2) }
+    }
+
+    /// [`lanes::right_update`] at 32 lanes.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and AVX-512 F/BW/VL; the three slices have the same length
+    /// (asserted).
+    #[inline]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    pub(super) unsafe fn right_update(c: &[u16], rc: &mut [u16], rk: &mut [u16], lo: usize) {
+        assert!(rc.len() == c.len() && rk.len() == c.len());
+        // SAFETY: AVX-512 (this function's features); lengths asserted above.
+        unsafe { lanes::right_update::<W512>(c, rc, rk, lo) }
+    }
+}
+
+#[cfg(all(test, target_arch = "x86_64"))]
+mod tests {
+    use super::lanes::{V16, W256, W512};
+
+    /// Pseudo-random lanes (a fixed LCG), with repeats so that equal lanes occur.
+    fn lanes_of(seed: u64, n: usize) -> Vec<u16> {
+        let mut s = seed;
+        (0..n)
+            .map(|_| {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((s >> 33) % 7) as u16 * 9000 + ((s >> 50) % 3) as u16
+            })
+            .collect()
+    }
+
+    /// Every lane operation of one width against its scalar definition.
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instruction set, and the caller must be compiled for it.
+    #[inline(always)]
+    unsafe fn check<V: V16>() {
+        let n = V::LANES;
+        for seed in 0..50 {
+            let (a, b, m) = (lanes_of(seed, n), lanes_of(seed + 1000, n), lanes_of(seed + 2000, n));
+            let mask: Vec<u16> = m.iter().map(|&v| if v > 30000 { u16::MAX } else { 0 }).collect();
+            let mut out = vec![0u16; n];
+            // SAFETY: every vector is `n = LANES` lanes; the instruction set is the caller's.
+            let (va, vb, vm) = unsafe { (V::ld(a.as_ptr()), V::ld(b.as_ptr()), V::ld(mask.as_ptr())) };
+            let mut got = |v: V| {
+                // SAFETY: as above.
+                unsafe { V::st(out.as_mut_ptr(), v) };
+                out.clone()
+            };
+            // SAFETY: as above (the instruction set).
+            let (up, down, less, select) = unsafe { (va.up(vb), va.down(vb), V::less(va, vb), V::select(vm, va, vb)) };
+            let want_up: Vec<u16> = (0..n).map(|k| if k == 0 { b[n - 1] } else { a[k - 1] }).collect();
+            let want_down: Vec<u16> = (0..n).map(|k| if k + 1 == n { b[0] } else { a[k + 1] }).collect();
+            assert_eq!(got(up), want_up, "up, {n} lanes");
+            assert_eq!(got(down), want_down, "down, {n} lanes");
+            let want_less: Vec<u16> = (0..n).map(|k| if a[k] < b[k] { u16::MAX } else { 0 }).collect();
+            assert_eq!(got(less), want_less, "less, {n} lanes");
+            let want_select: Vec<u16> = (0..n).map(|k| if mask[k] != 0 { a[k] } else { b[k] }).collect();
+            assert_eq!(got(select), want_select, "select, {n} lanes");
+            // SAFETY: as above.
+            let first = unsafe { V::first_eq(va, vb) };
+            assert_eq!(first, (0..n).find(|&k| a[k] == b[k]).unwrap_or(n), "first_eq, {n} lanes");
+            // SAFETY: as above.
+            assert_eq!(unsafe { va.hmin() }, *a.iter().min().unwrap(), "hmin, {n} lanes");
+        }
+    }
+
+    #[target_feature(enable = "avx2")]
+    /// # Safety
+    /// The CPU must support AVX2.
+    unsafe fn check_avx2() {
+        // SAFETY: compiled for AVX2, which the caller checked.
+        unsafe { check::<W256>() }
+    }
+
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    /// # Safety
+    /// The CPU must support AVX-512 F/BW/VL.
+    unsafe fn check_avx512() {
+        // SAFETY: compiled for AVX-512, which the caller checked.
+        unsafe { check::<W512>() }
+    }
+
+    #[test]
+    fn lane_operations_match_their_scalar_definitions() {
+        use crate::engine::SimdLevel;
+        let level = SimdLevel::detect();
+        if level >= SimdLevel::Avx2 {
+            // SAFETY: `detect()` found AVX2.
+            unsafe { check_avx2() };
+        }
+        if level >= SimdLevel::Avx512 {
+            // SAFETY: `detect()` found AVX-512 F/BW/VL.
+            unsafe { check_avx512() };
+        } else {
+            eprintln!("skipped the 512-bit lanes: no AVX-512 on this CPU");
         }
     }
 }

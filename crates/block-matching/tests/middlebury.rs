@@ -129,7 +129,7 @@ fn middlebury_sgm_beats_opencv_sgbm_3way() {
     let Some(pairs) = pairs() else { return };
     let mut failures = Vec::new();
     for (p, &(sgbm_bad2, sgbm_returned, sgbm_density)) in pairs.iter().zip(&SGBM) {
-        for paths in [SgmPaths::Five, SgmPaths::Eight] {
+        for paths in [SgmPaths::Three, SgmPaths::Five, SgmPaths::Eight] {
             let sgm = SgmConfig { paths, ..SgmConfig::default() };
             // missing = bad: the dense preset
             let cfg = MatcherConfig { num_disparities: p.nd, sgm, ..MatcherConfig::sgm_dense() };

@@ -122,7 +122,12 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
         let y1 = (y0 + strip).min(h);
         let ys = y0.saturating_sub(g.overlap);
         let mut part = vec![0i64; w * h * nd];
-        for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (1, 1), (-1, 1)] {
+        let from_above: &[(i64, i64)] = if g.paths == SgmPaths::Three {
+            &[(1, 0), (-1, 0), (0, 1)]
+        } else {
+            &[(1, 0), (-1, 0), (0, 1), (1, 1), (-1, 1)]
+        };
+        for &(dx, dy) in from_above {
             path(dx, dy, ys, y1, &mut part);
         }
         if g.paths == SgmPaths::Eight {
@@ -282,7 +287,7 @@ fn run_case(seed: u64, w: usize, h: usize, cfg: MatcherConfig) {
 
 fn sgm_strategy() -> impl Strategy<Value = MatcherConfig> {
     (
-        prop_oneof![Just(SgmPaths::Five), Just(SgmPaths::Eight)],
+        prop_oneof![Just(SgmPaths::Three), Just(SgmPaths::Five), Just(SgmPaths::Eight)],
         prop_oneof![Just(1usize), Just(3), Just(5)],
         (1u32..6, 0u32..40),
         prop_oneof![Just(0u32), Just(4), Just(30)],
@@ -337,7 +342,7 @@ proptest! {
 
 #[test]
 fn sgm_fast_equals_naive_with_the_defaults_and_eight_paths() {
-    for paths in [SgmPaths::Five, SgmPaths::Eight] {
+    for paths in [SgmPaths::Three, SgmPaths::Five, SgmPaths::Eight] {
         let cfg = MatcherConfig {
             method: Method::Sgm,
             num_disparities: 24,
@@ -351,11 +356,36 @@ fn sgm_fast_equals_naive_with_the_defaults_and_eight_paths() {
 }
 
 #[test]
+fn sgm_fast_equals_naive_with_several_vectors_of_disparities() {
+    // 64 and 96 candidates: whole 32-lane chunks (two and three; the 32-lane decisions), 70: two
+    // and a 16-lane one; negative minimum disparity: candidates cut at both ends of the row
+    for (seed, paths, nd, dmin) in [
+        (31, SgmPaths::Three, 64, 0),
+        (32, SgmPaths::Five, 96, -5),
+        (33, SgmPaths::Eight, 70, 2),
+        (34, SgmPaths::Three, 70, -9),
+    ] {
+        let cfg = MatcherConfig {
+            method: Method::Sgm,
+            num_disparities: nd,
+            min_disparity: dmin,
+            speckle_window_size: 0,
+            confidence_map: true,
+            sgm: SgmConfig { paths, strip_rows: 7, overlap: 3, ..SgmConfig::default() },
+            ..MatcherConfig::default()
+        };
+        run_case(seed, 130, 16, cfg);
+    }
+}
+
+#[test]
 fn sgm_fast_equals_naive_on_16_bit_images() {
     use parallax_block_matching::Gray16Image;
     // 8-bit structure times 256 plus low bits: the adaptive P2 in 16-bit units (rank prefilter;
     // x-Sobel is refused there, its sums do not fit 16 bits)
-    for (seed, paths, gamma) in [(21, SgmPaths::Five, 16), (22, SgmPaths::Eight, 4), (23, SgmPaths::Five, 0)] {
+    for (seed, paths, gamma) in
+        [(21, SgmPaths::Five, 16), (22, SgmPaths::Eight, 4), (23, SgmPaths::Five, 0), (24, SgmPaths::Three, 16)]
+    {
         let (w, h) = (26, 15);
         let (l8, r8) = make_pair(seed, w, h);
         let widen = |v: &[u16]| {
