@@ -593,11 +593,11 @@ fn decide_row(
             let (m, kb, c2) = if wide {
                 // SAFETY: `Isa::Avx512` only when the CPU has AVX-512 F/BW/VL; `s` has Dq (a
                 // multiple of 32) lanes, lo ≤ hi < D (asserted inside).
-                unsafe { avx512::wta(s, lo, hi, need2) }
+                unsafe { avx512::wta(s, &sc.tail, lo, hi, need2) }
             } else {
                 // SAFETY: `isa` only when the CPU has AVX2; `s` has Dq lanes, lo ≤ hi < D
                 // (asserted inside).
-                unsafe { avx2::wta(s, lo, hi, need2) }
+                unsafe { avx2::wta(s, &sc.tail, lo, hi, need2) }
             };
             let t = (m as u32 + m as u32 * sh.uniq / 100).min(u16::MAX as u32) as u16;
             // selects, not branches: whether a pixel is unique is data (a branch on it
@@ -1242,23 +1242,31 @@ mod lanes {
     }
 
     /// Checks the lengths [`wta`] needs (as [`paths_checked`]).
-    pub(super) fn wta_checked<V: V16>(s: &[u16], lo: usize, hi: usize) {
-        assert!(V::LANES <= 32 && s.len().is_multiple_of(V::LANES) && lo <= hi && hi < s.len() && s.len() < 1 << 15);
+    pub(super) fn wta_checked<V: V16>(s: &[u16], tail: &[u16], lo: usize, hi: usize) {
+        let n = s.len();
+        assert!(V::LANES <= 32 && n.is_multiple_of(V::LANES) && tail.len() == n && lo <= hi && hi < n && n < 1 << 15);
     }
 
     /// The smallest `S` over candidates `lo..=hi`, its first candidate, and (when `need2`) the
     /// smallest over the same candidates minus the winner and its two neighbours (`u16::MAX`:
     /// none). Lanes outside `lo..=hi` (and the padding lanes past `D`) read as `u16::MAX`,
-    /// which no sum reaches (the run refuses sums that could).
+    /// which no sum reaches (the run refuses sums that could). `tail`: all ones in the lanes
+    /// `d ≥ D`, zero below (the mask of a pixel whose candidates are all in the image).
     ///
     /// # Safety
     /// [`V16`]'s contract; the lengths [`wta_checked`] asserts.
     #[inline(always)]
-    pub(super) unsafe fn wta<V: V16>(s: &[u16], lo: usize, hi: usize, need2: bool) -> (u16, usize, u16) {
+    pub(super) unsafe fn wta<V: V16>(s: &[u16], tail: &[u16], lo: usize, hi: usize, need2: bool) -> (u16, usize, u16) {
         let (c0, c1) = (lo / V::LANES * V::LANES, (hi / V::LANES + 1) * V::LANES);
-        // SAFETY: chunks d .. d + LANES ≤ c1 ≤ s.len(); NEAR offsets clamped to 0..=67 − LANES.
+        // every candidate in the image (most pixels): the lanes past hi are those `tail` marks
+        let all = lo == 0 && tail[hi] == 0 && (hi + 1 == tail.len() || tail[hi + 1] != 0);
+        // SAFETY: chunks d .. d + LANES ≤ c1 ≤ s.len() = tail.len(); NEAR offsets clamped to
+        // 0..=67 − LANES.
         unsafe {
-            let at = |d: usize| V::or(V::ld(s.as_ptr().add(d)), outside::<V>(d, lo, hi));
+            let at = |d: usize| {
+                let mask = if all { V::ld(tail.as_ptr().add(d)) } else { outside::<V>(d, lo, hi) };
+                V::or(V::ld(s.as_ptr().add(d)), mask)
+            };
             let mut mv = V::splat(u16::MAX);
             let mut d = c0;
             while d < c1 {
@@ -1384,10 +1392,10 @@ mod avx2 {
     /// (asserted).
     #[inline]
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn wta(s: &[u16], lo: usize, hi: usize, need2: bool) -> (u16, usize, u16) {
-        lanes::wta_checked::<W256>(s, lo, hi);
+    pub(super) unsafe fn wta(s: &[u16], tail: &[u16], lo: usize, hi: usize, need2: bool) -> (u16, usize, u16) {
+        lanes::wta_checked::<W256>(s, tail, lo, hi);
         // SAFETY: AVX2 (this function's features); lengths asserted above.
-        unsafe { lanes::wta::<W256>(s, lo, hi, need2) }
+        unsafe { lanes::wta::<W256>(s, tail, lo, hi, need2) }
     }
 
     /// [`lanes::right_update`] at 16 lanes.
@@ -1431,10 +1439,15 @@ mod avx512 {
         let outp = lanes::paths_checked(c, &prev, &mut out, acc, tail);
         let full = ndq / 32 * 32;
         // SAFETY: AVX-512 and AVX2 (this function's features); lengths asserted above.
+        // per pixel and path group: no empty call's set-up and reductions (16 disparities: no
+        // 32-lane chunk at all)
         unsafe {
+            if full == 0 {
+                return lanes::paths::<W256, N>(c, prev, pmin, p2, p1, outp, acc, tail, set, (0, ndq));
+            }
             let wide = lanes::paths::<W512, N>(c, prev, pmin, p2, p1, outp, acc, tail, set, (0, full));
             if full == ndq {
-                return wide; // (per pixel and path group: no empty tail call's set-up and reductions)
+                return wide;
             }
             let last = lanes::paths::<W256, N>(c, prev, pmin, p2, p1, outp, acc, tail, set, (full, ndq));
             std::array::from_fn(|i| wide[i].min(last[i]))
@@ -1492,10 +1505,10 @@ mod avx512 {
     /// `lo ≤ hi < s.len()` (asserted).
     #[inline]
     #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-    pub(super) unsafe fn wta(s: &[u16], lo: usize, hi: usize, need2: bool) -> (u16, usize, u16) {
-        lanes::wta_checked::<W512>(s, lo, hi);
+    pub(super) unsafe fn wta(s: &[u16], tail: &[u16], lo: usize, hi: usize, need2: bool) -> (u16, usize, u16) {
+        lanes::wta_checked::<W512>(s, tail, lo, hi);
         // SAFETY: AVX-512 (this function's features); lengths asserted above.
-        unsafe { lanes::wta::<W512>(s, lo, hi, need2) }
+        unsafe { lanes::wta::<W512>(s, tail, lo, hi, need2) }
     }
 
     /// [`lanes::right_update`] at 32 lanes.
