@@ -379,6 +379,22 @@ fn sgm_fast_equals_naive_with_several_vectors_of_disparities() {
 }
 
 #[test]
+fn sgm_fast_equals_naive_on_rows_wide_enough_for_the_fused_box_sums() {
+    // 600 pixels x 96 lanes x 2 bytes = 112.5 KiB a row: over `FUSED_BOX_BYTES` (96 KiB), so the
+    // box sums are made with the column sums (the narrower tests take the separate pass)
+    for (seed, paths) in [(41, SgmPaths::Three), (42, SgmPaths::Eight)] {
+        let cfg = MatcherConfig {
+            method: Method::Sgm,
+            num_disparities: 90,
+            speckle_window_size: 0,
+            sgm: SgmConfig { paths, strip_rows: 4, overlap: 2, ..SgmConfig::default() },
+            ..MatcherConfig::default()
+        };
+        run_case(seed, 600, 9, cfg);
+    }
+}
+
+#[test]
 fn sgm_fast_equals_naive_on_16_bit_images() {
     use parallax_block_matching::Gray16Image;
     // 8-bit structure times 256 plus low bits: the adaptive P2 in 16-bit units (rank prefilter;
