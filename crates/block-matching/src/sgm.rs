@@ -180,7 +180,8 @@ pub(crate) struct Scratch {
 }
 
 impl Scratch {
-    fn resize(&mut self, sh: &Shared, strip: usize, eight: bool) {
+    fn resize(&mut self, sh: &Shared, strip: usize, paths: SgmPaths) {
+        let eight = paths == SgmPaths::Eight;
         let (w, r, nd) = (sh.w, sh.r, sh.nd);
         let ndq = lanes(nd);
         let (wp, ndp) = (w + 2 * r, ndq + 2);
@@ -207,9 +208,14 @@ impl Scratch {
         self.zero.clear();
         self.zero.resize(ndp, PAD);
         self.zero[1..=nd].fill(0);
-        for v in self.vp.iter_mut().chain(self.vc.iter_mut()) {
+        // three paths use the first of the vertical buffers only (the diagonals' stay empty: no
+        // fill of `W · (Dq + 2)` lanes per strip for nothing)
+        let vertical = if paths == SgmPaths::Three { 1 } else { 3 };
+        for (i, v) in self.vp.iter_mut().chain(self.vc.iter_mut()).enumerate() {
             v.clear();
-            v.resize(w * ndp, PAD);
+            if i % 3 < vertical {
+                v.resize(w * ndp, PAD);
+            }
         }
         for v in self.mp.iter_mut().chain(self.mc.iter_mut()) {
             v.resize(w, 0);
@@ -653,7 +659,7 @@ fn strip(
     let (w, h) = (sh.w, sh.h);
     let nd = lanes(sh.nd);
     let eight = pp.paths == SgmPaths::Eight;
-    sc.resize(sh, y1 - y0, eight);
+    sc.resize(sh, y1 - y0, pp.paths);
     let mut st = MatchStats::default();
     let ys = y0.saturating_sub(pp.overlap);
     colsum_init(sh, sc, ys, isa);
