@@ -570,7 +570,14 @@ fn decide_row(
 ) {
     let (w, nd, dmin) = (sh.w, sh.nd, sh.dmin);
     let ndq = lanes(nd);
-    let need2 = sh.uniq > 0 || sh.conf;
+    #[cfg(target_arch = "x86_64")]
+    let second = if sh.conf {
+        lanes::Second::Min
+    } else if sh.uniq > 0 {
+        lanes::Second::Count(sh.uniq)
+    } else {
+        lanes::Second::Skip
+    };
     // 32-lane decisions when the chunks are whole
     let wide = isa == Isa::Avx512 && ndq.is_multiple_of(32);
     sc.rc.fill(u16::MAX);
@@ -609,23 +616,30 @@ fn decide_row(
         }
         #[cfg(target_arch = "x86_64")]
         if isa.avx2() {
-            let (m, kb, c2) = if wide {
+            let (m, kb, third) = if wide {
                 // SAFETY: `Isa::Avx512` only when the CPU has AVX-512 F/BW/VL; `s` has Dq (a
                 // multiple of 32) lanes, lo ≤ hi < D (asserted inside).
-                unsafe { avx512::wta(s, &sc.tail, lo, hi, need2) }
+                unsafe { avx512::wta(s, &sc.tail, lo, hi, second) }
             } else {
                 // SAFETY: `isa` only when the CPU has AVX2; `s` has Dq lanes, lo ≤ hi < D
                 // (asserted inside).
-                unsafe { avx2::wta(s, &sc.tail, lo, hi, need2) }
+                unsafe { avx2::wta(s, &sc.tail, lo, hi, second) }
             };
-            let t = (m as u32 + m as u32 * sh.uniq / 100).min(u16::MAX as u32) as u16;
             // selects, not branches: whether a pixel is unique is data (a branch on it
             // mispredicted)
-            let not_unique = (sh.uniq > 0) & (c2 != u16::MAX) & (c2 <= t);
+            let not_unique = if sh.conf {
+                // `third`: the smallest S apart from the winner and its neighbours
+                let t = (m as u32 + m as u32 * sh.uniq / 100).min(u16::MAX as u32) as u16;
+                (sh.uniq > 0) & (third != u16::MAX) & (third <= t)
+            } else {
+                // `third`: how many of them are within the uniqueness ratio (0 without one)
+                third > 0
+            };
             st.not_unique += not_unique as usize;
             sc.best[x] = if not_unique { -1 } else { kb as i32 };
             sc.sub[x] = subpixel_offset(&s[..nd], lo, hi, kb, sh.subpixel);
-            sc.ratio[x] = if sh.conf { curve_ratio(m as f64, (c2 != u16::MAX).then_some(c2 as f64)) } else { 0.0 };
+            sc.ratio[x] =
+                if sh.conf { curve_ratio(m as f64, (third != u16::MAX).then_some(third as f64)) } else { 0.0 };
             continue;
         }
         match decide(&s[..nd], lo, hi, sh.uniq, sh.subpixel, sh.conf) {
@@ -697,9 +711,9 @@ fn strip(
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,popcnt")]
 /// # Safety
-/// The CPU must support AVX2 (the caller checks `SimdLevel::detect()`), and the strip's buffers must be sized for `sh` (as the driver does).
+/// The CPU must support AVX2 and POPCNT (the caller checks `SimdLevel::detect()`), and the strip's buffers must be sized for `sh` (as the driver does).
 unsafe fn strip_avx2(
     sh: &Shared,
     pp: &SgmParams,
@@ -713,9 +727,9 @@ unsafe fn strip_avx2(
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,popcnt")]
 /// # Safety
-/// The CPU must support AVX2 and AVX-512 F/BW/VL (the caller checks `SimdLevel::detect()`).
+/// The CPU must support AVX2, AVX-512 F/BW/VL and POPCNT (the caller checks `SimdLevel::detect()`).
 unsafe fn strip_avx512(
     sh: &Shared,
     pp: &SgmParams,
@@ -759,9 +773,9 @@ pub(crate) fn run_strip(
     let simd = simd.min(SimdLevel::detect());
     #[cfg(target_arch = "x86_64")]
     match simd {
-        // SAFETY: `detect()` found AVX-512 F/BW/VL and AVX2 on this CPU.
+        // SAFETY: `detect()` found AVX-512 F/BW/VL, AVX2 and POPCNT on this CPU.
         SimdLevel::Avx512 => return unsafe { strip_avx512(sh, pp, sc, out, conf, y0, y1) },
-        // SAFETY: `detect()` found AVX2 on this CPU.
+        // SAFETY: `detect()` found AVX2 and POPCNT on this CPU.
         SimdLevel::Avx2 => return unsafe { strip_avx2(sh, pp, sc, out, conf, y0, y1) },
         SimdLevel::Scalar => {}
     }
@@ -896,11 +910,11 @@ mod lanes {
         /// # Safety
         /// The trait's contract.
         unsafe fn select(m: Self, a: Self, b: Self) -> Self;
-        /// The first lane where `a == b`, `LANES` if none.
+        /// How many lanes have `a ≤ b` (unsigned).
         ///
         /// # Safety
         /// The trait's contract.
-        unsafe fn first_eq(a: Self, b: Self) -> usize;
+        unsafe fn count_le(a: Self, b: Self) -> u32;
     }
 
     /// One [`V16`] implementation per register width, from its intrinsics.
@@ -909,7 +923,7 @@ mod lanes {
          $($op:ident: $intrinsic:ident),+; |$h:ident| $hmin:expr;
          |$u:ident, $ub:ident| $up:expr; |$dn:ident, $da:ident| $down:expr;
          |$la:ident, $lb:ident| $less:expr; |$sm:ident, $sa:ident, $sb:ident| $select:expr;
-         |$ea:ident, $eb:ident| $first_eq:expr) => {
+         |$ca:ident, $cb:ident| $count_le:expr) => {
             #[doc = $doc]
             #[derive(Clone, Copy)]
             pub(super) struct $name($reg);
@@ -989,10 +1003,10 @@ mod lanes {
                 /// # Safety
                 /// The trait's contract.
                 #[inline(always)]
-                unsafe fn first_eq(a: Self, b: Self) -> usize {
-                    let ($ea, $eb) = (a.0, b.0);
+                unsafe fn count_le(a: Self, b: Self) -> u32 {
+                    let ($ca, $cb) = (a.0, b.0);
                     // SAFETY: the trait's contract (the instruction set).
-                    unsafe { $first_eq }
+                    unsafe { $count_le }
                 }
             }
         };
@@ -1013,11 +1027,8 @@ mod lanes {
         // a < b ⟺ max(a, b) ≠ a
         |a, b| _mm256_xor_si256(_mm256_cmpeq_epi16(_mm256_max_epu16(a, b), a), _mm256_set1_epi16(-1));
         |m, a, b| _mm256_blendv_epi8(b, a, m);
-        |a, b| {
-            // two mask bits per 16-bit lane
-            let bits = _mm256_movemask_epi8(_mm256_cmpeq_epi16(a, b)) as u32;
-            if bits == 0 { 16 } else { bits.trailing_zeros() as usize / 2 }
-        }
+        // a ≤ b ⟺ min(a, b) = a; two mask bits per lane
+        |a, b| (_mm256_movemask_epi8(_mm256_cmpeq_epi16(_mm256_min_epu16(a, b), a)) as u32).count_ones() / 2
     );
     v16!(
         W512, __m512i, 32, "32 lanes (AVX-512 BW).", _mm512_loadu_si512, _mm512_storeu_si512, _mm512_set1_epi16,
@@ -1029,10 +1040,7 @@ mod lanes {
         |v, a| _mm512_permutex2var_epi16(v, _mm512_loadu_si512(DOWN.as_ptr() as *const _), a);
         |a, b| _mm512_movm_epi16(_mm512_cmplt_epu16_mask(a, b));
         |m, a, b| _mm512_mask_blend_epi16(_mm512_movepi16_mask(m), b, a);
-        |a, b| {
-            let bits = _mm512_cmpeq_epi16_mask(a, b);
-            if bits == 0 { 32 } else { bits.trailing_zeros() as usize }
-        }
+        |a, b| _mm512_cmple_epu16_mask(a, b).count_ones()
     );
 
     /// Lane indices of [`W512::up`]: lane 31 of `before`, then lanes 0..31 of the vector.
@@ -1285,16 +1293,36 @@ mod lanes {
         assert!(V::LANES <= 32 && n.is_multiple_of(V::LANES) && tail.len() == n && lo <= hi && hi < n && n < 1 << 15);
     }
 
-    /// The smallest `S` over candidates `lo..=hi`, its first candidate, and (when `need2`) the
-    /// smallest over the same candidates minus the winner and its two neighbours (`u16::MAX`:
-    /// none). Lanes outside `lo..=hi` (and the padding lanes past `D`) read as `u16::MAX`,
+    /// What [`wta`] finds besides the winner, among the candidates other than the winner and
+    /// its two neighbours (its third value).
+    #[derive(Clone, Copy, PartialEq, Eq)]
+    pub(super) enum Second {
+        /// Nothing (`0`).
+        Skip,
+        /// How many have `S ≤ m + m · uniq / 100` (`m` the winner's `S`): the uniqueness check
+        /// without the confidence value. Counted in a pass that needs the minimum only: the
+        /// pass for the smallest of them reads masks at the winner's position and so waits for
+        /// the winner's search.
+        Count(u32),
+        /// Their smallest `S` (`u16::MAX`: none).
+        Min,
+    }
+
+    /// The smallest `S` over candidates `lo..=hi`, its first candidate, and what `second`
+    /// asks for. Lanes outside `lo..=hi` (and the padding lanes past `D`) read as `u16::MAX`,
     /// which no sum reaches (the run refuses sums that could). `tail`: all ones in the lanes
     /// `d ≥ D`, zero below (the mask of a pixel whose candidates are all in the image).
     ///
     /// # Safety
     /// [`V16`]'s contract; the lengths [`wta_checked`] asserts.
     #[inline(always)]
-    pub(super) unsafe fn wta<V: V16>(s: &[u16], tail: &[u16], lo: usize, hi: usize, need2: bool) -> (u16, usize, u16) {
+    pub(super) unsafe fn wta<V: V16>(
+        s: &[u16],
+        tail: &[u16],
+        lo: usize,
+        hi: usize,
+        second: Second,
+    ) -> (u16, usize, u16) {
         let (c0, c1) = (lo / V::LANES * V::LANES, (hi / V::LANES + 1) * V::LANES);
         // every candidate in the image (most pixels): the lanes past hi are those `tail` marks
         let all = lo == 0 && tail[hi] == 0 && (hi + 1 == tail.len() || tail[hi + 1] != 0);
@@ -1305,33 +1333,51 @@ mod lanes {
                 let mask = if all { V::ld(tail.as_ptr().add(d)) } else { outside::<V>(d, lo, hi) };
                 V::or(V::ld(s.as_ptr().add(d)), mask)
             };
-            let mut mv = V::splat(u16::MAX);
+            // per lane, the smallest S and the first chunk holding it (strictly smaller replaces)
+            let (mut mv, mut iv) = (V::splat(u16::MAX), V::splat(0));
             let mut d = c0;
             while d < c1 {
-                mv = V::min(mv, at(d));
+                let v = at(d);
+                iv = V::select(V::less(v, mv), V::splat(d as u16), iv);
+                mv = V::min(mv, v);
                 d += V::LANES;
             }
             let m = mv.hmin();
-            // the first chunk holding the minimum, without a branch on which one it is (a
-            // data-dependent exit mispredicted)
-            let (mut kb, mvv) = (usize::MAX, V::splat(m));
-            let mut d = c0;
-            while d < c1 {
-                let k = V::first_eq(at(d), mvv);
-                kb = kb.min(if k < V::LANES { d + k } else { usize::MAX });
-                d += V::LANES;
+            // the first candidate holding the minimum: the smallest chunk + lane among the lanes
+            // whose minimum it is (the others, m < their minimum, masked to u16::MAX), without a
+            // branch on where it is (a data-dependent exit mispredicted)
+            let key = V::or(V::add(iv, V::ld(RAMP.as_ptr())), V::less(V::splat(m), mv));
+            let kb = key.hmin() as usize;
+            // the threshold of `Count`, below u16::MAX so that no masked lane is counted (a sum
+            // is below u16::MAX: S ≤ t ⟺ S ≤ min(t, u16::MAX − 1))
+            let count = match second {
+                Second::Count(uniq) => Some((m as u32 + m as u32 * uniq / 100).min(u16::MAX as u32 - 1) as u16),
+                _ => None,
+            };
+            match (second, count) {
+                (Second::Skip, _) => (m, kb, 0),
+                (_, Some(t)) => {
+                    let (tv, mut n) = (V::splat(t), 0);
+                    let mut d = c0;
+                    while d < c1 {
+                        n += V::count_le(at(d), tv);
+                        d += V::LANES;
+                    }
+                    // the winner and those of its neighbours within t were counted
+                    let near = 1 + (kb > lo && s[kb - 1] <= t) as u32 + (kb < hi && s[kb + 1] <= t) as u32;
+                    (m, kb, (n - near) as u16)
+                }
+                _ => {
+                    let mut m2 = V::splat(u16::MAX);
+                    let mut d = c0;
+                    while d < c1 {
+                        let o = (33 + d as isize - kb as isize).clamp(0, 67 - V::LANES as isize) as usize;
+                        m2 = V::min(m2, V::or(at(d), V::ld(NEAR.as_ptr().add(o))));
+                        d += V::LANES;
+                    }
+                    (m, kb, m2.hmin())
+                }
             }
-            if !need2 {
-                return (m, kb, u16::MAX);
-            }
-            let mut m2 = V::splat(u16::MAX);
-            let mut d = c0;
-            while d < c1 {
-                let o = (33 + d as isize - kb as isize).clamp(0, 67 - V::LANES as isize) as usize;
-                m2 = V::min(m2, V::or(at(d), V::ld(NEAR.as_ptr().add(o))));
-                d += V::LANES;
-            }
-            (m, kb, m2.hmin())
         }
     }
 
@@ -1372,7 +1418,7 @@ mod avx2 {
     /// The CPU must support AVX2. Lengths: `c`, `acc`, `tail` have `Dq` (a multiple of 16)
     /// entries, every `prev[i]` and `out[i]` `Dq + 2` (checked by assertions).
     #[inline]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,popcnt")]
     #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
     pub(super) unsafe fn paths<const N: usize>(
         c: &[u16],
@@ -1396,7 +1442,7 @@ mod avx2 {
     /// # Safety
     /// The CPU must support AVX2 (lengths are asserted).
     #[inline]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,popcnt")]
     #[allow(clippy::too_many_arguments)] // both row pairs, the lane count, the box sums
     pub(super) unsafe fn vertical(
         colsum: &mut [u16],
@@ -1424,7 +1470,7 @@ mod avx2 {
     /// # Safety
     /// The CPU must support AVX2 (lengths are asserted).
     #[inline]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,popcnt")]
     pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
         lanes::box_row_checked(cost, colsum, w, r, ndq);
         // SAFETY: AVX2 (this function's features); lengths asserted above.
@@ -1437,11 +1483,17 @@ mod avx2 {
     /// The CPU must support AVX2; `s.len()` is a multiple of 16 and `lo ≤ hi < s.len()`
     /// (asserted).
     #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn wta(s: &[u16], tail: &[u16], lo: usize, hi: usize, need2: bool) -> (u16, usize, u16) {
+    #[target_feature(enable = "avx2,popcnt")]
+    pub(super) unsafe fn wta(
+        s: &[u16],
+        tail: &[u16],
+        lo: usize,
+        hi: usize,
+        second: lanes::Second,
+    ) -> (u16, usize, u16) {
         lanes::wta_checked::<W256>(s, tail, lo, hi);
         // SAFETY: AVX2 (this function's features); lengths asserted above.
-        unsafe { lanes::wta::<W256>(s, tail, lo, hi, need2) }
+        unsafe { lanes::wta::<W256>(s, tail, lo, hi, second) }
     }
 
     /// [`lanes::right_update`] at 16 lanes.
@@ -1449,7 +1501,7 @@ mod avx2 {
     /// # Safety
     /// The CPU must support AVX2; the three slices have the same length (asserted).
     #[inline]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,popcnt")]
     pub(super) unsafe fn right_update(c: &[u16], rc: &mut [u16], rk: &mut [u16], lo: usize) {
         assert!(rc.len() == c.len() && rk.len() == c.len());
         // SAFETY: AVX2 (this function's features); lengths asserted above.
@@ -1468,7 +1520,7 @@ mod avx512 {
     /// The CPU must support AVX2 and AVX-512 F/BW/VL. Lengths: `c`, `acc`, `tail` have `Dq` (a
     /// multiple of 16) entries, every `prev[i]` and `out[i]` `Dq + 2` (checked by assertions).
     #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,popcnt")]
     #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
     pub(super) unsafe fn paths<const N: usize>(
         c: &[u16],
@@ -1505,7 +1557,7 @@ mod avx512 {
     /// # Safety
     /// The CPU must support AVX2 and AVX-512 F/BW/VL (lengths are asserted).
     #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,popcnt")]
     #[allow(clippy::too_many_arguments)] // both row pairs, the lane count, the box sums
     pub(super) unsafe fn vertical(
         colsum: &mut [u16],
@@ -1539,7 +1591,7 @@ mod avx512 {
     /// # Safety
     /// The CPU must support AVX2 and AVX-512 F/BW/VL (lengths are asserted).
     #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,popcnt")]
     pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
         lanes::box_row_checked(cost, colsum, w, r, ndq);
         let full = ndq / 32 * 32;
@@ -1558,11 +1610,17 @@ mod avx512 {
     /// The CPU must support AVX2 and AVX-512 F/BW/VL; `s.len()` is a multiple of 32 and
     /// `lo ≤ hi < s.len()` (asserted).
     #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-    pub(super) unsafe fn wta(s: &[u16], tail: &[u16], lo: usize, hi: usize, need2: bool) -> (u16, usize, u16) {
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,popcnt")]
+    pub(super) unsafe fn wta(
+        s: &[u16],
+        tail: &[u16],
+        lo: usize,
+        hi: usize,
+        second: lanes::Second,
+    ) -> (u16, usize, u16) {
         lanes::wta_checked::<W512>(s, tail, lo, hi);
         // SAFETY: AVX-512 (this function's features); lengths asserted above.
-        unsafe { lanes::wta::<W512>(s, tail, lo, hi, need2) }
+        unsafe { lanes::wta::<W512>(s, tail, lo, hi, second) }
     }
 
     /// [`lanes::right_update`] at 32 lanes.
@@ -1571,7 +1629,7 @@ mod avx512 {
     /// The CPU must support AVX2 and AVX-512 F/BW/VL; the three slices have the same length
     /// (asserted).
     #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,popcnt")]
     pub(super) unsafe fn right_update(c: &[u16], rc: &mut [u16], rk: &mut [u16], lo: usize) {
         assert!(rc.len() == c.len() && rk.len() == c.len());
         // SAFETY: AVX-512 (this function's features); lengths asserted above.
@@ -1623,31 +1681,85 @@ mod tests {
             let want_select: Vec<u16> = (0..n).map(|k| if mask[k] != 0 { a[k] } else { b[k] }).collect();
             assert_eq!(got(select), want_select, "select, {n} lanes");
             // SAFETY: as above.
-            let first = unsafe { V::first_eq(va, vb) };
-            assert_eq!(first, (0..n).find(|&k| a[k] == b[k]).unwrap_or(n), "first_eq, {n} lanes");
-            // SAFETY: as above.
             assert_eq!(unsafe { va.hmin() }, *a.iter().min().unwrap(), "hmin, {n} lanes");
+            // SAFETY: as above.
+            let le = unsafe { V::count_le(va, vb) };
+            assert_eq!(le as usize, (0..n).filter(|&k| a[k] <= b[k]).count(), "count_le, {n} lanes");
         }
     }
 
-    #[target_feature(enable = "avx2")]
+    /// [`lanes::wta`] against its definition, on sums drawn from a few values (equal sums in
+    /// neighbouring candidates and in the same lane of different chunks), garbage in the
+    /// padding lanes, and candidate ranges cut at either end or not at all.
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instruction set, and the caller must be compiled for it.
+    #[inline(always)]
+    unsafe fn check_wta<V: V16>() {
+        use super::lanes::{Second, wta, wta_checked};
+        let mut r = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = move |n: u64| {
+            r ^= r << 13;
+            r ^= r >> 7;
+            r ^= r << 17;
+            r % n
+        };
+        for case in 0..4000 {
+            let nd: usize = [5, 16, 17, 32, 40, 64, 70, 96][case % 8];
+            let ndq = nd.div_ceil(V::LANES) * V::LANES;
+            let values = [300u16, 301, 302, 330, 900, 65534];
+            let sums: Vec<u16> =
+                (0..ndq).map(|d| if d < nd { values[rnd(6) as usize] } else { rnd(400) as u16 }).collect();
+            let tail: Vec<u16> = (0..ndq).map(|d| if d < nd { 0 } else { u16::MAX }).collect();
+            let (lo, hi) = match rnd(3) {
+                0 => (0, nd - 1),
+                _ => {
+                    let a = rnd(nd as u64) as usize;
+                    let b = rnd(nd as u64) as usize;
+                    (a.min(b), a.max(b))
+                }
+            };
+            wta_checked::<V>(&sums, &tail, lo, hi);
+            let within = &sums[lo..=hi];
+            let m = *within.iter().min().unwrap();
+            let kb = lo + within.iter().position(|&v| v == m).unwrap();
+            let rivals = || (lo..=hi).filter(|&d| d.abs_diff(kb) > 1).map(|d| sums[d]);
+            let uniq = [0u32, 10, 15][case % 3];
+            let t = (m as u32 + m as u32 * uniq / 100).min(u16::MAX as u32 - 1) as u16;
+            for (second, third) in [
+                (Second::Skip, 0),
+                (Second::Count(uniq), rivals().filter(|&v| v <= t).count() as u16),
+                (Second::Min, rivals().min().unwrap_or(u16::MAX)),
+            ] {
+                // SAFETY: lengths checked by `wta_checked`; the instruction set is the caller's.
+                let got = unsafe { wta::<V>(&sums, &tail, lo, hi, second) };
+                assert_eq!(got, (m, kb, third), "{} lanes, D {nd}, {lo}..={hi}, {sums:?}", V::LANES);
+            }
+        }
+    }
+
+    #[target_feature(enable = "avx2,popcnt")]
     /// # Safety
     /// The CPU must support AVX2.
     unsafe fn check_avx2() {
         // SAFETY: compiled for AVX2, which the caller checked.
-        unsafe { check::<W256>() }
+        unsafe { check::<W256>() };
+        // SAFETY: as above.
+        unsafe { check_wta::<W256>() }
     }
 
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
+    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,popcnt")]
     /// # Safety
     /// The CPU must support AVX-512 F/BW/VL.
     unsafe fn check_avx512() {
         // SAFETY: compiled for AVX-512, which the caller checked.
-        unsafe { check::<W512>() }
+        unsafe { check::<W512>() };
+        // SAFETY: as above.
+        unsafe { check_wta::<W512>() }
     }
 
     #[test]
-    fn lane_operations_match_their_scalar_definitions() {
+    fn lane_operations_and_decisions_match_their_scalar_definitions() {
         use crate::engine::SimdLevel;
         let level = SimdLevel::detect();
         if level >= SimdLevel::Avx2 {

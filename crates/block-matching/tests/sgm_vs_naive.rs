@@ -358,19 +358,24 @@ fn sgm_fast_equals_naive_with_the_defaults_and_eight_paths() {
 #[test]
 fn sgm_fast_equals_naive_with_several_vectors_of_disparities() {
     // 64 and 96 candidates: whole 32-lane chunks (two and three; the 32-lane decisions), 70: two
-    // and a 16-lane one; negative minimum disparity: candidates cut at both ends of the row
-    for (seed, paths, nd, dmin) in [
+    // and a 16-lane one; negative minimum disparity: candidates cut at both ends of the row.
+    // With and without the confidence map: the uniqueness check takes the smallest rival sum
+    // with it and counts the rivals within the ratio without it.
+    for ((seed, paths, nd, dmin), confidence_map) in [
         (31, SgmPaths::Three, 64, 0),
         (32, SgmPaths::Five, 96, -5),
         (33, SgmPaths::Eight, 70, 2),
         (34, SgmPaths::Three, 70, -9),
-    ] {
+    ]
+    .into_iter()
+    .flat_map(|case| [(case, true), (case, false)])
+    {
         let cfg = MatcherConfig {
             method: Method::Sgm,
             num_disparities: nd,
             min_disparity: dmin,
             speckle_window_size: 0,
-            confidence_map: true,
+            confidence_map,
             sgm: SgmConfig { paths, strip_rows: 7, overlap: 3, ..SgmConfig::default() },
             ..MatcherConfig::default()
         };
