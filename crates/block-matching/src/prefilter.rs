@@ -356,7 +356,7 @@ mod tests {
         for (w, h, size, modulo) in
             [(1, 1, 3, 7), (31, 5, 3, 7), (32, 40, 5, 300), (70, 70, 9, 11), (100, 33, 7, 65535), (45, 66, 11, 5)]
         {
-            let src: Vec<u16> = (0..w * h).map(|i| ((i as u64 * 2654435761 >> 7) % modulo) as u16).collect();
+            let src: Vec<u16> = (0..w * h).map(|i| (((i as u64 * 2654435761) >> 7) % modulo) as u16).collect();
             let fast = rank_transform(&src, w, h, size);
             let r = (size / 2) as i64;
             for y in 0..h {
