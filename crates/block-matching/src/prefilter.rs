@@ -37,29 +37,11 @@ pub fn x_sobel_into(src: &[u16], width: usize, height: usize, cap: u32, out: &mu
     });
 }
 
-/// Declares `$name`, which runs `$body` compiled for AVX2 when the CPU has it and for the
-/// baseline otherwise (the same code; the loops are written to vectorise, and the AVX2 copy runs
-/// them at twice the width).
-macro_rules! with_avx2 {
+/// Declares `$name`, which runs `$body` compiled for AVX-512 BW or AVX2 when the CPU has it and
+/// for the baseline otherwise (the same code; the loops are written to vectorise, and the
+/// copies run them at four or two times the baseline's width).
+macro_rules! with_simd {
     (fn $name:ident($($a:ident: $t:ty),*) $body:block) => {
-        fn $name($($a: $t),*) {
-            #[inline(always)]
-            fn imp($($a: $t),*) $body
-            #[cfg(target_arch = "x86_64")]
-            #[target_feature(enable = "avx2")]
-            fn avx2($($a: $t),*) {
-                imp($($a),*)
-            }
-            #[cfg(target_arch = "x86_64")]
-            if is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU supports AVX2.
-                return unsafe { avx2($($a),*) };
-            }
-            imp($($a),*)
-        }
-    };
-    // `avx512`: also a copy compiled for AVX-512 BW, taken when the CPU has it
-    (avx512 fn $name:ident($($a:ident: $t:ty),*) $body:block) => {
         fn $name($($a: $t),*) {
             #[inline(always)]
             fn imp($($a: $t),*) $body
@@ -92,7 +74,7 @@ macro_rules! with_avx2 {
     };
 }
 
-with_avx2! {
+with_simd! {
     fn sobel_row(r0: &[u16], r1: &[u16], r2: &[u16], o: &mut [u16], cap: i32) {
         let w = o.len();
         let at = |xm: usize, xp: usize| {
@@ -118,7 +100,7 @@ with_avx2! {
     }
 }
 
-with_avx2! {
+with_simd! {
     fn abs_dev_update(col: &mut [u32], add: &[u16], sub: &[u16], cap: i32) {
         for ((c, &a), &s) in col.iter_mut().zip(add).zip(sub) {
             *c = *c + (a as i32 - cap).unsigned_abs() - (s as i32 - cap).unsigned_abs();
@@ -126,7 +108,7 @@ with_avx2! {
     }
 }
 
-with_avx2! {
+with_simd! {
     fn window_row_at_least(col: &[u32], pad: &mut [u32], acc: &mut [u32], r: usize, threshold: u32, out: &mut [bool]) {
         let w = col.len();
         pad[..r].fill(col[0]);
@@ -225,8 +207,8 @@ pub fn rank_transform_into(src: &[u16], width: usize, height: usize, size: usize
     });
 }
 
-with_avx2! {
-    avx512 fn rank_row(count: &mut [u16], centre: &[u16], pads: &[u16], size: usize) {
+with_simd! {
+    fn rank_row(count: &mut [u16], centre: &[u16], pads: &[u16], size: usize) {
         // 32 pixels at a time (one 512-bit vector, two 256-bit ones) with their counts held in
         // registers across the whole window (counting one window offset at a time over the row
         // loaded and stored every count size² times: measured 2.3 ms of an 11 ms default teddy
