@@ -1,11 +1,13 @@
 //! The bundle problem shared by mono calibration, stereo calibration and pose-only solving:
 //! global parameters (the free intrinsics of one or two cameras, then the rig pose) followed by
 //! one 6-vector pose per view. `normal_equations` accumulates `JᵀJ` block by block (camera
-//! block, rig block, per-view 6x6 blocks and their couplings) without forming `J`.
+//! block, rig block, per-view 6x6 blocks and their couplings) without forming `J`. One problem
+//! for every camera model: a model enters through [`CameraSlots`] (pinhole with distortion
+//! here, the fisheye models in `fisheye.rs`).
 
 use faer::{Col, Mat, MatMut};
 use glam::{DVec2, DVec3};
-use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3};
+use parallax_camera_model::{Camera, Distortion, Intrinsics, Isometry3, ProjectionJacobians};
 use parallax_least_squares::{EvaluationError, Problem};
 
 /// Length of the full intrinsic vector `(fx, fy, cx, cy, skew, k1, k2, p1, p2, k3, k4, k5, k6)`.
@@ -18,6 +20,44 @@ pub(crate) enum Slot {
     Fixed(f64),
     /// `value = scale · params[camera offset + index]`.
     Free { index: usize, scale: f64 },
+}
+
+/// The parametrisation of one camera of a [`Bundle`]: which of its parameters are free (its
+/// slots, in the order of [`ProjectionJacobians`]' intrinsics then distortion or lens
+/// parameters) and the camera a free-parameter vector makes.
+pub(crate) trait CameraSlots {
+    /// The camera model.
+    type Camera;
+    /// One slot per parameter.
+    fn slots(&self) -> &[Slot];
+    /// How many slots are free.
+    fn num_free(&self) -> usize;
+    /// The camera of the free values `free`, or why there is none (a bundle step that leaves
+    /// the model's domain).
+    fn camera(&self, free: &[f64]) -> Result<Self::Camera, EvaluationError>;
+    /// The pixel of `x` (object frame) seen from `pose`, with its derivatives.
+    fn project(camera: &Self::Camera, pose: &Isometry3, x: DVec3)
+    -> parallax_camera_model::Result<ProjectionJacobians>;
+}
+
+impl CameraSlots for CameraModelSlots {
+    type Camera = Camera;
+    fn slots(&self) -> &[Slot] {
+        &self.slots
+    }
+    fn num_free(&self) -> usize {
+        self.num_free
+    }
+    fn camera(&self, free: &[f64]) -> Result<Camera, EvaluationError> {
+        let c = CameraModelSlots::camera(self, free);
+        if !(c.intrinsics.fx > 0.0 && c.intrinsics.fy > 0.0) {
+            return Err(EvaluationError("non-positive focal length".into()));
+        }
+        Ok(c)
+    }
+    fn project(camera: &Camera, pose: &Isometry3, x: DVec3) -> parallax_camera_model::Result<ProjectionJacobians> {
+        camera.project_with_jacobians(pose, x)
+    }
 }
 
 /// The parametrisation of one camera's intrinsics.
@@ -82,8 +122,8 @@ pub(crate) struct ViewObs<'a> {
     pub image: [Option<&'a [DVec2]>; 2],
 }
 
-pub(crate) struct Bundle<'a> {
-    pub cams: Vec<CameraModelSlots>,
+pub(crate) struct Bundle<'a, S: CameraSlots> {
+    pub cams: Vec<S>,
     pub cam_offsets: Vec<usize>,
     /// Offset of the rig pose (`right_from_left`, camera 1 = rig ∘ camera 0 pose), if stereo.
     pub rig_offset: Option<usize>,
@@ -92,13 +132,13 @@ pub(crate) struct Bundle<'a> {
     pub num_residuals: usize,
 }
 
-impl<'a> Bundle<'a> {
-    pub fn new(cams: Vec<CameraModelSlots>, stereo: bool, views: Vec<ViewObs<'a>>) -> Self {
+impl<'a, S: CameraSlots> Bundle<'a, S> {
+    pub fn new(cams: Vec<S>, stereo: bool, views: Vec<ViewObs<'a>>) -> Self {
         let mut cam_offsets = Vec::with_capacity(cams.len());
         let mut off = 0;
         for c in &cams {
             cam_offsets.push(off);
-            off += c.num_free;
+            off += c.num_free();
         }
         let rig_offset = stereo.then_some(off);
         if stereo {
@@ -113,20 +153,19 @@ impl<'a> Bundle<'a> {
         self.num_global + 6 * v
     }
 
-    /// Visits every observation: `f(view, camera, point, residual, entries)` where `entries`
-    /// lists `(parameter index, ∂r/∂p)` (the non-zero Jacobian columns of this 2-row block).
+    /// The cameras of `params`.
+    pub fn cameras(&self, params: &[f64]) -> Result<Vec<S::Camera>, EvaluationError> {
+        self.cams.iter().zip(&self.cam_offsets).map(|(c, &o)| c.camera(&params[o..o + c.num_free()])).collect()
+    }
+
+    /// Visits every observation: `f(view, camera, residual, entries)` where `entries` lists
+    /// `(parameter index, ∂r/∂p)` (the non-zero Jacobian columns of this 2-row block).
     fn for_each_observation(
         &self,
         params: &[f64],
-        mut f: impl FnMut(usize, usize, usize, DVec2, &[(usize, [f64; 2])]),
+        mut f: impl FnMut(usize, usize, DVec2, &[(usize, [f64; 2])]),
     ) -> Result<(), EvaluationError> {
-        let cameras: Vec<Camera> =
-            self.cams.iter().zip(&self.cam_offsets).map(|(c, &o)| c.camera(&params[o..o + c.num_free])).collect();
-        for c in &cameras {
-            if !(c.intrinsics.fx > 0.0 && c.intrinsics.fy > 0.0) {
-                return Err(EvaluationError("non-positive focal length".into()));
-            }
-        }
+        let cameras = self.cameras(params)?;
         let rig = self.rig_offset.map(|o| pose_at(&params[o..o + 6]));
         // Adjoint of the rig for the left perturbation (ω, v): [[R, 0], [[t]× R, R]].
         let adj = rig.map(|e| {
@@ -153,18 +192,17 @@ impl<'a> Bundle<'a> {
                 let camera = &cameras[cam_index];
                 let pose = if c == 0 { left } else { rig.expect("stereo bundle has a rig") * left };
                 for (i, (x, q)) in view.object.iter().zip(img.iter()).enumerate() {
-                    let pj = camera
-                        .project_with_jacobians(&pose, *x)
+                    let pj = S::project(camera, &pose, *x)
                         .map_err(|e| EvaluationError(format!("view {v}, camera {c}, point {i}: {e}")))?;
                     let r = pj.pixel - *q;
                     entries.clear();
                     // Intrinsics.
                     let co = self.cam_offsets[cam_index];
                     let start = entries.len();
-                    for k in 0..slots.num_free {
+                    for k in 0..slots.num_free() {
                         entries.push((co + k, [0.0, 0.0]));
                     }
-                    for (t, s) in slots.slots.iter().enumerate() {
+                    for (t, s) in slots.slots().iter().enumerate() {
                         if let Slot::Free { index, scale } = *s {
                             let (a, b) = if t < 5 {
                                 (pj.d_intrinsics[0][t], pj.d_intrinsics[1][t])
@@ -195,7 +233,7 @@ impl<'a> Bundle<'a> {
                             entries.push((vo + k, d));
                         }
                     }
-                    f(v, c, i, r, &entries);
+                    f(v, c, r, &entries);
                 }
             }
         }
@@ -205,12 +243,12 @@ impl<'a> Bundle<'a> {
     /// Per-view, per-camera residual vectors (projected − observed) at `params`.
     pub fn residuals_by_view(&self, params: &[f64]) -> Result<Vec<[Vec<DVec2>; 2]>, EvaluationError> {
         let mut out: Vec<[Vec<DVec2>; 2]> = (0..self.views.len()).map(|_| [Vec::new(), Vec::new()]).collect();
-        self.for_each_observation(params, |v, c, _, r, _| out[v][c].push(r))?;
+        self.for_each_observation(params, |v, c, r, _| out[v][c].push(r))?;
         Ok(out)
     }
 }
 
-impl Problem for Bundle<'_> {
+impl<S: CameraSlots> Problem for Bundle<'_, S> {
     fn num_params(&self) -> usize {
         self.num_global + 6 * self.views.len()
     }
@@ -227,7 +265,7 @@ impl Problem for Bundle<'_> {
             j.fill(0.0);
         }
         let mut row = 0;
-        self.for_each_observation(params, |_, _, _, r, entries| {
+        self.for_each_observation(params, |_, _, r, entries| {
             residuals[row] = r.x;
             residuals[row + 1] = r.y;
             if let Some(j) = jacobian.as_mut() {
@@ -274,7 +312,7 @@ impl Problem for Bundle<'_> {
             jtr.fill(0.0);
         }
         let mut row = 0;
-        self.for_each_observation(params, |_, _, _, r, entries| {
+        self.for_each_observation(params, |_, _, r, entries| {
             residuals[row] = r.x;
             residuals[row + 1] = r.y;
             row += 2;

@@ -24,7 +24,7 @@ use parallax_least_squares::{
 };
 use serde::{Deserialize, Serialize};
 
-use crate::bundle::{Slot, ViewObs, pose_at, store_pose};
+use crate::bundle::{Bundle, CameraSlots, Slot, ViewObs, pose_at, store_pose};
 use crate::calibrate::{
     CalibrationWarning, PARALLEL_VIEWS_DEG, PoseStdDevs, board_views, outlier_views, pose_std_devs, rms_of,
     validate_views, view_spread_deg,
@@ -346,217 +346,23 @@ impl Slots {
     }
 }
 
-/// The bundle problem of the fisheye path: free camera parameters (one or two cameras), the
-/// rig pose (stereo), then one 6-vector pose per view (the layout of the pinhole bundle).
-struct FisheyeBundle<'a> {
-    cams: Vec<Slots>,
-    cam_offsets: Vec<usize>,
-    rig_offset: Option<usize>,
-    num_global: usize,
-    views: Vec<ViewObs<'a>>,
-    num_residuals: usize,
-}
-
-impl<'a> FisheyeBundle<'a> {
-    fn new(cams: Vec<Slots>, stereo: bool, views: Vec<ViewObs<'a>>) -> Self {
-        let mut cam_offsets = Vec::with_capacity(cams.len());
-        let mut off = 0;
-        for c in &cams {
-            cam_offsets.push(off);
-            off += c.num_free;
-        }
-        let rig_offset = stereo.then_some(off);
-        if stereo {
-            off += 6;
-        }
-        let num_residuals =
-            views.iter().map(|v| v.image.iter().flatten().map(|img| 2 * img.len()).sum::<usize>()).sum();
-        Self { cams, cam_offsets, rig_offset, num_global: off, views, num_residuals }
+impl CameraSlots for Slots {
+    type Camera = FisheyeCamera;
+    fn slots(&self) -> &[Slot] {
+        &self.slots
     }
-
-    fn view_offset(&self, v: usize) -> usize {
-        self.num_global + 6 * v
+    fn num_free(&self) -> usize {
+        self.num_free
     }
-
-    fn cameras(&self, params: &[f64]) -> std::result::Result<Vec<FisheyeCamera>, EvaluationError> {
-        self.cams
-            .iter()
-            .zip(&self.cam_offsets)
-            .map(|(c, &o)| c.camera(&params[o..o + c.num_free]).map_err(|e| EvaluationError(e.to_string())))
-            .collect()
+    fn camera(&self, free: &[f64]) -> std::result::Result<FisheyeCamera, EvaluationError> {
+        Slots::camera(self, free).map_err(|e| EvaluationError(e.to_string()))
     }
-
-    /// Visits every observation: `f(view, camera, residual, entries)` with the non-zero
-    /// Jacobian columns `(parameter index, ∂r/∂p)` of its 2-row block.
-    fn for_each_observation(
-        &self,
-        params: &[f64],
-        mut f: impl FnMut(usize, usize, DVec2, &[(usize, [f64; 2])]),
-    ) -> std::result::Result<(), EvaluationError> {
-        let cameras = self.cameras(params)?;
-        let rig = self.rig_offset.map(|o| pose_at(&params[o..o + 6]));
-        // Adjoint of the rig for the left perturbation (ω, v): [[R, 0], [[t]× R, R]].
-        let adj = rig.map(|e| {
-            let r = e.rotation_matrix();
-            let tx = parallax_camera_model::skew_symmetric(e.translation) * r;
-            let mut a = [[0.0; 6]; 6];
-            for i in 0..3 {
-                for j in 0..3 {
-                    a[i][j] = r.col(j)[i];
-                    a[3 + i][3 + j] = r.col(j)[i];
-                    a[3 + i][j] = tx.col(j)[i];
-                }
-            }
-            a
-        });
-        let mut entries: Vec<(usize, [f64; 2])> = Vec::with_capacity(32);
-        for (v, view) in self.views.iter().enumerate() {
-            let vo = self.view_offset(v);
-            let left = pose_at(&params[vo..vo + 6]);
-            for (c, img) in view.image.iter().enumerate() {
-                let Some(img) = img else { continue };
-                let ci = c.min(self.cams.len() - 1);
-                let slots = &self.cams[ci];
-                let camera = &cameras[ci];
-                let pose = if c == 0 { left } else { rig.expect("stereo bundle has a rig") * left };
-                for (i, (x, q)) in view.object.iter().zip(img.iter()).enumerate() {
-                    let pj = camera
-                        .project_with_jacobians(&pose, *x)
-                        .map_err(|e| EvaluationError(format!("view {v}, camera {c}, point {i}: {e}")))?;
-                    let r = pj.pixel - *q;
-                    entries.clear();
-                    let co = self.cam_offsets[ci];
-                    for k in 0..slots.num_free {
-                        entries.push((co + k, [0.0, 0.0]));
-                    }
-                    for (t, s) in slots.slots.iter().enumerate() {
-                        if let Slot::Free { index, scale } = *s {
-                            let (a, b) = if t < 5 {
-                                (pj.d_intrinsics[0][t], pj.d_intrinsics[1][t])
-                            } else {
-                                (pj.d_distortion[0][t - 5], pj.d_distortion[1][t - 5])
-                            };
-                            let e = &mut entries[index].1;
-                            e[0] += scale * a;
-                            e[1] += scale * b;
-                        }
-                    }
-                    if c == 0 {
-                        for k in 0..6 {
-                            entries.push((vo + k, [pj.d_pose[0][k], pj.d_pose[1][k]]));
-                        }
-                    } else {
-                        let ro = self.rig_offset.expect("stereo bundle has a rig");
-                        let a = adj.as_ref().expect("stereo bundle has a rig");
-                        for k in 0..6 {
-                            entries.push((ro + k, [pj.d_pose[0][k], pj.d_pose[1][k]]));
-                        }
-                        for k in 0..6 {
-                            let mut d = [0.0; 2];
-                            for l in 0..6 {
-                                d[0] += pj.d_pose[0][l] * a[l][k];
-                                d[1] += pj.d_pose[1][l] * a[l][k];
-                            }
-                            entries.push((vo + k, d));
-                        }
-                    }
-                    f(v, c, r, &entries);
-                }
-            }
-        }
-        Ok(())
-    }
-
-    fn residuals_by_view(&self, params: &[f64]) -> std::result::Result<Vec<[Vec<DVec2>; 2]>, EvaluationError> {
-        let mut out: Vec<[Vec<DVec2>; 2]> = (0..self.views.len()).map(|_| [Vec::new(), Vec::new()]).collect();
-        self.for_each_observation(params, |v, c, r, _| out[v][c].push(r))?;
-        Ok(out)
-    }
-}
-
-impl Problem for FisheyeBundle<'_> {
-    fn num_params(&self) -> usize {
-        self.num_global + 6 * self.views.len()
-    }
-    fn num_residuals(&self) -> usize {
-        self.num_residuals
-    }
-    fn evaluate(
-        &self,
-        params: &[f64],
-        residuals: &mut [f64],
-        mut jacobian: Option<faer::MatMut<'_, f64>>,
-    ) -> std::result::Result<(), EvaluationError> {
-        if let Some(j) = jacobian.as_mut() {
-            j.fill(0.0);
-        }
-        let mut row = 0;
-        self.for_each_observation(params, |_, _, r, entries| {
-            residuals[row] = r.x;
-            residuals[row + 1] = r.y;
-            if let Some(j) = jacobian.as_mut() {
-                for &(col, d) in entries {
-                    j[(row, col)] += d[0];
-                    j[(row + 1, col)] += d[1];
-                }
-            }
-            row += 2;
-        })
-    }
-
-    fn retract(&self, params: &[f64], delta: &[f64], out: &mut [f64]) {
-        for i in 0..self.num_params() {
-            out[i] = params[i] + delta[i];
-        }
-        let mut pose_offsets: Vec<usize> = (0..self.views.len()).map(|v| self.view_offset(v)).collect();
-        if let Some(o) = self.rig_offset {
-            pose_offsets.push(o);
-        }
-        for o in pose_offsets {
-            let d: [f64; 6] = std::array::from_fn(|k| delta[o + k]);
-            let p = pose_at(&params[o..o + 6]).retract(&d);
-            store_pose(&p, &mut out[o..o + 6]);
-        }
-    }
-
-    fn normal_equations(
-        &self,
-        params: &[f64],
-        jtj: &mut faer::Mat<f64>,
-        jtr: &mut faer::Col<f64>,
-        residuals: &mut [f64],
-    ) -> std::result::Result<(), EvaluationError> {
-        let n = self.num_params();
-        if jtj.nrows() != n || jtj.ncols() != n {
-            *jtj = faer::Mat::zeros(n, n);
-        } else {
-            jtj.fill(0.0);
-        }
-        if jtr.nrows() != n {
-            *jtr = faer::Col::zeros(n);
-        } else {
-            jtr.fill(0.0);
-        }
-        let mut row = 0;
-        self.for_each_observation(params, |_, _, r, entries| {
-            residuals[row] = r.x;
-            residuals[row + 1] = r.y;
-            row += 2;
-            for (a, &(ia, da)) in entries.iter().enumerate() {
-                jtr[ia] += da[0] * r.x + da[1] * r.y;
-                for &(ib, db) in &entries[a..] {
-                    let v = da[0] * db[0] + da[1] * db[1];
-                    let (lo, hi) = if ia <= ib { (ia, ib) } else { (ib, ia) };
-                    jtj[(lo, hi)] += v;
-                }
-            }
-        })?;
-        for j in 0..n {
-            for i in (j + 1)..n {
-                jtj[(i, j)] = jtj[(j, i)];
-            }
-        }
-        Ok(())
+    fn project(
+        camera: &FisheyeCamera,
+        pose: &Isometry3,
+        x: DVec3,
+    ) -> parallax_camera_model::Result<parallax_camera_model::ProjectionJacobians> {
+        camera.project_with_jacobians(pose, x)
     }
 }
 
@@ -971,7 +777,7 @@ pub fn calibrate_fisheye(
     let mut last_error = None;
     for (init_camera, init_poses) in &starts {
         let slots = Slots::new(config, init_camera, false);
-        let bundle = FisheyeBundle::new(vec![slots.clone()], false, views());
+        let bundle = Bundle::new(vec![slots.clone()], false, views());
         let n = bundle.num_params();
         if bundle.num_residuals <= n {
             return Err(CalibrationError::TooFewPoints {
@@ -1000,7 +806,7 @@ pub fn calibrate_fisheye(
         (None, Some(e)) => return Err(e.into()),
         (None, None) => return Err(CalibrationError::EstimationFailed("no initial estimate".into())),
     };
-    let bundle = FisheyeBundle::new(vec![slots.clone()], false, views());
+    let bundle = Bundle::new(vec![slots.clone()], false, views());
     let n = bundle.num_params();
     let poses: Vec<Isometry3> =
         (0..object_points.len()).map(|v| pose_at(&report.params[bundle.view_offset(v)..])).collect();
@@ -1096,7 +902,7 @@ pub fn calibrate_fisheye_stereo(
         .zip(left_points.iter().zip(right_points))
         .map(|(o, (l, r))| ViewObs { object: o, image: [Some(l.as_slice()), Some(r.as_slice())] })
         .collect();
-    let bundle = FisheyeBundle::new(vec![ls.clone(), rs.clone()], true, views);
+    let bundle = Bundle::new(vec![ls.clone(), rs.clone()], true, views);
     let n = bundle.num_params();
     let mut x0 = vec![0.0; n];
     x0[..ls.num_free].copy_from_slice(&ls.free_values(&lcam));
@@ -1204,7 +1010,7 @@ mod tests {
             ViewObs { object: &object, image: [Some(&image), Some(&image)] },
             ViewObs { object: &object, image: [Some(&image), Some(&image)] },
         ];
-        let b = FisheyeBundle::new(vec![Slots::new(&cfg, &kb, false), Slots::new(&cfg, &ds, false)], true, views);
+        let b = Bundle::new(vec![Slots::new(&cfg, &kb, false), Slots::new(&cfg, &ds, false)], true, views);
         let n = b.num_params();
         let mut x = vec![0.0; n];
         x[..9].copy_from_slice(&b.cams[0].free_values(&kb));
