@@ -35,6 +35,8 @@ pub(crate) trait CameraSlots {
     /// The camera of the free values `free`, or why there is none (a bundle step that leaves
     /// the model's domain).
     fn camera(&self, free: &[f64]) -> Result<Self::Camera, EvaluationError>;
+    /// The free values of `camera` (the inverse of [`CameraSlots::camera`]).
+    fn free_values(&self, camera: &Self::Camera) -> Vec<f64>;
     /// The pixel of `x` (object frame) seen from `pose`, with its derivatives.
     fn project(camera: &Self::Camera, pose: &Isometry3, x: DVec3)
     -> parallax_camera_model::Result<ProjectionJacobians>;
@@ -54,6 +56,9 @@ impl CameraSlots for CameraModelSlots {
             return Err(EvaluationError("non-positive focal length".into()));
         }
         Ok(c)
+    }
+    fn free_values(&self, camera: &Camera) -> Vec<f64> {
+        CameraModelSlots::free_values(self, camera)
     }
     fn project(camera: &Camera, pose: &Isometry3, x: DVec3) -> parallax_camera_model::Result<ProjectionJacobians> {
         camera.project_with_jacobians(pose, x)

@@ -29,7 +29,7 @@ use crate::calibrate::{
     CalibrationWarning, PARALLEL_VIEWS_DEG, PoseStdDevs, board_views, outlier_views, pose_std_devs, rms_of,
     validate_views, view_spread_deg,
 };
-use crate::stereo::{RigStdDevs, median_rig};
+use crate::stereo::{RigStdDevs, StereoSolution, median_rig, refine_stereo};
 use crate::{CalibrationError, Result};
 
 /// Length of the full per-camera parameter vector `(fx, fy, cx, cy, skew, l0, l1, l2, l3)`
@@ -356,6 +356,9 @@ impl CameraSlots for Slots {
     }
     fn camera(&self, free: &[f64]) -> std::result::Result<FisheyeCamera, EvaluationError> {
         Slots::camera(self, free).map_err(|e| EvaluationError(e.to_string()))
+    }
+    fn free_values(&self, camera: &FisheyeCamera) -> Vec<f64> {
+        Slots::free_values(self, camera)
     }
     fn project(
         camera: &FisheyeCamera,
@@ -897,50 +900,17 @@ pub fn calibrate_fisheye_stereo(
     let rig0 = median_rig(&lposes, &rposes)?;
     let ls = Slots::new(&config.left, &lcam, config.fix_intrinsics);
     let rs = Slots::new(&config.right, &rcam, config.fix_intrinsics);
-    let views: Vec<ViewObs> = object_points
-        .iter()
-        .zip(left_points.iter().zip(right_points))
-        .map(|(o, (l, r))| ViewObs { object: o, image: [Some(l.as_slice()), Some(r.as_slice())] })
-        .collect();
-    let bundle = Bundle::new(vec![ls.clone(), rs.clone()], true, views);
-    let n = bundle.num_params();
-    let mut x0 = vec![0.0; n];
-    x0[..ls.num_free].copy_from_slice(&ls.free_values(&lcam));
-    let ro = bundle.cam_offsets[1];
-    x0[ro..ro + rs.num_free].copy_from_slice(&rs.free_values(&rcam));
-    let rig_offset = bundle.rig_offset.expect("stereo bundle");
-    store_pose(&rig0, &mut x0[rig_offset..rig_offset + 6]);
-    for (v, p) in lposes.iter().enumerate() {
-        let o = bundle.view_offset(v);
-        store_pose(p, &mut x0[o..o + 6]);
-    }
-    let report = levenberg_marquardt(&bundle, &x0, &LmConfig { covariance: true, ..config.lm })?;
-    let cams = bundle.cameras(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
-    let right_from_left = pose_at(&report.params[rig_offset..]);
+    let sol = refine_stereo(
+        [&ls, &rs],
+        [&lcam, &rcam],
+        &rig0,
+        &lposes,
+        object_points,
+        [left_points, right_points],
+        &config.lm,
+    )?;
+    let StereoSolution { cameras: cams, right_from_left, poses, residuals_px, per_view_rms_px, .. } = sol;
     let rig = FisheyeStereoRig::new(cams[0], cams[1], right_from_left)?;
-    let poses: Vec<Isometry3> =
-        (0..object_points.len()).map(|v| pose_at(&report.params[bundle.view_offset(v)..])).collect();
-    let by_view = bundle.residuals_by_view(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
-    let residuals_px: Vec<[Vec<DVec2>; 2]> = by_view
-        .into_iter()
-        .map(|[l, r]| [l.into_iter().map(|e| -e).collect(), r.into_iter().map(|e| -e).collect()])
-        .collect();
-    let per_view_rms_px: Vec<[f64; 2]> = residuals_px.iter().map(|[l, r]| [rms_of(l), rms_of(r)]).collect();
-    let all_l: Vec<DVec2> = residuals_px.iter().flat_map(|[l, _]| l.iter().copied()).collect();
-    let all_r: Vec<DVec2> = residuals_px.iter().flat_map(|[_, r]| r.iter().copied()).collect();
-    let all: Vec<DVec2> = all_l.iter().chain(&all_r).copied().collect();
-    let cov = report.covariance.as_ref();
-    let rig_pose_std = pose_std_devs(&right_from_left, rig_offset, cov);
-    let baseline_std = cov.map_or(f64::NAN, |c| {
-        let u = right_from_left.translation.normalize();
-        let mut s = 0.0;
-        for a in 0..3 {
-            for b in 0..3 {
-                s += u[a] * c[(rig_offset + 3 + a, rig_offset + 3 + b)] * u[b];
-            }
-        }
-        s.max(0.0).sqrt()
-    });
     let mut warnings: Vec<FisheyeWarning> = Vec::new();
     for (camera, cfg) in [(0, &config.left), (1, &config.right)] {
         let rms: Vec<f64> = per_view_rms_px.iter().map(|r| r[camera]).collect();
@@ -951,7 +921,7 @@ pub fn calibrate_fisheye_stereo(
         intrinsic_guess: if config.fix_intrinsics { Some(cams[0]) } else { config.left.intrinsic_guess },
         ..config.left.clone()
     };
-    common_warnings(&mut warnings, &poses, &guessless, &report);
+    common_warnings(&mut warnings, &poses, &guessless, &sol.report);
     let right_poses: Vec<Isometry3> = poses.iter().map(|p| right_from_left * *p).collect();
     lens_warnings(&mut warnings, &cams[0], 0, &poses, object_points, &config.left);
     lens_warnings(&mut warnings, &cams[1], 1, &right_poses, object_points, &config.right);
@@ -959,23 +929,19 @@ pub fn calibrate_fisheye_stereo(
         essential: rig.essential(),
         rig,
         camera_from_board: poses,
-        rms_px: rms_of(&all),
-        left_rms_px: rms_of(&all_l),
-        right_rms_px: rms_of(&all_r),
+        rms_px: sol.rms_px[0],
+        left_rms_px: sol.rms_px[1],
+        right_rms_px: sol.rms_px[2],
         per_view_rms_px,
         residuals_px,
-        left_std_devs: ls.std_devs(0, cov),
-        right_std_devs: rs.std_devs(ro, cov),
-        rig_std_devs: RigStdDevs {
-            rotation_rad: rig_pose_std.rotation_rad,
-            translation: rig_pose_std.translation,
-            baseline: baseline_std,
-        },
-        sigma_px: report.sigma2.sqrt(),
-        dof: report.dof,
-        num_parameters: n,
-        iterations: report.iterations,
-        converged: report.stop_reason.converged(),
+        left_std_devs: ls.std_devs(0, sol.report.covariance.as_ref()),
+        right_std_devs: rs.std_devs(sol.right_offset, sol.report.covariance.as_ref()),
+        rig_std_devs: sol.rig_std_devs,
+        sigma_px: sol.report.sigma2.sqrt(),
+        dof: sol.report.dof,
+        num_parameters: sol.num_parameters,
+        iterations: sol.report.iterations,
+        converged: sol.report.stop_reason.converged(),
         warnings,
     })
 }

@@ -3,10 +3,10 @@
 
 use glam::{DMat3, DVec2, DVec3};
 use parallax_camera_model::{Camera, Chessboard, CornerGrid, Isometry3, StereoRig};
-use parallax_least_squares::{LmConfig, levenberg_marquardt};
+use parallax_least_squares::{LmConfig, LmReport, Problem, levenberg_marquardt};
 use serde::{Deserialize, Serialize};
 
-use crate::bundle::{Bundle, CameraModelSlots, N_INTR, Slot, ViewObs, pose_at, store_pose, theta_of};
+use crate::bundle::{Bundle, CameraModelSlots, CameraSlots, N_INTR, Slot, ViewObs, pose_at, store_pose, theta_of};
 use crate::calibrate::{
     CalibrationConfig, CalibrationWarning, IntrinsicStdDevs, board_views, calibrate_camera, diagnostics,
     intrinsic_std_devs, median, model_slots, outlier_views, pose_std_devs, rms_of, validate_views,
@@ -123,6 +123,101 @@ pub fn median_rig(left: &[Isometry3], right: &[Isometry3]) -> Result<Isometry3> 
     Ok(Isometry3::from_rvec_tvec(rv, t))
 }
 
+/// The joint refinement of a stereo calibration and what every result reports of it.
+pub(crate) struct StereoSolution<C> {
+    pub cameras: [C; 2],
+    pub right_from_left: Isometry3,
+    /// Left camera from board, per view.
+    pub poses: Vec<Isometry3>,
+    /// Observed − projected, per view and camera.
+    pub residuals_px: Vec<[Vec<DVec2>; 2]>,
+    pub per_view_rms_px: Vec<[f64; 2]>,
+    /// RMS over both cameras, the left one, the right one.
+    pub rms_px: [f64; 3],
+    pub rig_std_devs: RigStdDevs,
+    pub report: LmReport,
+    pub num_parameters: usize,
+    /// Where the right camera's free parameters start.
+    pub right_offset: usize,
+}
+
+/// Refines both cameras (parametrised by `slots`, starting at `cameras`), `right_from_left`
+/// (from `rig0`) and the left view poses (from `left_poses`) together, for any camera model;
+/// `views`: the object points, left and right pixels per view.
+pub(crate) fn refine_stereo<S: CameraSlots + Clone>(
+    slots: [&S; 2],
+    cameras: [&S::Camera; 2],
+    rig0: &Isometry3,
+    left_poses: &[Isometry3],
+    object_points: &[Vec<DVec3>],
+    [left_points, right_points]: [&[Vec<DVec2>]; 2],
+    lm: &LmConfig,
+) -> Result<StereoSolution<S::Camera>> {
+    let [ls, rs] = slots;
+    let views: Vec<ViewObs> = object_points
+        .iter()
+        .zip(left_points.iter().zip(right_points))
+        .map(|(o, (l, r))| ViewObs { object: o, image: [Some(l.as_slice()), Some(r.as_slice())] })
+        .collect();
+    let bundle = Bundle::new(vec![ls.clone(), rs.clone()], true, views);
+    let n = bundle.num_params();
+    let mut x0 = vec![0.0; n];
+    x0[..ls.num_free()].copy_from_slice(&ls.free_values(cameras[0]));
+    let ro = bundle.cam_offsets[1];
+    x0[ro..ro + rs.num_free()].copy_from_slice(&rs.free_values(cameras[1]));
+    let rig_offset = bundle.rig_offset.expect("stereo bundle");
+    store_pose(rig0, &mut x0[rig_offset..rig_offset + 6]);
+    for (v, p) in left_poses.iter().enumerate() {
+        let o = bundle.view_offset(v);
+        store_pose(p, &mut x0[o..o + 6]);
+    }
+    let report = levenberg_marquardt(&bundle, &x0, &LmConfig { covariance: true, ..*lm })?;
+    let estimation = |e: parallax_least_squares::EvaluationError| CalibrationError::EstimationFailed(e.0);
+    let [left, right]: [S::Camera; 2] =
+        bundle.cameras(&report.params).map_err(estimation)?.try_into().unwrap_or_else(|_| unreachable!("two cameras"));
+    let right_from_left = pose_at(&report.params[rig_offset..]);
+    let poses: Vec<Isometry3> =
+        (0..object_points.len()).map(|v| pose_at(&report.params[bundle.view_offset(v)..])).collect();
+    let residuals_px: Vec<[Vec<DVec2>; 2]> = bundle
+        .residuals_by_view(&report.params)
+        .map_err(estimation)?
+        .into_iter()
+        .map(|[l, r]| [l.into_iter().map(|e| -e).collect(), r.into_iter().map(|e| -e).collect()])
+        .collect();
+    let per_view_rms_px: Vec<[f64; 2]> = residuals_px.iter().map(|[l, r]| [rms_of(l), rms_of(r)]).collect();
+    let all_l: Vec<DVec2> = residuals_px.iter().flat_map(|[l, _]| l.iter().copied()).collect();
+    let all_r: Vec<DVec2> = residuals_px.iter().flat_map(|[_, r]| r.iter().copied()).collect();
+    let all: Vec<DVec2> = all_l.iter().chain(&all_r).copied().collect();
+    let cov = report.covariance.as_ref();
+    let rig_pose_std = pose_std_devs(&right_from_left, rig_offset, cov);
+    let baseline = cov.map_or(f64::NAN, |c| {
+        let u = right_from_left.translation.normalize();
+        let mut s = 0.0;
+        for a in 0..3 {
+            for b in 0..3 {
+                s += u[a] * c[(rig_offset + 3 + a, rig_offset + 3 + b)] * u[b];
+            }
+        }
+        s.max(0.0).sqrt()
+    });
+    Ok(StereoSolution {
+        cameras: [left, right],
+        right_from_left,
+        poses,
+        per_view_rms_px,
+        rms_px: [rms_of(&all), rms_of(&all_l), rms_of(&all_r)],
+        residuals_px,
+        rig_std_devs: RigStdDevs {
+            rotation_rad: rig_pose_std.rotation_rad,
+            translation: rig_pose_std.translation,
+            baseline,
+        },
+        report,
+        num_parameters: n,
+        right_offset: ro,
+    })
+}
+
 /// Calibrates a stereo rig from views of a planar target seen by both cameras:
 /// `object_points[v]` (plane `z = 0`), `left_points[v]` and `right_points[v]` in the same order.
 pub fn calibrate_stereo(
@@ -155,51 +250,18 @@ pub fn calibrate_stereo(
     };
     let ls = slots_of(&config.left, &lcam);
     let rs = slots_of(&config.right, &rcam);
-    let views: Vec<ViewObs> = object_points
-        .iter()
-        .zip(left_points.iter().zip(right_points))
-        .map(|(o, (l, r))| ViewObs { object: o, image: [Some(l.as_slice()), Some(r.as_slice())] })
-        .collect();
-    let bundle = Bundle::new(vec![ls.clone(), rs.clone()], true, views);
-    let n = parallax_least_squares::Problem::num_params(&bundle);
-    let mut x0 = vec![0.0; n];
-    x0[..ls.num_free].copy_from_slice(&ls.free_values(&lcam));
-    let ro = bundle.cam_offsets[1];
-    x0[ro..ro + rs.num_free].copy_from_slice(&rs.free_values(&rcam));
-    let rig_offset = bundle.rig_offset.expect("stereo bundle");
-    store_pose(&rig0, &mut x0[rig_offset..rig_offset + 6]);
-    for (v, p) in lposes.iter().enumerate() {
-        let o = bundle.view_offset(v);
-        store_pose(p, &mut x0[o..o + 6]);
-    }
-    let report = levenberg_marquardt(&bundle, &x0, &LmConfig { covariance: true, ..config.lm })?;
-    let left = ls.camera(&report.params[..ls.num_free]);
-    let right = rs.camera(&report.params[ro..ro + rs.num_free]);
-    let right_from_left = pose_at(&report.params[rig_offset..]);
+    let sol = refine_stereo(
+        [&ls, &rs],
+        [&lcam, &rcam],
+        &rig0,
+        &lposes,
+        object_points,
+        [left_points, right_points],
+        &config.lm,
+    )?;
+    let StereoSolution { cameras: [left, right], right_from_left, poses, residuals_px, per_view_rms_px, .. } = sol;
     let rig = StereoRig::new(left, right, right_from_left)?;
-    let poses: Vec<Isometry3> =
-        (0..object_points.len()).map(|v| pose_at(&report.params[bundle.view_offset(v)..])).collect();
-    let by_view = bundle.residuals_by_view(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
-    let residuals_px: Vec<[Vec<DVec2>; 2]> = by_view
-        .into_iter()
-        .map(|[l, r]| [l.into_iter().map(|e| -e).collect(), r.into_iter().map(|e| -e).collect()])
-        .collect();
-    let per_view_rms_px: Vec<[f64; 2]> = residuals_px.iter().map(|[l, r]| [rms_of(l), rms_of(r)]).collect();
-    let all_l: Vec<DVec2> = residuals_px.iter().flat_map(|[l, _]| l.iter().copied()).collect();
-    let all_r: Vec<DVec2> = residuals_px.iter().flat_map(|[_, r]| r.iter().copied()).collect();
-    let all: Vec<DVec2> = all_l.iter().chain(&all_r).copied().collect();
-    let cov = report.covariance.as_ref();
-    let rig_pose_std = pose_std_devs(&right_from_left, rig_offset, cov);
-    let baseline_std = cov.map_or(f64::NAN, |c| {
-        let u = right_from_left.translation.normalize();
-        let mut s = 0.0;
-        for a in 0..3 {
-            for b in 0..3 {
-                s += u[a] * c[(rig_offset + 3 + a, rig_offset + 3 + b)] * u[b];
-            }
-        }
-        s.max(0.0).sqrt()
-    });
+    let (report, cov) = (&sol.report, sol.report.covariance.as_ref());
     let mut warnings =
         outlier_views(&per_view_rms_px.iter().map(|r| r[0]).collect::<Vec<_>>(), config.left.outlier_view_factor, 0);
     warnings.extend(outlier_views(
@@ -208,28 +270,24 @@ pub fn calibrate_stereo(
         1,
     ));
     let fixed_cfg = CalibrationConfig { intrinsic_guess: config.fix_intrinsics.then_some(left), ..config.left.clone() };
-    diagnostics(&mut warnings, &left, 0, &poses, &fixed_cfg, &report);
-    diagnostics(&mut warnings, &right, 1, &poses, &config.right, &report);
+    diagnostics(&mut warnings, &left, 0, &poses, &fixed_cfg, report);
+    diagnostics(&mut warnings, &right, 1, &poses, &config.right, report);
     Ok(StereoCalibrationResult {
         essential: rig.essential(),
         fundamental: rig.fundamental(),
         rig,
         camera_from_board: poses,
-        rms_px: rms_of(&all),
-        left_rms_px: rms_of(&all_l),
-        right_rms_px: rms_of(&all_r),
+        rms_px: sol.rms_px[0],
+        left_rms_px: sol.rms_px[1],
+        right_rms_px: sol.rms_px[2],
         per_view_rms_px,
         residuals_px,
         left_std_devs: intrinsic_std_devs(&ls, 0, cov),
-        right_std_devs: intrinsic_std_devs(&rs, ro, cov),
-        rig_std_devs: RigStdDevs {
-            rotation_rad: rig_pose_std.rotation_rad,
-            translation: rig_pose_std.translation,
-            baseline: baseline_std,
-        },
+        right_std_devs: intrinsic_std_devs(&rs, sol.right_offset, cov),
+        rig_std_devs: sol.rig_std_devs,
         sigma_px: report.sigma2.sqrt(),
         dof: report.dof,
-        num_parameters: n,
+        num_parameters: sol.num_parameters,
         iterations: report.iterations,
         converged: report.stop_reason.converged(),
         warnings,
