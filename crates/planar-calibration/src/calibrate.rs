@@ -6,7 +6,7 @@ use parallax_camera_model::{Camera, Chessboard, CornerGrid, Distortion, Intrinsi
 use parallax_least_squares::{LmConfig, LmReport, levenberg_marquardt};
 use serde::{Deserialize, Serialize};
 
-use crate::bundle::{Bundle, CameraModelSlots, N_INTR, Slot, ViewObs, store_pose, theta_of};
+use crate::bundle::{Bundle, CameraModelSlots, CameraSlots, N_INTR, Slot, ViewObs, store_pose, theta_of};
 use crate::homography::estimate_homography_named;
 use crate::zhang::{
     focal_lengths_with_principal_point, intrinsics_from_homographies, pose_from_homography, radial_distortion_linear,
@@ -588,31 +588,17 @@ pub fn calibrate_camera(
         store_pose(p, &mut x0[o..o + 6]);
     }
     let report = levenberg_marquardt(&bundle, &x0, &LmConfig { covariance: true, ..config.lm })?;
-    let poses: Vec<Isometry3> =
-        (0..object_points.len()).map(|v| crate::bundle::pose_at(&report.params[bundle.view_offset(v)..])).collect();
-    let spread = view_spread_deg(&poses);
-    if config.intrinsic_guess.is_none() && !config.fix_principal_point && spread < PARALLEL_VIEWS_DEG {
-        return Err(CalibrationError::Degenerate(format!(
-            "all {} board views are parallel (normals within {spread:.2}°): they do not determine the focal \
-             length and principal point; tilt the board differently in each view",
-            poses.len()
-        )));
-    }
+    let MonoSolution { poses, residuals_px, per_view_rms_px, rms_px, pose_std_devs } =
+        mono_solution(&bundle, &report, config.intrinsic_guess.is_none() && !config.fix_principal_point)?;
     let camera = slots.camera(&report.params[..slots.num_free]);
     camera.validate().map_err(|e| CalibrationError::EstimationFailed(format!("refined camera is invalid: {e}")))?;
-    let by_view = bundle.residuals_by_view(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
-    let residuals_px: Vec<Vec<DVec2>> = by_view.into_iter().map(|[r, _]| r.into_iter().map(|e| -e).collect()).collect();
-    let per_view_rms_px: Vec<f64> = residuals_px.iter().map(|r| rms_of(r)).collect();
-    let all: Vec<DVec2> = residuals_px.iter().flatten().copied().collect();
-    let cov = report.covariance.as_ref();
-    let std_devs = intrinsic_std_devs(&slots, 0, cov);
-    let pose_std_devs = poses.iter().enumerate().map(|(v, p)| pose_std_devs(p, bundle.view_offset(v), cov)).collect();
+    let std_devs = intrinsic_std_devs(&slots, 0, report.covariance.as_ref());
     let mut warnings = outlier_views(&per_view_rms_px, config.outlier_view_factor, 0);
     diagnostics(&mut warnings, &camera, 0, &poses, config, &report);
     Ok(CalibrationResult {
         camera,
         camera_from_board: poses,
-        rms_px: rms_of(&all),
+        rms_px,
         per_view_rms_px,
         residuals_px,
         std_devs,
@@ -624,6 +610,44 @@ pub fn calibrate_camera(
         converged: report.stop_reason.converged(),
         warnings,
     })
+}
+
+/// What a mono calibration reports of its bundle's solution, for any camera model.
+pub(crate) struct MonoSolution {
+    /// Camera from board, per view.
+    pub poses: Vec<Isometry3>,
+    /// Observed − projected, per view.
+    pub residuals_px: Vec<Vec<DVec2>>,
+    pub per_view_rms_px: Vec<f64>,
+    pub rms_px: f64,
+    pub pose_std_devs: Vec<PoseStdDevs>,
+}
+
+/// The poses, residuals and pose 1σ of a mono `bundle` at `report`'s solution; with
+/// `need_spread` (no intrinsic guess, principal point free) an error when the views are
+/// parallel: they do not determine the focal length and principal point.
+pub(crate) fn mono_solution<S: CameraSlots>(
+    bundle: &Bundle<S>,
+    report: &LmReport,
+    need_spread: bool,
+) -> Result<MonoSolution> {
+    let poses: Vec<Isometry3> =
+        (0..bundle.views.len()).map(|v| crate::bundle::pose_at(&report.params[bundle.view_offset(v)..])).collect();
+    let spread = view_spread_deg(&poses);
+    if need_spread && spread < PARALLEL_VIEWS_DEG {
+        return Err(CalibrationError::Degenerate(format!(
+            "all {} board views are parallel (normals within {spread:.2}°): they do not determine the focal \
+             length and principal point; tilt the board differently in each view",
+            poses.len()
+        )));
+    }
+    let by_view = bundle.residuals_by_view(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
+    let residuals_px: Vec<Vec<DVec2>> = by_view.into_iter().map(|[r, _]| r.into_iter().map(|e| -e).collect()).collect();
+    let per_view_rms_px: Vec<f64> = residuals_px.iter().map(|r| rms_of(r)).collect();
+    let all: Vec<DVec2> = residuals_px.iter().flatten().copied().collect();
+    let cov = report.covariance.as_ref();
+    let pose_std_devs = poses.iter().enumerate().map(|(v, p)| pose_std_devs(p, bundle.view_offset(v), cov)).collect();
+    Ok(MonoSolution { poses, residuals_px, per_view_rms_px, rms_px: rms_of(&all), pose_std_devs })
 }
 
 pub(crate) fn diagnostics(

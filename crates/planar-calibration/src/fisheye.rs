@@ -24,10 +24,10 @@ use parallax_least_squares::{
 };
 use serde::{Deserialize, Serialize};
 
-use crate::bundle::{Bundle, CameraSlots, Slot, ViewObs, pose_at, store_pose};
+use crate::bundle::{Bundle, CameraSlots, Slot, ViewObs, store_pose};
 use crate::calibrate::{
-    CalibrationWarning, PARALLEL_VIEWS_DEG, PoseStdDevs, board_views, outlier_views, pose_std_devs, rms_of,
-    validate_views, view_spread_deg,
+    CalibrationWarning, MonoSolution, PoseStdDevs, board_views, mono_solution, outlier_views, validate_views,
+    view_spread_deg,
 };
 use crate::stereo::{RigStdDevs, StereoSolution, median_rig, refine_stereo};
 use crate::{CalibrationError, Result};
@@ -811,26 +811,12 @@ pub fn calibrate_fisheye(
     };
     let bundle = Bundle::new(vec![slots.clone()], false, views());
     let n = bundle.num_params();
-    let poses: Vec<Isometry3> =
-        (0..object_points.len()).map(|v| pose_at(&report.params[bundle.view_offset(v)..])).collect();
-    let spread = view_spread_deg(&poses);
-    if config.intrinsic_guess.is_none() && !config.fix_principal_point && spread < PARALLEL_VIEWS_DEG {
-        return Err(CalibrationError::Degenerate(format!(
-            "all {} board views are parallel (normals within {spread:.2}°): they do not determine the focal \
-             length and principal point; tilt the board differently in each view",
-            poses.len()
-        )));
-    }
+    let MonoSolution { poses, residuals_px, per_view_rms_px, rms_px, pose_std_devs } =
+        mono_solution(&bundle, &report, config.intrinsic_guess.is_none() && !config.fix_principal_point)?;
     let camera = slots
         .camera(&report.params[..slots.num_free])
         .map_err(|e| CalibrationError::EstimationFailed(format!("refined camera is invalid: {e}")))?;
-    let by_view = bundle.residuals_by_view(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
-    let residuals_px: Vec<Vec<DVec2>> = by_view.into_iter().map(|[r, _]| r.into_iter().map(|e| -e).collect()).collect();
-    let per_view_rms_px: Vec<f64> = residuals_px.iter().map(|r| rms_of(r)).collect();
-    let all: Vec<DVec2> = residuals_px.iter().flatten().copied().collect();
-    let cov = report.covariance.as_ref();
-    let std_devs = slots.std_devs(0, cov);
-    let pose_std_devs = poses.iter().enumerate().map(|(v, p)| pose_std_devs(p, bundle.view_offset(v), cov)).collect();
+    let std_devs = slots.std_devs(0, report.covariance.as_ref());
     let mut warnings: Vec<FisheyeWarning> = outlier_views(&per_view_rms_px, config.outlier_view_factor, 0)
         .into_iter()
         .map(FisheyeWarning::Calibration)
@@ -840,7 +826,7 @@ pub fn calibrate_fisheye(
     Ok(FisheyeCalibrationResult {
         camera,
         camera_from_board: poses,
-        rms_px: rms_of(&all),
+        rms_px,
         per_view_rms_px,
         residuals_px,
         std_devs,
