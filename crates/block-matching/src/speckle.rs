@@ -21,7 +21,7 @@ pub fn filter_speckles(map: &mut DisparityMap, max_size: usize, max_diff: f32) -
     let data = map.data();
     let near = |a: f32, b: f32| (a - b).abs() <= max_diff;
     // run k: first pixel `start[k]`, `len[k]` pixels, all in one row
-    let (mut start, mut len, mut parent) = (Vec::<usize>::new(), Vec::<u32>::new(), Vec::<u32>::new());
+    let (mut start, mut len, mut parent) = (Vec::<usize>::new(), Vec::<usize>::new(), Vec::<usize>::new());
     let mut above = 0..0;
     for y in 0..h {
         let row = &data[y * w..][..w];
@@ -37,9 +37,9 @@ pub fn filter_speckles(map: &mut DisparityMap, max_size: usize, max_diff: f32) -
             while x < w && row[x].is_finite() && near(row[x], row[x - 1]) {
                 x += 1;
             }
-            parent.push(start.len() as u32);
+            parent.push(start.len());
             start.push(y * w + s);
-            len.push((x - s) as u32);
+            len.push(x - s);
         }
         // join the runs of this row to the overlapping runs of the row above (both lists are
         // in x order: one merge walk)
@@ -47,7 +47,7 @@ pub fn filter_speckles(map: &mut DisparityMap, max_size: usize, max_diff: f32) -
         let (mut a, mut b) = (above.start, here.start);
         while a < above.end && b < here.end {
             let (xa, xb) = (start[a] - (y - 1) * w, start[b] - y * w);
-            let (ea, eb) = (xa + len[a] as usize, xb + len[b] as usize);
+            let (ea, eb) = (xa + len[a], xb + len[b]);
             let (lo, hi) = (xa.max(xb), ea.min(eb));
             if (lo..hi).any(|x| near(row[x], data[(y - 1) * w + x])) {
                 union(&mut parent, a, b);
@@ -64,35 +64,35 @@ pub fn filter_speckles(map: &mut DisparityMap, max_size: usize, max_diff: f32) -
     let mut size = vec![0usize; start.len()];
     for k in 0..start.len() {
         let r = find(&mut parent, k);
-        size[r] += len[k] as usize;
+        size[r] += len[k];
     }
     let mut removed = 0;
     let out = map.data_mut();
     for k in 0..start.len() {
         let r = find(&mut parent, k);
         if size[r] <= max_size {
-            out[start[k]..][..len[k] as usize].fill(DisparityMap::INVALID);
-            removed += len[k] as usize;
+            out[start[k]..][..len[k]].fill(DisparityMap::INVALID);
+            removed += len[k];
         }
     }
     removed
 }
 
 /// The root of `k` (halving the path on the way).
-fn find(parent: &mut [u32], mut k: usize) -> usize {
-    while parent[k] as usize != k {
-        let up = parent[parent[k] as usize];
+fn find(parent: &mut [usize], mut k: usize) -> usize {
+    while parent[k] != k {
+        let up = parent[parent[k]];
         parent[k] = up;
-        k = up as usize;
+        k = up;
     }
     k
 }
 
 /// Joins the sets of `a` and `b` (the smaller root becomes the parent).
-fn union(parent: &mut [u32], a: usize, b: usize) {
+fn union(parent: &mut [usize], a: usize, b: usize) {
     let (ra, rb) = (find(parent, a), find(parent, b));
     let (lo, hi) = (ra.min(rb), ra.max(rb));
-    parent[hi] = lo as u32;
+    parent[hi] = lo;
 }
 
 #[cfg(test)]
