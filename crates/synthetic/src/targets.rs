@@ -164,16 +164,8 @@ pub fn render_charuco(
         if dict.bit(id, by - 1, bx - 1) { white } else { black }
     });
     let image = render_pattern(camera, camera_from_board, sq, &pattern, opts, occluders, &|_, v| v);
-    let mut points = Vec::with_capacity(board.corner_count());
-    let mut visible = Vec::with_capacity(board.corner_count());
-    for id in 0..board.corner_count() as u32 {
-        let p: DVec3 = board.corner_point(id).expect("id below corner_count");
-        let ok = crate::views::visible(camera, camera_from_board, p, margin_px);
-        let px = camera.project_from(camera_from_board, p).ok().filter(|q| q.is_finite());
-        let clear = px.is_some_and(|q| occluders.iter().all(|o| o.signed_distance(q) >= margin_px));
-        points.push(if ok || px.is_some() { px } else { None });
-        visible.push(ok && clear);
-    }
+    let corners = (0..board.corner_count() as u32).map(|id| board.corner_point(id).expect("id below corner_count"));
+    let (points, visible) = truth(camera, camera_from_board, corners, occluders, margin_px);
     Ok(TargetView { image, points, visible, camera_from_target: *camera_from_board })
 }
 
@@ -227,16 +219,8 @@ pub fn render_circle_grid(
         value - cover.clamp(0.0, 1.0) * (white - black)
     };
     let image = render_pattern(camera, camera_from_board, s, &pattern, opts, occluders, &overlay);
-    let mut points = Vec::with_capacity(grid.len());
-    let mut visible = Vec::with_capacity(grid.len());
-    for id in 0..grid.len() as u32 {
-        let p: DVec3 = grid.point(id).expect("id below len");
-        let ok = crate::views::visible(camera, camera_from_board, p, margin_px);
-        let px = camera.project_from(camera_from_board, p).ok().filter(|q| q.is_finite());
-        let clear = px.is_some_and(|q| occluders.iter().all(|o| o.signed_distance(q) >= margin_px));
-        points.push(px);
-        visible.push(ok && clear);
-    }
+    let centres = (0..grid.len() as u32).map(|id| grid.point(id).expect("id below len"));
+    let (points, visible) = truth(camera, camera_from_board, centres, occluders, margin_px);
     Ok(TargetView { image, points, visible, camera_from_target: *camera_from_board })
 }
 
@@ -299,16 +283,8 @@ pub fn render_aprilgrid(
         if in_x && in_y { black } else { white }
     });
     let image = render_pattern(camera, &camera_from_print, grid.tag_size(), &pattern, opts, occluders, &|_, v| v);
-    let mut points = Vec::with_capacity(grid.corner_count());
-    let mut visible = Vec::with_capacity(grid.corner_count());
-    for id in 0..grid.corner_count() as u32 {
-        let p: DVec3 = grid.point(id).expect("id below corner_count");
-        let ok = crate::views::visible(camera, camera_from_target, p, margin_px);
-        let px = camera.project_from(camera_from_target, p).ok().filter(|q| q.is_finite());
-        let clear = px.is_some_and(|q| occluders.iter().all(|o| o.signed_distance(q) >= margin_px));
-        points.push(px);
-        visible.push(ok && clear);
-    }
+    let corners = (0..grid.corner_count() as u32).map(|id| grid.point(id).expect("id below corner_count"));
+    let (points, visible) = truth(camera, camera_from_target, corners, occluders, margin_px);
     Ok(TargetView { image, points, visible, camera_from_target: *camera_from_target })
 }
 
@@ -355,17 +331,29 @@ pub fn render_marker(
         if dict.bit(marker.id(), cy - 1, cx - 1) { white } else { black }
     });
     let image = render_pattern(camera, &camera_from_print, s, &pattern, opts, occluders, &|_, v| v);
-    let mut points = Vec::with_capacity(4);
-    let mut visible = Vec::with_capacity(4);
-    for k in 0..4 {
-        let p = marker.point(k).expect("four corners");
-        let ok = crate::views::visible(camera, camera_from_marker, p, margin_px);
-        let px = camera.project_from(camera_from_marker, p).ok().filter(|q| q.is_finite());
-        let clear = px.is_some_and(|q| occluders.iter().all(|o| o.signed_distance(q) >= margin_px));
-        points.push(px);
-        visible.push(ok && clear);
-    }
+    let corners = (0..4).map(|k| marker.point(k).expect("four corners"));
+    let (points, visible) = truth(camera, camera_from_marker, corners, occluders, margin_px);
     Ok(TargetView { image, points, visible, camera_from_target: *camera_from_marker })
+}
+
+/// The truth of a rendered target: each point's projection (`None` where it does not project)
+/// and whether it is visible — in the image by `margin_px` ([`crate::views::visible`]) and at
+/// least `margin_px` clear of every occluder.
+fn truth(
+    camera: &Camera,
+    camera_from_target: &Isometry3,
+    points: impl Iterator<Item = DVec3>,
+    occluders: &[Occluder],
+    margin_px: f64,
+) -> (Vec<Option<DVec2>>, Vec<bool>) {
+    points
+        .map(|p| {
+            let ok = crate::views::visible(camera, camera_from_target, p, margin_px);
+            let px = camera.project_from(camera_from_target, p).ok().filter(|q| q.is_finite());
+            let clear = px.is_some_and(|q| occluders.iter().all(|o| o.signed_distance(q) >= margin_px));
+            (px, ok && clear)
+        })
+        .unzip()
 }
 
 fn polygon_area(p: &[DVec2]) -> f64 {
