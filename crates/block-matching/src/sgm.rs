@@ -1295,7 +1295,7 @@ mod lanes {
 
     /// What [`wta`] finds besides the winner, among the candidates other than the winner and
     /// its two neighbours (its third value).
-    #[derive(Clone, Copy, PartialEq, Eq)]
+    #[derive(Clone, Copy)]
     pub(super) enum Second {
         /// Nothing (`0`).
         Skip,
@@ -1348,15 +1348,12 @@ mod lanes {
             // branch on where it is (a data-dependent exit mispredicted)
             let key = V::or(V::add(iv, V::ld(RAMP.as_ptr())), V::less(V::splat(m), mv));
             let kb = key.hmin() as usize;
-            // the threshold of `Count`, below u16::MAX so that no masked lane is counted (a sum
-            // is below u16::MAX: S ≤ t ⟺ S ≤ min(t, u16::MAX − 1))
-            let count = match second {
-                Second::Count(uniq) => Some((m as u32 + m as u32 * uniq / 100).min(u16::MAX as u32 - 1) as u16),
-                _ => None,
-            };
-            match (second, count) {
-                (Second::Skip, _) => (m, kb, 0),
-                (_, Some(t)) => {
+            match second {
+                Second::Skip => (m, kb, 0),
+                Second::Count(uniq) => {
+                    // below u16::MAX so that no masked lane is counted (a sum is below u16::MAX:
+                    // S ≤ t ⟺ S ≤ min(t, u16::MAX − 1))
+                    let t = (m as u32 + m as u32 * uniq / 100).min(u16::MAX as u32 - 1) as u16;
                     let (tv, mut n) = (V::splat(t), 0);
                     let mut d = c0;
                     while d < c1 {
@@ -1367,7 +1364,7 @@ mod lanes {
                     let near = 1 + (kb > lo && s[kb - 1] <= t) as u32 + (kb < hi && s[kb + 1] <= t) as u32;
                     (m, kb, (n - near) as u16)
                 }
-                _ => {
+                Second::Min => {
                     let mut m2 = V::splat(u16::MAX);
                     let mut d = c0;
                     while d < c1 {
