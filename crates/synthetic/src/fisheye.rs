@@ -8,8 +8,9 @@ use parallax_camera_model::{CameraModel, Chessboard, Isometry3};
 use serde::{Deserialize, Serialize};
 
 use crate::SyntheticError;
-use crate::error::{non_negative, positive};
+use crate::error::positive;
 use crate::noise::{rng, uniform};
+use crate::views::ViewSetConfig;
 
 /// How [`wide_angle_calibration_poses`] spreads the views. Lengths are in the board's unit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -57,24 +58,19 @@ impl Default for WideViewSetConfig {
 impl WideViewSetConfig {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), SyntheticError> {
-        if self.views == 0 {
-            return Err(SyntheticError::config("views", "must be at least 1"));
-        }
-        non_negative("max_tilt_deg", self.max_tilt_deg)?;
-        if self.max_tilt_deg >= 75.0 {
-            return Err(SyntheticError::config("max_tilt_deg", format!("must be below 75, got {}", self.max_tilt_deg)));
-        }
-        non_negative("max_roll_deg", self.max_roll_deg)?;
-        positive("min_distance", self.min_distance)?;
-        positive("max_distance", self.max_distance)?;
-        if self.min_distance > self.max_distance {
-            return Err(SyntheticError::config(
-                "min_distance",
-                format!("{} is larger than max_distance {}", self.min_distance, self.max_distance),
-            ));
-        }
-        non_negative("border_squares", self.border_squares)?;
-        non_negative("margin_px", self.margin_px)?;
+        // the fields shared with the pinhole view sets, under a tighter tilt limit
+        let shared = ViewSetConfig {
+            views: self.views,
+            max_tilt_deg: self.max_tilt_deg,
+            min_distance: self.min_distance,
+            max_distance: self.max_distance,
+            allow_partial: false,
+            max_roll_deg: self.max_roll_deg,
+            border_squares: self.border_squares,
+            margin_px: self.margin_px,
+            seed: self.seed,
+        };
+        shared.check(75.0)?;
         positive("max_field_angle_deg", self.max_field_angle_deg)?;
         Ok(())
     }

@@ -97,6 +97,22 @@ impl TargetView {
     }
 }
 
+/// The checks every renderer makes before drawing: the options, the camera, a finite pose
+/// (`field` names it in the error).
+fn check_inputs(
+    opts: &RenderOptions,
+    camera: &Camera,
+    pose: &Isometry3,
+    field: &'static str,
+) -> Result<(), SyntheticError> {
+    opts.validate()?;
+    camera.validate().map_err(SyntheticError::model("camera"))?;
+    if !pose.is_finite() {
+        return Err(SyntheticError::config(field, "pose is not finite"));
+    }
+    Ok(())
+}
+
 /// Renders a ChArUco board (OpenCV's layout, see [`CharucoBoard`]) with exact area coverage
 /// (as [`crate::render_chessboard`]: every square, marker border and marker bit is an
 /// axis-aligned cell of the board plane), a white margin of `opts.margin_squares` squares,
@@ -113,11 +129,7 @@ pub fn render_charuco(
     occluders: &[Occluder],
     margin_px: f64,
 ) -> Result<TargetView, SyntheticError> {
-    opts.validate()?;
-    camera.validate().map_err(SyntheticError::model("camera"))?;
-    if !camera_from_board.is_finite() {
-        return Err(SyntheticError::config("camera_from_board", "pose is not finite"));
-    }
+    check_inputs(opts, camera, camera_from_board, "camera_from_board")?;
     let (sx, sy) = (board.squares_x(), board.squares_y());
     let sq = board.square_length();
     let dict = board.dictionary();
@@ -184,11 +196,7 @@ pub fn render_circle_grid(
     occluders: &[Occluder],
     margin_px: f64,
 ) -> Result<TargetView, SyntheticError> {
-    opts.validate()?;
-    camera.validate().map_err(SyntheticError::model("camera"))?;
-    if !camera_from_board.is_finite() {
-        return Err(SyntheticError::config("camera_from_board", "pose is not finite"));
-    }
+    check_inputs(opts, camera, camera_from_board, "camera_from_board")?;
     let s = grid.spacing();
     let r = 0.5 * grid.diameter() / s; // in grid units
     let centres: Vec<DVec2> =
@@ -238,11 +246,7 @@ pub fn render_aprilgrid(
     occluders: &[Occluder],
     margin_px: f64,
 ) -> Result<TargetView, SyntheticError> {
-    opts.validate()?;
-    camera.validate().map_err(SyntheticError::model("camera"))?;
-    if !camera_from_target.is_finite() {
-        return Err(SyntheticError::config("camera_from_target", "pose is not finite"));
-    }
+    check_inputs(opts, camera, camera_from_target, "camera_from_target")?;
     let camera_from_print = *camera_from_target * grid.target_from_print();
     let (cols, rows) = (grid.tag_cols(), grid.tag_rows());
     let g = grid.tag_spacing();
@@ -301,11 +305,7 @@ pub fn render_marker(
     occluders: &[Occluder],
     margin_px: f64,
 ) -> Result<TargetView, SyntheticError> {
-    opts.validate()?;
-    camera.validate().map_err(SyntheticError::model("camera"))?;
-    if !camera_from_marker.is_finite() {
-        return Err(SyntheticError::config("camera_from_marker", "pose is not finite"));
-    }
+    check_inputs(opts, camera, camera_from_marker, "camera_from_marker")?;
     let s = marker.size();
     let marker_from_print = Isometry3::from_quat_translation(
         glam::DQuat::from_rotation_x(std::f64::consts::PI),

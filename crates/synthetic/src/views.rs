@@ -57,12 +57,21 @@ impl Default for ViewSetConfig {
 impl ViewSetConfig {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), SyntheticError> {
+        self.check(80.0)
+    }
+
+    /// Checks every field, the tilt against `tilt_limit` degrees (the wide-angle view sets
+    /// share these fields with a tighter limit).
+    pub(crate) fn check(&self, tilt_limit: f64) -> Result<(), SyntheticError> {
         if self.views == 0 {
             return Err(SyntheticError::config("views", "must be at least 1"));
         }
         non_negative("max_tilt_deg", self.max_tilt_deg)?;
-        if self.max_tilt_deg >= 80.0 {
-            return Err(SyntheticError::config("max_tilt_deg", format!("must be below 80, got {}", self.max_tilt_deg)));
+        if self.max_tilt_deg >= tilt_limit {
+            return Err(SyntheticError::config(
+                "max_tilt_deg",
+                format!("must be below {tilt_limit}, got {}", self.max_tilt_deg),
+            ));
         }
         non_negative("max_roll_deg", self.max_roll_deg)?;
         positive("min_distance", self.min_distance)?;

@@ -275,3 +275,39 @@ fn bad_trajectory_inputs_are_errors() {
     assert!(e(TrajectoryConfig { trans_noise: -1.0, ..Default::default() }).contains("trans_noise"));
     assert!(e(TrajectoryConfig { rot_noise_rad: f64::NAN, ..Default::default() }).contains("rot_noise_rad"));
 }
+
+#[test]
+fn view_set_configurations_refuse_their_invalid_fields() {
+    // the pinhole view sets allow tilts below 80°, the wide-angle ones below 75°; both share
+    // the other checks (one function)
+    let ok = ViewSetConfig::default();
+    assert!(ok.validate().is_ok());
+    let wide = WideViewSetConfig::default();
+    assert!(wide.validate().is_ok());
+    let tilt = |t: f64| ViewSetConfig { max_tilt_deg: t, ..ok.clone() }.validate();
+    let wide_tilt = |t: f64| WideViewSetConfig { max_tilt_deg: t, ..wide.clone() }.validate();
+    assert!(tilt(79.9).is_ok() && wide_tilt(74.9).is_ok());
+    let e = tilt(80.0).unwrap_err().to_string();
+    assert!(e.contains("max_tilt_deg") && e.contains("below 80"), "{e}");
+    let e = wide_tilt(75.0).unwrap_err().to_string();
+    assert!(e.contains("max_tilt_deg") && e.contains("below 75"), "{e}");
+    for bad in [
+        ViewSetConfig { views: 0, ..ok.clone() },
+        ViewSetConfig { max_tilt_deg: -1.0, ..ok.clone() },
+        ViewSetConfig { max_roll_deg: f64::NAN, ..ok.clone() },
+        ViewSetConfig { min_distance: 0.0, ..ok.clone() },
+        ViewSetConfig { min_distance: 700.0, max_distance: 600.0, ..ok.clone() },
+        ViewSetConfig { border_squares: -0.5, ..ok.clone() },
+        ViewSetConfig { margin_px: f64::INFINITY, ..ok.clone() },
+    ] {
+        assert!(bad.validate().is_err(), "{bad:?}");
+    }
+    for bad in [
+        WideViewSetConfig { views: 0, ..wide.clone() },
+        WideViewSetConfig { max_distance: -1.0, ..wide.clone() },
+        WideViewSetConfig { min_distance: 500.0, max_distance: 450.0, ..wide.clone() },
+        WideViewSetConfig { max_field_angle_deg: 0.0, ..wide.clone() },
+    ] {
+        assert!(bad.validate().is_err(), "{bad:?}");
+    }
+}
