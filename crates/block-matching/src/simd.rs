@@ -643,6 +643,8 @@ macro_rules! kernel {
                 // box sums on the stack (one more store and load per chunk: 1282x1110x224, 1
                 // thread, AVX-512VL, 41 interleaved pairs: 0.88x the time unrolled). With 16
                 // registers more than 8 box sums cannot stay in registers anyway.
+                // the list below covers every chunk count `row_n` gives as a constant
+                const { assert!(NCH <= MAX_NCH && MAX_NCH == 16) };
                 unrolled!(chunk, NCH; 0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15);
             } else {
                 for ci in 0..ndp / L {
