@@ -575,23 +575,8 @@ impl FisheyeCamera {
                 d_pc[r][c] = jk[r][0] * dm[0][c] + jk[r][1] * dm[1][c];
             }
         }
-        let rot = camera_from_object.rotation_matrix();
-        let mut d_point = [[0.0; 3]; 2];
-        for r in 0..2 {
-            for c in 0..3 {
-                let col = rot.col(c);
-                d_point[r][c] = d_pc[r][0] * col.x + d_pc[r][1] * col.y + d_pc[r][2] * col.z;
-            }
-        }
-        // ∂pc/∂ω = −[pc]×, ∂pc/∂v = I (left perturbation, as the pinhole model).
-        let skew = [[0.0, pc.z, -pc.y], [-pc.z, 0.0, pc.x], [pc.y, -pc.x, 0.0]];
-        let mut d_pose = [[0.0; 6]; 2];
-        for r in 0..2 {
-            for c in 0..3 {
-                d_pose[r][c] = d_pc[r][0] * skew[0][c] + d_pc[r][1] * skew[1][c] + d_pc[r][2] * skew[2][c];
-                d_pose[r][3 + c] = d_pc[r][c];
-            }
-        }
+        // the same chain rule to the point and the pose as the pinhole model
+        let (d_point, d_pose) = crate::projection::point_and_pose_jacobians(&d_pc, camera_from_object, pc);
         let d_intrinsics = [[m.x, 0.0, 1.0, 0.0, m.y], [0.0, m.y, 0.0, 1.0, 0.0]];
         let mut d_distortion = [[0.0; 8]; 2];
         for r in 0..2 {

@@ -31,6 +31,33 @@ pub struct ProjectionJacobians {
     pub d_distortion: [[f64; 8]; 2],
 }
 
+/// A pixel's Jacobians with respect to the object point and to the pose perturbation of
+/// [`Isometry3::retract`], from its Jacobian `d_pc` with respect to the camera-frame point `pc`
+/// (every camera model): `∂pc/∂point = R`, `∂pc/∂ω = −[pc]×`, `∂pc/∂v = I`.
+pub(crate) fn point_and_pose_jacobians(
+    d_pc: &[[f64; 3]; 2],
+    camera_from_object: &Isometry3,
+    pc: DVec3,
+) -> ([[f64; 3]; 2], [[f64; 6]; 2]) {
+    let rot = camera_from_object.rotation_matrix();
+    let mut d_point = [[0.0; 3]; 2];
+    for r in 0..2 {
+        for c in 0..3 {
+            let col = rot.col(c);
+            d_point[r][c] = d_pc[r][0] * col.x + d_pc[r][1] * col.y + d_pc[r][2] * col.z;
+        }
+    }
+    let skew = [[0.0, pc.z, -pc.y], [-pc.z, 0.0, pc.x], [pc.y, -pc.x, 0.0]];
+    let mut d_pose = [[0.0; 6]; 2];
+    for r in 0..2 {
+        for c in 0..3 {
+            d_pose[r][c] = d_pc[r][0] * skew[0][c] + d_pc[r][1] * skew[1][c] + d_pc[r][2] * skew[2][c];
+            d_pose[r][3 + c] = d_pc[r][c];
+        }
+    }
+    (d_point, d_pose)
+}
+
 impl Camera {
     /// Projects a point given in the camera frame to a pixel (OpenCV's `projectPoints`).
     ///
@@ -78,24 +105,7 @@ impl Camera {
                 d_pc[r][c] = jn[r][0] * jp[0][c] + jn[r][1] * jp[1][c];
             }
         }
-        // ∂pc/∂point = R
-        let rot = camera_from_object.rotation_matrix();
-        let mut d_point = [[0.0; 3]; 2];
-        for r in 0..2 {
-            for c in 0..3 {
-                let col = rot.col(c);
-                d_point[r][c] = d_pc[r][0] * col.x + d_pc[r][1] * col.y + d_pc[r][2] * col.z;
-            }
-        }
-        // ∂pc/∂ω = -[pc]×, ∂pc/∂v = I
-        let skew = [[0.0, pc.z, -pc.y], [-pc.z, 0.0, pc.x], [pc.y, -pc.x, 0.0]];
-        let mut d_pose = [[0.0; 6]; 2];
-        for r in 0..2 {
-            for c in 0..3 {
-                d_pose[r][c] = d_pc[r][0] * skew[0][c] + d_pc[r][1] * skew[1][c] + d_pc[r][2] * skew[2][c];
-                d_pose[r][3 + c] = d_pc[r][c];
-            }
-        }
+        let (d_point, d_pose) = point_and_pose_jacobians(&d_pc, camera_from_object, pc);
         let d_intrinsics = [[nd.x, 0.0, 1.0, 0.0, nd.y], [0.0, nd.y, 0.0, 1.0, 0.0]];
         let jc = self.distortion.jacobian_coefficients(n);
         let mut d_distortion = [[0.0; 8]; 2];
