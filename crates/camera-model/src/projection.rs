@@ -33,28 +33,20 @@ pub struct ProjectionJacobians {
 
 /// A pixel's Jacobians with respect to the object point and to the pose perturbation of
 /// [`Isometry3::retract`], from its Jacobian `d_pc` with respect to the camera-frame point `pc`
-/// (every camera model): `∂pc/∂point = R`, `∂pc/∂ω = −[pc]×`, `∂pc/∂v = I`.
+/// (every camera model): `∂pc/∂point = R`, `∂pc/∂ω = −[pc]×`, `∂pc/∂v = I`. Per row `g`:
+/// `g R = Rᵀg` (the dot products with `R`'s columns) and `g (−[pc]×) = pc × g`.
 pub(crate) fn point_and_pose_jacobians(
     d_pc: &[[f64; 3]; 2],
     camera_from_object: &Isometry3,
     pc: DVec3,
 ) -> ([[f64; 3]; 2], [[f64; 6]; 2]) {
     let rot = camera_from_object.rotation_matrix();
-    let mut d_point = [[0.0; 3]; 2];
-    for r in 0..2 {
-        for c in 0..3 {
-            let col = rot.col(c);
-            d_point[r][c] = d_pc[r][0] * col.x + d_pc[r][1] * col.y + d_pc[r][2] * col.z;
-        }
-    }
-    let skew = [[0.0, pc.z, -pc.y], [-pc.z, 0.0, pc.x], [pc.y, -pc.x, 0.0]];
-    let mut d_pose = [[0.0; 6]; 2];
-    for r in 0..2 {
-        for c in 0..3 {
-            d_pose[r][c] = d_pc[r][0] * skew[0][c] + d_pc[r][1] * skew[1][c] + d_pc[r][2] * skew[2][c];
-            d_pose[r][3 + c] = d_pc[r][c];
-        }
-    }
+    let rows = d_pc.map(DVec3::from_array);
+    let d_point = rows.map(|g| [rot.x_axis.dot(g), rot.y_axis.dot(g), rot.z_axis.dot(g)]);
+    let d_pose = rows.map(|g| {
+        let w = pc.cross(g);
+        [w.x, w.y, w.z, g.x, g.y, g.z]
+    });
     (d_point, d_pose)
 }
 
