@@ -11,36 +11,18 @@
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use image::{GrayImage, Luma};
+use image::GrayImage;
+use parallax_benches::textured_pair;
 use parallax_block_matching::{BlockMatcher, CostFunction, MatcherConfig, SgmConfig, SgmPaths, SimdLevel};
-use rand::{Rng, SeedableRng};
 
 const TEDDY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/middlebury/teddy");
-
-/// A textured pair: smoothed noise, right = left shifted by a slanted disparity field.
-fn generated_pair(w: u32, h: u32, max_d: f64) -> (GrayImage, GrayImage) {
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(42);
-    let big_w = w as usize + max_d as usize + 2;
-    let noise: Vec<f64> = (0..big_w * h as usize).map(|_| rng.random_range(0.0..255.0)).collect();
-    let tex = |x: f64, y: usize| {
-        let x0 = x.floor() as usize;
-        let t = x - x0 as f64;
-        let a = noise[y * big_w + x0.min(big_w - 2)];
-        let b = noise[y * big_w + (x0 + 1).min(big_w - 1)];
-        a + t * (b - a)
-    };
-    let disp = |x: u32, y: u32| 0.2 * max_d + 0.6 * max_d * (x as f64 / w as f64 + y as f64 / h as f64) / 2.0;
-    let left = GrayImage::from_fn(w, h, |x, y| Luma([tex(x as f64 + max_d, y as usize) as u8]));
-    let right = GrayImage::from_fn(w, h, |x, y| Luma([tex(x as f64 + max_d + disp(x, y), y as usize) as u8]));
-    (left, right)
-}
 
 fn teddy_or_generated() -> (GrayImage, GrayImage, &'static str) {
     let dir = std::path::Path::new(TEDDY);
     match (image::open(dir.join("imL.png")), image::open(dir.join("imR.png"))) {
         (Ok(l), Ok(r)) => (l.into_luma8(), r.into_luma8(), "teddy"),
         _ => {
-            let (l, r) = generated_pair(450, 375, 60.0);
+            let (l, r) = textured_pair(450, 375, 60.0);
             (l, r, "gen450")
         }
     }
@@ -51,7 +33,7 @@ fn bench(c: &mut Criterion) {
     let (tl, tr, tname) = teddy_or_generated();
     let mut inputs = vec![(tname.to_string(), tl, tr, 64usize)];
     if !quick {
-        let (l, r) = generated_pair(1280, 720, 120.0);
+        let (l, r) = textured_pair(1280, 720, 120.0);
         inputs.push(("gen1280x720".to_string(), l, r, 128));
     }
     let costs: &[CostFunction] =
