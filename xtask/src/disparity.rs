@@ -40,9 +40,11 @@ pub struct Args {
     /// Matching cost: sad, ssd or ncc.
     #[arg(long, default_value = "sad")]
     cost: String,
-    /// Window side in pixels (odd, 3..=31).
-    #[arg(long, default_value_t = 9)]
-    block: usize,
+    /// Window side in pixels: block matching's (odd, 3..=31; default 9), or with `--method sgm`
+    /// the cost window of semi-global matching (odd, 1..=11; default 5, OpenCV SGBM's
+    /// blockSize).
+    #[arg(long)]
+    block: Option<usize>,
     /// Number of disparities searched.
     #[arg(long, default_value_t = 64)]
     disparities: usize,
@@ -206,7 +208,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     };
     let cfg = MatcherConfig {
         cost,
-        block_size: args.block,
+        block_size: if sgm { d.block_size } else { args.block.unwrap_or(d.block_size) },
         min_disparity: args.min_disparity,
         num_disparities: args.disparities,
         prefilter,
@@ -222,7 +224,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         confidence_map: args.confidence,
         fill: args.fill,
         threads: args.threads,
-        sgm: SgmConfig { paths, ..d.sgm },
+        sgm: SgmConfig { paths, block: if sgm { args.block.unwrap_or(d.sgm.block) } else { d.sgm.block }, ..d.sgm },
         ..d
     };
     let mut matcher = BlockMatcher::new(cfg.clone()).context("block-matching configuration")?;
@@ -272,12 +274,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
     files.commit()?;
     println!(
-        "{}x{} {:?} cost {:?} block {} disparities [{}, {}) simd {:?}, median of {} runs",
+        "{}x{} {:?} cost {:?} block {}{} disparities [{}, {}) simd {:?}, median of {} runs",
         map.width(),
         map.height(),
         cfg.method,
         cfg.cost,
-        cfg.block_size,
+        if sgm { cfg.sgm.block } else { cfg.block_size },
+        if sgm { format!(" paths {}", args.sgm_paths) } else { String::new() },
         cfg.min_disparity,
         cfg.min_disparity + cfg.num_disparities as i32,
         matcher.simd(),

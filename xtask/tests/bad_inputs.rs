@@ -268,3 +268,44 @@ fn a_sequence_written_into_its_own_folder_is_refused_before_any_frame() {
     assert_eq!(std::fs::read(dir.join("f1.png")).unwrap(), before, "an input image was replaced");
     assert_eq!(files_below(&dir), ["f1.png", "f1r.png"]);
 }
+
+#[test]
+fn sgm_takes_its_window_from_block_and_refuses_one_it_cannot_use() {
+    // `--block` used to set only block matching's window: with `--method sgm` a 13 was accepted
+    // and the 5x5 default used
+    let dir = temp("sgm-block");
+    let out = dir.join("out");
+    let (left, right) = (fixture("stereo-scene-easy/left.png"), fixture("stereo-scene-easy/right.png"));
+    let common = [
+        "disparity",
+        "--left",
+        &left,
+        "--right",
+        &right,
+        "--runs",
+        "1",
+        "--method",
+        "sgm",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let r = run(&[&common[..], &["--block", "13"]].concat());
+    fails_naming(&r, &["sgm.block", "13", "1..=11"]);
+    assert!(!out.exists(), "outputs written before the refusal: {:?}", files_below(&out));
+    // a window it can use: the map is the library's with that window (and not the default one's)
+    let r = run(&[&common[..], &["--block", "7"]].concat());
+    let stdout = String::from_utf8_lossy(&r.stdout);
+    assert!(r.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&r.stderr));
+    assert!(stdout.contains("Sgm cost Sad block 7 paths 5 "), "{stdout}");
+    let cli = parallax_block_matching::from_pfm(&std::fs::read(out.join("disparity.pfm")).unwrap(), "cli").unwrap();
+    let (l, rt) = (image::open(&left).unwrap().into_luma8(), image::open(&right).unwrap().into_luma8());
+    let lib = |block| {
+        use parallax_block_matching::{BlockMatcher, MatcherConfig, SgmConfig};
+        let base = MatcherConfig::sgm();
+        let cfg = MatcherConfig { sgm: SgmConfig { block, ..base.sgm }, ..base };
+        BlockMatcher::new(cfg).unwrap().compute(&l, &rt).unwrap()
+    };
+    let bits = |m: &parallax_camera_model::DisparityMap| m.data().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&cli), bits(&lib(7)), "the CLI's map is not the library's with a 7x7 window");
+    assert_ne!(bits(&cli), bits(&lib(5)), "a 7x7 and a 5x5 window gave the same map: the test cannot tell them apart");
+}
