@@ -16,53 +16,24 @@ the ratios. XTASK=path times another build of xtask (e.g. a copy of the previous
 import cv2, numpy as np, subprocess, statistics, time, os, sys
 THREADS = int(os.environ.get("THREADS", "2"))
 cv2.setNumThreads(THREADS)
-def _shared():
-    # ../shared beside the worktree (also for worktrees one level deeper), or $PARALLAX_SHARED
-    here = os.path.dirname(os.path.abspath(__file__))
-    for c in (os.environ.get("PARALLAX_SHARED"), os.path.join(here, "..", "..", "..", "shared"),
-              os.path.join(here, "..", "..", "..", "..", "shared")):
-        if c and os.path.isdir(os.path.join(c, "data", "middlebury")):
-            return c
-    raise SystemExit("../shared/data/middlebury not found (set PARALLAX_SHARED)")
-D = os.path.join(_shared(), "data", "middlebury", "teddy")
-OUT = os.environ.get("PAIRS_OUT", "/tmp/parallax-pairs"); os.makedirs(OUT, exist_ok=True)
-L0 = cv2.imread(f"{D}/imL.png", 0); R0 = cv2.imread(f"{D}/imR.png", 0)
-sizes = [(450, 375, 64), (626, 555, 96), (1282, 1110, 224)][:int(os.environ.get("NS", "3"))]
-pairs = []
-if os.environ.get("SET") == "middlebury":
-    # SET=middlebury: tsukuba (16 disparities), venus (32) and teddy (64) as they are, then the
-    # teddy pair resized to 1282x1110 (224; the size of aloe, not in ../shared)
-    for name, nd in (("tsukuba", 16), ("venus", 32), ("teddy", 64)):
-        d = os.path.join(os.path.dirname(D), name)
-        l, r = cv2.imread(f"{d}/imL.png", 0), cv2.imread(f"{d}/imR.png", 0)
-        pairs.append((l.shape[1], l.shape[0], nd, l, r, f"{d}/imL.png", f"{d}/imR.png"))
-    sizes = sizes[2:]
-for w, h, nd in sizes:
-    l = L0 if w == 450 else cv2.resize(L0, (w, h), interpolation=cv2.INTER_CUBIC)
-    r = R0 if w == 450 else cv2.resize(R0, (w, h), interpolation=cv2.INTER_CUBIC)
-    pl, pr = f"{OUT}/l{w}.png", f"{OUT}/r{w}.png"
-    cv2.imwrite(pl, l); cv2.imwrite(pr, r)
-    pairs.append((w, h, nd, l, r, pl, pr))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from pairs import pairs as make_pairs, our_options, opencv_matcher, out_dir
+pairs = make_pairs()
+OUT = out_dir()
 XT = os.environ.get("XTASK") or os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "target", "release", "xtask")
 mode = sys.argv[1] if len(sys.argv) > 1 else "bm"
 rounds = int(sys.argv[2]) if len(sys.argv) > 2 else 3
 N = 7
 BEFORE = os.environ.get("XTASK_BEFORE")  # optional: an older xtask build, timed in the same rounds
 def ours(pl, pr, nd, XT=XT):
-    if mode == "bm":
-        extra = ["--prefilter", "xsobel", "--uniqueness", "0", "--lr-max-diff", "-1", "--speckle-window", "0", "--texture", "10", "--block", "9"]
-    else:
-        extra = ["--method", "sgm", "--sgm-paths", os.environ.get("SGM_PATHS", "3"), "--uniqueness", "10", "--lr-max-diff", "1", "--speckle-window", "0", "--texture", "0"]
+    extra = our_options(mode)
     out = subprocess.run([XT, "disparity", "--left", pl, "--right", pr, "--disparities", str(nd), "--runs", str(N), "--out", os.path.join(OUT, "o"), "--allow-swapped", "--threads", str(THREADS)] + extra, capture_output=True, text=True)
     for line in out.stdout.splitlines():
         if line.startswith("seconds:"):
             return float(line.split()[1])
     raise SystemExit(out.stdout + out.stderr)
 def cv(l, r, nd):
-    if mode == "bm":
-        m = cv2.StereoBM_create(numDisparities=nd, blockSize=9); m.setUniquenessRatio(0)
-    else:
-        m = cv2.StereoSGBM_create(minDisparity=0, numDisparities=nd, blockSize=5, P1=200, P2=800, disp12MaxDiff=1, preFilterCap=63, uniquenessRatio=10, speckleWindowSize=0, speckleRange=0, mode=cv2.StereoSGBM_MODE_SGBM_3WAY)
+    m = opencv_matcher(mode, nd)
     m.compute(l, r)
     ts = []
     for _ in range(N):

@@ -110,6 +110,14 @@ mod x86 {
     use std::arch::asm;
     use std::arch::x86_64::*;
 
+    /// One add to each of the eight accumulators.
+    macro_rules! eight_adds {
+        () => {
+            "vpaddw {a0}, {a0}, {i}\nvpaddw {a1}, {a1}, {i}\nvpaddw {a2}, {a2}, {i}\nvpaddw {a3}, {a3}, {i}\n\
+             vpaddw {a4}, {a4}, {i}\nvpaddw {a5}, {a5}, {i}\nvpaddw {a6}, {a6}, {i}\nvpaddw {a7}, {a7}, {i}\n"
+        };
+    }
+
     macro_rules! chains {
         ($name:ident, $feat:literal, $t:ty, $class:ident, $ld:ident, $st:ident, $set1:ident) => {
             /// The add chains at this width (see [`super::add_chains`]).
@@ -131,22 +139,7 @@ mod x86 {
                     // SAFETY: register-to-register adds only: no memory, stack or flags touched.
                     unsafe {
                         asm!(
-                            "vpaddw {a0}, {a0}, {i}",
-                            "vpaddw {a1}, {a1}, {i}",
-                            "vpaddw {a2}, {a2}, {i}",
-                            "vpaddw {a3}, {a3}, {i}",
-                            "vpaddw {a4}, {a4}, {i}",
-                            "vpaddw {a5}, {a5}, {i}",
-                            "vpaddw {a6}, {a6}, {i}",
-                            "vpaddw {a7}, {a7}, {i}",
-                            "vpaddw {a0}, {a0}, {i}",
-                            "vpaddw {a1}, {a1}, {i}",
-                            "vpaddw {a2}, {a2}, {i}",
-                            "vpaddw {a3}, {a3}, {i}",
-                            "vpaddw {a4}, {a4}, {i}",
-                            "vpaddw {a5}, {a5}, {i}",
-                            "vpaddw {a6}, {a6}, {i}",
-                            "vpaddw {a7}, {a7}, {i}",
+                            concat!(eight_adds!(), eight_adds!()),
                             a0 = inout($class) a0,
                             a1 = inout($class) a1,
                             a2 = inout($class) a2,
