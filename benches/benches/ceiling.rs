@@ -4,8 +4,8 @@
 //! `stereo-limits.md`'s 9.5 vector operations per disparity evaluation), then the block matcher
 //! on every core with the options of `benches/scripts/disparity_vs_opencv.py bm` (9x9 SAD on the
 //! x-Sobel prefilter, texture 10, uniqueness 0, no left–right check, no speckle filter) on
-//! 626x555x96 and 1282x1110x224 (Middlebury teddy resized, as that script does, when
-//! `../shared` is present; else a generated textured pair). Evaluations are counted as
+//! 626x555x96 and 1282x1110x224 (Middlebury teddy resized to those sizes when `../shared` is
+//! present — bilinear here, cubic in that script; else a generated textured pair). Evaluations are counted as
 //! width x height x disparities, the lanes the kernel computes.
 //!
 //! `cargo bench -p parallax-benches --bench ceiling` (release; `cargo xtask bench` runs it too,
@@ -16,20 +16,16 @@ use std::time::Instant;
 
 use image::GrayImage;
 use parallax_benches::ceiling::{OPS_PER_EVALUATION, Width, lane_rate};
-use parallax_benches::textured_pair;
+use parallax_benches::{teddy, textured_pair};
 use parallax_block_matching::{BlockMatcher, MatcherConfig, Prefilter};
 
-const TEDDY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/middlebury/teddy");
-
 fn pair(w: u32, h: u32, nd: usize) -> (GrayImage, GrayImage, &'static str) {
-    let dir = std::path::Path::new(TEDDY);
-    match (image::open(dir.join("imL.png")), image::open(dir.join("imR.png"))) {
-        (Ok(l), Ok(r)) => {
+    match teddy() {
+        Some((l, r)) => {
             let f = image::imageops::FilterType::Triangle;
-            let size = |i: image::DynamicImage| image::imageops::resize(&i.into_luma8(), w, h, f);
-            (size(l), size(r), "teddy resized")
+            (image::imageops::resize(&l, w, h, f), image::imageops::resize(&r, w, h, f), "teddy resized")
         }
-        _ => {
+        None => {
             let (l, r) = textured_pair(w, h, 0.9 * nd as f64);
             (l, r, "generated")
         }

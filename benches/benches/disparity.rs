@@ -12,16 +12,13 @@ use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use image::GrayImage;
-use parallax_benches::textured_pair;
+use parallax_benches::{teddy, textured_pair};
 use parallax_block_matching::{BlockMatcher, CostFunction, MatcherConfig, SgmConfig, SgmPaths, SimdLevel};
 
-const TEDDY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/middlebury/teddy");
-
 fn teddy_or_generated() -> (GrayImage, GrayImage, &'static str) {
-    let dir = std::path::Path::new(TEDDY);
-    match (image::open(dir.join("imL.png")), image::open(dir.join("imR.png"))) {
-        (Ok(l), Ok(r)) => (l.into_luma8(), r.into_luma8(), "teddy"),
-        _ => {
+    match teddy() {
+        Some((l, r)) => (l, r, "teddy"),
+        None => {
             let (l, r) = textured_pair(450, 375, 60.0);
             (l, r, "gen450")
         }

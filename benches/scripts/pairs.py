@@ -19,7 +19,7 @@ def _shared():
 def pairs():
     """[(w, h, disparities, left, right, left path, right path)]"""
     D = os.path.join(_shared(), "data", "middlebury", "teddy")
-    OUT = os.environ.get("PAIRS_OUT", "/tmp/parallax-pairs"); os.makedirs(OUT, exist_ok=True)
+    OUT = out_dir(); os.makedirs(OUT, exist_ok=True)
     L0 = cv2.imread(f"{D}/imL.png", 0); R0 = cv2.imread(f"{D}/imR.png", 0)
     sizes = [(450, 375, 64), (626, 555, 96), (1282, 1110, 224)][:int(os.environ.get("NS", "3"))]
     out = []

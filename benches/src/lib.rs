@@ -1,6 +1,6 @@
 //! Benchmarks of parallax (criterion, and the block matcher against this machine's ceiling); the
-//! library holds what they share: a generated stereo pair and the vector-add chains
-//! ([`ceiling`]).
+//! library holds what they share: Middlebury teddy when `../shared` is present, a generated
+//! stereo pair and the vector-add chains ([`ceiling`]).
 //!
 //! | bench | what it measures |
 //! |---|---|
@@ -14,6 +14,13 @@
 //! never asserted in tests.
 
 pub mod ceiling;
+
+/// Middlebury teddy (`../shared/data/middlebury/teddy`, grey), or `None` without `../shared`.
+pub fn teddy() -> Option<(GrayImage, GrayImage)> {
+    let dir = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/middlebury/teddy"));
+    let (l, r) = (image::open(dir.join("imL.png")).ok()?, image::open(dir.join("imR.png")).ok()?);
+    Some((l.into_luma8(), r.into_luma8()))
+}
 
 use image::{GrayImage, Luma};
 use rand::{Rng, SeedableRng};
