@@ -91,8 +91,8 @@ pub enum SgmPaths {
     /// Three paths in one top-to-bottom pass (left-to-right, right-to-left, down): the
     /// directions of OpenCV's `MODE_SGBM_3WAY`, the fastest (about 0.7x the time of five).
     /// Middlebury nonocc with the [`MatcherConfig::sgm`] preset, bad-2 among the returned pixels
-    /// / density: tsukuba 1.94 % / 97.0 %, venus 0.54 % / 98.2 %, teddy 3.55 % / 93.1 %; missing
-    /// = bad ([`MatcherConfig::sgm_dense`]) 2.98 / 1.37 / 7.44.
+    /// / density: tsukuba 1.94 % / 97.0 %, venus 0.54 % / 98.1 %, teddy 3.55 % / 92.9 %; missing
+    /// = bad ([`MatcherConfig::sgm_dense`]) 2.98 / 1.34 / 7.40.
     Three,
 }
 
@@ -245,9 +245,9 @@ impl MatcherConfig {
     /// x-Sobel prefilter, P1 = 8, P2 = 64 per window pixel with the intensity-adaptive P2
     /// (γ = 16), uniqueness 10 %, left–right check 1 px, speckle filter 100 px. Middlebury
     /// nonocc, bad-2 among the returned pixels / density: tsukuba 2.33 % / 96.9 %, venus
-    /// 0.54 % / 98.3 %, teddy 3.62 % / 93.0 % (OpenCV SGBM 3-way: 2.40 / 98.5, 0.74 / 94.9,
-    /// 5.46 / 89.9). Eight paths ([`SgmPaths::Eight`]): 1.81 / 97.3, 0.67 / 98.5, 3.93 / 92.4;
-    /// three ([`SgmPaths::Three`]): 1.94 / 97.0, 0.54 / 98.2, 3.55 / 93.1.
+    /// 0.54 % / 98.2 %, teddy 3.62 % / 92.9 % (OpenCV SGBM 3-way: 2.40 / 98.5, 0.74 / 94.9,
+    /// 5.46 / 89.9). Eight paths ([`SgmPaths::Eight`]): 1.80 / 97.3, 0.67 / 98.4, 3.93 / 92.2;
+    /// three ([`SgmPaths::Three`]): 1.94 / 97.0, 0.54 / 98.1, 3.55 / 92.9.
     pub fn sgm() -> Self {
         Self {
             method: Method::Sgm,
@@ -261,8 +261,8 @@ impl MatcherConfig {
 
     /// [`MatcherConfig::sgm`] as a benchmark preset for evaluations that count a missing pixel
     /// as bad: no uniqueness margin, no speckle filter, left–right rejects filled. Middlebury
-    /// nonocc bad-2 (missing = bad) tsukuba / venus / teddy 3.40 / 1.32 / 7.42 with five paths,
-    /// 2.75 / 1.36 / 7.86 with eight (OpenCV SGBM 3-way: 3.85 / 5.81 / 14.99).
+    /// nonocc bad-2 (missing = bad) tsukuba / venus / teddy 3.40 / 1.29 / 7.39 with five paths,
+    /// 2.75 / 1.34 / 7.83 with eight (OpenCV SGBM 3-way: 3.85 / 5.81 / 14.99).
     pub fn sgm_dense() -> Self {
         Self { uniqueness_ratio: 0, speckle_window_size: 0, fill: true, ..Self::sgm() }
     }

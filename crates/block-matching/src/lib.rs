@@ -26,9 +26,9 @@
 //! parallel tasks with `≈ 9 · W · Dq · 2` bytes each (five paths; `Dq`: `D` rounded up to
 //! 16) or `≈ (strip + 9) · W · Dq · 2` bytes (eight paths, strips capped at 48 MiB), paths
 //! starting `overlap` rows outside the strip. Exact 16-bit integer aggregation in AVX2
-//! intrinsics, checked against a naive reference. Middlebury nonocc: bad-2 with missing = bad (dense preset) 3.40 / 1.32 /
-//! 7.42 (five paths) against OpenCV SGBM 3-way's 3.85 / 5.81 / 14.99; among the returned pixels
-//! (measurement preset) 2.33 % at 96.9 % / 0.54 % at 98.3 % / 3.62 % at 93.0 % against SGBM's
+//! intrinsics, checked against a naive reference. Middlebury nonocc: bad-2 with missing = bad (dense preset) 3.40 / 1.29 /
+//! 7.39 (five paths) against OpenCV SGBM 3-way's 3.85 / 5.81 / 14.99; among the returned pixels
+//! (measurement preset) 2.33 % at 96.9 % / 0.54 % at 98.2 % / 3.62 % at 92.9 % against SGBM's
 //! 2.40 % at 98.5 % / 0.74 % at 94.9 % / 5.46 % at 89.9 %.
 //!
 //! Many frames: [`BlockMatcher::frames`] matches an iterator of pairs (any source; no file I/O

@@ -84,8 +84,14 @@ impl<'a> SgmParams<'a> {
             return Err(BlockMatchingError::InvalidConfig {
                 field: "sgm",
                 value: format!("block {} · max pixel {max_pixel} with p2 {} over {npaths} paths", cfg.block, cfg.p2),
-                reason: "aggregated costs must fit in 16 bits: use the rank or x-Sobel prefilter (small pixel \
-                         values), a smaller sgm.block or smaller penalties",
+                reason: if intensity_scale > 1 {
+                    // the x-Sobel and normalised-response outputs grow with the bit depth
+                    "aggregated costs must fit in 16 bits: on 16-bit images use the rank prefilter (its values \
+                     do not grow with the bit depth), a smaller sgm.block or smaller penalties"
+                } else {
+                    "aggregated costs must fit in 16 bits: use the rank or x-Sobel prefilter (small pixel \
+                     values), a smaller sgm.block or smaller penalties"
+                },
             });
         }
         let gamma = cfg.p2_gamma;

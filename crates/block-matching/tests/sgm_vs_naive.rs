@@ -187,7 +187,12 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
             if let Some(tol) = cfg.lr_max_diff {
                 let u = (x as i64 - dmin - kb as i64) as usize;
                 let diff = (rbest[u] as i64 - kb as i64).abs();
-                if diff > tol as i64 {
+                // where the image cuts the candidates short of 0..nd: an exact match only, and
+                // not on the candidate the image cut at (its right pixel is a border column)
+                let (cut_lo, cut_hi) = (lo > 0, hi < nd - 1);
+                let tol = if cut_lo || cut_hi { 0 } else { tol as i64 };
+                let on_cut = (cut_lo && kb == lo) || (cut_hi && kb == hi);
+                if diff > tol || on_cut {
                     rejected[x] = true;
                     continue;
                 }
