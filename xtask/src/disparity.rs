@@ -26,6 +26,11 @@ pub struct Args {
     /// Right rectified image, or a folder or glob pattern as --left.
     #[arg(long)]
     right: PathBuf,
+    /// Sequences: pair the left and right files by sorted position even when their names do
+    /// not correspond (by default what varies along the left names, a frame number, timestamp
+    /// or folder, must vary alike along the right ones).
+    #[arg(long)]
+    pair_by_order: bool,
     /// Sequences: pairs decoded ahead of the matcher (default 2).
     #[arg(long, default_value_t = 2)]
     prefetch: usize,
@@ -98,7 +103,8 @@ pub struct Args {
     /// Timed runs after one warm-up run; the median is reported.
     #[arg(long, default_value_t = 5)]
     runs: usize,
-    /// Output directory (disparity.pfm, disparity16.png at 1/256 px, disparity_colour.png).
+    /// Output directory (disparity.pfm, disparity16.png at 1/256 px when the range lies within
+    /// 0..=255.996 px, disparity_colour.png).
     #[arg(long)]
     out: PathBuf,
     /// The rectification of the pair (`rectify`'s rectification file, any format; two files are
@@ -130,30 +136,54 @@ fn run_sequence(
     lefts: Vec<PathBuf>,
     rights: Vec<PathBuf>,
 ) -> anyhow::Result<ExitCode> {
+    // options of a single pair are refused, not ignored
+    let single = [
+        ("--gt", args.gt.is_some()),
+        ("--mask", args.mask.is_some()),
+        ("--confidence", args.confidence),
+        ("--calib", !args.calib.is_empty()),
+    ];
+    if let Some((name, _)) = single.iter().find(|(_, given)| *given) {
+        anyhow::bail!(
+            "{name} applies to a single pair, not to an image sequence: give --left and --right as single images"
+        );
+    }
     // where every frame goes is checked before any is decoded
-    disparity::sequence_outputs(&lefts, &rights, &args.out)?;
+    let (min, n) = (matcher.config().min_disparity, matcher.config().num_disparities);
+    let png = disparity::png16_holds(min, n);
+    disparity::sequence_outputs(&lefts, &rights, &args.out, png)?;
     // the first pair decides whether the sequence looks swapped
     let first = disparity::load_pair(&lefts[0], &rights[0])?;
+    if first.identical() {
+        anyhow::bail!("{} and {} are the same image: nothing to match", lefts[0].display(), rights[0].display());
+    }
     if let Some(code) = refuse_swapped(&first.check_swap(&matcher)?, args.allow_swapped, true) {
         return Ok(code);
+    }
+    if !png {
+        eprintln!("{}", disparity::png16_warning("<name>.png", min, n));
     }
     let bar = indicatif::ProgressBar::new(lefts.len() as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} frames {per_sec} eta {eta} {msg}")
             .context("progress bar template")?,
     );
+    // above the bar on a terminal; plain lines on stderr otherwise (the hidden bar prints nothing)
+    let say = |line: String| if bar.is_hidden() { eprintln!("{line}") } else { bar.println(line) };
     let s = disparity::run_sequence(matcher, lefts, rights, &args.out, args.prefetch, |e| {
         match e {
-            FrameEvent::Matched { name, density } if *density < 0.5 => bar
-                .println(format!("warning: {name}: most of the map was rejected ({:.1} % returned)", 100.0 * density)),
-            FrameEvent::Failed { index, error } => bar.println(format!("error: frame {index}: {error}")),
+            FrameEvent::Matched { name, density } if *density < 0.5 => {
+                say(format!("warning: {name}: most of the map was rejected ({:.1} % returned)", 100.0 * density))
+            }
+            FrameEvent::Failed { index, error } => say(format!("error: frame {index}: {error}")),
             FrameEvent::Matched { .. } => {}
         }
         bar.inc(1);
     });
     bar.finish_and_clear();
     let s = s?;
-    println!("wrote {} maps to {} (<name>.pfm, <name>.png at 1/256 px)", s.frames, args.out.display());
+    let files = if png { "<name>.pfm, <name>.png at 1/256 px" } else { "<name>.pfm" };
+    println!("wrote {} maps to {} ({files})", s.frames, args.out.display());
     println!("frames: {}", s.frames);
     println!("failed: {}", s.failed);
     println!("density: {:.2}", s.density_pct);
@@ -233,10 +263,17 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let inputs: Vec<&PathBuf> =
         [&args.left, &args.right].into_iter().chain(&args.gt).chain(&args.mask).chain(&args.calib).collect();
     parallax_composition::io::refuse_overwriting_inputs(&outputs, &inputs)?;
-    if let Some((lefts, rights)) = disparity::image_sequence(&args.left, &args.right)? {
+    if let Some((lefts, rights)) = disparity::image_sequence(&args.left, &args.right, args.pair_by_order)? {
         return run_sequence(&args, matcher, lefts, rights);
     }
     let pair = disparity::load_pair(&args.left, &args.right)?;
+    if pair.identical() {
+        anyhow::bail!(
+            "{} and {} are the same image: nothing to match (every disparity would be 0)",
+            args.left.display(),
+            args.right.display()
+        );
+    }
     // Ground truth and mask are checked against the pair before anything is computed or written.
     let size = pair.dimensions();
     let truth = args.gt.as_deref().map(|p| disparity::load_truth(p, args.gt_scale, size)).transpose()?;
@@ -253,10 +290,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let (map, seconds) = disparity::match_timed(&mut matcher, &pair, args.runs)?;
     let stats = matcher.last_stats();
     let mdes = (map.width() * map.height() * cfg.num_disparities) as f64 / seconds / 1e6;
-    let lo = cfg.min_disparity as f32;
+    let (min, n) = (cfg.min_disparity, cfg.num_disparities);
     // every output is computed first and written as one set at the end
     let mut files = OutputSet::new();
-    disparity::add_maps(&mut files, &args.out, &map, (lo, lo + cfg.num_disparities as f32 - 1.0))?;
+    let png = disparity::add_maps(&mut files, &args.out, &map, (min, n))?;
     disparity::add_confidence(&mut files, &args.out, &matcher, &map)?;
     let evaluation = truth
         .map(|t| parallax_block_matching::evaluate(&map, &t, mask.as_deref(), &[1.0, 2.0]))
@@ -294,7 +331,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             100.0 * stats.density
         );
     }
-    println!("wrote {}/disparity.pfm, disparity16.png, disparity_colour.png", args.out.display());
+    for w in disparity::range_warnings(&map, min, n) {
+        eprintln!("{w}");
+    }
+    if !png {
+        eprintln!("{}", disparity::png16_warning("disparity16.png", min, n));
+    }
+    let png = if png { " disparity16.png," } else { "" };
+    println!("wrote {}/disparity.pfm,{png} disparity_colour.png", args.out.display());
     println!("{}", summary::disparity_keys(&stats, evaluation.as_ref(), seconds, mdes));
     if let Some(depth) = depth {
         println!("wrote {}", ply.display());

@@ -1,6 +1,7 @@
 //! Bad inputs, as a new user would give them, through the built binary: each test asserts a
 //! non-zero exit, an error that names the mistake, and that no file appeared (or changed) at
-//! the output path.
+//! the output path — or, for an input the run can still serve, the warning and the files it
+//! leaves out.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -308,4 +309,115 @@ fn sgm_takes_its_window_from_block_and_refuses_one_it_cannot_use() {
     let bits = |m: &parallax_camera_model::DisparityMap| m.data().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(&cli), bits(&lib(7)), "the CLI's map is not the library's with a 7x7 window");
     assert_ne!(bits(&cli), bits(&lib(5)), "a 7x7 and a 5x5 window gave the same map: the test cannot tell them apart");
+}
+
+/// The arguments of a single-pair `disparity` run on the easy scene into `out`.
+fn easy_disparity(out: &Path) -> Vec<String> {
+    let (left, right) = (fixture("stereo-scene-easy/left.png"), fixture("stereo-scene-easy/right.png"));
+    ["disparity", "--left", &left, "--right", &right, "--runs", "1", "--out", out.to_str().unwrap()]
+        .map(String::from)
+        .to_vec()
+}
+
+fn run_with(base: &[String], extra: &[&str]) -> Output {
+    let args: Vec<&str> = base.iter().map(String::as_str).chain(extra.iter().copied()).collect();
+    run(&args)
+}
+
+#[test]
+fn the_same_image_twice_is_refused_before_any_output() {
+    // it gave an all-zero map at 100 % density, exit 0
+    let dir = temp("disp-same");
+    let out = dir.join("out");
+    let left = fixture("stereo-scene-easy/left.png");
+    let r = run(&["disparity", "--left", &left, "--right", &left, "--runs", "1", "--out", out.to_str().unwrap()]);
+    fails_naming(&r, &["left.png", "same image"]);
+    assert!(!out.exists(), "outputs written before the refusal: {:?}", files_below(&out));
+}
+
+#[test]
+fn a_range_a_16_bit_png_cannot_hold_writes_no_png_and_says_so() {
+    // disparity16.png clamped every value to 1/256..255.996 px: a negative disparity read back
+    // as +0.004 px
+    let dir = temp("disp-png-range");
+    let out = dir.join("out");
+    let base = easy_disparity(&out);
+    let r = run_with(&base, &["--min-disparity", "-8", "--disparities", "48"]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{stderr}");
+    assert!(stderr.contains("disparity16.png not written") && stderr.contains("[-8, 40)"), "{stderr}");
+    assert_eq!(files_below(&out), ["disparity.pfm", "disparity_colour.png"]);
+    // a range it holds: written, no warning
+    std::fs::remove_dir_all(&out).unwrap();
+    let r = run_with(&base, &["--disparities", "48"]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success() && !stderr.contains("not written"), "{stderr}");
+    assert_eq!(files_below(&out), ["disparity.pfm", "disparity16.png", "disparity_colour.png"]);
+}
+
+#[test]
+fn a_range_that_ends_below_the_nearest_objects_is_warned_of_with_its_share() {
+    // 12 disparities on a scene whose disparities reach ~32: the near pixels the checks keep sit
+    // on disparity 11, a dense plausible map with exit 0 and no word of it before
+    let dir = temp("disp-short-range");
+    let out = dir.join("out");
+    let base = easy_disparity(&out);
+    let r = run_with(&base, &["--disparities", "12"]);
+    let stderr = String::from_utf8_lossy(&r.stderr).into_owned();
+    assert!(r.status.success(), "{stderr}");
+    let line =
+        stderr.lines().find(|l| l.contains("largest disparity searched (11)")).unwrap_or_else(|| panic!("{stderr}"));
+    // the share printed is the map's, counted here from the written PFM
+    let map = parallax_block_matching::from_pfm(&std::fs::read(out.join("disparity.pfm")).unwrap(), "cli").unwrap();
+    let valid: Vec<f32> = map.data().iter().copied().filter(|d| d.is_finite()).collect();
+    let share = 100.0 * valid.iter().filter(|&&d| d == 11.0).count() as f64 / valid.len() as f64;
+    assert!(line.starts_with(&format!("warning: {share:.1} % ")), "{line} (counted {share:.2} %)");
+    assert!(share > 1.0, "{share}");
+    // the full range: no such warning
+    let r = run_with(&easy_disparity(&dir.join("full")), &[]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success() && !stderr.contains("largest disparity"), "{stderr}");
+}
+
+#[test]
+fn sequences_refuse_single_pair_options_and_names_that_do_not_correspond_and_report_frame_errors() {
+    let dir = temp("disp-seq-checks");
+    let easy = root().join("fixtures/stereo-scene-easy");
+    for d in ["L", "R"] {
+        std::fs::create_dir_all(dir.join(d)).unwrap();
+    }
+    for k in [1, 2] {
+        std::fs::copy(easy.join("left.png"), dir.join(format!("L/{k}.png"))).unwrap();
+        std::fs::copy(easy.join("right.png"), dir.join(format!("R/{k}.png"))).unwrap();
+    }
+    let out = dir.join("out");
+    let seq = |extra: &[&str]| {
+        let (l, r) = (dir.join("L"), dir.join("R"));
+        let base = [
+            "disparity",
+            "--left",
+            l.to_str().unwrap(),
+            "--right",
+            r.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        run(&[&base[..], extra].concat())
+    };
+    // --gt, --mask, --confidence and --calib were ignored
+    let gt = fixture("stereo-scene-easy/disparity.pfm");
+    fails_naming(&seq(&["--gt", &gt]), &["--gt", "single pair"]);
+    fails_naming(&seq(&["--confidence"]), &["--confidence", "single pair"]);
+    assert!(!out.exists(), "outputs written before the refusal: {:?}", files_below(&out));
+    // a frame that fails is reported on stderr without a terminal (the hidden progress bar
+    // printed nothing)
+    let small = image::open(easy.join("left.png")).unwrap().crop_imm(0, 0, 200, 100);
+    small.save(dir.join("L/2.png")).unwrap();
+    let r = seq(&[]);
+    fails_naming(&r, &["error: frame 1", "size"]);
+    std::fs::remove_dir_all(&out).unwrap();
+    // names that do not correspond: 1, 2 against 2, 3 paired 1–2 and 2–3 before
+    std::fs::rename(dir.join("R/1.png"), dir.join("R/3.png")).unwrap();
+    fails_naming(&seq(&[]), &["do not correspond", "--pair-by-order"]);
+    assert!(!out.exists(), "outputs written before the refusal: {:?}", files_below(&out));
 }

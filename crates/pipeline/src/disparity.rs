@@ -38,6 +38,15 @@ impl StereoImages {
         }
     }
 
+    /// Whether both images hold the same pixels (the same file given twice: every disparity
+    /// would be 0, a plausible map of a scene at infinity).
+    pub fn identical(&self) -> bool {
+        match self {
+            Self::U8(l, r) => l == r,
+            Self::U16(l, r) => l == r,
+        }
+    }
+
     /// Whether the pair looks swapped to `matcher` (see [`BlockMatcher::check_swap`]).
     pub fn check_swap(&self, matcher: &BlockMatcher) -> Result<SwapCheck> {
         Ok(match self {
@@ -121,7 +130,8 @@ pub fn load_mask(path: &Path, size: (u32, u32)) -> Result<Vec<bool>> {
 
 const IMAGE_EXTENSIONS: [&str; 6] = ["png", "jpg", "jpeg", "pgm", "ppm", "pnm"];
 
-/// The images of a folder (by extension, sorted) or a glob pattern (natural order).
+/// The images of a folder (by extension) or a glob pattern, in natural order (`2` before `10`)
+/// either way, so that a folder and a pattern list the same frames in the same order.
 fn list_images(p: &Path) -> Result<Vec<PathBuf>> {
     if !p.is_dir() {
         return crate::io::expand_glob(&p.to_string_lossy());
@@ -136,7 +146,7 @@ fn list_images(p: &Path) -> Result<Vec<PathBuf>> {
                     .is_some_and(|e| IMAGE_EXTENSIONS.contains(&e.to_ascii_lowercase().to_str().unwrap_or("")))
         })
         .collect();
-    v.sort();
+    crate::io::natural_sort(&mut v);
     if v.is_empty() {
         return Err(PipelineError::Input(format!("no image in folder {}", p.display())));
     }
@@ -144,9 +154,11 @@ fn list_images(p: &Path) -> Result<Vec<PathBuf>> {
 }
 
 /// The paired left and right files when `left` / `right` name folders or glob patterns
-/// (`None`: a single pair). Both must be sequences, of the same length.
-pub fn image_sequence(left: &Path, right: &Path) -> Result<Option<(Vec<PathBuf>, Vec<PathBuf>)>> {
-    let is_pattern = |p: &Path| p.to_string_lossy().contains(['*', '?', '[']);
+/// (`None`: a single pair; an existing file is one image even when its name holds `*`, `?` or
+/// `[`). Both must be sequences, of the same length, whose files correspond (see
+/// [`check_correspondence`]) unless `by_order` pairs them by position alone.
+pub fn image_sequence(left: &Path, right: &Path, by_order: bool) -> Result<Option<(Vec<PathBuf>, Vec<PathBuf>)>> {
+    let is_pattern = |p: &Path| !p.is_file() && p.to_string_lossy().contains(['*', '?', '[']);
     let (ls, rs) = (left.is_dir() || is_pattern(left), right.is_dir() || is_pattern(right));
     if !ls && !rs {
         return Ok(None);
@@ -164,23 +176,130 @@ pub fn image_sequence(left: &Path, right: &Path) -> Result<Option<(Vec<PathBuf>,
             r.len()
         )));
     }
+    if !by_order {
+        check_correspondence(&l, &r)?;
+    }
     Ok(Some((l, r)))
 }
 
-/// Writes a map as `<stem>.pfm` and `<stem>.png` (16-bit, 1/256 px) into `dir`, as a set.
-pub fn write_frame(dir: &Path, stem: &str, map: &DisparityMap) -> Result<()> {
+/// What varies from frame to frame in each path of a sequence: the path without the prefix and
+/// suffix all of them share (`cam0/000012.png` … → `000012` …; `scene_a/im0.png` … → `scene_a`
+/// …). One path alone shares everything with itself: nothing varies.
+fn varying_parts(paths: &[PathBuf]) -> Vec<Vec<char>> {
+    let all: Vec<Vec<char>> = paths.iter().map(|p| p.to_string_lossy().chars().collect()).collect();
+    let Some(first) = all.first() else { return Vec::new() };
+    let shortest = all.iter().map(Vec::len).min().unwrap_or(0);
+    let pre = (0..shortest).take_while(|&i| all.iter().all(|v| v[i] == first[i])).count();
+    // the suffix does not reach into the prefix (`a1b`, `a11b`: prefix `a1`, suffix `b`)
+    let at_end = |v: &Vec<char>, i: usize| v[v.len() - 1 - i];
+    let suf = (0..shortest - pre).take_while(|&i| all.iter().all(|v| at_end(v, i) == at_end(first, i))).count();
+    all.iter().map(|v| v[pre..v.len() - suf].to_vec()).collect()
+}
+
+/// Refuses left and right sequences whose files do not correspond frame by frame: what varies
+/// along the left paths (the frame number, timestamp or scene folder) must be what varies along
+/// the right ones, pair by pair (`left/000012.png` with `right/000012.png`, `left12.png` with
+/// `right12.png`, `a/im0.png` with `a/im1.png`). Paired by sorted position alone, a missing or
+/// extra frame on one side would shift every later pair by one and each map would be wrong.
+pub fn check_correspondence(lefts: &[PathBuf], rights: &[PathBuf]) -> Result<()> {
+    let (vl, vr) = (varying_parts(lefts), varying_parts(rights));
+    for (i, (a, b)) in vl.iter().zip(&vr).enumerate() {
+        if a != b {
+            return Err(PipelineError::Input(format!(
+                "frame {i}: {} and {} do not correspond ({:?} against {:?}): name the left and right files by the \
+                 same frame number, timestamp or folder, or pass --pair-by-order to pair them by sorted position",
+                lefts[i].display(),
+                rights[i].display(),
+                a.iter().collect::<String>(),
+                b.iter().collect::<String>()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Whether a 16-bit PNG at 1/256 px (KITTI's encoding, 0 = invalid) holds every disparity of
+/// the range `[min_disparity, min_disparity + num_disparities)`: it stores `0..=255.996` px,
+/// no negative value (written anyway, a negative disparity would read back as 1/256 px and one
+/// above 256 px as 255.996).
+pub fn png16_holds(min_disparity: i32, num_disparities: usize) -> bool {
+    min_disparity >= 0 && min_disparity as u64 + num_disparities as u64 <= 256
+}
+
+/// Share of the returned pixels (`0..=1`) a map holds at the end of its range and (when `min`
+/// is not 0) at its start: a range that ends below the nearest objects puts their pixels on
+/// its last disparity (those the checks do not reject), one that starts above the farthest on
+/// its first. Measured with the ranges right (Middlebury tsukuba, venus, teddy; block
+/// matching and SGM defaults): at most 0.13 % at the end; teddy with 24 or 32 disparities
+/// (true up to ~55): 4.2–20.8 %, venus with 16 (true up to ~20): 4.7 %.
+pub fn share_at_range_ends(map: &DisparityMap, min: i32, n: usize) -> (f64, f64) {
+    let (lo, hi) = (min as f32, min as f32 + n as f32 - 1.0);
+    let (mut valid, mut end, mut start) = (0usize, 0usize, 0usize);
+    for &d in map.data().iter().filter(|d| d.is_finite()) {
+        valid += 1;
+        // a winner on the last or first candidate has no sub-pixel step (no neighbour beyond)
+        end += (d > hi - 0.25) as usize;
+        start += (min != 0 && d < lo + 0.25) as usize;
+    }
+    let share = |k: usize| if valid == 0 { 0.0 } else { k as f64 / valid as f64 };
+    (share(end), share(start))
+}
+
+/// The warnings of [`share_at_range_ends`] above 1 % of the returned pixels.
+pub fn range_warnings(map: &DisparityMap, min: i32, n: usize) -> Vec<String> {
+    let (end, start) = share_at_range_ends(map, min, n);
+    let mut w = Vec::new();
+    if end > 0.01 {
+        w.push(format!(
+            "warning: {:.1} % of the returned pixels sit on the largest disparity searched ({}): the range may end \
+             below the nearest objects (raise --disparities)",
+            100.0 * end,
+            min as i64 + n as i64 - 1
+        ));
+    }
+    if start > 0.01 {
+        w.push(format!(
+            "warning: {:.1} % of the returned pixels sit on the smallest disparity searched ({min}): the range may \
+             start above the farthest objects (lower --min-disparity)",
+            100.0 * start
+        ));
+    }
+    w
+}
+
+/// The warning when [`png16_holds`] is false: which PNG is not written and why.
+pub fn png16_warning(what: &str, min_disparity: i32, num_disparities: usize) -> String {
+    format!(
+        "warning: {what} not written: a 16-bit PNG at 1/256 px holds disparities 0 to 255.996 px, the range \
+         searched is [{min_disparity}, {}); the PFM holds the map",
+        min_disparity as i64 + num_disparities as i64
+    )
+}
+
+/// Writes a map as `<stem>.pfm` and (`png`) `<stem>.png` (16-bit, 1/256 px) into `dir`, as a
+/// set.
+pub fn write_frame(dir: &Path, stem: &str, map: &DisparityMap, png: bool) -> Result<()> {
     let mut set = crate::io::OutputSet::new();
     set.add(dir.join(format!("{stem}.pfm")), parallax_block_matching::to_pfm(map))?;
-    set.add_png(dir.join(format!("{stem}.png")), &parallax_block_matching::to_png16(map, 256.0))?;
+    if png {
+        set.add_png(dir.join(format!("{stem}.png")), &parallax_block_matching::to_png16(map, 256.0))?;
+    }
     set.commit().map(|_| ())
 }
 
-/// Adds a single map's files in `dir` to `set`: `disparity.pfm`, `disparity16.png` (1/256 px)
-/// and `disparity_colour.png` (false colour over `range`).
-pub fn add_maps(set: &mut crate::io::OutputSet, dir: &Path, map: &DisparityMap, range: (f32, f32)) -> Result<()> {
+/// Adds a single map's files in `dir` to `set`: `disparity.pfm`, `disparity16.png` (1/256 px,
+/// only when [`png16_holds`] the range `[min, min + n)`) and `disparity_colour.png` (false
+/// colour over the range). Returns whether `disparity16.png` is among them.
+pub fn add_maps(set: &mut crate::io::OutputSet, dir: &Path, map: &DisparityMap, range: (i32, usize)) -> Result<bool> {
+    let (min, n) = range;
     set.add(dir.join("disparity.pfm"), parallax_block_matching::to_pfm(map))?;
-    set.add_png(dir.join("disparity16.png"), &parallax_block_matching::to_png16(map, 256.0))?;
-    set.add_png(dir.join("disparity_colour.png"), &parallax_block_matching::false_colour(map, Some(range)))
+    let png = png16_holds(min, n);
+    if png {
+        set.add_png(dir.join("disparity16.png"), &parallax_block_matching::to_png16(map, 256.0))?;
+    }
+    let colours = (min as f32, min as f32 + n as f32 - 1.0);
+    set.add_png(dir.join("disparity_colour.png"), &parallax_block_matching::false_colour(map, Some(colours)))?;
+    Ok(png)
 }
 
 /// Matches a pair `runs` times after one warm-up run, reusing the output map as a video loop
@@ -259,10 +378,10 @@ pub struct SequenceSummary {
     pub seconds: f64,
 }
 
-/// The files a sequence run writes into `out`: `<left stem>.pfm` and `<left stem>.png` per
-/// frame. Refuses two frames with the same stem (the second would replace the first's maps)
-/// and any output that is one of the input images (`--out` on the input folder).
-pub fn sequence_outputs(lefts: &[PathBuf], rights: &[PathBuf], out: &Path) -> Result<Vec<PathBuf>> {
+/// The files a sequence run writes into `out`: `<left stem>.pfm` and (`png`) `<left
+/// stem>.png` per frame. Refuses two frames with the same stem (the second would replace the
+/// first's maps) and any output that is one of the input images (`--out` on the input folder).
+pub fn sequence_outputs(lefts: &[PathBuf], rights: &[PathBuf], out: &Path, png: bool) -> Result<Vec<PathBuf>> {
     let mut stems: Vec<(String, &Path)> = Vec::with_capacity(lefts.len());
     for l in lefts {
         let stem = l.file_stem().map_or_else(|| "frame".into(), |s| s.to_string_lossy().into_owned());
@@ -275,15 +394,18 @@ pub fn sequence_outputs(lefts: &[PathBuf], rights: &[PathBuf], out: &Path) -> Re
         }
         stems.push((stem, l));
     }
-    let outputs: Vec<PathBuf> =
-        stems.iter().flat_map(|(s, _)| [out.join(format!("{s}.pfm")), out.join(format!("{s}.png"))]).collect();
+    let outputs: Vec<PathBuf> = stems
+        .iter()
+        .flat_map(|(s, _)| [Some(out.join(format!("{s}.pfm"))), png.then(|| out.join(format!("{s}.png")))])
+        .flatten()
+        .collect();
     let inputs: Vec<&PathBuf> = lefts.iter().chain(rights).collect();
     crate::io::refuse_overwriting_inputs(&outputs, &inputs)?;
     Ok(outputs)
 }
 
-/// Matches a sequence of pairs into `out` (`<left stem>.pfm` and `.png` per frame, checked by
-/// [`sequence_outputs`] before anything runs): decoding on a prefetch thread (`prefetch` pairs
+/// Matches a sequence of pairs into `out` (`<left stem>.pfm` and, when [`png16_holds`] the
+/// matcher's range, `.png` per frame, checked by [`sequence_outputs`] before anything runs): decoding on a prefetch thread (`prefetch` pairs
 /// ahead), matching on this thread, writing on a writer thread, all overlapped. `on_frame`
 /// hears of every frame in order. A frame that fails is counted and the run goes on; a failed
 /// write stops the run with its error.
@@ -295,7 +417,9 @@ pub fn run_sequence(
     prefetch: usize,
     mut on_frame: impl FnMut(&FrameEvent),
 ) -> Result<SequenceSummary> {
-    sequence_outputs(&lefts, &rights, out)?;
+    let cfg = matcher.config();
+    let png = png16_holds(cfg.min_disparity, cfg.num_disparities);
+    sequence_outputs(&lefts, &rights, out, png)?;
     std::fs::create_dir_all(out).map_err(|source| PipelineError::Io {
         what: "creating",
         path: out.to_path_buf(),
@@ -311,7 +435,7 @@ pub fn run_sequence(
     let out_dir = out.to_path_buf();
     let writer = std::thread::spawn(move || -> Result<()> {
         for (name, map) in rx {
-            write_frame(&out_dir, &name, &map)?;
+            write_frame(&out_dir, &name, &map, png)?;
         }
         Ok(())
     });
@@ -407,14 +531,88 @@ mod tests {
             l.save(dir.join(format!("l{k}.png"))).unwrap();
             r.save(dir.join(format!("r{k}.png"))).unwrap();
         }
-        assert!(image_sequence(&dir.join("l0.png"), &dir.join("r0.png")).unwrap().is_none());
-        let (ls, rs) = image_sequence(&dir.join("l*.png"), &dir.join("r*.png")).unwrap().unwrap();
+        assert!(image_sequence(&dir.join("l0.png"), &dir.join("r0.png"), false).unwrap().is_none());
+        let (ls, rs) = image_sequence(&dir.join("l*.png"), &dir.join("r*.png"), false).unwrap().unwrap();
         assert_eq!((ls.len(), rs.len()), (3, 3));
-        let err = image_sequence(&dir.join("l*.png"), &dir.join("r0.png")).unwrap_err().to_string();
+        let err = image_sequence(&dir.join("l*.png"), &dir.join("r0.png"), false).unwrap_err().to_string();
         assert!(err.contains("both"), "{err}");
         std::fs::remove_file(dir.join("r2.png")).unwrap();
-        let err = image_sequence(&dir.join("l*.png"), &dir.join("r*.png")).unwrap_err().to_string();
+        let err = image_sequence(&dir.join("l*.png"), &dir.join("r*.png"), false).unwrap_err().to_string();
         assert!(err.contains("3 left images but 2 right images"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Writes an (empty-content) file at each relative path under `dir`.
+    fn touch(dir: &Path, names: &[&str]) {
+        for n in names {
+            let p = dir.join(n);
+            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+            std::fs::write(p, b"").unwrap();
+        }
+    }
+
+    #[test]
+    fn sequences_pair_files_that_correspond_and_refuse_those_that_do_not() {
+        let dir = crate::io::test_dir("seq-names");
+        // a folder and a glob list the same frames in the same (natural) order: 1, 2, 10
+        touch(&dir, &["L/1.png", "L/10.png", "L/2.png", "R/1.png", "R/10.png", "R/2.png"]);
+        let (l, r) = image_sequence(&dir.join("L"), &dir.join("R/*.png"), false).unwrap().unwrap();
+        let names =
+            |v: &[PathBuf]| v.iter().map(|p| p.file_name().unwrap().to_string_lossy().into_owned()).collect::<Vec<_>>();
+        assert_eq!(names(&l), ["1.png", "2.png", "10.png"]);
+        assert_eq!(names(&l), names(&r));
+        // OpenCV's sample names, Middlebury's folders per scene, timestamps
+        touch(&dir, &["cv/left01.jpg", "cv/left02.jpg", "cv/right01.jpg", "cv/right02.jpg"]);
+        assert!(image_sequence(&dir.join("cv/left*.jpg"), &dir.join("cv/right*.jpg"), false).is_ok());
+        touch(
+            &dir,
+            &["mb/Adirondack/im0.png", "mb/Jadeplant/im0.png", "mb/Adirondack/im1.png", "mb/Jadeplant/im1.png"],
+        );
+        assert!(image_sequence(&dir.join("mb/*/im0.png"), &dir.join("mb/*/im1.png"), false).is_ok());
+        // a frame missing on each side: same counts, shifted pairs
+        touch(&dir, &["a/f1.png", "a/f2.png", "b/f2.png", "b/f3.png"]);
+        let err = image_sequence(&dir.join("a"), &dir.join("b"), false).unwrap_err().to_string();
+        assert!(
+            err.contains("frame 0") && err.contains("do not correspond") && err.contains("--pair-by-order"),
+            "{err}"
+        );
+        assert!(image_sequence(&dir.join("a"), &dir.join("b"), true).unwrap().is_some());
+        // unrelated names
+        touch(&dir, &["x/a.png", "x/b.png", "y/b.png", "y/c.png"]);
+        assert!(image_sequence(&dir.join("x"), &dir.join("y"), false).is_err());
+        // a prefix that ends inside the numbers: 1b / 11b
+        touch(&dir, &["p/a1b.png", "p/a11b.png", "q/a11b.png", "q/a1b.png"]);
+        assert!(image_sequence(&dir.join("p"), &dir.join("q"), false).is_ok());
+        assert_eq!(varying_parts(&[dir.join("p/a1b.png"), dir.join("p/a11b.png")]), [vec![], vec!['1']]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_16_bit_png_is_written_only_for_ranges_it_reads_back() {
+        // every value of a range it holds reads back within 1/256 px (values at both ends and
+        // half a pixel of sub-pixel step beyond the last), and a range it does not hold has a
+        // value that would not
+        let round_trip = |min: i32, n: usize| {
+            let hi = min as f32 + n as f32 - 1.0;
+            let vals = vec![min as f32, min as f32 + 0.3, hi, hi + 0.5];
+            let map = DisparityMap::from_data(4, 1, vals.clone()).unwrap();
+            let png = parallax_block_matching::to_png16(&map, 256.0);
+            let back = parallax_block_matching::from_scaled(png.as_raw(), 4, 1, 256.0).unwrap();
+            // 0 is "invalid" in the PNG: a disparity of 0 is written as 1/256
+            vals.iter().zip(back.data()).all(|(a, b)| (a - b).abs() <= 1.0 / 256.0 + 1e-6)
+        };
+        for (min, n) in [(0, 64), (0, 256), (100, 156), (1, 256), (-1, 16), (-8, 48), (250, 16)] {
+            assert_eq!(png16_holds(min, n), round_trip(min, n), "[{min}, {min} + {n})");
+        }
+    }
+
+    #[test]
+    fn an_existing_file_named_like_a_pattern_is_one_image() {
+        let dir = crate::io::test_dir("seq-literal");
+        touch(&dir, &["cam[0].png", "cam0.png", "camr[0].png", "camr0.png"]);
+        assert!(image_sequence(&dir.join("cam[0].png"), &dir.join("camr[0].png"), false).unwrap().is_none());
+        // a pattern that names no existing file still is one
+        assert!(image_sequence(&dir.join("cam[0-9].png"), &dir.join("camr[0-9].png"), false).unwrap().is_some());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
@@ -456,7 +654,8 @@ mod tests {
         assert!(err.contains("is also an input"), "{err}");
         assert_eq!(std::fs::read(&l3).unwrap(), before);
         // two left images with one stem would share their outputs
-        let err = sequence_outputs(&[dir.join("a/x.png"), dir.join("b/x.png")], &[], &out).unwrap_err().to_string();
+        let err =
+            sequence_outputs(&[dir.join("a/x.png"), dir.join("b/x.png")], &[], &out, true).unwrap_err().to_string();
         assert!(err.contains("would both be written as x.pfm"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
