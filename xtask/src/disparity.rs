@@ -47,7 +47,8 @@ pub struct Args {
     cost: String,
     /// Window side in pixels: block matching's (odd, 3..=31; default 9), or with `--method sgm`
     /// the cost window of semi-global matching (odd, 1..=11; default 5, OpenCV SGBM's
-    /// blockSize).
+    /// blockSize; its sums are 16-bit: with the default penalties and x-Sobel, up to 11 with 3
+    /// paths, 9 with 5, 7 with 8 — a larger one is refused).
     #[arg(long)]
     block: Option<usize>,
     /// Number of disparities searched.
@@ -172,11 +173,15 @@ fn run_sequence(
     let say = |line: String| if bar.is_hidden() { eprintln!("{line}") } else { bar.println(line) };
     let s = disparity::run_sequence(matcher, lefts, rights, &args.out, args.prefetch, |e| {
         match e {
-            FrameEvent::Matched { name, density } if *density < 0.5 => {
-                say(format!("warning: {name}: most of the map was rejected ({:.1} % returned)", 100.0 * density))
+            FrameEvent::Matched { name, density, warnings } => {
+                if *density < 0.5 {
+                    say(format!("warning: {name}: most of the map was rejected ({:.1} % returned)", 100.0 * density));
+                }
+                for w in warnings {
+                    say(format!("warning: {name}: {w}"));
+                }
             }
             FrameEvent::Failed { index, error } => say(format!("error: frame {index}: {error}")),
-            FrameEvent::Matched { .. } => {}
         }
         bar.inc(1);
     });
@@ -332,7 +337,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         );
     }
     for w in disparity::range_warnings(&map, min, n) {
-        eprintln!("{w}");
+        eprintln!("warning: {w}");
     }
     if !png {
         eprintln!("{}", disparity::png16_warning("disparity16.png", min, n));

@@ -245,13 +245,14 @@ pub fn share_at_range_ends(map: &DisparityMap, min: i32, n: usize) -> (f64, f64)
     (share(end), share(start))
 }
 
-/// The warnings of [`share_at_range_ends`] above 1 % of the returned pixels.
+/// The warnings (without a `warning:` prefix) of [`share_at_range_ends`] above 1 % of the
+/// returned pixels.
 pub fn range_warnings(map: &DisparityMap, min: i32, n: usize) -> Vec<String> {
     let (end, start) = share_at_range_ends(map, min, n);
     let mut w = Vec::new();
     if end > 0.01 {
         w.push(format!(
-            "warning: {:.1} % of the returned pixels sit on the largest disparity searched ({}): the range may end \
+            "{:.1} % of the returned pixels sit on the largest disparity searched ({}): the range may end \
              below the nearest objects (raise --disparities)",
             100.0 * end,
             min as i64 + n as i64 - 1
@@ -259,7 +260,7 @@ pub fn range_warnings(map: &DisparityMap, min: i32, n: usize) -> Vec<String> {
     }
     if start > 0.01 {
         w.push(format!(
-            "warning: {:.1} % of the returned pixels sit on the smallest disparity searched ({min}): the range may \
+            "{:.1} % of the returned pixels sit on the smallest disparity searched ({min}): the range may \
              start above the farthest objects (lower --min-disparity)",
             100.0 * start
         ));
@@ -349,12 +350,15 @@ pub fn swap_warning(swap: &SwapCheck, sequence: bool) -> String {
 /// What happened to one frame of a sequence (for progress reports).
 #[derive(Debug, Clone, PartialEq)]
 pub enum FrameEvent {
-    /// A frame was matched: its file stem and the share of pixels returned (`0..=1`).
+    /// A frame was matched: its file stem, the share of pixels returned (`0..=1`) and the
+    /// [`range_warnings`] of its map.
     Matched {
         /// File stem of the left image.
         name: String,
         /// Share of the pixels with a disparity.
         density: f64,
+        /// What [`range_warnings`] says of the map.
+        warnings: Vec<String>,
     },
     /// A frame could not be read or matched.
     Failed {
@@ -417,8 +421,8 @@ pub fn run_sequence(
     prefetch: usize,
     mut on_frame: impl FnMut(&FrameEvent),
 ) -> Result<SequenceSummary> {
-    let cfg = matcher.config();
-    let png = png16_holds(cfg.min_disparity, cfg.num_disparities);
+    let (min, n) = (matcher.config().min_disparity, matcher.config().num_disparities);
+    let png = png16_holds(min, n);
     sequence_outputs(&lefts, &rights, out, png)?;
     std::fs::create_dir_all(out).map_err(|source| PipelineError::Io {
         what: "creating",
@@ -446,7 +450,8 @@ pub fn run_sequence(
             Ok(f) => {
                 density += f.stats.density;
                 done += 1;
-                on_frame(&FrameEvent::Matched { name: names[f.index].clone(), density: f.stats.density });
+                let warnings = range_warnings(&f.disparity, min, n);
+                on_frame(&FrameEvent::Matched { name: names[f.index].clone(), density: f.stats.density, warnings });
                 if tx.send((names[f.index].clone(), f.disparity)).is_err() {
                     break; // the writer failed: its error is reported below
                 }
@@ -637,12 +642,24 @@ mod tests {
         let s = run_sequence(matcher, lefts, rights, &out, 2, |e| events.push(e.clone())).unwrap();
         assert_eq!((s.frames, s.failed), (2, 1));
         assert!(matches!(&events[2], FrameEvent::Failed { index: 2, error } if error.contains("missing.png")));
+        assert!(matches!(&events[0], FrameEvent::Matched { warnings, .. } if warnings.is_empty()), "{events:?}");
         let bytes = std::fs::read(out.join("left1.pfm")).unwrap();
         let map = parallax_block_matching::from_pfm(&bytes, "left1.pfm").unwrap();
         let valid: Vec<f32> = map.data().iter().copied().filter(|v| v.is_finite()).collect();
         assert!(valid.len() > 1000, "{} valid pixels", valid.len());
         let right = valid.iter().filter(|v| (**v - 7.0).abs() < 0.5).count();
         assert!(right as f64 > 0.95 * valid.len() as f64, "{right} of {} at the true shift 7", valid.len());
+        // a range that ends below the shift: each frame's event says so
+        let cfg = parallax_block_matching::MatcherConfig { num_disparities: 4, ..Default::default() };
+        let (l2, r2) = (vec![dir.join("left0.png")], vec![dir.join("right0.png")]);
+        let mut events = Vec::new();
+        run_sequence(BlockMatcher::new(cfg).unwrap(), l2, r2, &dir.join("out4"), 1, |e| events.push(e.clone()))
+            .unwrap();
+        assert!(
+            matches!(&events[0], FrameEvent::Matched { warnings, .. }
+                if warnings.len() == 1 && warnings[0].contains("largest disparity searched (3)")),
+            "{events:?}"
+        );
         assert!(out.join("left0.png").exists());
         // the outputs of a sequence written into its own folder would replace its left images
         let (l3, r3) = (dir.join("3.png"), dir.join("3r.png"));
