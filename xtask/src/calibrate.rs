@@ -112,10 +112,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     // Refuse an unknown output format before any work.
     let format = args.out.as_deref().map(|o| crate::files::output_format(o, args.format.as_deref())).transpose()?;
     if let Some(out) = &args.out {
-        let mut outputs = vec![out.clone()];
-        if format == Some(parallax_interop::Format::Ros) {
-            outputs.extend(parallax_interop::ros_pair_paths(out));
-        }
+        let outputs = format.map_or_else(|| vec![out.clone()], |f| crate::files::written_paths(out, f));
         let mut inputs: Vec<PathBuf> = args.corners.iter().chain(&args.right_corners).cloned().collect();
         for spec in args.images.iter().chain(&args.right) {
             inputs.extend(parallax_composition::io::input_paths(spec));

@@ -12,6 +12,16 @@ pub fn output_format(path: &Path, explicit: Option<&str>) -> anyhow::Result<Form
     Ok(Format::for_output(path, explicit)?)
 }
 
+/// Every file a result written at `path` in `format` may occupy, for the overwrite check: the
+/// path and, for ROS, the `<stem>_left` / `<stem>_right` pair a stereo result is written as.
+pub fn written_paths(path: &Path, format: Format) -> Vec<PathBuf> {
+    let mut v = vec![path.to_path_buf()];
+    if format == Format::Ros {
+        v.extend(parallax_interop::ros_pair_paths(path));
+    }
+    v
+}
+
 /// Writes a result (`parallax_composition::io::write_result`); returns the files written.
 pub fn write_result<T: Serialize>(
     path: &Path,

@@ -65,6 +65,11 @@ pub struct Args {
     /// Pixel noise per coordinate used for the uncertainties, pixels.
     #[arg(long, default_value_t = 0.1)]
     pixel_sigma: f64,
+    /// Flag a point whose RMS reprojection error is above this, pixels (its left and right
+    /// pixels do not lie on corresponding epipolar lines); any flagged point makes the exit
+    /// code 2. `inf` turns the check off.
+    #[arg(long, default_value_t = 1.0)]
+    max_reprojection_px: f64,
     /// Write the measurement to this file (`.ron`, `.json`, or `.csv` for points plus
     /// `<stem>_distances.csv`).
     #[arg(long)]
@@ -100,6 +105,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         );
         images.push(img);
     }
+    ensure!(
+        args.right_points.is_none() || args.points.is_some(),
+        "--right-points needs --points (the left pixels they match)"
+    );
     let pairs = match (&args.points, images.as_slice()) {
         (Some(points), _) => {
             parallax_composition::measurement::parse_pixel_pairs(points, args.right_points.as_deref())?
@@ -117,8 +126,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         ensure!(rig.right.contains(*r), "point {i}: right pixel ({}, {}) is outside the right image", r.x, r.y);
     }
     ensure!(args.pixel_sigma.is_finite() && args.pixel_sigma >= 0.0, "--pixel-sigma must be ≥ 0");
-    let config =
-        TriangulationConfig { method: args.method.into(), pixel_sigma: args.pixel_sigma, ..Default::default() };
+    ensure!(args.max_reprojection_px > 0.0, "--max-reprojection-px must be > 0 (inf: no check)");
+    let config = TriangulationConfig {
+        method: args.method.into(),
+        pixel_sigma: args.pixel_sigma,
+        max_reprojection_px: args.max_reprojection_px,
+        ..Default::default()
+    };
     let m = measure_stereo(&rig, &pairs, &config)?;
 
     println!(
@@ -146,5 +160,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     }
     println!("{}", parallax_composition::summary::measurement_keys(&m));
+    let off = m.points.iter().filter(|p| p.high_reprojection).count();
+    if off > 0 {
+        eprintln!(
+            "warning: {off} point(s) reproject more than {} px (HIGH-REPROJECTION): their left and right pixels do \
+             not lie on corresponding epipolar lines (a wrong match or row, swapped images, or another rig's \
+             calibration); their coordinates and distances are not measurements",
+            args.max_reprojection_px
+        );
+    }
     Ok(if parallax_composition::summary::flagged(&m) == 0 { ExitCode::SUCCESS } else { ExitCode::from(2) })
 }

@@ -68,7 +68,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let outputs = ["side_by_side.png", "left_rectified.png", "right_rectified.png"].map(|n| args.out.join(n));
     let inputs: Vec<&PathBuf> = args.calib.iter().chain([&args.left, &args.right]).collect();
     parallax_composition::io::refuse_overwriting_inputs(&outputs, &inputs)?;
-    parallax_composition::io::refuse_overwriting_inputs(&[&rect_path], &inputs)?;
+    parallax_composition::io::refuse_overwriting_inputs(&crate::files::written_paths(&rect_path, format), &inputs)?;
     let stereo = crate::files::read_calibration(&args.calib)?.into_stereo(&args.calib[0].display().to_string())?;
     let rig = stereo.rig;
     let left = parallax_composition::io::load_image(&args.left)?;

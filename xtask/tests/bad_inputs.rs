@@ -421,3 +421,114 @@ fn sequences_refuse_single_pair_options_and_names_that_do_not_correspond_and_rep
     fails_naming(&seq(&[]), &["do not correspond", "--pair-by-order"]);
     assert!(!out.exists(), "outputs written before the refusal: {:?}", files_below(&out));
 }
+
+#[test]
+fn rectify_in_ros_format_refuses_to_write_over_its_ros_input_files() {
+    // the check covered rectification.yaml, but ROS is written as rectification_left.yaml and
+    // rectification_right.yaml: given as --calib, both were replaced
+    let dir = temp("rectify-ros");
+    let calib = calibration_in(&dir);
+    let (left, right) = (fixture("stereo/left_00.png"), fixture("stereo/right_00.png"));
+    let ros = dir.join("ros");
+    let r = run(&[
+        "rectify",
+        "--calib",
+        calib.to_str().unwrap(),
+        "--left",
+        &left,
+        "--right",
+        &right,
+        "--out",
+        ros.to_str().unwrap(),
+        "--format",
+        "ros",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let (l, rr) = (ros.join("rectification_left.yaml"), ros.join("rectification_right.yaml"));
+    let before = (std::fs::read(&l).unwrap(), std::fs::read(&rr).unwrap());
+    let listing = files_below(&ros);
+    let r = run(&[
+        "rectify",
+        "--calib",
+        l.to_str().unwrap(),
+        rr.to_str().unwrap(),
+        "--left",
+        &left,
+        "--right",
+        &right,
+        "--out",
+        ros.to_str().unwrap(),
+        "--format",
+        "ros",
+        "--alpha",
+        "1",
+    ]);
+    fails_naming(&r, &["rectification_left.yaml", "is also an input"]);
+    assert_eq!((std::fs::read(&l).unwrap(), std::fs::read(&rr).unwrap()), before, "an input was replaced");
+    assert_eq!(files_below(&ros), listing);
+}
+
+#[test]
+fn an_output_through_a_folder_not_made_yet_cannot_reach_an_input() {
+    // `new/../c.ron` skipped the check (its parent did not resolve) and the write, creating
+    // `new`, replaced c.ron
+    let dir = temp("dotdot-out");
+    let calib = calibration_in(&dir);
+    let before = std::fs::read(&calib).unwrap();
+    let target = dir.join("new/../c.ron");
+    let m = run(&[
+        "measure",
+        "--calib",
+        calib.to_str().unwrap(),
+        "--points",
+        "300,200,280,200",
+        "--out",
+        target.to_str().unwrap(),
+    ]);
+    fails_naming(&m, &["c.ron", "is also an input"]);
+    assert_eq!(std::fs::read(&calib).unwrap(), before, "the calibration was replaced");
+    assert!(!dir.join("new").exists(), "a folder was made before the refusal");
+}
+
+#[test]
+fn measure_flags_pixels_off_their_epipolar_lines_and_exits_2() {
+    // a right pixel on the wrong row gave a confident distance with exit 0 (50 px of
+    // reprojection error, no flag)
+    let dir = temp("measure-epipolar");
+    let calib = calibration_in(&dir);
+    let (c, _) = parallax_interop::read(std::slice::from_ref(&calib)).unwrap();
+    let rig = c.into_stereo("c.ron").unwrap().rig;
+    let b = rig.baseline();
+    let points = [glam::DVec3::new(0.2 * b, 0.1 * b, 8.0 * b), glam::DVec3::new(-0.3 * b, 0.2 * b, 9.0 * b)];
+    let pixels: Vec<(glam::DVec2, glam::DVec2)> = points
+        .iter()
+        .map(|p| (rig.left.project(*p).unwrap(), rig.right.project(rig.right_from_left.transform_point(*p)).unwrap()))
+        .collect();
+    let spec = |dv: f64| {
+        pixels
+            .iter()
+            .enumerate()
+            .map(|(i, (l, r))| format!("{},{},{},{}", l.x, l.y, r.x, r.y + if i == 1 { dv } else { 0.0 }))
+            .collect::<Vec<_>>()
+            .join(";")
+    };
+    let measure = |dv: f64, extra: &[&str]| {
+        let s = spec(dv);
+        run(&[&["measure", "--calib", calib.to_str().unwrap(), "--points", &s][..], extra].concat())
+    };
+    let ok = measure(0.0, &[]);
+    let stdout = String::from_utf8_lossy(&ok.stdout);
+    assert!(ok.status.success() && stdout.contains("flagged: 0"), "{stdout}");
+    let truth = (points[1] - points[0]).length();
+    let line = stdout.lines().find(|l| l.starts_with("distance_0_1: ")).unwrap();
+    let d: f64 = line["distance_0_1: ".len()..].parse().unwrap();
+    assert!((d - truth).abs() < 1e-6 * truth, "{d} vs {truth}");
+    let off = measure(40.0, &[]);
+    assert_eq!(off.status.code(), Some(2), "{}", String::from_utf8_lossy(&off.stdout));
+    let stderr = String::from_utf8_lossy(&off.stderr);
+    assert!(stderr.contains("HIGH-REPROJECTION") && stderr.contains("epipolar"), "{stderr}");
+    assert!(String::from_utf8_lossy(&off.stdout).contains("flagged: 1"));
+    // the check can be turned off on purpose
+    assert!(measure(40.0, &["--max-reprojection-px", "inf"]).status.success());
+    fails_naming(&measure(0.0, &["--max-reprojection-px", "0"]), &["--max-reprojection-px"]);
+}

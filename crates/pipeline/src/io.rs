@@ -180,18 +180,12 @@ impl Drop for OutputSet {
 
 /// Refuses a run whose output would replace one of its inputs (`measure --calib c.ron --out
 /// c.ron`): each output path is compared with each input path, both canonicalised (symbolic
-/// links, `..` and relative paths resolved; an output that does not exist yet is its
-/// canonical parent directory plus its name). Inputs that do not exist are skipped (they are
+/// links, `..` and relative paths resolved; an output that does not exist yet is its longest
+/// existing ancestor canonicalised plus the rest resolved lexically, see [`resolved_output`]).
+/// Inputs that do not exist are skipped (they are
 /// reported by the reader). An output that is an existing directory is refused too. Call it
 /// before any work, with every file the command may write.
 pub fn refuse_overwriting_inputs<O: AsRef<Path>, I: AsRef<Path>>(outputs: &[O], inputs: &[I]) -> Result<()> {
-    let canonical_output = |p: &Path| -> Option<PathBuf> {
-        if let Ok(c) = p.canonicalize() {
-            return Some(c);
-        }
-        let parent = p.parent().filter(|q| !q.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        Some(parent.canonicalize().ok()?.join(p.file_name()?))
-    };
     let inputs: Vec<(PathBuf, &Path)> =
         inputs.iter().filter_map(|i| Some((i.as_ref().canonicalize().ok()?, i.as_ref()))).collect();
     for out in outputs {
@@ -203,7 +197,7 @@ pub fn refuse_overwriting_inputs<O: AsRef<Path>, I: AsRef<Path>>(outputs: &[O], 
                 out.join("result.ron").display()
             )));
         }
-        let Some(o) = canonical_output(out) else { continue };
+        let Some(o) = resolved_output(out) else { continue };
         if let Some((_, input)) = inputs.iter().find(|(c, _)| *c == o) {
             return Err(PipelineError::Input(format!(
                 "{} is also an input ({}): refusing to write a result over an input; choose another output path",
@@ -213,6 +207,30 @@ pub fn refuse_overwriting_inputs<O: AsRef<Path>, I: AsRef<Path>>(outputs: &[O], 
         }
     }
     Ok(())
+}
+
+/// The absolute path a file written at `p` will have: its longest existing ancestor
+/// canonicalised (links resolved), then the rest of its components resolved lexically — exact,
+/// since below a folder that does not exist yet nothing is a link (`new/../c.ron` is `c.ron`:
+/// compared by its parent alone, a missing `new/..` skipped the check and the write then
+/// replaced `c.ron`). `None` only when no ancestor resolves (no working directory).
+fn resolved_output(p: &Path) -> Option<PathBuf> {
+    use std::path::Component;
+    let abs = if p.is_absolute() { p.to_path_buf() } else { std::env::current_dir().ok()?.join(p) };
+    let parts: Vec<Component> = abs.components().collect();
+    let (k, mut out) =
+        (1..=parts.len()).rev().find_map(|k| Some((k, parts[..k].iter().collect::<PathBuf>().canonicalize().ok()?)))?;
+    for c in &parts[k..] {
+        match c {
+            Component::ParentDir => {
+                out.pop();
+            }
+            Component::Normal(n) => out.push(n),
+            // a root or prefix cannot follow the first component
+            Component::CurDir | Component::RootDir | Component::Prefix(_) => {}
+        }
+    }
+    Some(out)
 }
 
 /// The files an input argument names, for [`refuse_overwriting_inputs`]: the path itself and,
@@ -531,6 +549,21 @@ mod tests {
         assert!(err.contains("is a directory"), "{err}");
         // An output that does not exist yet cannot be an input; a missing input is skipped.
         refuse_overwriting_inputs(&[dir.join("new").join("m.ron")], &[dir.join("missing.ron")]).unwrap();
+        // ... unless its path comes back through folders that do not exist yet (`new/..`, and
+        // deeper), which the write would create: it used to pass, and the write replaced c.ron
+        for spelled in [dir.join("new/../c.ron"), dir.join("new/deeper/../../c.ron"), dir.join("new/./../sub/../c.ron")]
+        {
+            let err = refuse_overwriting_inputs(&[&spelled], &[&calib]).unwrap_err().to_string();
+            assert!(err.contains("is also an input"), "{}: {err}", spelled.display());
+        }
+        refuse_overwriting_inputs(&[dir.join("new/../m.ron"), dir.join("new/deeper/../c.ron")], &[&calib]).unwrap();
+        // relative to the working directory: up to the root, then down to c.ron
+        #[cfg(unix)]
+        {
+            let up = std::env::current_dir().unwrap().components().count() - 1;
+            let rel = Path::new("nowhere/..").join("../".repeat(up)).join(calib.strip_prefix("/").unwrap());
+            assert!(refuse_overwriting_inputs(&[&rel], &[&calib]).is_err(), "{}", rel.display());
+        }
         // Globs name every file they match.
         let pattern = format!("{}/*.ron", dir.display());
         let matched = input_paths(&pattern);

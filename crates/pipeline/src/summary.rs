@@ -178,9 +178,10 @@ pub fn station(s: &crate::poses::StationImage<'_>) -> String {
     }
 }
 
-/// Number of measured points flagged behind a camera or with low parallax.
+/// Number of measured points flagged behind a camera, with low parallax or with a reprojection
+/// error above the threshold.
 pub fn flagged(m: &Measurement) -> usize {
-    m.points.iter().filter(|p| p.behind_camera || p.low_parallax).count()
+    m.points.iter().filter(|p| p.behind_camera || p.low_parallax || p.high_reprojection).count()
 }
 
 /// A measurement as a table: one row per point (pixels, `X, Y, Z` in the left camera frame,
@@ -193,11 +194,15 @@ pub fn measurement_table(m: &Measurement) -> String {
         "#", "left px", "right px", "X, Y, Z", "σX, σY, σZ", "reproj", "parallax"
     );
     for p in &m.points {
-        let flags: Vec<&str> = [(p.behind_camera, "BEHIND-CAMERA"), (p.low_parallax, "LOW-PARALLAX")]
-            .iter()
-            .filter(|f| f.0)
-            .map(|f| f.1)
-            .collect();
+        let flags: Vec<&str> = [
+            (p.behind_camera, "BEHIND-CAMERA"),
+            (p.low_parallax, "LOW-PARALLAX"),
+            (p.high_reprojection, "HIGH-REPROJECTION"),
+        ]
+        .iter()
+        .filter(|f| f.0)
+        .map(|f| f.1)
+        .collect();
         let sd = |f: fn(glam::DVec3) -> f64| p.std_dev.map_or(f64::NAN, f);
         let _ = writeln!(
             out,

@@ -178,6 +178,9 @@ pub struct MeasuredPoint {
     pub behind_camera: bool,
     /// Parallax below the configured threshold.
     pub low_parallax: bool,
+    /// Reprojection error above the configured threshold: the pixels do not correspond.
+    #[serde(default)]
+    pub high_reprojection: bool,
 }
 
 /// A measured distance between two points of a [`Measurement`].
@@ -241,6 +244,7 @@ pub fn measure_stereo(rig: &StereoRig, pairs: &[(DVec2, DVec2)], config: &Triang
             parallax_deg: t.parallax_deg,
             behind_camera: t.behind_camera,
             low_parallax: t.low_parallax,
+            high_reprojection: t.high_reprojection,
         })
         .collect();
     let mut distances = Vec::new();

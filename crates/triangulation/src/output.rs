@@ -89,15 +89,15 @@ impl Measurement {
             .map_err(|e| TriangulationError::Serialization(e.to_string()))
     }
 
-    /// CSV of the points: `index,u_left,v_left,u_right,v_right,x,y,z,sx,sy,sz,reproj_px,parallax_deg,behind_camera,low_parallax`.
+    /// CSV of the points: `index,u_left,v_left,u_right,v_right,x,y,z,sx,sy,sz,reproj_px,parallax_deg,behind_camera,low_parallax,high_reprojection`.
     pub fn points_csv(&self) -> String {
         let mut s = String::from(
-            "index,u_left,v_left,u_right,v_right,x,y,z,sx,sy,sz,reproj_px,parallax_deg,behind_camera,low_parallax\n",
+            "index,u_left,v_left,u_right,v_right,x,y,z,sx,sy,sz,reproj_px,parallax_deg,behind_camera,low_parallax,high_reprojection\n",
         );
         for p in &self.points {
             let _ = writeln!(
                 s,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 p.index,
                 p.left.x,
                 p.left.y,
@@ -112,7 +112,8 @@ impl Measurement {
                 p.reprojection_error,
                 p.parallax_deg,
                 p.behind_camera,
-                p.low_parallax
+                p.low_parallax,
+                p.high_reprojection
             );
         }
         s
@@ -248,6 +249,7 @@ mod tests {
             parallax_deg: 11.4,
             behind_camera: false,
             low_parallax: false,
+            high_reprojection: false,
         };
         Measurement {
             config: TriangulationConfig::default(),

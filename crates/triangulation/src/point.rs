@@ -81,6 +81,12 @@ pub struct TriangulationConfig {
     /// Points whose largest angle between two viewing rays is below this are flagged
     /// `low_parallax`, degrees. Default 1°.
     pub min_parallax_deg: f64,
+    /// Points whose RMS reprojection error is above this are flagged `high_reprojection`,
+    /// pixels: their pixels do not lie on corresponding epipolar lines (a wrong match or row, or
+    /// the calibration of another rig), and the point is the closest compromise, not a
+    /// measurement. Default 1 px (a pixel pair about 2 px off its epipolar line; matched
+    /// corners of a good calibration give 0.1–0.3 px).
+    pub max_reprojection_px: f64,
     /// Iteration cap of the optimal method. Default 50.
     pub max_iterations: usize,
     /// The optimal method stops when the step is below `tolerance · (‖X‖ + tolerance)`.
@@ -96,6 +102,7 @@ impl Default for TriangulationConfig {
             method: Method::Optimal,
             pixel_sigma: 0.1,
             min_parallax_deg: 1.0,
+            max_reprojection_px: 1.0,
             max_iterations: 50,
             tolerance: 1e-14,
             covariance: true,
@@ -120,6 +127,12 @@ impl TriangulationConfig {
             return Err(TriangulationError::InvalidParameter(format!(
                 "min_parallax_deg must be finite and non-negative, got {}",
                 self.min_parallax_deg
+            )));
+        }
+        if self.max_reprojection_px.is_nan() || self.max_reprojection_px <= 0.0 {
+            return Err(TriangulationError::InvalidParameter(format!(
+                "max_reprojection_px must be positive (infinity: no check), got {}",
+                self.max_reprojection_px
             )));
         }
         if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
@@ -153,6 +166,10 @@ pub struct TriangulatedPoint {
     pub behind_camera: bool,
     /// `parallax_deg` is below [`TriangulationConfig::min_parallax_deg`]: depth is unreliable.
     pub low_parallax: bool,
+    /// `rms_reprojection_error` is above [`TriangulationConfig::max_reprojection_px`]: the
+    /// pixels do not correspond.
+    #[serde(default)]
+    pub high_reprojection: bool,
     /// First-order covariance of `point` from pixel noise of [`TriangulationConfig::pixel_sigma`]
     /// per coordinate, `σ² (JᵀJ)⁻¹` with `J` the Jacobian of all reprojections at `point`
     /// (length unit²). `None` when not asked for or not computable (point behind a camera).
@@ -168,9 +185,10 @@ impl TriangulatedPoint {
             .map(|c| DVec3::new(c.x_axis.x.max(0.0).sqrt(), c.y_axis.y.max(0.0).sqrt(), c.z_axis.z.max(0.0).sqrt()))
     }
 
-    /// True when the point is in front of every camera with enough parallax.
+    /// True when the point is in front of every camera with enough parallax and its pixels
+    /// correspond (reprojection error within the threshold).
     pub fn is_reliable(&self) -> bool {
-        !self.behind_camera && !self.low_parallax
+        !self.behind_camera && !self.low_parallax && !self.high_reprojection
     }
 }
 
@@ -316,6 +334,7 @@ fn assess(
         parallax_deg,
         behind_camera: behind,
         low_parallax: parallax_deg < config.min_parallax_deg,
+        high_reprojection: rms.is_nan() || rms > config.max_reprojection_px,
         covariance,
         iterations,
     }

@@ -271,3 +271,35 @@ fn measure_stereo_reports_points_and_all_pairwise_distances() {
     assert!(e.contains("pair 2"), "{e}");
     assert!(measure_stereo(&rig, &[], &TriangulationConfig::default()).is_err());
 }
+
+#[test]
+fn pixels_off_their_epipolar_lines_are_flagged_with_the_reprojection_error_that_shows_it() {
+    // a right pixel on the wrong row used to give a confident point (and distances) with no
+    // flag: the reprojection error of the compromise is the only sign
+    let rig = general_rig();
+    let truth = DVec3::new(40.0, -30.0, 700.0);
+    let (l, r) = project_pair(&rig, truth);
+    let cfg = TriangulationConfig::default();
+    let ok = triangulate_stereo(&rig, l, r, &cfg).unwrap();
+    assert!(!ok.high_reprojection && ok.is_reliable() && ok.rms_reprojection_error < 1e-6);
+    for (dv, flagged) in [(0.5, false), (1.5, false), (3.0, true), (50.0, true)] {
+        // moved along v: ~dv px off the epipolar line (the rig is near-horizontal)
+        let p = triangulate_stereo(&rig, l, r + DVec2::new(0.0, dv), &cfg).unwrap();
+        assert_eq!(p.high_reprojection, flagged, "dv {dv}: rms {}", p.rms_reprojection_error);
+        assert_eq!(p.high_reprojection, p.rms_reprojection_error > cfg.max_reprojection_px);
+        assert_eq!(p.is_reliable(), !flagged);
+    }
+    // the flag reaches the measurement, its CSV, and can be turned off
+    let far = (l, r + DVec2::new(0.0, 50.0));
+    let m = measure_stereo(&rig, &[(l, r), far], &cfg).unwrap();
+    assert_eq!(m.points.iter().map(|p| p.high_reprojection).collect::<Vec<_>>(), [false, true]);
+    let csv = m.points_csv();
+    assert!(csv.lines().next().unwrap().ends_with(",high_reprojection"), "{csv}");
+    assert!(csv.lines().nth(2).unwrap().ends_with(",true"), "{csv}");
+    let off = TriangulationConfig { max_reprojection_px: f64::INFINITY, ..cfg };
+    assert!(!measure_stereo(&rig, &[far], &off).unwrap().points[0].high_reprojection);
+    for bad in [0.0, -1.0, f64::NAN] {
+        let c = TriangulationConfig { max_reprojection_px: bad, ..cfg };
+        assert!(triangulate_stereo(&rig, l, r, &c).is_err(), "{bad}");
+    }
+}
