@@ -315,8 +315,11 @@ fn rig(left: Camera, right: Camera, r: DMat3, t: DVec3, what: &str) -> Result<St
 fn opencv_stereo(o: &Map<String, Value>, what: &str) -> Result<Calibration> {
     let (w, h) = if let Some(s) = o.get("imageSize").or_else(|| o.get("image_size")) {
         match vector(s, "imageSize", what)?.as_slice() {
-            [w, h] if *w >= 1.0 && *h >= 1.0 => (*w as u32, *h as u32),
-            _ => return Err(content(what, "imageSize must be [width, height]")),
+            // whole pixels (a fractional size was truncated, as `image_width: 640.7` is refused)
+            [w, h] if [w, h].iter().all(|v| **v >= 1.0 && v.fract() == 0.0 && **v <= u32::MAX as f64) => {
+                (*w as u32, *h as u32)
+            }
+            _ => return Err(content(what, "imageSize must be [width, height] in whole pixels")),
         }
     } else {
         size(o, "image_width", "image_height", what)?
@@ -573,6 +576,43 @@ fn from_native<T: serde::de::DeserializeOwned>(v: &Value, key: &str, what: &str)
     serde_json::from_value(v.clone()).map_err(|e| content(what, format!("{key}: {e}")))
 }
 
+/// A native file's view of `t` in every convention (`PoseRecord`, at `key`: translation,
+/// quaternion, rotation matrix and vector, `tf`) must describe the transform that is read:
+/// edited in one place only, it was silently ignored (`measure` kept the old baseline). Each
+/// form present is compared (1e-9, relative for the translation); a quaternion of either sign.
+fn check_pose_record(o: &Map<String, Value>, key: &str, t: &Isometry3, what: &str) -> Result<()> {
+    let Some(Value::Object(r)) = o.get(key) else { return Ok(()) };
+    let want = crate::model::PoseRecord::of(t);
+    let scale = t.translation.length().max(1.0);
+    let close =
+        |a: &[f64], b: &[f64], s: f64| a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-9 * s);
+    let q = want.quaternion_xyzw;
+    let quat_ok = |v: &[f64]| close(v, &q, 1.0) || close(v, &q.map(|x| -x), 1.0);
+    for (form, v) in r {
+        let ok = match form.as_str() {
+            "translation" => close(&vector(v, form, what)?, &want.translation, scale),
+            "quaternion_xyzw" => quat_ok(&vector(v, form, what)?),
+            "rotation_matrix" => close(&matrix(v, form, what)?.2, want.rotation_matrix.as_flattened(), 1.0),
+            "rotation_vector_rad" => close(&vector(v, form, what)?, &want.rotation_vector_rad, 1.0),
+            "tf" => {
+                let n: Vec<f64> = v.as_str().unwrap_or("").split_whitespace().filter_map(|x| x.parse().ok()).collect();
+                n.len() == 7 && close(&n[..3], &want.translation, scale) && quat_ok(&n[3..])
+            }
+            _ => true,
+        };
+        if !ok {
+            return Err(content(
+                what,
+                format!(
+                    "`{key}.{form}` does not describe the rig's `right_from_left` (what is read): the file was edited \
+                     in one place only; edit `rig.right_from_left` and delete `{key}`, or fix both"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Largest relative difference between two rigs' parameters (for the consistency check of a
 /// native file's `rig` against its `opencv` matrices).
 fn rig_difference(a: &StereoRig, b: &StereoRig) -> f64 {
@@ -635,6 +675,7 @@ fn stereo_at(o: &Map<String, Value>, what: &str) -> Result<Option<Calibration>> 
     {
         let rig = native_fisheye_rig(r, what)?;
         check_lens_model(o, &[&rig.left, &rig.right], what)?;
+        check_pose_record(o, "right_from_left", &rig.right_from_left, what)?;
         return Ok(Some(Calibration::FisheyeStereo(FisheyeStereoCalibration {
             rig,
             rectification: native_rectification(o, what)?,
@@ -647,6 +688,7 @@ fn stereo_at(o: &Map<String, Value>, what: &str) -> Result<Option<Calibration>> 
     {
         let rig: StereoRig = from_native(&o["rig"], "rig", what)?;
         let rig = StereoRig::new(rig.left, rig.right, rig.right_from_left).map_err(model(what))?;
+        check_pose_record(o, "right_from_left", &rig.right_from_left, what)?;
         let mut rectification = None;
         if let Some(Value::Object(m)) = o.get("opencv")
             && m.contains_key("M1")

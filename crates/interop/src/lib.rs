@@ -61,7 +61,8 @@
 //! finds the calibration wherever it sits in the document ([`read`]): a result file of any
 //! `cargo xtask` command, a bare `StereoRig` or `Camera`, OpenCV, ROS or Kalibr keys. A stereo
 //! rig is preferred over a camera (a stereo result holds two), the shallowest match wins, and a
-//! native file whose `rig` and `opencv` matrices disagree is refused (it was edited in one place).
+//! native file whose `rig` and `opencv` matrices disagree, or whose pose view (`right_from_left`
+//! in every convention) does not describe the rig, is refused (it was edited in one place).
 //!
 //! **One matrix layout**: every matrix in the native records is row-major nested arrays,
 //! `m[row][col]` (numpy's `np.array(m)`); rotations are also given as 3x3 matrices

@@ -213,6 +213,32 @@ fn a_native_file_edited_in_one_place_only_is_refused() {
     v["calibration"].as_object_mut().unwrap().remove("opencv");
     let (c, _) = parse(&v.to_string(), "edited.json").unwrap();
     assert_eq!(c.camera(Side::Left, "x").unwrap().intrinsics.fx, fx + 1.0);
+    // The pose in every convention beside the rig: each form edited alone is refused (an edited
+    // translation there was ignored, the rig's baseline kept), the view as written is read, a
+    // quaternion of the other sign is the same rotation, and without the view the rig is read.
+    let pristine: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert!(parse(&pristine.to_string(), "as written").is_ok());
+    let edits: [(&str, serde_json::Value); 5] = [
+        ("translation", serde_json::json!([-50.0, 0.39223502987414594, -0.33580718322980124])),
+        ("quaternion_xyzw", serde_json::json!([0.0, 0.0, 0.0, 1.0])),
+        ("rotation_matrix", serde_json::json!([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])),
+        ("rotation_vector_rad", serde_json::json!([0.0, 0.0, 0.0])),
+        ("tf", serde_json::json!("-50 0.39 -0.33 0 0 0 1")),
+    ];
+    for (form, value) in edits {
+        let mut e = pristine.clone();
+        e["calibration"]["right_from_left"][form] = value;
+        let err = parse(&e.to_string(), "pose.json").unwrap_err().to_string();
+        assert!(err.contains(&format!("right_from_left.{form}")) && err.contains("one place"), "{form}: {err}");
+    }
+    let mut neg = pristine.clone();
+    let q = neg["calibration"]["right_from_left"]["quaternion_xyzw"].clone();
+    let q: Vec<f64> = q.as_array().unwrap().iter().map(|x| -x.as_f64().unwrap()).collect();
+    neg["calibration"]["right_from_left"]["quaternion_xyzw"] = serde_json::json!(q);
+    assert!(parse(&neg.to_string(), "negated").is_ok());
+    let mut bare = pristine.clone();
+    bare["calibration"].as_object_mut().unwrap().remove("right_from_left");
+    assert!(parse(&bare.to_string(), "bare").is_ok());
 }
 
 #[test]

@@ -64,4 +64,9 @@ fn stereo_files_with_missing_or_inconsistent_parts_are_refused() {
         .into_stereo("f")
         .unwrap();
     assert_eq!(s.rig.right_from_left.angle(), 0.0);
+    // OpenCV's `imageSize` in whole pixels only (640.9 x 480.9 was read as 640 x 480)
+    let sized = |size: &str| base.replace("image_width: 640\nimage_height: 480\n", &format!("imageSize: {size}\n"));
+    let s = parse(&sized("[ 640, 480 ]"), "f.yml").unwrap().0.into_stereo("f").unwrap();
+    assert_eq!((s.rig.left.width, s.rig.left.height), (640, 480));
+    refused(&sized("[ 640.9, 480.9 ]"), "whole pixels");
 }
