@@ -430,39 +430,18 @@ fn rectify_in_ros_format_refuses_to_write_over_its_ros_input_files() {
     let calib = calibration_in(&dir);
     let (left, right) = (fixture("stereo/left_00.png"), fixture("stereo/right_00.png"));
     let ros = dir.join("ros");
-    let r = run(&[
-        "rectify",
-        "--calib",
-        calib.to_str().unwrap(),
-        "--left",
-        &left,
-        "--right",
-        &right,
-        "--out",
-        ros.to_str().unwrap(),
-        "--format",
-        "ros",
-    ]);
+    let (out, fmt) = (ros.to_str().unwrap(), ["--format", "ros"]);
+    let rectify = |calib: &[&str], extra: &[&str]| {
+        let args =
+            [&["rectify", "--calib"][..], calib, &["--left", &left, "--right", &right, "--out", out], &fmt, extra];
+        run(&args.concat())
+    };
+    let r = rectify(&[calib.to_str().unwrap()], &[]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let (l, rr) = (ros.join("rectification_left.yaml"), ros.join("rectification_right.yaml"));
     let before = (std::fs::read(&l).unwrap(), std::fs::read(&rr).unwrap());
     let listing = files_below(&ros);
-    let r = run(&[
-        "rectify",
-        "--calib",
-        l.to_str().unwrap(),
-        rr.to_str().unwrap(),
-        "--left",
-        &left,
-        "--right",
-        &right,
-        "--out",
-        ros.to_str().unwrap(),
-        "--format",
-        "ros",
-        "--alpha",
-        "1",
-    ]);
+    let r = rectify(&[l.to_str().unwrap(), rr.to_str().unwrap()], &["--alpha", "1"]);
     fails_naming(&r, &["rectification_left.yaml", "is also an input"]);
     assert_eq!((std::fs::read(&l).unwrap(), std::fs::read(&rr).unwrap()), before, "an input was replaced");
     assert_eq!(files_below(&ros), listing);
