@@ -2,7 +2,7 @@
 //! ChArUco boards, circle grids, AprilGrids; partial views of ChArUco and AprilGrid), or from a
 //! `corners --out` file.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -103,6 +103,28 @@ macro_rules! write_out {
     };
 }
 
+/// The report folder must be a folder (or not exist yet) holding none of the inputs: the
+/// report's pictures would replace an input of the same name (`calibration-*.png`), and a glob
+/// over the folder would take them for views next time. Checked before any work, so a refusal
+/// leaves `--out` unwritten too.
+fn refuse_report_folder(dir: &Path, inputs: &[PathBuf]) -> anyhow::Result<()> {
+    if !dir.exists() {
+        return Ok(());
+    }
+    anyhow::ensure!(dir.is_dir(), "--report {} is a file: give a folder for the report", dir.display());
+    let folder = dir.canonicalize()?;
+    if let Some(i) =
+        inputs.iter().find(|i| i.canonicalize().ok().and_then(|c| c.parent().map(|p| p == folder)).unwrap_or(false))
+    {
+        anyhow::bail!(
+            "--report {} holds an input ({}): the report writes its pictures there; choose another folder",
+            dir.display(),
+            i.display()
+        );
+    }
+    Ok(())
+}
+
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let target = crate::util::target(&args.board, args.square)?;
     anyhow::ensure!(
@@ -111,13 +133,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     );
     // Refuse an unknown output format before any work.
     let format = args.out.as_deref().map(|o| crate::files::output_format(o, args.format.as_deref())).transpose()?;
+    let mut inputs: Vec<PathBuf> = args.corners.iter().chain(&args.right_corners).cloned().collect();
+    for spec in args.images.iter().chain(&args.right) {
+        inputs.extend(parallax_composition::io::input_paths(spec));
+    }
     if let Some(out) = &args.out {
         let outputs = format.map_or_else(|| vec![out.clone()], |f| crate::files::written_paths(out, f));
-        let mut inputs: Vec<PathBuf> = args.corners.iter().chain(&args.right_corners).cloned().collect();
-        for spec in args.images.iter().chain(&args.right) {
-            inputs.extend(parallax_composition::io::input_paths(spec));
-        }
         parallax_composition::io::refuse_overwriting_inputs(&outputs, &inputs)?;
+    }
+    if let Some(dir) = &args.report {
+        refuse_report_folder(dir, &inputs)?;
     }
     let t0 = Instant::now();
     let detect = |pattern: &str| -> anyhow::Result<Vec<ImageView>> {

@@ -45,8 +45,7 @@ fn parse_refinement(s: &str) -> Result<CornerRefinement, String> {
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     // Corner positions need no unit: a COLSxROWS board gets squares of 1.
-    let square = (!std::path::Path::new(&args.board).is_file()).then_some(1.0);
-    let target = crate::util::target(&args.board, square)?;
+    let target = crate::util::target_for_corners(&args.board)?;
     let format = args.out.as_deref().map(|o| crate::files::output_format(o, None)).transpose()?;
     if let (Some(out), Some(f)) = (&args.out, format) {
         anyhow::ensure!(

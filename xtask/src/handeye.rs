@@ -239,6 +239,17 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             }
         }
     }
+    let counts = |ok: usize| {
+        println!("{ok} of {} methods succeeded", ok + failed);
+        println!("succeeded: {ok}");
+        println!("failed: {failed}");
+    };
+    if ok.is_empty() {
+        // every method refused: nothing is written (the camera poses alone used to be)
+        counts(0);
+        eprintln!("error: no hand-eye method gave a solution: nothing written");
+        return Ok(ExitCode::FAILURE);
+    }
     let chosen = chosen_solution(&ok);
     let mut wrote = Vec::new();
     if let (Some(out), Some(format)) = (&args.out, format) {
@@ -266,11 +277,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     for line in wrote {
         println!("{line}");
     }
-    println!("{} of {} methods succeeded", ok.len(), ok.len() + failed);
-    println!("succeeded: {}", ok.len());
-    println!("failed: {failed}");
+    counts(ok.len());
     if let Some(s) = chosen {
         println!("{}", parallax_composition::summary::hand_eye_keys(s, what));
     }
-    Ok(if ok.is_empty() { ExitCode::FAILURE } else { ExitCode::SUCCESS })
+    Ok(ExitCode::SUCCESS)
 }

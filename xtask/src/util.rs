@@ -40,8 +40,40 @@ pub fn target(board: &str, square: Option<f64>) -> anyhow::Result<TargetDescript
             let square = square.context("--square is required with a COLSxROWS board")?;
             Ok(TargetDescription::Chessboard(self::board(cols, rows, square)?))
         }
-        Err(_) => board.parse().with_context(|| format!("--board {board:?}")),
+        Err(_) => {
+            let t: TargetDescription = board.parse().with_context(|| format!("--board {board:?}"))?;
+            // `chessboard:9x6` carries no square size (the parser gives it 1): every length of a
+            // calibration would be in squares. `--square` gives it; with a description that has
+            // its lengths it is a second, maybe conflicting, answer (it used to be ignored).
+            let sizeless = board.split(':').count() == 2;
+            match (t, square) {
+                (TargetDescription::Chessboard(c), Some(s)) if sizeless => {
+                    Ok(TargetDescription::Chessboard(self::board(c.cols, c.rows, s)?))
+                }
+                (TargetDescription::Chessboard(_), None) if sizeless => anyhow::bail!(
+                    "--board {board} gives no square size: write it in ({board}:25) or pass --square (every length \
+                     of the result is in its unit)"
+                ),
+                (_, Some(_)) => anyhow::bail!(
+                    "--square is not used with --board {board}: the description carries its lengths (change them there)"
+                ),
+                (t, None) => Ok(t),
+            }
+        }
     }
+}
+
+/// The target of `corners --board B`: as [`target`], but lengths are not needed (corner
+/// positions have no unit): a `COLSxROWS` board or a sizeless chessboard description gets
+/// squares of 1.
+pub fn target_for_corners(board: &str) -> anyhow::Result<TargetDescription> {
+    if std::path::Path::new(board).is_file() {
+        return target(board, None);
+    }
+    if let Ok((cols, rows)) = parse_board_size(board) {
+        return Ok(TargetDescription::Chessboard(self::board(cols, rows, 1.0)?));
+    }
+    board.parse().with_context(|| format!("--board {board:?}"))
 }
 
 /// The chessboard detector's settings (`corners`, `calibrate`). Lengths are in pixels of the

@@ -511,3 +511,69 @@ fn measure_flags_pixels_off_their_epipolar_lines_and_exits_2() {
     assert!(measure(40.0, &["--max-reprojection-px", "inf"]).status.success());
     fails_naming(&measure(0.0, &["--max-reprojection-px", "0"]), &["--max-reprojection-px"]);
 }
+
+#[test]
+fn square_with_a_board_description_is_used_once_or_refused() {
+    // `--square` was ignored with a description: `chessboard:9x6 --square 0.03` calibrated in
+    // squares (baseline 3.3), `chessboard:9x6:30 --square 0.03` in millimetres
+    let dir = temp("square-description");
+    let images = format!("{}/left_0*.png", root().join("fixtures/stereo").display());
+    let calibrate = |board: &str, square: Option<&str>, out: &str| {
+        let out = dir.join(out);
+        let mut args = vec!["calibrate", "--images", &images, "--board", board];
+        if let Some(s) = square {
+            args.extend(["--square", s]);
+        }
+        let o = out.to_str().unwrap().to_owned();
+        let r = run(&[&args[..], &["--out", &o]].concat());
+        (r, out)
+    };
+    let (r, out) = calibrate("chessboard:9x6:30", Some("0.03"), "a.ron");
+    fails_naming(&r, &["--square", "chessboard:9x6:30", "carries its lengths"]);
+    assert!(!out.exists());
+    let (r, out) = calibrate("chessboard:9x6", None, "b.ron");
+    fails_naming(&r, &["chessboard:9x6", "no square size"]);
+    assert!(!out.exists());
+    // the size from --square and from the description give the same calibration
+    let (a, out_a) = calibrate("chessboard:9x6", Some("25"), "c.ron");
+    let (b, out_b) = calibrate("9x6", Some("25"), "d.ron");
+    assert!(a.status.success() && b.status.success(), "{}", String::from_utf8_lossy(&a.stderr));
+    let keys = |o: &Output| -> Vec<String> {
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .filter(|l| l.starts_with("fx:") || l.starts_with("rms:"))
+            .map(String::from)
+            .collect()
+    };
+    assert!(!keys(&a).is_empty());
+    assert_eq!(keys(&a), keys(&b));
+    assert!(out_a.exists() && out_b.exists());
+}
+
+#[test]
+fn a_report_folder_that_is_a_file_or_holds_inputs_is_refused_before_any_output() {
+    let dir = temp("report-folder");
+    let images = dir.join("views");
+    std::fs::create_dir_all(&images).unwrap();
+    for k in 0..5 {
+        let name = format!("left_0{k}.png");
+        std::fs::copy(root().join("fixtures/stereo").join(&name), images.join(&name)).unwrap();
+    }
+    let pattern = format!("{}/*.png", images.display());
+    let out = dir.join("c.ron");
+    let calibrate = |report: &Path| {
+        let (o, r) = (out.to_str().unwrap(), report.to_str().unwrap());
+        run(&["calibrate", "--images", &pattern, "--board", "9x6", "--square", "25", "--out", o, "--report", r])
+    };
+    // a file: it wrote c.ron, then failed creating the folder
+    let file = dir.join("notadir");
+    std::fs::write(&file, b"x").unwrap();
+    fails_naming(&calibrate(&file), &["--report", "is a file"]);
+    assert!(!out.exists(), "c.ron written before the refusal");
+    // the images' own folder: the report's pictures would replace a view of the same name
+    fails_naming(&calibrate(&images), &["--report", "holds an input"]);
+    assert!(!out.exists());
+    let r = calibrate(&dir.join("report"));
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(out.exists() && dir.join("report/report.html").exists());
+}

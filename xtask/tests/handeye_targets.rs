@@ -1,5 +1,6 @@
 //! `handeye --board` takes any target description; a target that is not in the images is
-//! refused naming what was searched and which targets exist.
+//! refused naming what was searched and which targets exist. The fixture's data read the wrong
+//! way round (eye-to-hand, or the robot poses inverted) is refused.
 
 use std::path::Path;
 use std::process::Command;
@@ -22,7 +23,7 @@ fn a_target_not_in_the_images_is_named_with_the_known_targets() {
             .arg(root.join("fixtures/handeye/robot_poses.ron"))
             .arg("--images")
             .arg(root.join("fixtures/handeye/station_*.png"))
-            .args(["--board", board, "--square", "25", "--intrinsics"])
+            .args(["--board", board, "--intrinsics"])
             .arg(&intrinsics)
             .output()
             .unwrap()
@@ -39,5 +40,56 @@ fn a_target_not_in_the_images_is_named_with_the_known_targets() {
     let ok = run("chessboard:9x6:25");
     assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
     assert!(String::from_utf8_lossy(&ok.stdout).contains("method: refined"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn the_fixture_read_the_wrong_way_round_is_refused_and_nothing_is_written() {
+    // as eye-to-hand, or with the robot poses inverted, the axis check measured 3.52° (under its
+    // 5° limit; 0.20° the right way round): the solvers returned a transform ~1.1 m off, exit 0
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    let dir = std::env::temp_dir().join(format!("xtask-handeye-inverted-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let truth: ron::Value =
+        ron::from_str(&std::fs::read_to_string(root.join("fixtures/mono/truth.ron")).unwrap()).unwrap();
+    let ron::Value::Map(m) = truth else { panic!("truth.ron is a struct") };
+    let camera = m.get(&ron::Value::String("camera".into())).unwrap().clone();
+    let intrinsics = dir.join("camera.ron");
+    std::fs::write(&intrinsics, ron::to_string(&camera).unwrap()).unwrap();
+    let poses = root.join("fixtures/handeye/robot_poses.ron");
+    let given: Vec<parallax_camera_model::Isometry3> =
+        ron::from_str(&std::fs::read_to_string(&poses).unwrap()).unwrap();
+    let inverted = dir.join("inverted.ron");
+    let inv: Vec<_> = given.iter().map(parallax_camera_model::Isometry3::inverse).collect();
+    std::fs::write(&inverted, ron::to_string(&inv).unwrap()).unwrap();
+    let out = dir.join("he.ron");
+    let run = |robot: &Path, extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_xtask"))
+            .args(["handeye", "--robot"])
+            .arg(robot)
+            .arg("--images")
+            .arg(root.join("fixtures/handeye/station_*.png"))
+            .args(["--board", "9x6", "--square", "25", "--intrinsics"])
+            .arg(&intrinsics)
+            .arg("--out")
+            .arg(&out)
+            .arg("--save-camera-poses")
+            .arg(dir.join("cameras.ron"))
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    for (robot, extra) in [(&poses, &["--eye-to-hand"][..]), (&inverted, &[][..])] {
+        let r = run(robot, extra);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(!r.status.success(), "{extra:?}: exit 0\n{}", String::from_utf8_lossy(&r.stdout));
+        assert!(err.contains("InvertedPoses") && err.contains("3.5"), "{extra:?}: {err}");
+        assert!(!out.exists() && !dir.join("cameras.ron").exists(), "{extra:?}: files written before the refusal");
+    }
+    // the right way round: solved and written
+    let ok = run(&poses, &[]);
+    assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+    assert!(out.exists() && dir.join("cameras.ron").exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
