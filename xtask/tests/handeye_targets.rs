@@ -93,3 +93,41 @@ fn the_fixture_read_the_wrong_way_round_is_refused_and_nothing_is_written() {
     assert!(out.exists() && dir.join("cameras.ron").exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn intrinsics_of_another_resolution_are_refused_naming_both_sizes() {
+    // station images of another size than the calibration were solved with the wrong camera and
+    // refused as a "rotation format" mistake
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    let dir = std::env::temp_dir().join(format!("xtask-handeye-size-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let truth: ron::Value =
+        ron::from_str(&std::fs::read_to_string(root.join("fixtures/mono/truth.ron")).unwrap()).unwrap();
+    let ron::Value::Map(m) = truth else { panic!("truth.ron is a struct") };
+    let ron::Value::Map(mut camera) = m.get(&ron::Value::String("camera".into())).unwrap().clone() else {
+        panic!("camera is a struct")
+    };
+    let key = |k: &str| ron::Value::String(k.into());
+    let (w, h) = (camera.get(&key("width")).unwrap().clone(), camera.get(&key("height")).unwrap().clone());
+    let double = |v: ron::Value| ron::Value::Number(ron::Number::U64(2 * v.into_rust::<u64>().unwrap()));
+    camera.insert(key("width"), double(w.clone()));
+    camera.insert(key("height"), double(h.clone()));
+    let intrinsics = dir.join("camera.ron");
+    std::fs::write(&intrinsics, ron::to_string(&ron::Value::Map(camera)).unwrap()).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_xtask"))
+        .args(["handeye", "--robot"])
+        .arg(root.join("fixtures/handeye/robot_poses.ron"))
+        .arg("--images")
+        .arg(root.join("fixtures/handeye/station_*.png"))
+        .args(["--board", "9x6", "--square", "25", "--intrinsics"])
+        .arg(&intrinsics)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    let (w, h) = (w.into_rust::<u64>().unwrap(), h.into_rust::<u64>().unwrap());
+    let sizes = format!("the image is {w}x{h} but the intrinsics are of a {}x{} camera", 2 * w, 2 * h);
+    assert!(err.contains(&sizes) && err.contains("station_00.png"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -60,9 +60,18 @@ pub enum Intrinsics {
 }
 
 impl Intrinsics {
-    /// The camera of an image of `width x height` pixels.
+    /// The camera of an image of `width x height` pixels: a calibration's camera only at its own
+    /// size (an image of another size put the board pose — and the hand-eye rotations — off,
+    /// reported as a rotation-format mistake).
     pub fn camera(&self, width: u32, height: u32) -> Result<Camera> {
         match self {
+            Self::Calibration { camera, .. } if (camera.width, camera.height) != (width, height) => {
+                Err(PipelineError::Input(format!(
+                    "the image is {width}x{height} but the intrinsics are of a {}x{} camera: give the calibration \
+                     of this resolution (or images of the calibrated size)",
+                    camera.width, camera.height
+                )))
+            }
             Self::Calibration { camera, .. } => Ok(*camera),
             Self::Visp(v) => Ok(v.camera(width, height)?),
         }
@@ -116,8 +125,9 @@ pub fn camera_poses_from_images(
     let (mut kept_robot, mut camera) = (Vec::new(), Vec::new());
     for (path, g) in images.iter().zip(robot) {
         let img = crate::io::load_gray(path)?;
-        let cam = intrinsics.camera(img.width(), img.height())?;
         let name = path.display();
+        let cam =
+            intrinsics.camera(img.width(), img.height()).map_err(|e| PipelineError::Input(format!("{name}: {e}")))?;
         let context = |what: &str, e: PipelineError| PipelineError::Input(format!("{what} in {name}: {e}"));
         let found = crate::detect_target(&img, target).map_err(|e| context("target", e))?;
         let mut report = StationImage { path, found: None };
