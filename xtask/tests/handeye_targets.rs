@@ -2,21 +2,41 @@
 //! refused naming what was searched and which targets exist. The fixture's data read the wrong
 //! way round (eye-to-hand, or the robot poses inverted) is refused.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap()
+}
+
+/// A fresh temporary folder for one test.
+fn fresh_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("xtask-handeye-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The fixtures' true left camera (`fixtures/mono/truth.ron`), as a RON value.
+fn true_camera() -> ron::Value {
+    let truth: ron::Value =
+        ron::from_str(&std::fs::read_to_string(root().join("fixtures/mono/truth.ron")).unwrap()).unwrap();
+    let ron::Value::Map(m) = truth else { panic!("truth.ron is a struct") };
+    m.get(&ron::Value::String("camera".into())).unwrap().clone()
+}
+
+/// Writes `camera` as `camera.ron` in `dir` (the intrinsics of a run); returns its path.
+fn write_intrinsics(dir: &Path, camera: &ron::Value) -> PathBuf {
+    let path = dir.join("camera.ron");
+    std::fs::write(&path, ron::to_string(camera).unwrap()).unwrap();
+    path
+}
 
 #[test]
 fn a_target_not_in_the_images_is_named_with_the_known_targets() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
-    let dir = std::env::temp_dir().join(format!("xtask-handeye-targets-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let (root, dir) = (root(), fresh_dir("targets"));
     // Intrinsics: the fixtures' true left camera, written as a RON `Camera`.
-    let truth: ron::Value =
-        ron::from_str(&std::fs::read_to_string(root.join("fixtures/mono/truth.ron")).unwrap()).unwrap();
-    let ron::Value::Map(m) = truth else { panic!("truth.ron is a struct") };
-    let camera = m.get(&ron::Value::String("camera".into())).unwrap().clone();
-    let intrinsics = dir.join("camera.ron");
-    std::fs::write(&intrinsics, ron::to_string(&camera).unwrap()).unwrap();
+    let intrinsics = write_intrinsics(&dir, &true_camera());
     let run = |board: &str| {
         Command::new(env!("CARGO_BIN_EXE_xtask"))
             .args(["handeye", "--robot"])
@@ -47,16 +67,8 @@ fn a_target_not_in_the_images_is_named_with_the_known_targets() {
 fn the_fixture_read_the_wrong_way_round_is_refused_and_nothing_is_written() {
     // as eye-to-hand, or with the robot poses inverted, the axis check measured 3.52° (under its
     // 5° limit; 0.20° the right way round): the solvers returned a transform ~1.1 m off, exit 0
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
-    let dir = std::env::temp_dir().join(format!("xtask-handeye-inverted-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let truth: ron::Value =
-        ron::from_str(&std::fs::read_to_string(root.join("fixtures/mono/truth.ron")).unwrap()).unwrap();
-    let ron::Value::Map(m) = truth else { panic!("truth.ron is a struct") };
-    let camera = m.get(&ron::Value::String("camera".into())).unwrap().clone();
-    let intrinsics = dir.join("camera.ron");
-    std::fs::write(&intrinsics, ron::to_string(&camera).unwrap()).unwrap();
+    let (root, dir) = (root(), fresh_dir("inverted"));
+    let intrinsics = write_intrinsics(&dir, &true_camera());
     let poses = root.join("fixtures/handeye/robot_poses.ron");
     let given: Vec<parallax_camera_model::Isometry3> =
         ron::from_str(&std::fs::read_to_string(&poses).unwrap()).unwrap();
@@ -98,23 +110,14 @@ fn the_fixture_read_the_wrong_way_round_is_refused_and_nothing_is_written() {
 fn intrinsics_of_another_resolution_are_refused_naming_both_sizes() {
     // station images of another size than the calibration were solved with the wrong camera and
     // refused as a "rotation format" mistake
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
-    let dir = std::env::temp_dir().join(format!("xtask-handeye-size-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let truth: ron::Value =
-        ron::from_str(&std::fs::read_to_string(root.join("fixtures/mono/truth.ron")).unwrap()).unwrap();
-    let ron::Value::Map(m) = truth else { panic!("truth.ron is a struct") };
-    let ron::Value::Map(mut camera) = m.get(&ron::Value::String("camera".into())).unwrap().clone() else {
-        panic!("camera is a struct")
-    };
+    let (root, dir) = (root(), fresh_dir("size"));
+    let ron::Value::Map(mut camera) = true_camera() else { panic!("camera is a struct") };
     let key = |k: &str| ron::Value::String(k.into());
     let (w, h) = (camera.get(&key("width")).unwrap().clone(), camera.get(&key("height")).unwrap().clone());
     let double = |v: ron::Value| ron::Value::Number(ron::Number::U64(2 * v.into_rust::<u64>().unwrap()));
     camera.insert(key("width"), double(w.clone()));
     camera.insert(key("height"), double(h.clone()));
-    let intrinsics = dir.join("camera.ron");
-    std::fs::write(&intrinsics, ron::to_string(&ron::Value::Map(camera)).unwrap()).unwrap();
+    let intrinsics = write_intrinsics(&dir, &ron::Value::Map(camera));
     let out = Command::new(env!("CARGO_BIN_EXE_xtask"))
         .args(["handeye", "--robot"])
         .arg(root.join("fixtures/handeye/robot_poses.ron"))
