@@ -4,7 +4,7 @@
 //! texture, uniqueness, left–right check, sub-pixel, speckle filter). Throughput is reported in
 //! elements = width x height x disparities, so criterion's "elem/s" reads as disparity
 //! evaluations per second. `BM_QUICK=1` keeps only SAD at 450x375 (for side-by-side runs with
-//! OpenCV's peer/stereo_bm.py). `BM_SIMD=scalar|avx2|avx512` caps the instruction set (to measure
+//! OpenCV's peer/stereo_bm.py). `BM_SIMD=scalar|avx2` caps the instruction set (to measure
 //! what the explicit SIMD paths buy). `disparity-sgm/…` benches semi-global matching (the
 //! measurement preset, five and eight paths) on the same inputs.
 

@@ -8,9 +8,8 @@ that bounds a speed ratio when both sides run at the same instructions per cycle
 
 Counted with valgrind's callgrind (`apt-get install valgrind`), one thread each side: the
 instructions of one compute are the difference between a run with three computes and one with
-one, so reading, prefiltering set-up and writing cancel out. Valgrind has no AVX-512: our
-dispatcher picks AVX2 (256-bit) under it, so the count is our AVX2 build's (the native AVX-512
-build runs fewer, wider instructions); OpenCV's StereoBM and SGBM in the pip build are 128-bit
+one, so reading, prefiltering set-up and writing cancel out. Our kernels are AVX2 (256-bit),
+the build that runs natively too; OpenCV's StereoBM and SGBM in the pip build are 128-bit
 either way. Evaluations are counted as width x height x disparities."""
 import os, re, subprocess, sys, tempfile
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))

@@ -1,6 +1,8 @@
 //! This machine's vector throughput, the base of the block matcher's ceiling: eight independent
 //! chains of 16-bit vector adds (`vpaddw`, one of the cheapest vector instructions) in inline
-//! assembly, at 128, 256 and 512 bits, on every core at once.
+//! assembly, at 128 and 256 bits, on every core at once. (Not 512: the block matcher has no
+//! AVX-512 code — no machine the project is tested on can run it —, so its ceiling is the
+//! widest width it uses.)
 //!
 //! `../shared/reference/stereo-limits.md` puts SAD block matching with running box sums at
 //! ~9.5 vector operations per disparity evaluation (|L − R| of the entering and leaving rows, the
@@ -23,20 +25,17 @@ pub enum Width {
     W128,
     /// 256-bit (`ymm`, AVX2).
     W256,
-    /// 512-bit (`zmm`, AVX-512 BW).
-    W512,
 }
 
 impl Width {
     /// Every width, narrowest first.
-    pub const ALL: [Width; 3] = [Width::W128, Width::W256, Width::W512];
+    pub const ALL: [Width; 2] = [Width::W128, Width::W256];
 
     /// Bits per vector.
     pub fn bits(self) -> usize {
         match self {
             Width::W128 => 128,
             Width::W256 => 256,
-            Width::W512 => 512,
         }
     }
 
@@ -52,9 +51,6 @@ impl Width {
             match self {
                 Width::W128 => std::arch::is_x86_feature_detected!("avx"),
                 Width::W256 => std::arch::is_x86_feature_detected!("avx2"),
-                Width::W512 => {
-                    std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512bw")
-                }
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
@@ -79,7 +75,6 @@ pub fn add_chains(width: Width, acc: &mut [u16], inc: u16, rounds: usize) -> Opt
         match width {
             Width::W128 => x86::chains128(acc, inc, rounds),
             Width::W256 => x86::chains256(acc, inc, rounds),
-            Width::W512 => x86::chains512(acc, inc, rounds),
         }
     }
     Some(())
@@ -163,15 +158,6 @@ mod x86 {
 
     chains!(chains128, "avx", __m128i, xmm_reg, _mm_loadu_si128, _mm_storeu_si128, _mm_set1_epi16);
     chains!(chains256, "avx2", __m256i, ymm_reg, _mm256_loadu_si256, _mm256_storeu_si256, _mm256_set1_epi16);
-    chains!(
-        chains512,
-        "avx512f,avx512bw",
-        __m512i,
-        zmm_reg,
-        _mm512_loadu_si512,
-        _mm512_storeu_si512,
-        _mm512_set1_epi16
-    );
 }
 
 #[cfg(test)]

@@ -20,8 +20,8 @@ fn main() {
         for (label, lr) in [("default", Some(1)), ("no-lr", None)] {
             for block in [5, 9, 15] {
                 for threads in [1, 2] {
-                    for simd in [SimdLevel::Avx512, SimdLevel::Avx2, SimdLevel::Scalar] {
-                        if (simd != SimdLevel::Avx512) && (block != 9 || threads != 1 || cost != CostFunction::Sad) {
+                    for simd in [SimdLevel::Avx2, SimdLevel::Scalar] {
+                        if (simd != SimdLevel::Avx2) && (block != 9 || threads != 1 || cost != CostFunction::Sad) {
                             continue;
                         }
                         // SPEED_ONLY=1: only SAD, default options, 9x9, 1 thread, best SIMD (for profiling)
@@ -30,7 +30,7 @@ fn main() {
                                 || lr.is_none()
                                 || block != 9
                                 || threads != 1
-                                || simd != SimdLevel::Avx512)
+                                || simd != SimdLevel::Avx2)
                         {
                             continue;
                         }

@@ -19,10 +19,10 @@ pub type Gray16Image = ImageBuffer<Luma<u16>, Vec<u16>>;
 pub enum SimdLevel {
     /// Portable code (the compiler's baseline, SSE2 on x86-64).
     Scalar,
-    /// The same loops compiled with AVX2 (256-bit).
+    /// The same loops compiled with AVX2 (256-bit), and the explicit 256-bit kernels. A CPU
+    /// with AVX-512 runs these too: the AVX-512 copies were removed, as no machine the project
+    /// is tested on can run them.
     Avx2,
-    /// The same loops compiled with AVX-512 F/BW/VL (512-bit).
-    Avx512,
 }
 
 impl SimdLevel {
@@ -31,21 +31,13 @@ impl SimdLevel {
         #[cfg(target_arch = "x86_64")]
         {
             // every feature a kernel of the level enables (the AVX2 band kernels also use
-            // BMI1/2, LZCNT and POPCNT; the AVX-512 ones DQ)
+            // BMI1/2, LZCNT and POPCNT)
             let avx2 = is_x86_feature_detected!("avx2")
                 && is_x86_feature_detected!("fma")
                 && is_x86_feature_detected!("bmi1")
                 && is_x86_feature_detected!("bmi2")
                 && is_x86_feature_detected!("lzcnt")
                 && is_x86_feature_detected!("popcnt");
-            if avx2
-                && is_x86_feature_detected!("avx512f")
-                && is_x86_feature_detected!("avx512bw")
-                && is_x86_feature_detected!("avx512vl")
-                && is_x86_feature_detected!("avx512dq")
-            {
-                return SimdLevel::Avx512;
-            }
             if avx2 {
                 return SimdLevel::Avx2;
             }
@@ -577,29 +569,21 @@ impl BlockMatcher {
         // sentinel)
         #[cfg(target_arch = "x86_64")]
         let kernel = {
-            let isa = match simd {
-                SimdLevel::Avx512 => Some(crate::simd::Isa::Avx512Vl),
-                SimdLevel::Avx2 => Some(crate::simd::Isa::Avx2),
-                SimdLevel::Scalar => None,
-            };
+            let avx2 = simd == SimdLevel::Avx2;
             let fits = |limit: u64| n.checked_mul(max_term).is_some_and(|s| s < limit);
-            match (isa, cfg.cost) {
-                (Some(isa), CostFunction::Sad) if fits(u16::MAX as u64) => Some((isa, SimdKernel::Lanes16)),
-                (Some(isa), CostFunction::Sad) if fits(u32::MAX as u64) => {
-                    Some((isa, SimdKernel::Lanes32 { squared: false }))
-                }
-                (Some(isa), CostFunction::Ssd) if fits(u32::MAX as u64) => {
-                    Some((isa, SimdKernel::Lanes32 { squared: true }))
-                }
+            match cfg.cost {
+                CostFunction::Sad if avx2 && fits(u16::MAX as u64) => Some(SimdKernel::Lanes16),
+                CostFunction::Sad if avx2 && fits(u32::MAX as u64) => Some(SimdKernel::Lanes32 { squared: false }),
+                CostFunction::Ssd if avx2 && fits(u32::MAX as u64) => Some(SimdKernel::Lanes32 { squared: true }),
                 _ => None,
             }
         };
         let mut job = || -> Vec<MatchStats> {
             #[cfg(target_arch = "x86_64")]
-            // SAFETY (both kernels): `isa` comes from `SimdLevel::detect()`, and `kernel` was chosen
-            // above only when every window sum fits below the lane maximum.
+            // SAFETY (both kernels): `kernel` was chosen above only at `SimdLevel::Avx2`, which
+            // `SimdLevel::detect()` found, and when every window sum fits below the lane maximum.
             match kernel {
-                Some((isa, SimdKernel::Lanes16)) => {
+                Some(SimdKernel::Lanes16) => {
                     return for_each_band(
                         &shared,
                         &mut self.simd16,
@@ -607,12 +591,12 @@ impl BlockMatcher {
                         band_rows,
                         data,
                         conf_plane,
-                        // SAFETY: `isa` comes from `SimdLevel::detect()` and the 16-bit kernel was
-                        // chosen only when every window sum fits below the lane maximum.
-                        |sc, rows, conf, y0, y1| unsafe { crate::simd::band16(isa, &shared, sc, rows, conf, y0, y1) },
+                        // SAFETY: AVX2 was detected and the 16-bit kernel was chosen only when
+                        // every window sum fits below the lane maximum.
+                        |sc, rows, conf, y0, y1| unsafe { crate::simd::band16(&shared, sc, rows, conf, y0, y1) },
                     );
                 }
-                Some((isa, SimdKernel::Lanes32 { squared })) => {
+                Some(SimdKernel::Lanes32 { squared }) => {
                     return for_each_band(
                         &shared,
                         &mut self.simd32,
@@ -620,10 +604,10 @@ impl BlockMatcher {
                         band_rows,
                         data,
                         conf_plane,
-                        // SAFETY: `isa` comes from `SimdLevel::detect()` and the 32-bit kernel was
-                        // chosen only when every window sum fits below the lane maximum.
+                        // SAFETY: AVX2 was detected and the 32-bit kernel was chosen only when
+                        // every window sum fits below the lane maximum.
                         |sc, rows, conf, y0, y1| unsafe {
-                            crate::simd::band32(isa, squared, &shared, sc, rows, conf, y0, y1)
+                            crate::simd::band32(squared, &shared, sc, rows, conf, y0, y1)
                         },
                     );
                 }
@@ -776,8 +760,6 @@ fn dispatch<A: Acc, const K: u8>(
     #[cfg(target_arch = "x86_64")]
     {
         match simd {
-            // SAFETY: `simd` never exceeds `SimdLevel::detect()`, which checked AVX-512 F/BW/VL.
-            SimdLevel::Avx512 => return unsafe { band_avx512::<A, K>(sh, sc, out, conf, y0, y1) },
             // SAFETY: `simd` never exceeds `SimdLevel::detect()`, which checked AVX2.
             SimdLevel::Avx2 => return unsafe { band_avx2::<A, K>(sh, sc, out, conf, y0, y1) },
             SimdLevel::Scalar => {}
@@ -792,21 +774,6 @@ fn dispatch<A: Acc, const K: u8>(
 /// # Safety
 /// The CPU must support AVX2, FMA, BMI1/2, LZCNT and POPCNT (the caller checks `SimdLevel::detect()`), and `sc` must be sized for `sh` (as `for_each_band` does).
 unsafe fn band_avx2<A: Acc, const K: u8>(
-    sh: &Shared,
-    sc: &mut Scratch<A>,
-    out: &mut [f32],
-    conf: &mut [f32],
-    y0: usize,
-    y1: usize,
-) -> MatchStats {
-    band::<A, K>(sh, sc, out, conf, y0, y1)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512dq,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-/// # Safety
-/// The CPU must support AVX-512 F/BW/VL/DQ and AVX2 (the caller checks `SimdLevel::detect()`), and `sc` must be sized for `sh` (as `for_each_band` does).
-unsafe fn band_avx512<A: Acc, const K: u8>(
     sh: &Shared,
     sc: &mut Scratch<A>,
     out: &mut [f32],

@@ -37,11 +37,10 @@
 //! Speed: window sums are running box sums over disparity-major column sums kept per row band in
 //! cache (the cost volume is never materialised), exact integer arithmetic, row bands in parallel
 //! with rayon, prefilter and texture passes parallel too. The cost does not grow with the window.
-//! SAD and SSD run a fused kernel in explicit 256-bit SIMD chosen at run time (AVX2, or AVX2 +
-//! AVX-512VL), in 16-bit lanes when the window sums fit (SAD with the default x-Sobel or the rank
-//! prefilter, any window) and in 32-bit lanes otherwise; NCC (and sums beyond 32 bits) runs
-//! generic `u32`/`u64`/`f64` loops compiled for the baseline, AVX2 and AVX-512 and chosen at run
-//! time. All paths give identical results (tested against a naive reference).
+//! SAD and SSD run a fused kernel in explicit 256-bit SIMD chosen at run time (AVX2), in 16-bit
+//! lanes when the window sums fit (SAD with the default x-Sobel or the rank prefilter, any
+//! window) and in 32-bit lanes otherwise; NCC (and sums beyond 32 bits) runs generic
+//! `u32`/`u64`/`f64` loops compiled for the baseline and AVX2 and chosen at run time. All paths give identical results (tested against a naive reference).
 //! Speed against OpenCV 5 on this project's loaded 2-core machine (interleaved runs, same
 //! images, same options; ARCHITECTURE.md has the figures): block matching 9x9 about 2x
 //! `StereoBM`'s speed on 626x555x96 and 1282x1110x224 (medians 2.0–2.4), 0.6–2.6 on teddy

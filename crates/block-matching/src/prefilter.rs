@@ -37,32 +37,18 @@ pub fn x_sobel_into(src: &[u16], width: usize, height: usize, cap: u32, out: &mu
     });
 }
 
-/// Declares `$name`, which runs `$body` compiled for AVX-512 BW or AVX2 when the CPU has it and
-/// for the baseline otherwise (the same code; the loops are written to vectorise, and the
-/// copies run them at four or two times the baseline's width).
+/// Declares `$name`, which runs `$body` compiled for AVX2 when the CPU has it and for the
+/// baseline otherwise (the same code; the loops are written to vectorise, and the AVX2 copy runs
+/// them at twice the baseline's width).
 macro_rules! with_simd {
     (fn $name:ident($($a:ident: $t:ty),*) $body:block) => {
         fn $name($($a: $t),*) {
             #[inline(always)]
             fn imp($($a: $t),*) $body
             #[cfg(target_arch = "x86_64")]
-            #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl")]
-            fn avx512($($a: $t),*) {
-                imp($($a),*)
-            }
-            #[cfg(target_arch = "x86_64")]
             #[target_feature(enable = "avx2")]
             fn avx2($($a: $t),*) {
                 imp($($a),*)
-            }
-            #[cfg(target_arch = "x86_64")]
-            if is_x86_feature_detected!("avx512f")
-                && is_x86_feature_detected!("avx512bw")
-                && is_x86_feature_detected!("avx512vl")
-                && is_x86_feature_detected!("avx2")
-            {
-                // SAFETY: the CPU supports AVX-512 F/BW/VL and AVX2.
-                return unsafe { avx512($($a),*) };
             }
             #[cfg(target_arch = "x86_64")]
             if is_x86_feature_detected!("avx2") {
@@ -209,7 +195,7 @@ pub fn rank_transform_into(src: &[u16], width: usize, height: usize, size: usize
 
 with_simd! {
     fn rank_row(count: &mut [u16], centre: &[u16], pads: &[u16], size: usize) {
-        // 32 pixels at a time (one 512-bit vector, two 256-bit ones) with their counts held in
+        // 32 pixels at a time (two 256-bit vectors) with their counts held in
         // registers across the whole window (counting one window offset at a time over the row
         // loaded and stored every count size² times: measured 2.3 ms of an 11 ms default teddy
         // frame on one thread). Written so that the compiler vectorises it; unrolled (two

@@ -27,8 +27,9 @@
 //! Every step is exact 16-bit integer arithmetic (the run refuses costs whose sums could
 //! exceed 16 bits). The path steps, column sums, box sums, winner search and right-image
 //! minima are written once over the vector width (module `lanes`) and run on 256-bit vectors
-//! when the CPU has AVX2 (module `avx2`) or 512-bit ones with AVX-512 F/BW/VL (module `avx512`;
-//! the decisions at 256 bits when `Dq` is an odd multiple of 16); plain loops otherwise. The level is chosen once per strip. The naive reference in
+//! when the CPU has AVX2 (module `avx2`); plain loops otherwise. The level is chosen once per
+//! strip. (A 512-bit instance was removed: no machine the project is tested on has AVX-512, and
+//! code no test here can run does not stay.) The naive reference in
 //! `tests/sgm_vs_naive.rs` implements the same definition directly on a full cost volume and
 //! every level must match it exactly.
 
@@ -277,13 +278,6 @@ fn step_set(c: &[u16], prev: &[u16], pmin: u16, p1: u16, p2: u16, out: &mut [u16
 #[inline(always)]
 fn vertical(sc: &mut Scratch, nd: usize, sub: bool, boxed: Option<usize>, isa: Isa) -> bool {
     #[cfg(target_arch = "x86_64")]
-    if isa == Isa::Avx512 {
-        let cost = boxed.map(|r| (&mut sc.cost[..], r));
-        // SAFETY: `Isa::Avx512` only when the CPU has AVX-512 F/BW/VL; lengths asserted inside.
-        unsafe { avx512::vertical(&mut sc.colsum, &sc.l_a, &sc.r_a, &sc.l_b, &sc.r_b, lanes(nd), sub, cost) };
-        return boxed.is_some();
-    }
-    #[cfg(target_arch = "x86_64")]
     if isa.avx2() {
         let cost = boxed.map(|r| (&mut sc.cost[..], r));
         // SAFETY: `isa` only when the CPU has AVX2; lengths asserted inside.
@@ -356,10 +350,7 @@ fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, boxed: bool, isa: Isa) {
     let ndq = lanes(nd);
     let (cost, colsum) = (&mut sc.cost, &sc.colsum);
     #[cfg(target_arch = "x86_64")]
-    if isa == Isa::Avx512 && !boxed {
-        // SAFETY: `Isa::Avx512` only when the CPU has AVX-512 F/BW/VL; lengths asserted inside.
-        unsafe { avx512::box_row(cost, colsum, w, r, ndq) };
-    } else if isa == Isa::Avx2 && !boxed {
+    if isa == Isa::Avx2 && !boxed {
         // SAFETY: `isa` only when the CPU has AVX2; lengths asserted inside.
         unsafe { avx2::box_row(cost, colsum, w, r, ndq) };
     }
@@ -410,11 +401,6 @@ fn paths<const N: usize>(
     nd: usize,
     set: bool,
 ) -> [u16; N] {
-    #[cfg(target_arch = "x86_64")]
-    if isa == Isa::Avx512 {
-        // SAFETY: `Isa::Avx512` only when the CPU has AVX-512 F/BW/VL; lengths checked inside.
-        return unsafe { avx512::paths(c, prev, pmin, p2, p1, out, acc, tail, set) };
-    }
     #[cfg(target_arch = "x86_64")]
     if isa.avx2() {
         // SAFETY: `isa` is set only when the CPU has AVX2; slice lengths are checked inside.
@@ -584,8 +570,6 @@ fn decide_row(
     } else {
         lanes::Second::Skip
     };
-    // 32-lane decisions when the chunks are whole
-    let wide = isa == Isa::Avx512 && ndq.is_multiple_of(32);
     sc.rc.fill(u16::MAX);
     sc.rk.fill(u16::MAX);
     for x in 0..w {
@@ -604,10 +588,7 @@ fn decide_row(
         if sh.lr.is_some() {
             let (c, rc, rk) = (&s[lo..=hi], &mut sc.rc[j0..][..len], &mut sc.rk[j0..][..len]);
             #[cfg(target_arch = "x86_64")]
-            if isa == Isa::Avx512 {
-                // SAFETY: `Isa::Avx512` only when the CPU has AVX-512 F/BW/VL; lengths asserted inside.
-                unsafe { avx512::right_update(c, rc, rk, lo) };
-            } else if isa.avx2() {
+            if isa.avx2() {
                 // SAFETY: `isa` only when the CPU has AVX2; lengths asserted inside.
                 unsafe { avx2::right_update(c, rc, rk, lo) };
             }
@@ -622,15 +603,9 @@ fn decide_row(
         }
         #[cfg(target_arch = "x86_64")]
         if isa.avx2() {
-            let (m, kb, third) = if wide {
-                // SAFETY: `Isa::Avx512` only when the CPU has AVX-512 F/BW/VL; `s` has Dq (a
-                // multiple of 32) lanes, lo ≤ hi < D (asserted inside).
-                unsafe { avx512::wta(s, &sc.tail, lo, hi, second) }
-            } else {
-                // SAFETY: `isa` only when the CPU has AVX2; `s` has Dq lanes, lo ≤ hi < D
-                // (asserted inside).
-                unsafe { avx2::wta(s, &sc.tail, lo, hi, second) }
-            };
+            // SAFETY: `isa` only when the CPU has AVX2; `s` has Dq lanes, lo ≤ hi < D
+            // (asserted inside).
+            let (m, kb, third) = unsafe { avx2::wta(s, &sc.tail, lo, hi, second) };
             // selects, not branches: whether a pixel is unique is data (a branch on it
             // mispredicted)
             let not_unique = if sh.conf {
@@ -732,32 +707,15 @@ unsafe fn strip_avx2(
     strip(sh, pp, sc, out, conf, y0, y1, Isa::Avx2)
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,popcnt")]
-/// # Safety
-/// The CPU must support AVX2, AVX-512 F/BW/VL and POPCNT (the caller checks `SimdLevel::detect()`).
-unsafe fn strip_avx512(
-    sh: &Shared,
-    pp: &SgmParams,
-    sc: &mut Scratch,
-    out: &mut [f32],
-    conf: &mut [f32],
-    y0: usize,
-    y1: usize,
-) -> MatchStats {
-    strip(sh, pp, sc, out, conf, y0, y1, Isa::Avx512)
-}
-
-/// The instruction set of a run: every kernel has an AVX-512 and an AVX2 instance.
+/// The instruction set of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Isa {
     Scalar,
     Avx2,
-    Avx512,
 }
 
 impl Isa {
-    /// True when the AVX2 kernels may run (AVX2 or AVX-512 level).
+    /// True when the AVX2 kernels may run.
     #[inline(always)]
     fn avx2(self) -> bool {
         self != Isa::Scalar
@@ -779,8 +737,6 @@ pub(crate) fn run_strip(
     let simd = simd.min(SimdLevel::detect());
     #[cfg(target_arch = "x86_64")]
     match simd {
-        // SAFETY: `detect()` found AVX-512 F/BW/VL, AVX2 and POPCNT on this CPU.
-        SimdLevel::Avx512 => return unsafe { strip_avx512(sh, pp, sc, out, conf, y0, y1) },
         // SAFETY: `detect()` found AVX2 and POPCNT on this CPU.
         SimdLevel::Avx2 => return unsafe { strip_avx2(sh, pp, sc, out, conf, y0, y1) },
         SimdLevel::Scalar => {}
@@ -790,8 +746,7 @@ pub(crate) fn run_strip(
 }
 
 /// The SGM kernels written once over the vector width ([`lanes::V16`]: 16 lanes of `u16` in
-/// 256 bits, 32 in 512) and compiled per instruction set by the thin `avx2` and `avx512`
-/// entry points below: the same integer operations at both widths, so the same results. The
+/// 256 bits) and compiled for AVX2 by the thin `avx2` entry points below. The
 /// compiler did not vectorise the scalar path step (measured: teddy 450x375x64, five paths,
 /// ~150 ms, the inner loop scalar).
 #[cfg(target_arch = "x86_64")]
@@ -971,7 +926,7 @@ mod lanes {
                 #[inline(always)]
                 unsafe fn hmin(self) -> u16 {
                     let $h = self.0;
-                    // SAFETY: the trait's contract (the instruction set; AVX-512 implies AVX2).
+                    // SAFETY: the trait's contract (the instruction set).
                     unsafe { $hmin }
                 }
                 /// # Safety
@@ -1036,39 +991,6 @@ mod lanes {
         // a ≤ b ⟺ min(a, b) = a; two mask bits per lane
         |a, b| (_mm256_movemask_epi8(_mm256_cmpeq_epi16(_mm256_min_epu16(a, b), a)) as u32).count_ones() / 2
     );
-    v16!(
-        W512, __m512i, 32, "32 lanes (AVX-512 BW).", _mm512_loadu_si512, _mm512_storeu_si512, _mm512_set1_epi16,
-        add: _mm512_add_epi16, sub: _mm512_sub_epi16, adds: _mm512_adds_epu16, subs: _mm512_subs_epu16,
-        min: _mm512_min_epu16, or: _mm512_or_si512;
-        |v| W256(_mm256_min_epu16(_mm512_castsi512_si256(v), _mm512_extracti64x4_epi64::<1>(v))).hmin();
-        // one two-source permutation (indices ≥ 32 select from the second operand)
-        |v, b| _mm512_permutex2var_epi16(b, _mm512_loadu_si512(UP.as_ptr() as *const _), v);
-        |v, a| _mm512_permutex2var_epi16(v, _mm512_loadu_si512(DOWN.as_ptr() as *const _), a);
-        |a, b| _mm512_movm_epi16(_mm512_cmplt_epu16_mask(a, b));
-        |m, a, b| _mm512_mask_blend_epi16(_mm512_movepi16_mask(m), b, a);
-        |a, b| _mm512_cmple_epu16_mask(a, b).count_ones()
-    );
-
-    /// Lane indices of [`W512::up`]: lane 31 of `before`, then lanes 0..31 of the vector.
-    static UP: [u16; 32] = {
-        let mut t = [0u16; 32];
-        let mut k = 0;
-        while k < 32 {
-            t[k] = if k == 0 { 31 } else { 32 + k as u16 - 1 };
-            k += 1;
-        }
-        t
-    };
-    /// Lane indices of [`W512::down`]: lanes 1..32 of the vector, then lane 0 of `after`.
-    static DOWN: [u16; 32] = {
-        let mut t = [0u16; 32];
-        let mut k = 0;
-        while k < 32 {
-            t[k] = k as u16 + 1;
-            k += 1;
-        }
-        t
-    };
 
     /// `|a − b|` per lane.
     ///
@@ -1512,137 +1434,9 @@ mod avx2 {
     }
 }
 
-/// The kernels at 32 lanes per vector; a last 16-lane chunk (`Dq` an odd multiple of 16) at 16.
-#[cfg(target_arch = "x86_64")]
-mod avx512 {
-    use super::lanes::{self, W256, W512};
-
-    /// [`lanes::paths`]: 32-lane chunks, then a last 16-lane one.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 and AVX-512 F/BW/VL. Lengths: `c`, `acc`, `tail` have `Dq` (a
-    /// multiple of 16) entries, every `prev[i]` and `out[i]` `Dq + 2` (checked by assertions).
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,popcnt")]
-    #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
-    pub(super) unsafe fn paths<const N: usize>(
-        c: &[u16],
-        prev: [&[u16]; N],
-        pmin: [u16; N],
-        p2: [u16; N],
-        p1: u16,
-        mut out: [&mut [u16]; N],
-        acc: &mut [u16],
-        tail: &[u16],
-        set: bool,
-    ) -> [u16; N] {
-        let ndq = c.len();
-        let outp = lanes::paths_checked(c, &prev, &mut out, acc, tail);
-        let full = ndq / 32 * 32;
-        // SAFETY: AVX-512 and AVX2 (this function's features); lengths asserted above.
-        // per pixel and path group: no empty call's set-up and reductions (16 disparities: no
-        // 32-lane chunk at all)
-        unsafe {
-            if full == 0 {
-                return lanes::paths::<W256, N>(c, prev, pmin, p2, p1, outp, acc, tail, set, (0, ndq));
-            }
-            let wide = lanes::paths::<W512, N>(c, prev, pmin, p2, p1, outp, acc, tail, set, (0, full));
-            if full == ndq {
-                return wide;
-            }
-            let last = lanes::paths::<W256, N>(c, prev, pmin, p2, p1, outp, acc, tail, set, (full, ndq));
-            std::array::from_fn(|i| wide[i].min(last[i]))
-        }
-    }
-
-    /// [`lanes::vertical`]: 32-lane chunks, then a last 16-lane one.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 and AVX-512 F/BW/VL (lengths are asserted).
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,popcnt")]
-    #[allow(clippy::too_many_arguments)] // both row pairs, the lane count, the box sums
-    pub(super) unsafe fn vertical(
-        colsum: &mut [u16],
-        la: &[u16],
-        ra: &[u16],
-        lb: &[u16],
-        rb: &[u16],
-        ndq: usize,
-        sub: bool,
-        cost: Option<(&mut [u16], usize)>,
-    ) {
-        lanes::vertical_checked(colsum, la, ra, lb, rb, ndq, sub);
-        let boxed = cost.map(|(cost, r)| {
-            let wp = la.len();
-            assert!(wp > 2 * r);
-            lanes::box_row_checked(cost, colsum, wp - 2 * r, r, ndq);
-            (cost.as_mut_ptr(), r)
-        });
-        let full = ndq / 32 * 32;
-        // SAFETY: AVX-512 and AVX2 (this function's features); lengths asserted above.
-        unsafe {
-            lanes::vertical::<W512>(colsum, la, ra, lb, rb, ndq, sub, boxed, (0, full));
-            if full < ndq {
-                lanes::vertical::<W256>(colsum, la, ra, lb, rb, ndq, sub, boxed, (full, ndq));
-            }
-        }
-    }
-
-    /// [`lanes::box_row`]: 32-lane chunks, then a last 16-lane one.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 and AVX-512 F/BW/VL (lengths are asserted).
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,popcnt")]
-    pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
-        lanes::box_row_checked(cost, colsum, w, r, ndq);
-        let full = ndq / 32 * 32;
-        // SAFETY: AVX-512 and AVX2 (this function's features); lengths asserted above.
-        unsafe {
-            lanes::box_row::<W512>(cost, colsum, w, r, ndq, (0, full));
-            if full < ndq {
-                lanes::box_row::<W256>(cost, colsum, w, r, ndq, (full, ndq));
-            }
-        }
-    }
-
-    /// [`lanes::wta`] at 32 lanes (`s.len()` a multiple of 32).
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 and AVX-512 F/BW/VL; `s.len()` is a multiple of 32 and
-    /// `lo ≤ hi < s.len()` (asserted).
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,popcnt")]
-    pub(super) unsafe fn wta(
-        s: &[u16],
-        tail: &[u16],
-        lo: usize,
-        hi: usize,
-        second: lanes::Second,
-    ) -> (u16, usize, u16) {
-        lanes::wta_checked::<W512>(s, tail, lo, hi);
-        // SAFETY: AVX-512 (this function's features); lengths asserted above.
-        unsafe { lanes::wta::<W512>(s, tail, lo, hi, second) }
-    }
-
-    /// [`lanes::right_update`] at 32 lanes.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 and AVX-512 F/BW/VL; the three slices have the same length
-    /// (asserted).
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,popcnt")]
-    pub(super) unsafe fn right_update(c: &[u16], rc: &mut [u16], rk: &mut [u16], lo: usize) {
-        assert!(rc.len() == c.len() && rk.len() == c.len());
-        // SAFETY: AVX-512 (this function's features); lengths asserted above.
-        unsafe { lanes::right_update::<W512>(c, rc, rk, lo) }
-    }
-}
-
 #[cfg(all(test, target_arch = "x86_64"))]
 mod tests {
-    use super::lanes::{V16, W256, W512};
+    use super::lanes::{V16, W256};
 
     /// Pseudo-random lanes (a fixed LCG), with repeats so that equal lanes occur.
     fn lanes_of(seed: u64, n: usize) -> Vec<u16> {
@@ -1751,16 +1545,6 @@ mod tests {
         unsafe { check_wta::<W256>() }
     }
 
-    #[target_feature(enable = "avx2,avx512f,avx512bw,avx512vl,popcnt")]
-    /// # Safety
-    /// The CPU must support AVX-512 F/BW/VL.
-    unsafe fn check_avx512() {
-        // SAFETY: compiled for AVX-512, which the caller checked.
-        unsafe { check::<W512>() };
-        // SAFETY: as above.
-        unsafe { check_wta::<W512>() }
-    }
-
     #[test]
     fn lane_operations_and_decisions_match_their_scalar_definitions() {
         use crate::engine::SimdLevel;
@@ -1768,12 +1552,6 @@ mod tests {
         if level >= SimdLevel::Avx2 {
             // SAFETY: `detect()` found AVX2.
             unsafe { check_avx2() };
-        }
-        if level >= SimdLevel::Avx512 {
-            // SAFETY: `detect()` found AVX-512 F/BW/VL.
-            unsafe { check_avx512() };
-        } else {
-            eprintln!("skipped the 512-bit lanes: no AVX-512 on this CPU");
         }
     }
 }

@@ -1,5 +1,5 @@
-//! The vectorised kernels: SAD and SSD with window sums in explicit 256-bit SIMD (AVX2, or AVX2
-//! with AVX-512VL mask registers), in 16-bit lanes when every sum fits (`block² · max pixel ≤
+//! The vectorised kernels: SAD and SSD with window sums in explicit 256-bit SIMD (AVX2), in
+//! 16-bit lanes when every sum fits (`block² · max pixel ≤
 //! 65534`: SAD with OpenCV's default x-Sobel prefilter, pixels `0..=62`, or the rank prefilter,
 //! any window) and in 32-bit lanes otherwise while the sums fit in `u32` (SSD, SAD on raw or
 //! 16-bit intensities). The generic engine keeps several passes per pixel; here one fused loop
@@ -23,9 +23,10 @@
 //! Written with intrinsics because the generic loops left to the compiler ran about 9x slower
 //! (teddy 450x375x64, SAD 9x9, one thread: 23.8 ms with `SimdLevel::Scalar` against 2.6 ms here;
 //! `BM_SIMD=scalar` in `benches/benches/disparity.rs`). A 512-bit copy was measured slower than
-//! the 256-bit kernel on the project's machine (3.91 ms against 3.69 ms on teddy, 33.4 ms against
-//! 24.1 ms on 1280x720x128, one thread: the per-pixel reduction and mask traffic dominate), so
-//! `SimdLevel::Avx512` runs the 256-bit kernels with AVX-512VL's masked moves for the arg-mins.
+//! the 256-bit kernel on an AVX-512 machine (3.91 ms against 3.69 ms on teddy, 33.4 ms against
+//! 24.1 ms on 1280x720x128, one thread: the per-pixel reduction and mask traffic dominate); a
+//! 256-bit copy with AVX-512VL's masked moves for the arg-mins was removed with the other
+//! AVX-512 code, as no machine the project is tested on can run it.
 
 use crate::config::Subpixel;
 use crate::engine::{MatchStats, Shared, curve_ratio};
@@ -190,20 +191,11 @@ impl<E: Lane> Scratch<E> {
     }
 }
 
-/// The instruction sets of the kernels.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Isa {
-    Avx2,
-    /// The AVX2 kernel at 256 bits with AVX-512VL's mask registers for the arg-min updates.
-    Avx512Vl,
-}
-
 /// Runs rows `y0..y1` of one band with 16-bit lanes (SAD).
 ///
 /// # Safety
-/// The CPU must support `isa` (checked by `SimdLevel::detect`) and `block² · max pixel ≤ 65534`.
+/// The CPU must support AVX2 (checked by `SimdLevel::detect`) and `block² · max pixel ≤ 65534`.
 pub(crate) unsafe fn band16(
-    isa: Isa,
     sh: &Shared,
     sc: &mut Scratch<u16>,
     out: &mut [f32],
@@ -213,21 +205,15 @@ pub(crate) unsafe fn band16(
 ) -> MatchStats {
     sc.resize(sh.w, sh.r, sh.nd, 16);
     // SAFETY: forwarded from the caller; `sc` has just been sized for 16 lanes.
-    unsafe {
-        match isa {
-            Isa::Avx2 => avx2_16::band::<false>(sh, sc, out, conf, y0, y1),
-            Isa::Avx512Vl => vl_16::band::<false>(sh, sc, out, conf, y0, y1),
-        }
-    }
+    unsafe { avx2_16::band::<false>(sh, sc, out, conf, y0, y1) }
 }
 
 /// Runs rows `y0..y1` of one band with 32-bit lanes: SSD when `squared`, else SAD.
 ///
 /// # Safety
-/// The CPU must support `isa` and `block² · max term ≤ 2³² − 2` (max term: the largest pixel,
+/// The CPU must support AVX2 and `block² · max term ≤ 2³² − 2` (max term: the largest pixel,
 /// squared for SSD).
 pub(crate) unsafe fn band32(
-    isa: Isa,
     squared: bool,
     sh: &Shared,
     sc: &mut Scratch<u32>,
@@ -239,11 +225,10 @@ pub(crate) unsafe fn band32(
     sc.resize(sh.w, sh.r, sh.nd, 8);
     // SAFETY: forwarded from the caller; `sc` has just been sized for 8 lanes.
     unsafe {
-        match (isa, squared) {
-            (Isa::Avx2, false) => avx2_32::band::<false>(sh, sc, out, conf, y0, y1),
-            (Isa::Avx2, true) => avx2_32::band::<true>(sh, sc, out, conf, y0, y1),
-            (Isa::Avx512Vl, false) => vl_32::band::<false>(sh, sc, out, conf, y0, y1),
-            (Isa::Avx512Vl, true) => vl_32::band::<true>(sh, sc, out, conf, y0, y1),
+        if squared {
+            avx2_32::band::<true>(sh, sc, out, conf, y0, y1)
+        } else {
+            avx2_32::band::<false>(sh, sc, out, conf, y0, y1)
         }
     }
 }
@@ -641,8 +626,9 @@ macro_rules! kernel {
             if NCH > 0 && NCH <= REGS / 2 {
                 // LLVM unrolls a loop of up to 8 chunks itself; at 14 it kept the loop and the
                 // box sums on the stack (one more store and load per chunk: 1282x1110x224, 1
-                // thread, AVX-512VL, 41 interleaved pairs: 0.88x the time unrolled). With 16
-                // registers more than 8 box sums cannot stay in registers anyway.
+                // thread, with AVX-512VL's 32 registers, 41 interleaved pairs: 0.88x the time
+                // unrolled). With AVX2's 16 registers more than 8 box sums cannot stay in
+                // registers anyway.
                 // the list below covers every chunk count `row_n` gives as a constant
                 const { assert!(NCH <= MAX_NCH && MAX_NCH == 16) };
                 unrolled!(chunk, NCH; 0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15);
@@ -1052,13 +1038,4 @@ kernel_module!(avx2_32, lanes32, "avx2", 16, fn min_update(min, idx, c, d) {
     let nm = _mm256_min_epu32(*min, c);
     *idx = _mm256_blendv_epi8(d, *idx, _mm256_cmpeq_epi32(nm, *min));
     *min = nm;
-});
-// AVX-512VL: one compare into a mask register and a masked move
-kernel_module!(vl_16, lanes16, "avx2,avx512f,avx512bw,avx512vl", 32, fn min_update(min, idx, c, d) {
-    *idx = _mm256_mask_mov_epi16(*idx, _mm256_cmplt_epu16_mask(c, *min), d);
-    *min = _mm256_min_epu16(*min, c);
-});
-kernel_module!(vl_32, lanes32, "avx2,avx512f,avx512bw,avx512vl", 32, fn min_update(min, idx, c, d) {
-    *idx = _mm256_mask_mov_epi32(*idx, _mm256_cmplt_epu32_mask(c, *min), d);
-    *min = _mm256_min_epu32(*min, c);
 });

@@ -15,12 +15,9 @@ pub type ImageF32 = ImageBuffer<Luma<f32>, Vec<f32>>;
 pub(crate) enum Isa {
     /// The x86-64 baseline (SSE2) or any other architecture.
     Baseline,
-    /// AVX2.
+    /// AVX2. (AVX-512 copies were removed: no machine the project is tested on can run them.)
     #[cfg(target_arch = "x86_64")]
     Avx2,
-    /// AVX-512F and AVX-512BW.
-    #[cfg(target_arch = "x86_64")]
-    Avx512,
 }
 
 impl Isa {
@@ -32,9 +29,6 @@ impl Isa {
         {
             if std::arch::is_x86_feature_detected!("avx2") {
                 out.push(Isa::Avx2);
-            }
-            if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512bw") {
-                out.push(Isa::Avx512);
             }
         }
         out
@@ -203,16 +197,7 @@ pub(crate) fn fir(out: &mut [f32], k: &[f32], src: &[f32], offsets: &[usize], is
     fn avx2(out: &mut [f32], k: &[f32], src: &[f32], offsets: &[usize]) {
         imp(out, k, src, offsets)
     }
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512bw")]
-    fn avx512(out: &mut [f32], k: &[f32], src: &[f32], offsets: &[usize]) {
-        imp(out, k, src, offsets)
-    }
     match isa {
-        // SAFETY: `Isa::Avx512` exists only when the CPU has AVX-512F and AVX-512BW
-        // (`Isa::available`).
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 => unsafe { avx512(out, k, src, offsets) },
         // SAFETY: `Isa::Avx2` exists only when the CPU has AVX2 (`Isa::available`).
         #[cfg(target_arch = "x86_64")]
         Isa::Avx2 => unsafe { avx2(out, k, src, offsets) },
@@ -228,7 +213,7 @@ pub(crate) fn halve_u8(src: &[u8], w: usize, h: usize, dst: &mut Vec<f32>) {
 }
 
 /// [`halve_u8`] compiled for `isa` (integer sums, exact on every instruction set; the pair
-/// loads vectorise as shuffles with AVX2 / AVX-512, about 4x the baseline loop).
+/// loads vectorise as shuffles with AVX2, about 4x the baseline loop).
 pub(crate) fn halve_u8_on(src: &[u8], w: usize, h: usize, dst: &mut Vec<f32>, isa: Isa) {
     #[inline(always)]
     fn imp(src: &[u8], w: usize, h: usize, dst: &mut [f32]) {
@@ -247,18 +232,9 @@ pub(crate) fn halve_u8_on(src: &[u8], w: usize, h: usize, dst: &mut Vec<f32>, is
     fn avx2(src: &[u8], w: usize, h: usize, dst: &mut [f32]) {
         imp(src, w, h, dst)
     }
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512bw")]
-    fn avx512(src: &[u8], w: usize, h: usize, dst: &mut [f32]) {
-        imp(src, w, h, dst)
-    }
     // Every element is written: keep the length (no memset) when it already fits.
     dst.resize((w / 2) * (h / 2), 0.0);
     match isa {
-        // SAFETY: `Isa::Avx512` exists only when the CPU has AVX-512F and AVX-512BW
-        // (`Isa::available`).
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 => unsafe { avx512(src, w, h, dst) },
         // SAFETY: `Isa::Avx2` exists only when the CPU has AVX2 (`Isa::available`).
         #[cfg(target_arch = "x86_64")]
         Isa::Avx2 => unsafe { avx2(src, w, h, dst) },

@@ -234,15 +234,7 @@ pub(crate) fn saddle_sums(win: &SaddleWindow<'_>, isa: crate::Isa) -> [[f64; 8];
     fn avx2(win: &SaddleWindow<'_>) -> [[f64; 8]; 6] {
         saddle_sums_imp(win)
     }
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn avx512(win: &SaddleWindow<'_>) -> [[f64; 8]; 6] {
-        saddle_sums_imp(win)
-    }
     match isa {
-        // SAFETY: `Isa::Avx512` is only constructed when the CPU has AVX-512F (`Isa::available`).
-        #[cfg(target_arch = "x86_64")]
-        crate::Isa::Avx512 => unsafe { avx512(win) },
         // SAFETY: `Isa::Avx2` is only constructed when the CPU has AVX2 (`Isa::available`).
         #[cfg(target_arch = "x86_64")]
         crate::Isa::Avx2 => unsafe { avx2(win) },
@@ -531,7 +523,7 @@ pub(crate) mod tests {
         let (w, h) = (97usize, 61usize);
         let data: Vec<f32> = (0..w * h).map(|_| (255.0 * unif()) as f32).collect();
         let isas = crate::Isa::available();
-        // Baseline, AVX2 and AVX-512 where the CPU has them (this machine has all three).
+        // Baseline, and AVX2 where the CPU has it.
         assert!(!isas.is_empty());
         for case in 0..300 {
             let centre = DVec2::new(unif() * (w as f64 + 6.0) - 3.0, unif() * (h as f64 + 6.0) - 3.0);

@@ -314,9 +314,8 @@ pub(crate) struct MapRow {
 
 impl MapRow {
     /// Row `v`. Written as one straight-line loop (no calls, a select for invalid pixels) so the
-    /// compiler vectorises it, and run through a copy compiled for AVX-512 (F/VL: 32 vector
-    /// registers, so the dozen constants stay in registers instead of being reloaded from the
-    /// stack) or AVX2 when the CPU has it. Every copy
+    /// compiler vectorises it, and run through a copy compiled for AVX2 when the CPU has it (an
+    /// AVX-512 copy was removed: no machine the project is tested on can run it). Every copy
     /// runs the same operations in the same order (no fused multiply-add), so all give the same
     /// bits (`every_instruction_set_gives_the_same_row`); the formula is camera-model's
     /// `Distortion::distort`.
@@ -360,16 +359,9 @@ impl MapRow {
         fn avx2(p: &MapRow, v: usize, mx: &mut [f32], my: &mut [f32]) {
             imp(p, v, mx, my)
         }
-        #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "avx2,avx512f,avx512vl")]
-        fn avx512(p: &MapRow, v: usize, mx: &mut [f32], my: &mut [f32]) {
-            imp(p, v, mx, my)
-        }
         assert!(mx.len() <= MAX_SIDE as usize, "rows are checked by `check_size`");
         #[cfg(target_arch = "x86_64")]
         match isa {
-            // SAFETY: `detect` found AVX-512 F/VL and AVX2 on this CPU.
-            Some(RowIsa::Avx512) if RowIsa::detect() == RowIsa::Avx512 => unsafe { avx512(self, v, mx, my) },
             // SAFETY: `detect` found AVX2 on this CPU.
             Some(RowIsa::Avx2) if RowIsa::detect() != RowIsa::Baseline => unsafe { avx2(self, v, mx, my) },
             None => imp(self, v, mx, my),
@@ -389,20 +381,13 @@ impl MapRow {
 enum RowIsa {
     Baseline,
     Avx2,
-    Avx512,
 }
 
 #[cfg(target_arch = "x86_64")]
 impl RowIsa {
     fn detect() -> Self {
         use std::arch::is_x86_feature_detected as has;
-        if has!("avx2") && has!("avx512f") && has!("avx512vl") {
-            Self::Avx512
-        } else if has!("avx2") {
-            Self::Avx2
-        } else {
-            Self::Baseline
-        }
+        if has!("avx2") { Self::Avx2 } else { Self::Baseline }
     }
 }
 
@@ -482,7 +467,7 @@ mod tests {
                 // the baseline: the formula with no instruction set enabled
                 p.row_with(None, v, &mut bx, &mut by);
                 nan += bx.iter().filter(|x| x.is_nan()).count();
-                for isa in [RowIsa::Avx2, RowIsa::Avx512] {
+                for isa in [RowIsa::Avx2] {
                     if p.row_with(Some(isa), v, &mut ax, &mut ay) {
                         let same = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(a, b)| a.to_bits() == b.to_bits());
                         assert!(same(&ax, &bx) && same(&ay, &by), "{isa:?}, model {i}, row {v}");
