@@ -552,6 +552,9 @@ macro_rules! kernel {
         ) -> <E as Lane>::Key {
             // a known chunk count lets the compiler unroll the chunk loop
             let ndp = if NCH == 0 { p.ndp } else { NCH * L };
+            // the box sums carried in registers from column to column, when they fit (more
+            // would spill: then each column reads the previous column's stored sums back)
+            let keep = NCH > 0 && NCH <= REGS / 2;
             let (lov, hiv) = (splat_i(lo), splat_i(hi));
             let mut prev_c = splat(E::MAX);
             let mut prev_k = splat(E::MAX);
@@ -576,8 +579,10 @@ macro_rules! kernel {
                     let dv = if NCH > 0 { add(ramp, splat(E::from_usize(c))) } else { ld(p.dv.add(c)) };
                     // lanes past num_disparities (only in the last chunk) and, at the borders,
                     // outside the searchable range are forced to the sentinel
+                    // (with a known count only the last chunk can have such lanes: a constant
+                    // test, so the other chunks' mask folds away)
                     let mut m = splat(E::ZERO);
-                    if c + L > p.nd {
+                    if (NCH == 0 || ci + 1 == NCH) && c + L > p.nd {
                         m = ld(p.tail.add(c));
                     }
                     if BORDER {
@@ -594,16 +599,16 @@ macro_rules! kernel {
                             v = add(v, t);
                             st(q, v);
                         }
-                        let prev = if NCH > 0 { bxr[ci] } else { ld(bx_prev.add(c)) };
+                        let prev = if keep { bxr[ci] } else { ld(bx_prev.add(c)) };
                         let b = add(prev, sub(v, ld(p.cs.add((x - 1) * ndp + c))));
                         st(bx.add(c), b);
-                        if NCH > 0 {
+                        if keep {
                             bxr[ci] = b;
                         }
                         b
                     } else {
                         let b = ld(bx.add(c));
-                        if NCH > 0 {
+                        if keep {
                             bxr[ci] = b;
                         }
                         b
@@ -623,13 +628,15 @@ macro_rules! kernel {
                     }
                 }
             };
-            if NCH > 0 && NCH <= REGS / 2 {
-                // LLVM unrolls a loop of up to 8 chunks itself; at 14 it kept the loop and the
-                // box sums on the stack (one more store and load per chunk: 1282x1110x224, 1
-                // thread, with AVX-512VL's 32 registers, 41 interleaved pairs: 0.88x the time
-                // unrolled). With AVX2's 16 registers more than 8 box sums cannot stay in
-                // registers anyway.
-                // the list below covers every chunk count `row_n` gives as a constant
+            if NCH > 0 {
+                // every known count unrolled, also past the 8 box sums that stay in registers:
+                // the loop LLVM kept at 14 chunks paid per chunk its counter, the tail test, the
+                // mask `or` and the index vector, and the box sums went through the stack. Unrolled
+                // (callgrind, one thread, bm options of `disparity_vs_opencv.py`): 2.19 → 1.44
+                // instructions per evaluation on 1282x1110x224, 2.38 → 2.07 on 626x555x96 (the
+                // tail test now folds too), 2.82 → 2.64 on teddy; time 0.83x (1 thread) and 0.91x
+                // (2 threads) on 1282x1110x224, 9 interleaved pairs at load 1.6–1.8 on the Zen 3
+                // machine. The list below covers every chunk count `row_n` gives as a constant.
                 const { assert!(NCH <= MAX_NCH && MAX_NCH == 16) };
                 unrolled!(chunk, NCH; 0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15);
             } else {

@@ -416,8 +416,9 @@ fn fast_equals_naive_with_several_disparity_chunks() {
     // the vectorised SAD path works on 16 or 32 disparities per chunk: ranges that span several
     // chunks, end inside one, and start off zero, with and without the decision options
     let mut case = 0;
-    // (the last four search ranges lie mostly or wholly outside the 112-pixel rows; 90 and
-    // 220 disparities make 6 and 14 chunks of 16 lanes, counts with their own kernel instances)
+    // (the last five search ranges lie mostly or wholly outside the 112-pixel rows; 90, 220
+    // and 250 disparities make 6, 14 and 16 chunks of 16 lanes, counts with their own kernel
+    // instances, unrolled)
     for (nd, dmin, block) in [
         (16, 0, 9),
         (33, -3, 5),
@@ -428,6 +429,7 @@ fn fast_equals_naive_with_several_disparity_chunks() {
         (20, 105, 3),
         (90, 0, 5),
         (220, -100, 7),
+        (250, -120, 5),
     ] {
         for (uniq, lr, subpixel, min_confidence) in [
             (0, Some(1), Subpixel::Auto, 0.0),
