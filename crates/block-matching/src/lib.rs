@@ -41,10 +41,11 @@
 //! lanes when the window sums fit (SAD with the default x-Sobel or the rank prefilter, any
 //! window) and in 32-bit lanes otherwise; NCC (and sums beyond 32 bits) runs generic
 //! `u32`/`u64`/`f64` loops compiled for the baseline and AVX2 and chosen at run time. All paths give identical results (tested against a naive reference).
-//! Speed against OpenCV 5 on this project's loaded 2-core machine (interleaved runs, same
-//! images, same options; ARCHITECTURE.md has the figures): block matching 9x9 about 2x
-//! `StereoBM`'s speed on 626x555x96 and 1282x1110x224 (medians 2.0–2.4), 0.6–2.6 on teddy
-//! 450x375x64 (noise-bound), semi-global matching (five paths) 1.0–1.4x `StereoSGBM` 3-way's.
+//! Speed against OpenCV 5.1 on this project's 2-core AVX2 machine (interleaved runs, same
+//! images, same options; ARCHITECTURE.md has the figures): block matching 9x9 2.0 / 2.6 / 2.3x
+//! `StereoBM`'s speed on teddy 450x375x64 / 626x555x96 / 1282x1110x224 (medians of 9 rounds on
+//! a host stealing a third of the time; OpenCV executes 2.1 / 2.3 / 2.7x our instructions),
+//! semi-global matching (three paths) 1.1–1.2x `StereoSGBM` 3-way's.
 //!
 //! ```
 //! use parallax_block_matching::{BlockMatcher, MatcherConfig, evaluate};
