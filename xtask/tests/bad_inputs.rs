@@ -311,6 +311,37 @@ fn sgm_takes_its_window_from_block_and_refuses_one_it_cannot_use() {
     assert_ne!(bits(&cli), bits(&lib(5)), "a 7x7 and a 5x5 window gave the same map: the test cannot tell them apart");
 }
 
+#[test]
+fn sgm_accurate_gives_the_library_preset_and_its_options_are_refused_where_they_do_not_apply() {
+    let dir = temp("sgm-accurate");
+    let out = dir.join("out");
+    let base = easy_disparity(&out);
+    for (extra, words) in [
+        (&["--accurate"][..], &["--accurate", "--method sgm"][..]),
+        (&["--method", "bm", "--sgm-cost", "bt"], &["--sgm-cost", "--method sgm"]),
+        (&["--method", "sgm", "--accurate", "--fill"], &["--accurate", "--fill", "choose one"]),
+        (&["--method", "sgm", "--sgm-cost", "census"], &["--sgm-cost", "census", "bt+intensity"]),
+        (&["--method", "sgm", "--lr-rule", "exact"], &["--lr-rule", "exact", "subpixel"]),
+    ] {
+        fails_naming(&run_with(&base, extra), words);
+        assert!(!out.exists(), "outputs written before the refusal of {extra:?}");
+    }
+    let r = run_with(&base, &["--method", "sgm", "--accurate"]);
+    let stdout = String::from_utf8_lossy(&r.stdout);
+    assert!(r.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&r.stderr));
+    assert!(stdout.contains("paths 8 pixel cost bt+intensity lr-rule subpixel "), "{stdout}");
+    let cli = parallax_block_matching::from_pfm(&std::fs::read(out.join("disparity.pfm")).unwrap(), "cli").unwrap();
+    let load = |p: &str| image::open(fixture(p)).unwrap().into_luma8();
+    let (l, rt) = (load("stereo-scene-easy/left.png"), load("stereo-scene-easy/right.png"));
+    let lib = |cfg: parallax_block_matching::MatcherConfig| {
+        parallax_block_matching::BlockMatcher::new(cfg).unwrap().compute(&l, &rt).unwrap()
+    };
+    let bits = |m: &parallax_camera_model::DisparityMap| m.data().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    use parallax_block_matching::MatcherConfig;
+    assert_eq!(bits(&cli), bits(&lib(MatcherConfig::sgm_accurate())), "the CLI's map is not the preset's");
+    assert_ne!(bits(&cli), bits(&lib(MatcherConfig::sgm())), "the preset gave the default SGM's map: no test");
+}
+
 /// The arguments of a single-pair `disparity` run on the easy scene into `out`.
 fn easy_disparity(out: &Path) -> Vec<String> {
     let (left, right) = (fixture("stereo-scene-easy/left.png"), fixture("stereo-scene-easy/right.png"));

@@ -122,11 +122,31 @@ pub struct SgmConfig {
     /// Rows above (and, with eight paths, below) a strip where its vertical and diagonal paths
     /// start (default 16).
     pub overlap: usize,
+    /// Birchfield–Tomasi's sampling-insensitive pixel difference on the prefiltered planes
+    /// (OpenCV SGBM's): the distance from each pixel's value to the other image's interval
+    /// `[min, max]` of its value and the half-way values to its two row neighbours, the
+    /// smaller of the two directions, instead of `|L − R|` (default `false`).
+    pub sampling_insensitive: bool,
+    /// Adds an intensity term to the pixel cost: `|⌊I_L / 4⌋ − ⌊I_R / 4⌋|` of the raw images in
+    /// 8-bit grey levels (16-bit input divided by 257 first), summed over the same window
+    /// (OpenCV SGBM adds the raw difference / 4 to its x-Sobel one). It separates candidates
+    /// where the x-Sobel plane is flat (default `false`).
+    pub intensity_cost: bool,
 }
 
 impl Default for SgmConfig {
     fn default() -> Self {
-        Self { paths: SgmPaths::Five, p1: 8, p2: 64, p2_gamma: 16, block: 5, strip_rows: 0, overlap: 16 }
+        Self {
+            paths: SgmPaths::Five,
+            p1: 8,
+            p2: 64,
+            p2_gamma: 16,
+            block: 5,
+            strip_rows: 0,
+            overlap: 16,
+            sampling_insensitive: false,
+            intensity_cost: false,
+        }
     }
 }
 
@@ -168,6 +188,11 @@ pub struct MatcherConfig {
     /// matched pixel is within this many pixels (integer disparities). `None` disables
     /// (default `Some(1)`, as SGBM's `disp12MaxDiff = 1`).
     pub lr_max_diff: Option<u32>,
+    /// OpenCV SGBM's left–right rule: the check passes when it holds at either integer next to
+    /// the sub-pixel disparity (`⌊d⌋` or `⌈d⌉`, each with the right image's winner at its own
+    /// right pixel), not only at the winning integer. Pixels whose search range the image edge
+    /// cuts keep the exact check of semi-global matching. Default `false`.
+    pub lr_subpixel: bool,
     /// Fill pixels rejected by the left–right check or the confidence threshold (occlusions,
     /// the fattened side of depth edges) with the smaller of the nearest valid disparities left
     /// and right on the row (the background side). Filled pixels are guesses: they are counted
@@ -208,6 +233,7 @@ impl Default for MatcherConfig {
             texture_threshold: 10,
             uniqueness_ratio: 15,
             lr_max_diff: Some(1),
+            lr_subpixel: false,
             fill: false,
             min_confidence: 0.0,
             confidence_map: false,
@@ -256,6 +282,28 @@ impl MatcherConfig {
             speckle_window_size: 100,
             sgm: SgmConfig::default(),
             ..Self::default()
+        }
+    }
+
+    /// Semi-global matching at OpenCV SGBM's density with fewer wrong pixels: eight paths, the
+    /// cost of SGBM (Birchfield–Tomasi on the x-Sobel plane plus the intensity term, see
+    /// [`SgmConfig::sampling_insensitive`] and [`SgmConfig::intensity_cost`]), no uniqueness
+    /// margin, SGBM's sub-pixel left–right rule ([`MatcherConfig::lr_subpixel`], 1 px) and the
+    /// speckle filter (100 px). Middlebury nonocc, bad-2 among the returned pixels / density:
+    /// tsukuba 2.33 % / 98.77 %, venus 0.68 % / 98.87 %, teddy 4.37 % / 95.78 % (OpenCV SGBM
+    /// 3-way: 2.40 / 98.51, 0.74 / 94.89, 5.46 / 89.92). About twice the time of
+    /// [`MatcherConfig::sgm`] (eight paths take a second pass).
+    pub fn sgm_accurate() -> Self {
+        Self {
+            uniqueness_ratio: 0,
+            lr_subpixel: true,
+            sgm: SgmConfig {
+                paths: SgmPaths::Eight,
+                sampling_insensitive: true,
+                intensity_cost: true,
+                ..SgmConfig::default()
+            },
+            ..Self::sgm()
         }
     }
 

@@ -243,6 +243,8 @@ pub(crate) struct Shared<'a> {
     /// Left–right tolerance 0 where the image edge cuts a pixel's search range (semi-global
     /// matching: see [`finish_row`]).
     pub(crate) exact_lr_at_edges: bool,
+    /// [`MatcherConfig::lr_subpixel`].
+    pub(crate) lr_subpixel: bool,
     pub(crate) fill: bool,
     /// Compute the confidence (second-best non-adjacent cost) of every pixel.
     pub(crate) conf: bool,
@@ -317,6 +319,7 @@ pub struct BlockMatcher {
     #[cfg(target_arch = "x86_64")]
     simd32: Vec<crate::simd::Scratch<u32>>,
     sgm: Vec<crate::sgm::Scratch>,
+    sgm_planes: crate::sgm::SgmPlanes,
     stats: MatchStats,
 }
 
@@ -354,6 +357,7 @@ impl BlockMatcher {
             #[cfg(target_arch = "x86_64")]
             simd32: Vec::new(),
             sgm: Vec::new(),
+            sgm_planes: Default::default(),
             stats: MatchStats::default(),
         })
     }
@@ -533,6 +537,7 @@ impl BlockMatcher {
             uniq: cfg.uniqueness_ratio,
             lr: cfg.lr_max_diff,
             exact_lr_at_edges: sgm,
+            lr_subpixel: cfg.lr_subpixel,
             fill: cfg.fill,
             conf: cfg.needs_confidence(),
             min_conf: cfg.min_confidence,
@@ -553,7 +558,8 @@ impl BlockMatcher {
         let mut stats = MatchStats::default();
         if sgm {
             let (intensity, iscale) = (raw_left, scale);
-            let pp = crate::sgm::SgmParams::new(&cfg.sgm, maxv, intensity, iscale)?;
+            self.sgm_planes.prepare(&cfg.sgm, [left, right], [raw_left, raw_right], scale, w, h);
+            let pp = crate::sgm::SgmParams::new(&cfg.sgm, maxv, intensity, iscale, &self.sgm_planes)?;
             let per_band =
                 for_each_band(&shared, &mut self.sgm, nbands, band_rows, data, conf_plane, |sc, rows, conf, y0, y1| {
                     crate::sgm::run_strip(&shared, &pp, sc, rows, conf, y0, y1, simd)
@@ -789,9 +795,16 @@ unsafe fn band_avx2<A: Acc, const K: u8>(
 /// with padded left column `xp` at candidate `k`.
 #[inline(always)]
 pub(crate) fn load_rows(sh: &Shared, y: usize, l: &mut [u16], rrev: &mut [u16]) {
+    load_plane_rows(sh, sh.left, sh.right, y, l, rrev);
+}
+
+/// [`load_rows`] from another pair of `w · h` planes (semi-global matching's interval and
+/// intensity planes), with the same layout.
+#[inline(always)]
+pub(crate) fn load_plane_rows(sh: &Shared, left: &[u16], right: &[u16], y: usize, l: &mut [u16], rrev: &mut [u16]) {
     let (w, r) = (sh.w, sh.r);
-    let lrow = &sh.left[y * w..][..w];
-    let rrow = &sh.right[y * w..][..w];
+    let lrow = &left[y * w..][..w];
+    let rrow = &right[y * w..][..w];
     // l[xp] = left[clamp(xp − r)]: edge fill, copy, edge fill (l has w + 2r entries)
     l[..r].fill(lrow[0]);
     l[r..r + w].copy_from_slice(lrow);
@@ -1097,12 +1110,21 @@ pub(crate) fn finish_row(
         let mut lr_factor = 1.0f32;
         if let Some(tol) = sh.lr {
             let u = (x as i64 - dmin - kk).clamp(0, w - 1) as usize;
-            let diff = (right_winner(u) as i64 - kk).unsigned_abs();
+            let mut diff = (right_winner(u) as i64 - kk).unsigned_abs();
             // the candidates d with 0 ≤ x − dmin − d ≤ w − 1 do not cover 0..nd
             let xd = x as i64 - dmin;
             let (cut_hi, cut_lo) = (xd < nd - 1, xd - (w - 1) > 0);
             let edge = sh.exact_lr_at_edges & (cut_hi | cut_lo);
             let tol = if edge { 0 } else { tol as u64 };
+            // SGBM's rule: also the integer on the other side of the sub-pixel disparity, with
+            // the right image's winner at its own right pixel (not at edge-cut pixels: exact)
+            if sh.lr_subpixel & !edge & valid & (diff > tol) & (sub[x] != 0.0) {
+                let k2 = if sub[x] > 0.0 { kk + 1 } else { kk - 1 };
+                if (0..nd).contains(&k2) {
+                    let u2 = (x as i64 - dmin - k2).clamp(0, w - 1) as usize;
+                    diff = diff.min((right_winner(u2) as i64 - k2).unsigned_abs());
+                }
+            }
             // a winner on the image's border column at such a pixel: the minimum may lie
             // beyond it
             let border = edge & ((cut_hi & (kk == xd)) | (cut_lo & (kk == xd - (w - 1))));

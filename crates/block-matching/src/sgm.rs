@@ -4,6 +4,12 @@
 //! Cost: `C(x, y, d)`, the SAD of the prefiltered images over a `block x block` window
 //! (clamp-to-edge, as the block matcher), for every `d` of the range; a candidate whose matching
 //! pixel lies outside the right image costs `block² · max pixel` (the largest possible cost).
+//! Two options change the pixel difference (OpenCV SGBM's cost): with `sampling_insensitive`,
+//! `|L − R|` becomes Birchfield–Tomasi's `min(dist(L, [R⁻, R⁺]), dist(R, [L⁻, L⁺]))`, where
+//! `[I⁻, I⁺]` is the range of a pixel's value and the half-way values `⌊(I + I_left) / 2⌋`,
+//! `⌊(I + I_right) / 2⌋` to its row neighbours (clamped at the image edge), precomputed as
+//! planes; with `intensity_cost`, `|⌊I_L / 4⌋ − ⌊I_R / 4⌋|` of the raw images (8-bit grey
+//! levels) is added, and the largest possible cost grows by `block² · 63`.
 //! Aggregation along each path direction `r`:
 //!
 //! `L(p, d) = C(p, d) + min(L(p−r, d), L(p−r, d±1) + P1, min_k L(p−r, k) + P2') − min_k L(p−r, k)`
@@ -35,7 +41,8 @@
 
 use crate::config::{SgmConfig, SgmPaths};
 use crate::engine::{
-    MatchStats, Shared, SimdLevel, conf_row, curve_ratio, decide, finish_row, load_rows, subpixel_offset,
+    MatchStats, Shared, SimdLevel, conf_row, curve_ratio, decide, finish_row, load_plane_rows, load_rows,
+    subpixel_offset,
 };
 use crate::error::{BlockMatchingError, Result};
 
@@ -53,6 +60,53 @@ fn lanes(nd: usize) -> usize {
     nd.div_ceil(16) * 16
 }
 
+/// Planes some pixel costs need, made once per frame in buffers the matcher keeps.
+#[derive(Default)]
+pub(crate) struct SgmPlanes {
+    /// Birchfield–Tomasi intervals of the prefiltered images: left `I⁻`, left `I⁺`, right
+    /// `I⁻`, right `I⁺` (`w · h` each).
+    bt: [Vec<u16>; 4],
+    /// `⌊I / 4⌋` of the raw images in 8-bit grey levels: left, right.
+    quant: [Vec<u16>; 2],
+}
+
+impl SgmPlanes {
+    /// Makes the planes `cfg` asks for from the prefiltered (`pre`) and raw images
+    /// (`scale`: 1 for 8-bit input, 257 for 16-bit).
+    pub(crate) fn prepare(
+        &mut self,
+        cfg: &SgmConfig,
+        pre: [&[u16]; 2],
+        raw: [&[u16]; 2],
+        scale: u32,
+        w: usize,
+        h: usize,
+    ) {
+        if cfg.sampling_insensitive {
+            let [a, b, c, d] = &mut self.bt;
+            for (img, lo, hi) in [(pre[0], a, b), (pre[1], c, d)] {
+                lo.resize(w * h, 0);
+                hi.resize(w * h, 0);
+                for ((row, lo), hi) in img.chunks_exact(w).zip(lo.chunks_exact_mut(w)).zip(hi.chunks_exact_mut(w)) {
+                    for x in 0..w {
+                        let v = row[x] as u32;
+                        let vl = (v + row[x.saturating_sub(1)] as u32) / 2;
+                        let vr = (v + row[(x + 1).min(w - 1)] as u32) / 2;
+                        lo[x] = v.min(vl).min(vr) as u16;
+                        hi[x] = v.max(vl).max(vr) as u16;
+                    }
+                }
+            }
+        }
+        if cfg.intensity_cost {
+            for (img, q) in raw.iter().zip(&mut self.quant) {
+                q.clear();
+                q.extend(img.iter().map(|&v| (v as u32 / scale) as u16 >> 2));
+            }
+        }
+    }
+}
+
 /// Parameters of one run, derived from the configuration and the image.
 pub(crate) struct SgmParams<'a> {
     pub(crate) paths: SgmPaths,
@@ -67,13 +121,24 @@ pub(crate) struct SgmParams<'a> {
     pub(crate) overlap: usize,
     /// `P2'` by intensity difference in 8-bit grey levels, `0..=255` (no division per pixel).
     p2_table: [u16; 256],
+    /// Birchfield–Tomasi interval planes ([`SgmPlanes`]) when the cost is sampling-insensitive.
+    bt: Option<[&'a [u16]; 4]>,
+    /// The intensity planes when the cost has the intensity term.
+    quant: Option<[&'a [u16]; 2]>,
 }
 
 impl<'a> SgmParams<'a> {
     /// Checks that every sum fits in 16 bits and derives the penalties.
-    pub(crate) fn new(cfg: &SgmConfig, max_pixel: u64, intensity: &'a [u16], intensity_scale: u32) -> Result<Self> {
+    pub(crate) fn new(
+        cfg: &SgmConfig,
+        max_pixel: u64,
+        intensity: &'a [u16],
+        intensity_scale: u32,
+        planes: &'a SgmPlanes,
+    ) -> Result<Self> {
         let n = (cfg.block * cfg.block) as u64;
-        let cmax = n * max_pixel;
+        // the intensity term adds at most 255 / 4 per window pixel
+        let cmax = n * (max_pixel + if cfg.intensity_cost { 63 } else { 0 });
         let (p1, p2) = (cfg.p1 as u64 * n, cfg.p2 as u64 * n);
         let npaths = match cfg.paths {
             SgmPaths::Three => 3,
@@ -109,6 +174,11 @@ impl<'a> SgmParams<'a> {
             cmax: cmax as u16,
             overlap: cfg.overlap,
             p2_table,
+            bt: cfg.sampling_insensitive.then(|| {
+                let [a, b, c, d] = &planes.bt;
+                [&a[..], &b[..], &c[..], &d[..]]
+            }),
+            quant: cfg.intensity_cost.then(|| [&planes.quant[0][..], &planes.quant[1][..]]),
         })
     }
 
@@ -156,6 +226,10 @@ pub(crate) struct Scratch {
     r_a: Vec<u16>,
     l_b: Vec<u16>,
     r_b: Vec<u16>,
+    /// The Birchfield–Tomasi intervals of the rows in `l_a`/`r_a` and `l_b`/`r_b`, laid out as
+    /// they are: left `I⁻`, left `I⁺`, right `I⁻`, right `I⁺` (sampling-insensitive cost only).
+    bt_a: [Vec<u16>; 4],
+    bt_b: [Vec<u16>; 4],
     /// `C` of the current row, `W · Dq` (`Dq`: `D` rounded up to 16 lanes).
     cost: Vec<u16>,
     /// `S` of the current row, `W · Dq`.
@@ -187,7 +261,7 @@ pub(crate) struct Scratch {
 }
 
 impl Scratch {
-    fn resize(&mut self, sh: &Shared, strip: usize, paths: SgmPaths) {
+    fn resize(&mut self, sh: &Shared, strip: usize, paths: SgmPaths, bt: bool) {
         let eight = paths == SgmPaths::Eight;
         let (w, r, nd) = (sh.w, sh.r, sh.nd);
         let ndq = lanes(nd);
@@ -199,6 +273,20 @@ impl Scratch {
         // the reversed right rows are read at (wp − 1 − xp) + d for d < Dq
         for v in [&mut self.r_a, &mut self.r_b] {
             v.resize(wp + ndq - 1, 0);
+        }
+        for rows in [&mut self.bt_a, &mut self.bt_b] {
+            for (i, v) in rows.iter_mut().enumerate() {
+                v.resize(
+                    if !bt {
+                        0
+                    } else if i < 2 {
+                        wp
+                    } else {
+                        wp + ndq - 1
+                    },
+                    0,
+                );
+            }
         }
         self.cost.resize(w * ndq, 0);
         self.acc.resize(w * ndq, 0);
@@ -270,18 +358,20 @@ fn step_set(c: &[u16], prev: &[u16], pmin: u16, p1: u16, p2: u16, out: &mut [u16
     m
 }
 
-/// Adds (or, with `sub`, replaces row `b` by row `a` in) the column sums: `|L − R|` of the rows
-/// loaded in `l_a/r_a` (and `l_b/r_b`). With `boxed` (window radius `r`, vector levels only) the
-/// row's box sums follow each column as soon as its window is complete, into `sc.cost` (the
-/// columns they read are still in L1; a second pass read them back from L2 or beyond); returns
-/// whether it did.
+/// Adds the row held in `l_a`/`r_a` to the column sums (and subtracts `l_b`/`r_b` if `sub`):
+/// `|L − R|`, or with `bt` the Birchfield–Tomasi difference on the intervals in
+/// `bt_a`/`bt_b`. With `boxed = Some(r)` (window radius, vector levels only) the row's box
+/// sums follow each column as soon as its window is complete, into `sc.cost` (the columns they
+/// read are still in L1; a second pass read them back from L2 or beyond); returns whether it did.
 #[inline(always)]
-fn vertical(sc: &mut Scratch, nd: usize, sub: bool, boxed: Option<usize>, isa: Isa) -> bool {
+fn vertical(sc: &mut Scratch, nd: usize, sub: bool, boxed: Option<usize>, bt: bool, isa: Isa) -> bool {
     #[cfg(target_arch = "x86_64")]
     if isa.avx2() {
         let cost = boxed.map(|r| (&mut sc.cost[..], r));
+        let rows = (&sc.l_a[..], &sc.r_a[..], &sc.l_b[..], &sc.r_b[..]);
+        let bt_rows = bt.then(|| (sc.bt_a.each_ref().map(|v| &v[..]), sc.bt_b.each_ref().map(|v| &v[..])));
         // SAFETY: `isa` only when the CPU has AVX2; lengths asserted inside.
-        unsafe { avx2::vertical(&mut sc.colsum, &sc.l_a, &sc.r_a, &sc.l_b, &sc.r_b, lanes(nd), sub, cost) };
+        unsafe { avx2::vertical(&mut sc.colsum, rows, bt_rows, lanes(nd), sub, cost) };
         return boxed.is_some();
     }
     let _ = (isa, boxed);
@@ -292,7 +382,22 @@ fn vertical(sc: &mut Scratch, nd: usize, sub: bool, boxed: Option<usize>, isa: I
     for (xp, cs) in sc.colsum.chunks_exact_mut(ndq).enumerate().take(wp) {
         let base = wp - 1 - xp;
         let (ra, la) = (&sc.r_a[base..base + ndq], sc.l_a[xp]);
-        if sub {
+        if bt {
+            let [l0, l1, r0, r1] = &sc.bt_a;
+            let (u, u0, u1) = (la, l0[xp], l1[xp]);
+            let (v0, v1) = (&r0[base..base + ndq], &r1[base..base + ndq]);
+            for k in 0..ndq {
+                cs[k] = cs[k].wrapping_add(bt_difference(u, u0, u1, ra[k], v0[k], v1[k]));
+            }
+            if sub {
+                let [l0, l1, r0, r1] = &sc.bt_b;
+                let (u, u0, u1) = (sc.l_b[xp], l0[xp], l1[xp]);
+                let (rb, v0, v1) = (&sc.r_b[base..base + ndq], &r0[base..base + ndq], &r1[base..base + ndq]);
+                for k in 0..ndq {
+                    cs[k] = cs[k].wrapping_sub(bt_difference(u, u0, u1, rb[k], v0[k], v1[k]));
+                }
+            }
+        } else if sub {
             let (rb, lb) = (&sc.r_b[base..base + ndq], sc.l_b[xp]);
             for ((c, a), b) in cs.chunks_exact_mut(16).zip(ra.chunks_exact(16)).zip(rb.chunks_exact(16)) {
                 for k in 0..16 {
@@ -309,21 +414,54 @@ fn vertical(sc: &mut Scratch, nd: usize, sub: bool, boxed: Option<usize>, isa: I
     }
     false
 }
+
+/// Birchfield–Tomasi's difference of the left value `u` (interval `[u0, u1]`) and the right
+/// value `v` (`[v0, v1]`): the smaller of `u`'s distance to `[v0, v1]` and `v`'s to `[u0, u1]`.
+#[inline(always)]
+fn bt_difference(u: u16, u0: u16, u1: u16, v: u16, v0: u16, v1: u16) -> u16 {
+    u.saturating_sub(v1).max(v0.saturating_sub(u)).min(v.saturating_sub(u1).max(u0.saturating_sub(v)))
+}
+
+/// Loads row `y` into the `a` rows (`b = false`) or the `b` rows: the prefiltered images (and
+/// their Birchfield–Tomasi intervals when the cost uses them), or with `intensity` the
+/// intensity planes.
+#[inline(always)]
+fn load(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, b: bool, intensity: bool) {
+    let (l, r, bt) =
+        if b { (&mut sc.l_b, &mut sc.r_b, &mut sc.bt_b) } else { (&mut sc.l_a, &mut sc.r_a, &mut sc.bt_a) };
+    if intensity {
+        let [ql, qr] = pp.quant.expect("intensity rows only with the intensity term");
+        load_plane_rows(sh, ql, qr, y, l, r);
+        return;
+    }
+    load_rows(sh, y, l, r);
+    if let Some([l0, l1, r0, r1]) = pp.bt {
+        let [a, b, c, d] = bt;
+        load_plane_rows(sh, l0, r0, y, a, c);
+        load_plane_rows(sh, l1, r1, y, b, d);
+    }
+}
+
 /// The column sums of row `y` from scratch.
 #[inline(always)]
-fn colsum_init(sh: &Shared, sc: &mut Scratch, y: usize, isa: Isa) {
+fn colsum_init(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, isa: Isa) {
     let (h, r) = (sh.h as i64, sh.r as i64);
     sc.colsum.fill(0);
     for j in y as i64 - r..=y as i64 + r {
-        load_rows(sh, j.clamp(0, h - 1) as usize, &mut sc.l_a, &mut sc.r_a);
-        vertical(sc, sh.nd, false, None, isa);
+        let j = j.clamp(0, h - 1) as usize;
+        if pp.quant.is_some() {
+            load(sh, pp, sc, j, false, true);
+            vertical(sc, sh.nd, false, None, false, isa);
+        }
+        load(sh, pp, sc, j, false, false);
+        vertical(sc, sh.nd, false, None, pp.bt.is_some(), isa);
     }
 }
 
 /// Moves the column sums from row `y` to row `y + 1` (`down`) or `y − 1`; returns whether the
 /// new row's box sums were made with them (see [`vertical`]).
 #[inline(always)]
-fn colsum_move(sh: &Shared, sc: &mut Scratch, y: usize, down: bool, isa: Isa) -> bool {
+fn colsum_move(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, down: bool, isa: Isa) -> bool {
     let (h, r) = (sh.h as i64, sh.r as i64);
     let clamp = |v: i64| v.clamp(0, h - 1) as usize;
     let (yi, yo) = if down {
@@ -334,12 +472,18 @@ fn colsum_move(sh: &Shared, sc: &mut Scratch, y: usize, down: bool, isa: Isa) ->
     if yi == yo {
         return false;
     }
-    load_rows(sh, yi, &mut sc.l_a, &mut sc.r_a);
-    load_rows(sh, yo, &mut sc.l_b, &mut sc.r_b);
+    // the intensity term first: the box sums, when made in the pass, need the complete sums
+    if pp.quant.is_some() {
+        load(sh, pp, sc, yi, false, true);
+        load(sh, pp, sc, yo, true, true);
+        vertical(sc, sh.nd, true, None, false, isa);
+    }
+    load(sh, pp, sc, yi, false, false);
+    load(sh, pp, sc, yo, true, false);
     // with the box sums when a row of sums outgrows L1 by far (measured, three paths, 1 thread:
     // 1282x1110x224 0.95x the time, 626x555x96 0.96x; teddy 450x375x64, 56 KB a row: 1.03x)
     let boxed = sh.w * lanes(sh.nd) * 2 > FUSED_BOX_BYTES;
-    vertical(sc, sh.nd, true, boxed.then_some(sh.r), isa)
+    vertical(sc, sh.nd, true, boxed.then_some(sh.r), pp.bt.is_some(), isa)
 }
 
 /// `C` of the current row from the column sums: running box sums along the row (unless
@@ -654,12 +798,12 @@ fn strip(
     let (w, h) = (sh.w, sh.h);
     let nd = lanes(sh.nd);
     let eight = pp.paths == SgmPaths::Eight;
-    sc.resize(sh, y1 - y0, pp.paths);
+    sc.resize(sh, y1 - y0, pp.paths, pp.bt.is_some());
     let mut st = MatchStats::default();
     let ys = y0.saturating_sub(pp.overlap);
-    colsum_init(sh, sc, ys, isa);
+    colsum_init(sh, pp, sc, ys, isa);
     for y in ys..y1 {
-        let boxed = y > ys && colsum_move(sh, sc, y - 1, true, isa);
+        let boxed = y > ys && colsum_move(sh, pp, sc, y - 1, true, isa);
         cost_row(sh, sc, pp.cmax, boxed, isa);
         forward_row(sh, sc, pp, y, y == ys, isa);
         if y < y0 {
@@ -673,9 +817,9 @@ fn strip(
     }
     if eight {
         let ye = (y1 + pp.overlap).min(h);
-        colsum_init(sh, sc, ye - 1, isa);
+        colsum_init(sh, pp, sc, ye - 1, isa);
         for y in (y0..ye).rev() {
-            let boxed = y + 1 < ye && colsum_move(sh, sc, y + 1, false, isa);
+            let boxed = y + 1 < ye && colsum_move(sh, pp, sc, y + 1, false, isa);
             cost_row(sh, sc, pp.cmax, boxed, isa);
             if y < y1 {
                 sc.acc.copy_from_slice(&sc.vol[(y - y0) * w * nd..][..w * nd]);
@@ -771,19 +915,22 @@ mod lanes {
     }
 
     /// Checks the lengths [`vertical`] needs (as [`paths_checked`]).
-    pub(super) fn vertical_checked(
-        colsum: &[u16],
-        la: &[u16],
-        ra: &[u16],
-        lb: &[u16],
-        rb: &[u16],
-        ndq: usize,
-        sub: bool,
-    ) {
+    pub(super) fn vertical_checked(colsum: &[u16], rows: Rows, bt: Option<BtRows>, ndq: usize, sub: bool) {
+        let (la, ra, lb, rb) = rows;
         let wp = la.len();
         assert!(ndq.is_multiple_of(16) && colsum.len() >= wp * ndq && ra.len() + 1 >= wp + ndq);
         assert!(!sub || (lb.len() >= wp && rb.len() + 1 >= wp + ndq));
+        if let Some((a, b)) = bt {
+            for (i, v) in a.iter().chain(if sub { &b[..] } else { &[] }).enumerate() {
+                assert!(if i % 4 < 2 { v.len() >= wp } else { v.len() + 1 >= wp + ndq });
+            }
+        }
     }
+
+    /// The rows `l_a`, `r_a`, `l_b`, `r_b` of [`vertical`].
+    pub(super) type Rows<'a> = (&'a [u16], &'a [u16], &'a [u16], &'a [u16]);
+    /// Their Birchfield–Tomasi intervals (left `I⁻`, `I⁺`, right `I⁻`, `I⁺`), rows a and b.
+    pub(super) type BtRows<'a> = ([&'a [u16]; 4], [&'a [u16]; 4]);
 
     /// Checks the lengths [`box_row`] needs (as [`paths_checked`]).
     pub(super) fn box_row_checked(cost: &[u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
@@ -1074,12 +1221,10 @@ mod lanes {
     /// [`V16`]'s contract; the lengths the callers assert.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)] // both row pairs, the lane count and range
-    pub(super) unsafe fn vertical<V: V16>(
+    pub(super) unsafe fn vertical<V: V16, const BT: bool>(
         colsum: &mut [u16],
-        la: &[u16],
-        ra: &[u16],
-        lb: &[u16],
-        rb: &[u16],
+        (la, ra, lb, rb): Rows,
+        bt: Option<BtRows>,
         ndq: usize,
         sub: bool,
         boxed: Option<(*mut u16, usize)>,
@@ -1087,19 +1232,47 @@ mod lanes {
     ) {
         let wp = la.len();
         let cs = colsum.as_mut_ptr();
+        let empty: [&[u16]; 4] = [&[]; 4];
+        let (bta, btb) = bt.unwrap_or((empty, empty));
+        // one row's difference at column xp (left value and interval splatted), lanes d..
+        let diff = |u: V, u0: V, u1: V, r: &[u16], bt: &[&[u16]; 4], base: usize| -> V {
+            // SAFETY: base + d + LANES ≤ wp − 1 + ndq, within r and the right intervals
+            // (asserted by the callers).
+            unsafe {
+                let v = V::ld(r.as_ptr().add(base));
+                if BT {
+                    let (v0, v1) = (V::ld(bt[2].as_ptr().add(base)), V::ld(bt[3].as_ptr().add(base)));
+                    // distance to an interval: at most one of the two saturating differences is
+                    // non-zero, so their `or` is their maximum
+                    V::min(V::or(V::subs(u, v1), V::subs(v0, u)), V::or(V::subs(v, u1), V::subs(u0, v)))
+                } else {
+                    absdiff(u, v)
+                }
+            }
+        };
+        let splat3 = |l: &[u16], bt: &[&[u16]; 4], xp: usize| {
+            // SAFETY: the trait's contract; xp < wp ≤ each left row's length (asserted).
+            unsafe {
+                if BT {
+                    (V::splat(l[xp]), V::splat(bt[0][xp]), V::splat(bt[1][xp]))
+                } else {
+                    (V::splat(l[xp]), V::splat(0), V::splat(0))
+                }
+            }
+        };
         // SAFETY: xp·ndq + d + LANES ≤ wp·ndq; base + d + LANES ≤ wp − 1 + ndq; with `boxed`,
         // x·ndq + d + LANES ≤ (wp − 2r)·ndq lanes of cost (asserted by the callers).
         unsafe {
             for xp in 0..wp {
                 let base = wp - 1 - xp;
-                let lav = V::splat(la[xp]);
-                let lbv = if sub { V::splat(lb[xp]) } else { V::splat(0) };
+                let (ua, ua0, ua1) = splat3(la, &bta, xp);
+                let (ub, ub0, ub1) = if sub { splat3(lb, &btb, xp) } else { (V::splat(0), V::splat(0), V::splat(0)) };
                 let mut d = from;
                 while d < to {
                     let p = cs.add(xp * ndq + d);
-                    let mut v = V::add(V::ld(p), absdiff(lav, V::ld(ra.as_ptr().add(base + d))));
+                    let mut v = V::add(V::ld(p), diff(ua, ua0, ua1, ra, &bta, base + d));
                     if sub {
-                        v = V::sub(v, absdiff(lbv, V::ld(rb.as_ptr().add(base + d))));
+                        v = V::sub(v, diff(ub, ub0, ub1, rb, &btb, base + d));
                     }
                     V::st(p, v);
                     d += V::LANES;
@@ -1371,23 +1544,27 @@ mod avx2 {
     #[allow(clippy::too_many_arguments)] // both row pairs, the lane count, the box sums
     pub(super) unsafe fn vertical(
         colsum: &mut [u16],
-        la: &[u16],
-        ra: &[u16],
-        lb: &[u16],
-        rb: &[u16],
+        rows: lanes::Rows,
+        bt: Option<lanes::BtRows>,
         ndq: usize,
         sub: bool,
         cost: Option<(&mut [u16], usize)>,
     ) {
-        lanes::vertical_checked(colsum, la, ra, lb, rb, ndq, sub);
+        lanes::vertical_checked(colsum, rows, bt, ndq, sub);
         let boxed = cost.map(|(cost, r)| {
-            let wp = la.len();
+            let wp = rows.0.len();
             assert!(wp > 2 * r);
             lanes::box_row_checked(cost, colsum, wp - 2 * r, r, ndq);
             (cost.as_mut_ptr(), r)
         });
         // SAFETY: AVX2 (this function's features); lengths asserted above.
-        unsafe { lanes::vertical::<W256>(colsum, la, ra, lb, rb, ndq, sub, boxed, (0, ndq)) }
+        unsafe {
+            if bt.is_some() {
+                lanes::vertical::<W256, true>(colsum, rows, bt, ndq, sub, boxed, (0, ndq))
+            } else {
+                lanes::vertical::<W256, false>(colsum, rows, bt, ndq, sub, boxed, (0, ndq))
+            }
+        }
     }
 
     /// [`lanes::box_row`] on every lane.
