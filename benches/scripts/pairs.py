@@ -47,7 +47,11 @@ def out_dir():
 def our_options(mode):
     """`xtask disparity` options matching opencv_matcher(mode): bm = StereoBM 9x9's (x-Sobel,
     texture 10, uniqueness 0, no left-right check, no speckle filter); sgm = the SGM measurement
-    preset without texture and speckle filters, on SGM_PATHS paths (default 3, 3-way's directions)."""
+    preset without texture and speckle filters, on SGM_PATHS paths (default 3, 3-way's directions);
+    with SGM_PRESET=accurate, the accurate preset (`--accurate`: SGBM's cost and left-right rule,
+    eight paths, its own uniqueness 0) without texture and speckle filters."""
+    if mode == "sgm" and os.environ.get("SGM_PRESET") == "accurate":
+        return ["--method", "sgm", "--accurate", "--speckle-window", "0", "--texture", "0"]
     if mode == "bm":
         return ["--prefilter", "xsobel", "--uniqueness", "0", "--lr-max-diff", "-1", "--speckle-window", "0",
                 "--texture", "10", "--block", "9"]
@@ -57,10 +61,12 @@ def our_options(mode):
 
 def opencv_matcher(mode, nd):
     """StereoBM 9x9 with uniqueness 0, or StereoSGBM 3-way (block 5, P1 200, P2 800,
-    disp12MaxDiff 1, uniqueness 10, no speckle filter)."""
+    disp12MaxDiff 1, uniqueness 10, no speckle filter); SGBM_MODE=hh (eight directions, full
+    cost volume) or sgbm (five directions) for SGBM's other modes."""
     if mode == "bm":
         m = cv2.StereoBM_create(numDisparities=nd, blockSize=9); m.setUniquenessRatio(0)
         return m
     return cv2.StereoSGBM_create(minDisparity=0, numDisparities=nd, blockSize=5, P1=200, P2=800, disp12MaxDiff=1,
                                  preFilterCap=63, uniquenessRatio=10, speckleWindowSize=0, speckleRange=0,
-                                 mode=cv2.StereoSGBM_MODE_SGBM_3WAY)
+                                 mode={"3way": cv2.StereoSGBM_MODE_SGBM_3WAY, "sgbm": cv2.StereoSGBM_MODE_SGBM,
+                                       "hh": cv2.StereoSGBM_MODE_HH}[os.environ.get("SGBM_MODE", "3way")])
