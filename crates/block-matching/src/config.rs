@@ -91,7 +91,7 @@ pub enum SgmPaths {
     /// Three paths in one top-to-bottom pass (left-to-right, right-to-left, down): the
     /// directions of OpenCV's `MODE_SGBM_3WAY`, the fastest (about 0.7x the time of five).
     /// Middlebury nonocc with the [`MatcherConfig::sgm`] preset, bad-2 among the returned pixels
-    /// / density: tsukuba 1.94 % / 97.0 %, venus 0.54 % / 98.1 %, teddy 3.55 % / 92.9 %; missing
+    /// / density: tsukuba 1.94 % / 97.0 %, venus 0.52 % / 97.6 %, teddy 3.54 % / 92.6 %; missing
     /// = bad ([`MatcherConfig::sgm_dense`]) 2.98 / 1.34 / 7.40.
     Three,
 }
@@ -271,9 +271,9 @@ impl MatcherConfig {
     /// x-Sobel prefilter, P1 = 8, P2 = 64 per window pixel with the intensity-adaptive P2
     /// (γ = 16), uniqueness 10 %, left–right check 1 px, speckle filter 100 px. Middlebury
     /// nonocc, bad-2 among the returned pixels / density: tsukuba 2.33 % / 96.9 %, venus
-    /// 0.54 % / 98.2 %, teddy 3.62 % / 92.9 % (OpenCV SGBM 3-way: 2.40 / 98.5, 0.74 / 94.9,
-    /// 5.46 / 89.9). Eight paths ([`SgmPaths::Eight`]): 1.80 / 97.3, 0.67 / 98.4, 3.93 / 92.2;
-    /// three ([`SgmPaths::Three`]): 1.94 / 97.0, 0.54 / 98.1, 3.55 / 92.9.
+    /// 0.51 % / 97.8 %, teddy 3.59 % / 92.6 % (OpenCV SGBM 3-way: 2.40 / 98.5, 0.74 / 94.9,
+    /// 5.46 / 89.9). Eight paths ([`SgmPaths::Eight`]): 1.80 / 97.3, 0.66 / 97.9, 3.94 / 91.9;
+    /// three ([`SgmPaths::Three`]): 1.94 / 97.0, 0.52 / 97.6, 3.54 / 92.6.
     pub fn sgm() -> Self {
         Self {
             method: Method::Sgm,
@@ -290,7 +290,7 @@ impl MatcherConfig {
     /// [`SgmConfig::sampling_insensitive`] and [`SgmConfig::intensity_cost`]), no uniqueness
     /// margin, SGBM's sub-pixel left–right rule ([`MatcherConfig::lr_subpixel`], 1 px) and the
     /// speckle filter (100 px). Middlebury nonocc, bad-2 among the returned pixels / density:
-    /// tsukuba 2.33 % / 98.77 %, venus 0.68 % / 98.87 %, teddy 4.37 % / 95.78 % (OpenCV SGBM
+    /// tsukuba 2.33 % / 98.77 %, venus 0.67 % / 98.53 %, teddy 4.36 % / 95.40 % (OpenCV SGBM
     /// 3-way: 2.40 / 98.51, 0.74 / 94.89, 5.46 / 89.92; its eight-direction `MODE_HH`: 2.34 /
     /// 98.80, 0.93 / 94.86, 5.67 / 88.83). Speed on a 2-core Zen 4 against OpenCV 5.1 (2
     /// threads, interleaved): 1.1–4.0x `MODE_HH`'s, about `MODE_SGBM`'s (0.85–1.23x), half of

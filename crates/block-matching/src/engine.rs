@@ -245,6 +245,9 @@ pub(crate) struct Shared<'a> {
     pub(crate) exact_lr_at_edges: bool,
     /// [`MatcherConfig::lr_subpixel`].
     pub(crate) lr_subpixel: bool,
+    /// Uniqueness margin (percent) required where the image edge cuts a pixel's search range
+    /// (semi-global matching: [`crate::sgm::EDGE_UNIQUENESS`]; 0 = the configured one only).
+    pub(crate) edge_uniq: u32,
     pub(crate) fill: bool,
     /// Compute the confidence (second-best non-adjacent cost) of every pixel.
     pub(crate) conf: bool,
@@ -538,6 +541,8 @@ impl BlockMatcher {
             lr: cfg.lr_max_diff,
             exact_lr_at_edges: sgm,
             lr_subpixel: cfg.lr_subpixel,
+            // not in a filled (benchmark) map: there every pixel is returned, guesses included
+            edge_uniq: if sgm && !cfg.fill { crate::sgm::EDGE_UNIQUENESS } else { 0 },
             fill: cfg.fill,
             conf: cfg.needs_confidence(),
             min_conf: cfg.min_confidence,

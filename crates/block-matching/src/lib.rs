@@ -28,11 +28,11 @@
 //! starting `overlap` rows outside the strip. Exact 16-bit integer aggregation in AVX2
 //! intrinsics, checked against a naive reference. Middlebury nonocc: bad-2 with missing = bad (dense preset) 3.40 / 1.29 /
 //! 7.39 (five paths) against OpenCV SGBM 3-way's 3.85 / 5.81 / 14.99; among the returned pixels
-//! (measurement preset) 2.33 % at 96.9 % / 0.54 % at 98.2 % / 3.62 % at 92.9 % against SGBM's
+//! (measurement preset) 2.33 % at 96.9 % / 0.51 % at 97.8 % / 3.59 % at 92.6 % against SGBM's
 //! 2.40 % at 98.5 % / 0.74 % at 94.9 % / 5.46 % at 89.9 %. [`MatcherConfig::sgm_accurate`]
 //! (SGBM's Birchfield–Tomasi + intensity cost and left–right rule, eight paths) reaches SGBM's
-//! density with fewer wrong pixels on all three: 2.33 % at 98.77 % / 0.68 % at 98.88 % /
-//! 4.37 % at 95.77 %, at about twice the time of the measurement preset (1.1–4.0x the speed of
+//! density with fewer wrong pixels on all three: 2.33 % at 98.77 % / 0.67 % at 98.53 % /
+//! 4.36 % at 95.40 %, at about twice the time of the measurement preset (1.1–4.0x the speed of
 //! OpenCV's eight-direction `MODE_HH`, half of 3-way's).
 //!
 //! Many frames: [`BlockMatcher::frames`] matches an iterator of pairs (any source; no file I/O

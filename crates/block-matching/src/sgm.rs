@@ -42,9 +42,21 @@
 use crate::config::{SgmConfig, SgmPaths};
 use crate::engine::{
     MatchStats, Shared, SimdLevel, conf_row, curve_ratio, decide, finish_row, load_plane_rows, load_rows,
-    subpixel_offset,
+    subpixel_offset, unique,
 };
 use crate::error::{BlockMatchingError, Result};
+
+/// Uniqueness margin (percent) a winner needs where the image edge cuts its pixel's candidates
+/// short of the range (the left band `x < dmin + D − 1`, or the right one with negative
+/// disparities): its best rival further than one disparity away must cost more than twice as
+/// much (the confidence `1 − c*/c₂` above 0.5). Where the true match has left the right image
+/// the paths still carry a plausible minimum into the band; the margin the configuration asks
+/// for (0 in [`crate::MatcherConfig::sgm_accurate`]) let most of them through. Middlebury,
+/// pixels whose true match is outside the right image returned more than 2 px off, three / five
+/// / eight paths / accurate preset: venus 172 / 190 / 177 / 600 → 0 / 114 / 116 / 143 of 4318,
+/// teddy 178 / 140 / 521 / 651 → none of 12315; correct band pixels lost: 4–13 %. Not in
+/// filled (benchmark) maps, which return every pixel.
+pub(crate) const EDGE_UNIQUENESS: u32 = 100;
 
 /// Largest task memory of the eight-path strips, bytes.
 const STRIP_BYTES: usize = 48 << 20;
@@ -760,6 +772,8 @@ fn decide_row(
                 // `third`: how many of them are within the uniqueness ratio (0 without one)
                 third > 0
             };
+            // the edge band's margin (a scalar check on the few pixels there)
+            let not_unique = not_unique || edge_not_unique(sh, s, lo, hi, kb);
             st.not_unique += not_unique as usize;
             sc.best[x] = if not_unique { -1 } else { kb as i32 };
             sc.sub[x] = subpixel_offset(&s[..nd], lo, hi, kb, sh.subpixel);
@@ -768,6 +782,10 @@ fn decide_row(
             continue;
         }
         match decide(&s[..nd], lo, hi, sh.uniq, sh.subpixel, sh.conf) {
+            crate::engine::Decision::Best(k, _, _) if edge_not_unique(sh, s, lo, hi, k as usize) => {
+                sc.best[x] = -1;
+                st.not_unique += 1;
+            }
             crate::engine::Decision::Best(k, off, ratio) => {
                 sc.best[x] = k;
                 sc.sub[x] = off;
@@ -781,6 +799,14 @@ fn decide_row(
     }
     let rk = &sc.rk;
     finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, |u| rk[w - 1 - u] as u32);
+}
+
+/// Whether the winner `kb` of `s[lo..=hi]` fails [`EDGE_UNIQUENESS`] at a pixel whose range the
+/// image edge cuts (`lo > 0` or `hi < D − 1`); false elsewhere.
+#[inline(always)]
+fn edge_not_unique(sh: &Shared, s: &[u16], lo: usize, hi: usize, kb: usize) -> bool {
+    let cut = lo > 0 || hi + 1 < sh.nd;
+    cut && sh.edge_uniq > sh.uniq && !unique(&s[..sh.nd], lo, hi, kb, sh.edge_uniq)
 }
 
 /// Rows `y0..y1` of one strip.

@@ -197,8 +197,12 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
                 }
             }
             let m = cs[kb];
-            if cfg.uniqueness_ratio > 0 {
-                let t = m + m * cfg.uniqueness_ratio as i64 / 100;
+            // where the image edge cuts the candidates short of 0..nd, a margin of at least 100 %
+            // (not in filled maps)
+            let cut = (lo > 0 || hi < nd - 1) && !cfg.fill;
+            let uniq = if cut { cfg.uniqueness_ratio.max(100) } else { cfg.uniqueness_ratio };
+            if uniq > 0 {
+                let t = m + m * uniq as i64 / 100;
                 if ks.iter().any(|&k| (k as i64 - kb as i64).abs() > 1 && cs[k] <= t) {
                     continue;
                 }
