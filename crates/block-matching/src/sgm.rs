@@ -718,14 +718,6 @@ fn decide_row(
 ) {
     let (w, nd, dmin) = (sh.w, sh.nd, sh.dmin);
     let ndq = lanes(nd);
-    #[cfg(target_arch = "x86_64")]
-    let second = if sh.conf {
-        lanes::Second::Min
-    } else if sh.uniq > 0 {
-        lanes::Second::Count(sh.uniq)
-    } else {
-        lanes::Second::Skip
-    };
     sc.rc.fill(u16::MAX);
     sc.rk.fill(u16::MAX);
     for x in 0..w {
@@ -759,6 +751,16 @@ fn decide_row(
         }
         #[cfg(target_arch = "x86_64")]
         if isa.avx2() {
+            // where the edge cuts the range the larger margin (it implies the configured one)
+            let cut = lo > 0 || hi + 1 < nd;
+            let uniq = if cut { sh.uniq.max(sh.edge_uniq) } else { sh.uniq };
+            let second = if sh.conf {
+                lanes::Second::Min
+            } else if uniq > 0 {
+                lanes::Second::Count(uniq)
+            } else {
+                lanes::Second::Skip
+            };
             // SAFETY: `isa` only when the CPU has AVX2; `s` has Dq lanes, lo ≤ hi < D
             // (asserted inside).
             let (m, kb, third) = unsafe { avx2::wta(s, &sc.tail, lo, hi, second) };
@@ -766,14 +768,12 @@ fn decide_row(
             // mispredicted)
             let not_unique = if sh.conf {
                 // `third`: the smallest S apart from the winner and its neighbours
-                let t = (m as u32 + m as u32 * sh.uniq / 100).min(u16::MAX as u32) as u16;
-                (sh.uniq > 0) & (third != u16::MAX) & (third <= t)
+                let t = (m as u32 + m as u32 * uniq / 100).min(u16::MAX as u32) as u16;
+                (uniq > 0) & (third != u16::MAX) & (third <= t)
             } else {
                 // `third`: how many of them are within the uniqueness ratio (0 without one)
                 third > 0
             };
-            // the edge band's margin (a scalar check on the few pixels there)
-            let not_unique = not_unique || edge_not_unique(sh, s, lo, hi, kb);
             st.not_unique += not_unique as usize;
             sc.best[x] = if not_unique { -1 } else { kb as i32 };
             sc.sub[x] = subpixel_offset(&s[..nd], lo, hi, kb, sh.subpixel);
