@@ -42,7 +42,7 @@
 use crate::config::{SgmConfig, SgmPaths};
 use crate::engine::{
     MatchStats, Shared, SimdLevel, conf_row, curve_ratio, decide, finish_row, load_plane_rows, load_rows,
-    subpixel_offset, unique,
+    subpixel_offset,
 };
 use crate::error::{BlockMatchingError, Result};
 
@@ -286,18 +286,19 @@ impl Scratch {
         for v in [&mut self.r_a, &mut self.r_b] {
             v.resize(wp + ndq - 1, 0);
         }
+        // left intervals as `l_a`, right ones as `r_a`; empty without the cost that reads them
+        let bt_len = |i: usize| {
+            if !bt {
+                0
+            } else if i < 2 {
+                wp
+            } else {
+                wp + ndq - 1
+            }
+        };
         for rows in [&mut self.bt_a, &mut self.bt_b] {
             for (i, v) in rows.iter_mut().enumerate() {
-                v.resize(
-                    if !bt {
-                        0
-                    } else if i < 2 {
-                        wp
-                    } else {
-                        wp + ndq - 1
-                    },
-                    0,
-                );
+                v.resize(bt_len(i), 0);
             }
         }
         self.cost.resize(w * ndq, 0);
@@ -749,11 +750,11 @@ fn decide_row(
             st.low_texture += 1;
             continue;
         }
+        // where the image edge cuts the range, the edge band's margin (it implies the configured
+        // one)
+        let uniq = if lo > 0 || hi + 1 < nd { sh.uniq.max(sh.edge_uniq) } else { sh.uniq };
         #[cfg(target_arch = "x86_64")]
         if isa.avx2() {
-            // where the edge cuts the range the larger margin (it implies the configured one)
-            let cut = lo > 0 || hi + 1 < nd;
-            let uniq = if cut { sh.uniq.max(sh.edge_uniq) } else { sh.uniq };
             let second = if sh.conf {
                 lanes::Second::Min
             } else if uniq > 0 {
@@ -781,11 +782,7 @@ fn decide_row(
                 if sh.conf { curve_ratio(m as f64, (third != u16::MAX).then_some(third as f64)) } else { 0.0 };
             continue;
         }
-        match decide(&s[..nd], lo, hi, sh.uniq, sh.subpixel, sh.conf) {
-            crate::engine::Decision::Best(k, _, _) if edge_not_unique(sh, s, lo, hi, k as usize) => {
-                sc.best[x] = -1;
-                st.not_unique += 1;
-            }
+        match decide(&s[..nd], lo, hi, uniq, sh.subpixel, sh.conf) {
             crate::engine::Decision::Best(k, off, ratio) => {
                 sc.best[x] = k;
                 sc.sub[x] = off;
@@ -799,14 +796,6 @@ fn decide_row(
     }
     let rk = &sc.rk;
     finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, |u| rk[w - 1 - u] as u32);
-}
-
-/// Whether the winner `kb` of `s[lo..=hi]` fails [`EDGE_UNIQUENESS`] at a pixel whose range the
-/// image edge cuts (`lo > 0` or `hi < D − 1`); false elsewhere.
-#[inline(always)]
-fn edge_not_unique(sh: &Shared, s: &[u16], lo: usize, hi: usize, kb: usize) -> bool {
-    let cut = lo > 0 || hi + 1 < sh.nd;
-    cut && sh.edge_uniq > sh.uniq && !unique(&s[..sh.nd], lo, hi, kb, sh.edge_uniq)
 }
 
 /// Rows `y0..y1` of one strip.
