@@ -1230,18 +1230,17 @@ mod lanes {
     }
 
     /// [`super::vertical`] on lanes `from..to` of every column: `colsum[xp] += |l_a[xp] −
-    /// r_a[base + d]|` (and, with `sub`, `−= |l_b[xp] − r_b[base + d]|`), wrapping lanes.
+    /// r_a[base + d]|` (and, with `SUB`, `−= |l_b[xp] − r_b[base + d]|`), wrapping lanes.
     ///
     /// # Safety
     /// [`V16`]'s contract; the lengths the callers assert.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)] // both row pairs, the lane count and range
-    pub(super) unsafe fn vertical<V: V16, const BT: bool>(
+    pub(super) unsafe fn vertical<V: V16, const BT: bool, const SUB: bool>(
         colsum: &mut [u16],
         (la, ra, lb, rb): Rows,
         bt: Option<BtRows>,
         ndq: usize,
-        sub: bool,
         boxed: Option<(*mut u16, usize)>,
         (from, to): (usize, usize),
     ) {
@@ -1275,31 +1274,50 @@ mod lanes {
                 }
             }
         };
-        // SAFETY: xp·ndq + d + LANES ≤ wp·ndq; base + d + LANES ≤ wp − 1 + ndq; with `boxed`,
-        // x·ndq + d + LANES ≤ (wp − 2r)·ndq lanes of cost (asserted by the callers).
-        unsafe {
-            for xp in 0..wp {
+        // one column's update; pasted into the loops with and without the box sums (a macro: a
+        // closure called from both loops was not inlined, so lost AVX2), so the column loop
+        // keeps no test of `boxed` (and the registers it would hold)
+        macro_rules! column {
+            ($xp:expr) => {{
+                let xp = $xp;
                 let base = wp - 1 - xp;
                 let (ua, ua0, ua1) = splat3(la, &bta, xp);
-                let (ub, ub0, ub1) = if sub { splat3(lb, &btb, xp) } else { (V::splat(0), V::splat(0), V::splat(0)) };
+                // SAFETY: the trait's contract.
+                let zero = unsafe { V::splat(0) };
+                let (ub, ub0, ub1) = if SUB { splat3(lb, &btb, xp) } else { (zero, zero, zero) };
                 let mut d = from;
                 while d < to {
-                    let p = cs.add(xp * ndq + d);
-                    let mut v = V::add(V::ld(p), diff(ua, ua0, ua1, ra, &bta, base + d));
-                    if sub {
-                        v = V::sub(v, diff(ub, ub0, ub1, rb, &btb, base + d));
+                    // SAFETY: xp·ndq + d + LANES ≤ wp·ndq (asserted by the callers).
+                    unsafe {
+                        let p = cs.add(xp * ndq + d);
+                        let mut v = V::add(V::ld(p), diff(ua, ua0, ua1, ra, &bta, base + d));
+                        if SUB {
+                            v = V::sub(v, diff(ub, ub0, ub1, rb, &btb, base + d));
+                        }
+                        V::st(p, v);
                     }
-                    V::st(p, v);
                     d += V::LANES;
                 }
-                // the box sum of pixel x = xp − 2r: its window's last column is complete
-                let Some((c, r)) = boxed else { continue };
-                if xp < 2 * r {
-                    continue;
-                }
-                let x = xp - 2 * r;
-                let mut d = from;
-                while d < to {
+            }};
+        }
+        let Some((c, r)) = boxed else {
+            for xp in 0..wp {
+                column!(xp);
+            }
+            return;
+        };
+        for xp in 0..wp {
+            column!(xp);
+            // the box sum of pixel x = xp − 2r: its window's last column is complete
+            if xp < 2 * r {
+                continue;
+            }
+            let x = xp - 2 * r;
+            let mut d = from;
+            while d < to {
+                // SAFETY: x·ndq + d + LANES ≤ (wp − 2r)·ndq lanes of cost, and the column sums
+                // as above (asserted by the callers).
+                unsafe {
                     let v = if x == 0 {
                         let mut acc = V::splat(0);
                         for k in 0..=2 * r {
@@ -1311,8 +1329,8 @@ mod lanes {
                         V::sub(run, V::ld(cs.add((x - 1) * ndq + d)))
                     };
                     V::st(c.add(x * ndq + d), v);
-                    d += V::LANES;
                 }
+                d += V::LANES;
             }
         }
     }
@@ -1574,10 +1592,11 @@ mod avx2 {
         });
         // SAFETY: AVX2 (this function's features); lengths asserted above.
         unsafe {
-            if bt.is_some() {
-                lanes::vertical::<W256, true>(colsum, rows, bt, ndq, sub, boxed, (0, ndq))
-            } else {
-                lanes::vertical::<W256, false>(colsum, rows, bt, ndq, sub, boxed, (0, ndq))
+            match (bt.is_some(), sub) {
+                (true, true) => lanes::vertical::<W256, true, true>(colsum, rows, bt, ndq, boxed, (0, ndq)),
+                (true, false) => lanes::vertical::<W256, true, false>(colsum, rows, bt, ndq, boxed, (0, ndq)),
+                (false, true) => lanes::vertical::<W256, false, true>(colsum, rows, bt, ndq, boxed, (0, ndq)),
+                (false, false) => lanes::vertical::<W256, false, false>(colsum, rows, bt, ndq, boxed, (0, ndq)),
             }
         }
     }

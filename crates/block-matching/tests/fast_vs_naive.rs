@@ -392,7 +392,7 @@ proptest! {
 
 #[test]
 fn fast_equals_naive_on_a_larger_image_with_many_bands() {
-    // enough rows for several bands with 2 threads, the full default option set minus speckle
+    // enough rows for several bands (one per thread: 4), the full default option set minus speckle
     // (with the confidence map), the dense preset (fill) and a confidence threshold with fill,
     // and the rank prefilter
     let presets = [
@@ -405,7 +405,7 @@ fn fast_equals_naive_on_a_larger_image_with_many_bands() {
             for preset in &presets {
                 let cfg =
                     MatcherConfig { cost, prefilter, num_disparities: 24, speckle_window_size: 0, ..preset.clone() };
-                run_case(7, 64, 160, 255, false, cfg, 2);
+                run_case(7, 64, 160, 255, false, cfg, 4);
             }
         }
     }
