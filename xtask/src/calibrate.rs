@@ -133,6 +133,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     );
     // Refuse an unknown output format before any work.
     let format = args.out.as_deref().map(|o| crate::files::output_format(o, args.format.as_deref())).transpose()?;
+    // a stereo result in ROS or Kalibr files: its baseline is read as metres
+    if let Some(f) = format.filter(|_| args.right.is_some() || args.right_corners.is_some()) {
+        crate::files::refuse_unit_for_metres(f, &target)?;
+    }
     let mut inputs: Vec<PathBuf> = args.corners.iter().chain(&args.right_corners).cloned().collect();
     for spec in args.images.iter().chain(&args.right) {
         inputs.extend(parallax_composition::io::input_paths(spec));

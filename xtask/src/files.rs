@@ -4,12 +4,41 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::ensure;
+use parallax_camera_model::TargetDescription;
 use parallax_interop::{Calibration, Format};
 use serde::Serialize;
 
 /// The format of `--out path` (and `--format`).
 pub fn output_format(path: &Path, explicit: Option<&str>) -> anyhow::Result<Format> {
     Ok(Format::for_output(path, explicit)?)
+}
+
+/// Whether `format` gives lengths in metres whatever the calibration's unit: ROS `camera_info`
+/// (the baseline in `P`) and Kalibr camchains (`T_cn_cnm1`). A result is written in its own unit,
+/// the target's, so these need a target measured in metres.
+pub fn in_metres(format: Format) -> bool {
+    matches!(format, Format::Ros | Format::Kalibr)
+}
+
+/// The distance between a target's first two points (a chessboard's or ChArUco board's square,
+/// a circle grid's spacing, an AprilGrid tag's side), in the unit of its lengths.
+pub fn target_pitch(target: &TargetDescription) -> Option<f64> {
+    Some((target.point(1)? - target.point(0)?).length())
+}
+
+/// A stereo result for a file in metres ([`in_metres`]) from a target whose points are a metre or
+/// more apart: its lengths are in millimetres or centimetres, and the file would carry a
+/// baseline 1000 or 100 times the rig's. Refused before any work, naming the fix.
+pub fn refuse_unit_for_metres(format: Format, target: &TargetDescription) -> anyhow::Result<()> {
+    let Some(pitch) = target_pitch(target).filter(|_| in_metres(format)) else { return Ok(()) };
+    ensure!(
+        pitch < 1.0,
+        "--format {} gives lengths in metres (the stereo baseline), and the result's lengths are in the target's \
+         unit, whose points are {pitch} apart here: a {pitch} m square is no calibration target. Give the target \
+         in metres (--square 0.025 for 25 mm squares; a target file's or description's lengths likewise)",
+        format.name()
+    );
+    Ok(())
 }
 
 /// Every file a result written at `path` in `format` may occupy, for the overwrite check: the

@@ -55,6 +55,10 @@ pub struct Args {
     line_spacing: u32,
 }
 
+/// A baseline at or above this, written to a file in metres, is warned of: stereo rigs are a few
+/// centimetres to a metre or two wide, a rig calibrated in millimetres is 20–500 wide.
+const BASELINE_WARN_METRES: f64 = 10.0;
+
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let ext = match args.format.to_ascii_lowercase().as_str() {
         "ron" => "ron",
@@ -71,6 +75,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     parallax_composition::io::refuse_overwriting_inputs(&crate::files::written_paths(&rect_path, format), &inputs)?;
     let stereo = crate::files::read_calibration(&args.calib)?.into_stereo(&args.calib[0].display().to_string())?;
     let rig = stereo.rig;
+    if crate::files::in_metres(format) && rig.baseline() >= BASELINE_WARN_METRES {
+        eprintln!(
+            "warning: --format {} gives lengths in metres, and this calibration's baseline is {:.4} in its own unit: \
+             written as {:.1} m. If the calibration is in millimetres or centimetres, calibrate again with the square \
+             size in metres",
+            format.name(),
+            rig.baseline(),
+            rig.baseline()
+        );
+    }
     let left = parallax_composition::io::load_image(&args.left)?;
     let right = parallax_composition::io::load_image(&args.right)?;
     for (what, img, path) in [("left", &left, &args.left), ("right", &right, &args.right)] {

@@ -469,6 +469,9 @@ fn rectify_in_ros_format_refuses_to_write_over_its_ros_input_files() {
     };
     let r = rectify(&[calib.to_str().unwrap()], &[]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    // the fixture rig is in millimetres (baseline 60): ROS reads it as metres
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(err.contains("warning") && err.contains("in metres") && err.contains("60.0"), "{err}");
     let (l, rr) = (ros.join("rectification_left.yaml"), ros.join("rectification_right.yaml"));
     let before = (std::fs::read(&l).unwrap(), std::fs::read(&rr).unwrap());
     let listing = files_below(&ros);
@@ -607,4 +610,80 @@ fn a_report_folder_that_is_a_file_or_holds_inputs_is_refused_before_any_output()
     let r = calibrate(&dir.join("report"));
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     assert!(out.exists() && dir.join("report/report.html").exists());
+}
+
+#[test]
+fn a_stereo_calibration_in_millimetres_is_refused_for_ros_and_kalibr_files_and_one_in_metres_is_written() {
+    // ROS camera_info and Kalibr camchains are in metres: with --square 25 (mm) the baseline was
+    // written as 60 m, exit 0
+    let dir = temp("metres");
+    let (left, right) = (fixture("stereo/left_*.png"), fixture("stereo/right_*.png"));
+    let calibrate = |square: &str, format: &str, out: &Path| {
+        let out = out.to_str().unwrap();
+        run(&[
+            "calibrate",
+            "--images",
+            &left,
+            "--right",
+            &right,
+            "--board",
+            "9x6",
+            "--square",
+            square,
+            "--format",
+            format,
+            "--out",
+            out,
+        ])
+    };
+    for format in ["ros", "kalibr"] {
+        let r = calibrate("25", format, &dir.join(format!("{format}.yaml")));
+        fails_naming(&r, &["in metres", "25", "--square 0.025"]);
+    }
+    assert!(files_below(&dir).is_empty(), "{:?}", files_below(&dir));
+    // mono camera_info carries no length: not refused
+    let mono = dir.join("mono.yaml");
+    let r = run(&[
+        "calibrate",
+        "--images",
+        &left,
+        "--board",
+        "9x6",
+        "--square",
+        "25",
+        "--format",
+        "ros",
+        "--out",
+        mono.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    // in metres: written, and read back with the fixtures' true baseline, 60 mm (calibrated
+    // from the rendered views: within 1 mm)
+    let ros = dir.join("rig.yaml");
+    let r = calibrate("0.025", "ros", &ros);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let pair = parallax_interop::ros_pair_paths(&ros);
+    let (c, _) = parallax_interop::read(&pair).unwrap();
+    let baseline = c.into_stereo("rig").unwrap().rig.baseline();
+    assert!((baseline - 0.060).abs() < 1e-3, "baseline {baseline} m");
+    // and rectifying with it gives no unit warning
+    let (l, rr) = (fixture("stereo/left_00.png"), fixture("stereo/right_00.png"));
+    let rect = dir.join("rect");
+    let paths = pair.map(|p| p.to_str().unwrap().to_string());
+    let r = run(&[
+        "rectify",
+        "--calib",
+        &paths[0],
+        &paths[1],
+        "--left",
+        &l,
+        "--right",
+        &rr,
+        "--out",
+        rect.to_str().unwrap(),
+        "--format",
+        "ros",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(!String::from_utf8_lossy(&r.stderr).contains("in metres"), "{}", String::from_utf8_lossy(&r.stderr));
 }
