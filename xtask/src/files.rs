@@ -22,7 +22,7 @@ pub fn in_metres(format: Format) -> bool {
 
 /// The distance between a target's first two points (a chessboard's or ChArUco board's square,
 /// a circle grid's spacing, an AprilGrid tag's side), in the unit of its lengths.
-pub fn target_pitch(target: &TargetDescription) -> Option<f64> {
+fn target_pitch(target: &TargetDescription) -> Option<f64> {
     Some((target.point(1)? - target.point(0)?).length())
 }
 

@@ -77,11 +77,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let rig = stereo.rig;
     if crate::files::in_metres(format) && rig.baseline() >= BASELINE_WARN_METRES {
         eprintln!(
-            "warning: --format {} gives lengths in metres, and this calibration's baseline is {:.4} in its own unit: \
-             written as {:.1} m. If the calibration is in millimetres or centimetres, calibrate again with the square \
-             size in metres",
+            "warning: --format {} gives lengths in metres, so this calibration's baseline, {:.4} in its own unit, is \
+             written as that many metres. If the calibration is in millimetres or centimetres, calibrate again with \
+             the square size in metres",
             format.name(),
-            rig.baseline(),
             rig.baseline()
         );
     }
