@@ -210,6 +210,19 @@ impl<'a> SgmParams<'a> {
             (self.p2 as u32 * self.gamma / (self.gamma + di)).max(self.p1 as u32) as u16
         }
     }
+
+    /// `out[i] = P2'` between `a[i]` and `b[i]`, for a whole row before its sweep (the lookups
+    /// in the sweep cost registers and branches at every pixel).
+    #[inline(always)]
+    fn p2_row(&self, a: &[u16], b: &[u16], out: &mut [u16]) {
+        if self.gamma == 0 {
+            out.fill(self.p2);
+            return;
+        }
+        for ((o, &u), &v) in out.iter_mut().zip(a).zip(b) {
+            *o = self.p2_between(u, v);
+        }
+    }
 }
 
 /// The strip height: independent of the thread count, so a map does not depend on the machine
@@ -265,6 +278,11 @@ pub(crate) struct Scratch {
     /// Their per-pixel minima.
     mp: [Vec<u16>; 3],
     mc: [Vec<u16>; 3],
+    /// `P2'` of each pixel of the row towards its predecessors, made once per row
+    /// ([`SgmParams::p2_row`]): `p2h[x]` towards `x − 1` on the row; `p2v[i][x]` towards the
+    /// row above (below, backward) at `x`, `x − 1` and `x + 1`.
+    p2h: Vec<u16>,
+    p2v: [Vec<u16>; 3],
     rc: Vec<u16>,
     rk: Vec<u16>,
     best: Vec<i32>,
@@ -325,11 +343,13 @@ impl Scratch {
                 v.resize(w * ndp, PAD);
             }
         }
-        for v in self.mp.iter_mut().chain(self.mc.iter_mut()) {
+        for v in self.mp.iter_mut().chain(self.mc.iter_mut()).chain(self.p2v.iter_mut()) {
             v.resize(w, 0);
         }
-        self.rc.resize(w, u16::MAX);
-        self.rk.resize(w, u16::MAX);
+        self.p2h.resize(w, 0);
+        // `Dq` lanes past the row: the fused winner search and right update writes whole chunks
+        self.rc.resize(w + ndq, u16::MAX);
+        self.rk.resize(w + ndq, u16::MAX);
         self.best.resize(w, -1);
         self.sub.resize(w, 0.0);
         self.ratio.resize(w, 0.0);
@@ -531,7 +551,11 @@ fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, boxed: bool, isa: Isa) {
             }
         }
     }
-    for x in 0..w {
+    // only the edge bands have such candidates: x < dmin + D − 1 (hi < D) and x ≥ w + dmin
+    // (lo > 0)
+    let left_end = (dmin + nd as i64 - 1).clamp(0, w as i64) as usize;
+    let right_start = (w as i64 + dmin).clamp(left_end as i64, w as i64) as usize;
+    for x in (0..left_end).chain(right_start..w) {
         let xd = x as i64 - dmin;
         let lo = (xd - (w as i64 - 1)).clamp(0, nd as i64) as usize;
         let hi = (xd + 1).clamp(0, nd as i64) as usize;
@@ -544,28 +568,48 @@ fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, boxed: bool, isa: Isa) {
 /// The paths of one pixel: for each path `i`, its predecessor vector `prev[i]` (padded),
 /// minimum `pmin[i]` and jump penalty `p2[i]`; writes the new vectors to `out[i]` (padded) and
 /// returns their minima. `acc` (`Dq` lanes) receives their sum (`set`: replaces it).
+///
+/// # Safety
+/// `c`, `acc` and `tail` address `Dq` lanes, every `prev[i]` and `out[i]` `Dq + 2`; no `out[i]`
+/// nor `acc` overlaps another of them or an input. With [`Isa::Avx2`] the CPU has AVX2 and
+/// the caller is compiled for it (the strip's AVX2 instance, [`strip_avx2`]).
 #[inline(always)]
-fn paths<const N: usize>(
+#[allow(clippy::too_many_arguments)] // the step's inputs and outputs
+unsafe fn paths<const N: usize>(
     isa: Isa,
-    c: &[u16],
-    prev: [&[u16]; N],
+    c: *const u16,
+    prev: [*const u16; N],
     pmin: [u16; N],
     p2: [u16; N],
     p1: u16,
-    out: [&mut [u16]; N],
-    acc: &mut [u16],
-    tail: &[u16],
+    out: [*mut u16; N],
+    acc: *mut u16,
+    tail: *const u16,
     nd: usize,
     set: bool,
 ) -> [u16; N] {
+    let ndq = lanes(nd);
+    // SAFETY: the lengths and the absence of overlap are the caller's.
+    let (c, acc) = unsafe { (std::slice::from_raw_parts(c, ndq), std::slice::from_raw_parts_mut(acc, ndq)) };
+    // SAFETY: as above.
+    let prev = prev.map(|p| unsafe { std::slice::from_raw_parts(p, ndq + 2) });
     #[cfg(target_arch = "x86_64")]
     if isa.avx2() {
-        // SAFETY: `isa` is set only when the CPU has AVX2; slice lengths are checked inside.
-        return unsafe { avx2::paths(c, prev, pmin, p2, p1, out, acc, tail, set) };
+        // SAFETY: the caller's (lengths, the instruction set); all lanes 0..Dq.
+        return unsafe {
+            let tail = std::slice::from_raw_parts(tail, ndq);
+            if set {
+                lanes::paths::<lanes::W256, N, true>(c, prev, pmin, p2, p1, out, acc, tail)
+            } else {
+                lanes::paths::<lanes::W256, N, false>(c, prev, pmin, p2, p1, out, acc, tail)
+            }
+        };
     }
     let _ = (isa, tail);
     let mut m = [0u16; N];
     for (i, o) in out.into_iter().enumerate() {
+        // SAFETY: the caller's.
+        let o = unsafe { std::slice::from_raw_parts_mut(o, ndq + 2) };
         m[i] = if set && i == 0 {
             step_set(&c[..nd], prev[i], pmin[i], p1, p2[i], o, acc)
         } else {
@@ -573,6 +617,81 @@ fn paths<const N: usize>(
         };
     }
     m
+}
+
+/// The buffers of one row's sweep as pointers, the lengths checked once per row (a sweep
+/// that sliced them at every pixel spent ~250 instructions a pixel on bounds checks, reloads
+/// and swaps: 1282x1110x224, three paths, callgrind), and `P2'` of the row's pixels towards
+/// the row `other` above (forward) or below (backward) in `p2v`.
+struct Sweep {
+    cost: *const u16,
+    acc: *mut u16,
+    tail: *const u16,
+    zero: *const u16,
+    vp: [*const u16; 3],
+    vc: [*mut u16; 3],
+    mp: [*const u16; 3],
+    mc: [*mut u16; 3],
+    p2v: [*const u16; 3],
+}
+
+impl Sweep {
+    /// Checks every length the sweep of a row relies on and takes the pointers; `vertical`: the
+    /// vertical and diagonal paths in use (1 or 3), `first`: no row before (no `P2'` towards it).
+    #[inline(always)]
+    fn new(
+        sh: &Shared,
+        sc: &mut Scratch,
+        pp: &SgmParams,
+        row: &[u16],
+        other: &[u16],
+        vertical: usize,
+        first: bool,
+    ) -> Self {
+        let w = sh.w;
+        let (ndq, ndp) = (lanes(sh.nd), lanes(sh.nd) + 2);
+        assert!(row.len() == w && other.len() == w && w > 0);
+        assert!(sc.cost.len() >= w * ndq && sc.acc.len() >= w * ndq && sc.tail.len() == ndq && sc.zero.len() == ndp);
+        for i in 0..vertical {
+            assert!(sc.vp[i].len() >= w * ndp && sc.vc[i].len() >= w * ndp);
+            assert!(sc.mp[i].len() >= w && sc.mc[i].len() >= w && sc.p2v[i].len() >= w);
+        }
+        if !first {
+            let [t, l, r] = &mut sc.p2v;
+            pp.p2_row(row, other, &mut t[..w]);
+            if vertical == 3 {
+                pp.p2_row(&row[1..], &other[..w - 1], &mut l[1..w]);
+                pp.p2_row(&row[..w - 1], &other[1..], &mut r[..w - 1]);
+            }
+        }
+        Self {
+            cost: sc.cost.as_ptr(),
+            acc: sc.acc.as_mut_ptr(),
+            tail: sc.tail.as_ptr(),
+            zero: sc.zero.as_ptr(),
+            vp: sc.vp.each_ref().map(|v| v.as_ptr()),
+            vc: sc.vc.each_mut().map(|v| v.as_mut_ptr()),
+            mp: sc.mp.each_ref().map(|v| v.as_ptr()),
+            mc: sc.mc.each_mut().map(|v| v.as_mut_ptr()),
+            p2v: sc.p2v.each_ref().map(|v| v.as_ptr()),
+        }
+    }
+
+    /// Predecessor `i` (0: straight, 1: from `x − 1`, 2: from `x + 1`) of pixel `x` on the row
+    /// before: its vector, minimum and `P2'`, or a path start (zeros, `P2`) where there is none.
+    ///
+    /// # Safety
+    /// `x < w`, `i` among the paths the sweep was made for.
+    #[inline(always)]
+    unsafe fn before(&self, i: usize, x: usize, w: usize, ndp: usize, start: bool, p2: u16) -> (*const u16, u16, u16) {
+        let none = start || (i == 1 && x == 0) || (i == 2 && x + 1 == w);
+        if none {
+            return (self.zero, 0, p2);
+        }
+        let xs = [x, x.wrapping_sub(1), x + 1][i];
+        // SAFETY: xs < w (the ends are path starts) and the lengths checked in `new`.
+        unsafe { (self.vp[i].add(xs * ndp), *self.mp[i].add(xs), *self.p2v[i].add(x)) }
+    }
 }
 
 /// The forward paths of row `y`: right→left, left→right and, from the row above (unless
@@ -588,69 +707,59 @@ fn paths<const N: usize>(
 #[inline(always)]
 fn forward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
     let (w, nd) = (sh.w, sh.nd);
-    let ndq = lanes(nd);
-    let ndp = ndq + 2;
+    let (ndq, ndp) = (lanes(nd), lanes(nd) + 2);
     let row = &pp.intensity[y * w..][..w];
     let above = if first { row } else { &pp.intensity[(y - 1) * w..][..w] };
-    let (vp, vc, mp, mc) = (&sc.vp, &mut sc.vc, &sc.mp, &mut sc.mc);
-    let [vc0, vc1, vc2] = vc;
-    let [mc0, mc1, mc2] = mc;
-    let zero = &sc.zero[..];
     let three = pp.paths == SgmPaths::Three;
+    // P2' along the row: p2h[x] between x and x − 1 (the right→left path at x reads p2h[x + 1])
+    pp.p2_row(&row[1..], &row[..w - 1], &mut sc.p2h[1..w]);
+    let s = Sweep::new(sh, sc, pp, row, above, if three { 1 } else { 3 }, first);
+    assert!([&sc.hprev, &sc.hcur, &sc.rprev, &sc.rcur].iter().all(|v| v.len() == ndp) && sc.p2h.len() >= w);
+    let p2h = sc.p2h.as_ptr();
+    let (mut hp, mut hc) = (sc.hprev.as_mut_ptr(), sc.hcur.as_mut_ptr());
+    let (mut rp, mut rc) = (sc.rprev.as_mut_ptr(), sc.rcur.as_mut_ptr());
+    let (p1, p2) = (pp.p1, pp.p2);
     let (mut pmin, mut rpmin) = (0, 0);
     for x in 0..w {
         let xr = w - 1 - x;
-        let c = &sc.cost[x * ndq..][..ndq];
-        let acc = &mut sc.acc[x * ndq..][..ndq];
-        let (h, hm, hp2) =
-            if x > 0 { (&sc.hprev[..], pmin, pp.p2_between(row[x], row[x - 1])) } else { (zero, 0, pp.p2) };
-        let (t, tm, tp2) = if first {
-            (zero, 0, pp.p2)
-        } else {
-            (&vp[0][x * ndp..][..ndp], mp[0][x], pp.p2_between(row[x], above[x]))
-        };
-        let (l, lm, lp2) = if three || first || x == 0 {
-            (zero, 0, pp.p2)
-        } else {
-            (&vp[1][(x - 1) * ndp..][..ndp], mp[1][x - 1], pp.p2_between(row[x], above[x - 1]))
-        };
-        let (r, rm, rp2) = if three || first || x + 1 == w {
-            (zero, 0, pp.p2)
-        } else {
-            (&vp[2][(x + 1) * ndp..][..ndp], mp[2][x + 1], pp.p2_between(row[x], above[x + 1]))
-        };
-        if three {
-            let outs = [&mut sc.hcur[..], &mut vc0[x * ndp..][..ndp]];
-            let m = paths::<2>(isa, c, [h, t], [hm, tm], [hp2, tp2], pp.p1, outs, acc, &sc.tail, nd, x <= xr);
-            pmin = m[0];
-            mc0[x] = m[1];
-        } else {
-            let outs =
-                [&mut sc.hcur[..], &mut vc0[x * ndp..][..ndp], &mut vc1[x * ndp..][..ndp], &mut vc2[x * ndp..][..ndp]];
-            let m = paths::<4>(
-                isa,
-                c,
-                [h, t, l, r],
-                [hm, tm, lm, rm],
-                [hp2, tp2, lp2, rp2],
-                pp.p1,
-                outs,
-                acc,
-                &sc.tail,
-                nd,
-                x <= xr,
-            );
-            pmin = m[0];
-            (mc0[x], mc1[x], mc2[x]) = (m[1], m[2], m[3]);
+        // SAFETY: x, xr < w, so every offset is inside its buffer (lengths checked above and in
+        // `Sweep::new`); the outputs (`hc`, row `vc`, `acc`) are other buffers than the inputs;
+        // `isa` as the strip's.
+        unsafe {
+            let (c, acc) = (s.cost.add(x * ndq), s.acc.add(x * ndq));
+            let (h, hm, hp2) = if x > 0 { (hp as *const u16, pmin, *p2h.add(x)) } else { (s.zero, 0, p2) };
+            let (t, tm, tp2) = s.before(0, x, w, ndp, first, p2);
+            let vo = |i: usize| s.vc[i].add(x * ndp);
+            if three {
+                let m = paths::<2>(isa, c, [h, t], [hm, tm], [hp2, tp2], p1, [hc, vo(0)], acc, s.tail, nd, x <= xr);
+                pmin = m[0];
+                *s.mc[0].add(x) = m[1];
+            } else {
+                let (l, lm, lp2) = s.before(1, x, w, ndp, first, p2);
+                let (r, rm, rp2) = s.before(2, x, w, ndp, first, p2);
+                let m = paths::<4>(
+                    isa,
+                    c,
+                    [h, t, l, r],
+                    [hm, tm, lm, rm],
+                    [hp2, tp2, lp2, rp2],
+                    p1,
+                    [hc, vo(0), vo(1), vo(2)],
+                    acc,
+                    s.tail,
+                    nd,
+                    x <= xr,
+                );
+                pmin = m[0];
+                (*s.mc[0].add(x), *s.mc[1].add(x), *s.mc[2].add(x)) = (m[1], m[2], m[3]);
+            }
+            std::mem::swap(&mut hp, &mut hc);
+            // right → left at xr
+            let (prev, m, p2r) = if xr + 1 < w { (rp as *const u16, rpmin, *p2h.add(xr + 1)) } else { (s.zero, 0, p2) };
+            let (c, acc) = (s.cost.add(xr * ndq), s.acc.add(xr * ndq));
+            [rpmin] = paths::<1>(isa, c, [prev], [m], [p2r], p1, [rc], acc, s.tail, nd, x < xr);
+            std::mem::swap(&mut rp, &mut rc);
         }
-        std::mem::swap(&mut sc.hprev, &mut sc.hcur);
-        // right → left at xr
-        let (prev, m, p2) =
-            if xr + 1 < w { (&sc.rprev[..], rpmin, pp.p2_between(row[xr], row[xr + 1])) } else { (zero, 0, pp.p2) };
-        let c = &sc.cost[xr * ndq..][..ndq];
-        let acc = &mut sc.acc[xr * ndq..][..ndq];
-        [rpmin] = paths::<1>(isa, c, [prev], [m], [p2], pp.p1, [&mut sc.rcur[..]], acc, &sc.tail, nd, x < xr);
-        std::mem::swap(&mut sc.rprev, &mut sc.rcur);
     }
     std::mem::swap(&mut sc.vp, &mut sc.vc);
     std::mem::swap(&mut sc.mp, &mut sc.mc);
@@ -661,35 +770,22 @@ fn forward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: b
 #[inline(always)]
 fn backward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
     let (w, nd) = (sh.w, sh.nd);
-    let ndq = lanes(nd);
-    let ndp = ndq + 2;
+    let (ndq, ndp) = (lanes(nd), lanes(nd) + 2);
     let row = &pp.intensity[y * w..][..w];
     let below = if first { row } else { &pp.intensity[(y + 1) * w..][..w] };
-    let (vp, vc, mp, mc) = (&sc.vp, &mut sc.vc, &sc.mp, &mut sc.mc);
-    let [vc0, vc1, vc2] = vc;
-    let [mc0, mc1, mc2] = mc;
-    let zero = &sc.zero[..];
+    let s = Sweep::new(sh, sc, pp, row, below, 3, first);
+    let p2 = pp.p2;
     for x in 0..w {
-        let c = &sc.cost[x * ndq..][..ndq];
-        let acc = &mut sc.acc[x * ndq..][..ndq];
-        let (t, tm, tp2) = if first {
-            (zero, 0, pp.p2)
-        } else {
-            (&vp[0][x * ndp..][..ndp], mp[0][x], pp.p2_between(row[x], below[x]))
-        };
-        let (l, lm, lp2) = if first || x == 0 {
-            (zero, 0, pp.p2)
-        } else {
-            (&vp[1][(x - 1) * ndp..][..ndp], mp[1][x - 1], pp.p2_between(row[x], below[x - 1]))
-        };
-        let (r, rm, rp2) = if first || x + 1 == w {
-            (zero, 0, pp.p2)
-        } else {
-            (&vp[2][(x + 1) * ndp..][..ndp], mp[2][x + 1], pp.p2_between(row[x], below[x + 1]))
-        };
-        let outs = [&mut vc0[x * ndp..][..ndp], &mut vc1[x * ndp..][..ndp], &mut vc2[x * ndp..][..ndp]];
-        let m = paths::<3>(isa, c, [t, l, r], [tm, lm, rm], [tp2, lp2, rp2], pp.p1, outs, acc, &sc.tail, nd, false);
-        (mc0[x], mc1[x], mc2[x]) = (m[0], m[1], m[2]);
+        // SAFETY: as in `forward_row`.
+        unsafe {
+            let (t, tm, tp2) = s.before(0, x, w, ndp, first, p2);
+            let (l, lm, lp2) = s.before(1, x, w, ndp, first, p2);
+            let (r, rm, rp2) = s.before(2, x, w, ndp, first, p2);
+            let outs = [0, 1, 2].map(|i| s.vc[i].add(x * ndp));
+            let (c, acc) = (s.cost.add(x * ndq), s.acc.add(x * ndq));
+            let m = paths::<3>(isa, c, [t, l, r], [tm, lm, rm], [tp2, lp2, rp2], pp.p1, outs, acc, s.tail, nd, false);
+            (*s.mc[0].add(x), *s.mc[1].add(x), *s.mc[2].add(x)) = (m[0], m[1], m[2]);
+        }
     }
     std::mem::swap(&mut sc.vp, &mut sc.vc);
     std::mem::swap(&mut sc.mp, &mut sc.mc);
@@ -721,6 +817,11 @@ fn decide_row(
     let ndq = lanes(nd);
     sc.rc.fill(u16::MAX);
     sc.rk.fill(u16::MAX);
+    // what the vector kernels need, once per row (the winner search's contract: `Dq` a multiple
+    // of 16 below 2^15, `tail` of `Dq` lanes; per pixel lo ≤ hi < D ≤ Dq holds by construction)
+    assert!(ndq.is_multiple_of(16) && ndq < 1 << 15 && sc.tail.len() == ndq && sc.acc.len() >= w * ndq);
+    assert!(sc.rc.len() >= w + ndq && sc.rk.len() >= w + ndq);
+    let (rcp, rkp) = (sc.rc.as_mut_ptr(), sc.rk.as_mut_ptr());
     for x in 0..w {
         let xd = x as i64 - dmin;
         let lo = (xd - (w as i64 - 1)).max(0);
@@ -734,18 +835,27 @@ fn decide_row(
         let s = &sc.acc[x * ndq..][..ndq];
         let j0 = (w as i64 - 1 - xd + lo as i64) as usize;
         let len = hi - lo + 1;
-        if sh.lr.is_some() {
-            let (c, rc, rk) = (&s[lo..=hi], &mut sc.rc[j0..][..len], &mut sc.rk[j0..][..len]);
+        let rejected = sh.texture_ok.is_some_and(|t| !t[y * w + x]);
+        // the right update in the winner search's pass: vector level, every candidate in the
+        // image, a winner to search
+        let fused = isa.avx2() && sh.lr.is_some() && lo == 0 && hi + 1 == nd && !rejected;
+        if sh.lr.is_some() && !fused {
+            // SAFETY: j0 + len ≤ w (the candidates' right pixels), within rc and rk.
+            let (rc, rk) = unsafe {
+                (std::slice::from_raw_parts_mut(rcp.add(j0), len), std::slice::from_raw_parts_mut(rkp.add(j0), len))
+            };
+            let c = &s[lo..=hi];
             #[cfg(target_arch = "x86_64")]
             if isa.avx2() {
-                // SAFETY: `isa` only when the CPU has AVX2; lengths asserted inside.
-                unsafe { avx2::right_update(c, rc, rk, lo) };
+                // SAFETY: `isa` only in the strip's AVX2 instance; the three slices have `len`
+                // entries.
+                unsafe { lanes::right_update::<lanes::W256>(c, rc, rk, lo) };
             }
             if !isa.avx2() {
                 right_update16(c, rc, rk, lo);
             }
         }
-        if sh.texture_ok.is_some_and(|t| !t[y * w + x]) {
+        if rejected {
             sc.best[x] = -1;
             st.low_texture += 1;
             continue;
@@ -762,9 +872,12 @@ fn decide_row(
             } else {
                 lanes::Second::Skip
             };
-            // SAFETY: `isa` only when the CPU has AVX2; `s` has Dq lanes, lo ≤ hi < D
-            // (asserted inside).
-            let (m, kb, third) = unsafe { avx2::wta(s, &sc.tail, lo, hi, second) };
+            let right = fused.then(|| (rcp.wrapping_add(j0), rkp.wrapping_add(j0)));
+            // SAFETY: `isa` only in the strip's AVX2 instance; `s` and `tail` have Dq lanes,
+            // lo ≤ hi < D (asserted above the loop and by the `lo > hi` exit). With `fused`,
+            // lo = 0, hi = D − 1, and rc, rk have Dq lanes from j0 = w − 1 − xd ≤ w − D
+            // (asserted above the loop).
+            let (m, kb, third) = unsafe { lanes::wta_right::<lanes::W256>(s, &sc.tail, lo, hi, second, right) };
             // selects, not branches: whether a pixel is unique is data (a branch on it
             // mispredicted)
             let not_unique = if sh.conf {
@@ -912,24 +1025,7 @@ pub(crate) fn run_strip(
 mod lanes {
     use std::arch::x86_64::*;
 
-    /// Checks the lengths [`paths`] needs (the entry points of both instruction sets assert
-    /// them here before any unchecked access) and returns the output pointers.
-    pub(super) fn paths_checked<const N: usize>(
-        c: &[u16],
-        prev: &[&[u16]; N],
-        out: &mut [&mut [u16]; N],
-        acc: &[u16],
-        tail: &[u16],
-    ) -> [*mut u16; N] {
-        let ndq = c.len();
-        assert!(ndq.is_multiple_of(16) && acc.len() == ndq && tail.len() == ndq);
-        for i in 0..N {
-            assert!(prev[i].len() == ndq + 2 && out[i].len() == ndq + 2);
-        }
-        std::array::from_fn(|i| out[i].as_mut_ptr())
-    }
-
-    /// Checks the lengths [`vertical`] needs (as [`paths_checked`]).
+    /// Checks the lengths [`vertical`] needs (the entry points assert them before any unchecked access).
     pub(super) fn vertical_checked(colsum: &[u16], rows: Rows, bt: Option<BtRows>, ndq: usize, sub: bool) {
         let (la, ra, lb, rb) = rows;
         let wp = la.len();
@@ -947,7 +1043,7 @@ mod lanes {
     /// Their Birchfield–Tomasi intervals (left `I⁻`, `I⁺`, right `I⁻`, `I⁺`), rows a and b.
     pub(super) type BtRows<'a> = ([&'a [u16]; 4], [&'a [u16]; 4]);
 
-    /// Checks the lengths [`box_row`] needs (as [`paths_checked`]).
+    /// Checks the lengths [`box_row`] needs (the entry points assert them before any unchecked access).
     pub(super) fn box_row_checked(cost: &[u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
         assert!(ndq.is_multiple_of(16) && w > 0 && cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
     }
@@ -1164,17 +1260,17 @@ mod lanes {
         unsafe { V::or(V::subs(a, b), V::subs(b, a)) }
     }
 
-    /// [`super::paths`] on lanes `from..to` (multiples of `V::LANES`): per chunk of every path,
-    /// the minimum of `L(d)`, `L(d ± 1) + P1` (saturating) and `min L + P2'`, minus `min L`,
-    /// plus `C`; lanes `d ≥ D` forced to `PAD` through `tail`. Returns each path's minimum over
-    /// the lanes.
+    /// [`super::paths`] on all `Dq` lanes: per chunk of every path, the minimum of `L(d)`,
+    /// `L(d ± 1) + P1` (saturating) and `min L + P2'`, minus `min L`, plus `C`; lanes `d ≥ D`
+    /// (in the last chunk only) forced to `PAD` through `tail`; `acc` replaced with (`SET`)
+    /// or increased by the sum of the paths. Returns each path's minimum over the lanes.
     ///
     /// # Safety
-    /// [`V16`]'s contract; `to ≤ Dq`, `c`, `acc`, `tail` have `Dq` entries and every `prev[i]`
-    /// and `out[i]` `Dq + 2` (the callers assert it).
+    /// [`V16`]'s contract; `c`, `acc`, `tail` have `Dq` entries (a positive multiple of
+    /// `LANES`) and every `prev[i]` and `out[i]` `Dq + 2` (the callers assert it).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)] // the step's inputs, outputs and lane range
-    pub(super) unsafe fn paths<V: V16, const N: usize>(
+    #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
+    pub(super) unsafe fn paths<V: V16, const N: usize, const SET: bool>(
         c: &[u16],
         prev: [&[u16]; N],
         pmin: [u16; N],
@@ -1183,15 +1279,13 @@ mod lanes {
         out: [*mut u16; N],
         acc: &mut [u16],
         tail: &[u16],
-        set: bool,
-        (from, to): (usize, usize),
     ) -> [u16; N] {
         // Each predecessor chunk is loaded once, at the offset its own step stored it (slot
         // d + 1: a store the horizontal path's next pixel reads at once is forwarded only to a
         // load at its own address, and a 64-byte vector at slot d or d + 2 splits cache lines);
         // its neighbours d ∓ 1 come from the chunks on either side through lane moves.
-        // SAFETY: (all loads and stores) d + LANES ≤ to ≤ Dq, and the padded vectors have
-        // Dq + 2 entries: slots from ..= to + 1 and d + 1 .. d + 1 + LANES are inside.
+        // SAFETY: (all loads and stores) d + LANES ≤ Dq, and the padded vectors have Dq + 2
+        // entries: slots d + 1 .. d + 1 + LANES are inside.
         unsafe {
             let ndq = c.len();
             let p1v = V::splat(p1);
@@ -1199,32 +1293,40 @@ mod lanes {
             let jump: [V; N] = std::array::from_fn(|i| V::splat(pmin[i].saturating_add(p2[i])));
             let pm: [V; N] = std::array::from_fn(|i| V::splat(pmin[i]));
             let mut mv = [V::splat(u16::MAX); N];
-            // the lanes just outside from..to: slot `from` and slot `to + 1` (PAD at the ends)
-            let mut before: [V; N] =
-                std::array::from_fn(|i| if from == 0 { pad } else { V::splat(*prev[i].get_unchecked(from)) });
-            let last: [V; N] =
-                std::array::from_fn(|i| if to == ndq { pad } else { V::splat(*prev[i].get_unchecked(to + 1)) });
-            let mut cur: [V; N] = std::array::from_fn(|i| V::ld(prev[i].as_ptr().add(from + 1)));
-            let mut d = from;
-            while d < to {
-                let cv = V::ld(c.as_ptr().add(d));
-                let tv = V::ld(tail.as_ptr().add(d));
-                let mut sum = if set { V::splat(0) } else { V::ld(acc.as_ptr().add(d)) };
-                let more = d + V::LANES < to;
-                for i in 0..N {
-                    let next = if more { V::ld(prev[i].as_ptr().add(d + 1 + V::LANES)) } else { last[i] };
-                    let (a, b, e) = (cur[i].up(before[i]), cur[i], cur[i].down(next));
-                    // min(a + P1, e + P1) = min(a, e) + P1 (saturating addition is monotone)
-                    let best = V::min(V::min(b, jump[i]), V::adds(V::min(a, e), p1v));
-                    let v = V::or(V::add(cv, V::sub(best, pm[i])), tv);
-                    V::st(out[i].add(d + 1), v);
-                    mv[i] = V::min(mv[i], v);
-                    sum = V::add(sum, v);
-                    (before[i], cur[i]) = (cur[i], next);
-                }
-                V::st(acc.as_mut_ptr().add(d), sum);
+            // the lanes just outside 0..Dq: slots 0 and Dq + 1 (PAD)
+            let mut before = [pad; N];
+            let mut cur: [V; N] = std::array::from_fn(|i| V::ld(prev[i].as_ptr().add(1)));
+            // one chunk at d with the predecessors' next chunks `next`; `$last`: the last chunk
+            // (its lanes past D forced to PAD). A macro, not a closure: a closure is compiled
+            // without the caller's instruction set unless inlined.
+            macro_rules! chunk {
+                ($d:expr, $next:expr, $last:expr) => {{
+                    let d = $d;
+                    let next: [V; N] = $next;
+                    let cv = V::ld(c.as_ptr().add(d));
+                    let mut sum = if SET { V::splat(0) } else { V::ld(acc.as_ptr().add(d)) };
+                    for i in 0..N {
+                        let (a, b, e) = (cur[i].up(before[i]), cur[i], cur[i].down(next[i]));
+                        // min(a + P1, e + P1) = min(a, e) + P1 (saturating addition is monotone)
+                        let best = V::min(V::min(b, jump[i]), V::adds(V::min(a, e), p1v));
+                        let mut v = V::add(cv, V::sub(best, pm[i]));
+                        if $last {
+                            v = V::or(v, V::ld(tail.as_ptr().add(d)));
+                        }
+                        V::st(out[i].add(d + 1), v);
+                        mv[i] = V::min(mv[i], v);
+                        sum = V::add(sum, v);
+                        (before[i], cur[i]) = (cur[i], next[i]);
+                    }
+                    V::st(acc.as_mut_ptr().add(d), sum);
+                }};
+            }
+            let mut d = 0;
+            while d + V::LANES < ndq {
+                chunk!(d, std::array::from_fn(|i| V::ld(prev[i].as_ptr().add(d + 1 + V::LANES))), false);
                 d += V::LANES;
             }
+            chunk!(d, [pad; N], true);
             std::array::from_fn(|i| mv[i].hmin())
         }
     }
@@ -1421,13 +1523,15 @@ mod lanes {
         unsafe { V::or(V::ld(EDGES.as_ptr().add(32 - below)), V::ld(EDGES.as_ptr().add(64 - within))) }
     }
 
-    /// Checks the lengths [`wta`] needs (as [`paths_checked`]).
+    /// Checks the lengths [`wta_right`] needs (the tests' entry; `decide_row` asserts them once per
+    /// row).
+    #[cfg(test)]
     pub(super) fn wta_checked<V: V16>(s: &[u16], tail: &[u16], lo: usize, hi: usize) {
         let n = s.len();
         assert!(V::LANES <= 32 && n.is_multiple_of(V::LANES) && tail.len() == n && lo <= hi && hi < n && n < 1 << 15);
     }
 
-    /// What [`wta`] finds besides the winner, among the candidates other than the winner and
+    /// What [`wta_right`] finds besides the winner, among the candidates other than the winner and
     /// its two neighbours (its third value).
     #[derive(Clone, Copy)]
     pub(super) enum Second {
@@ -1447,34 +1551,63 @@ mod lanes {
     /// which no sum reaches (the run refuses sums that could). `tail`: all ones in the lanes
     /// `d ≥ D`, zero below (the mask of a pixel whose candidates are all in the image).
     ///
+    /// With `right = Some((rc, rk))`, also [`right_update`] of the pixel's candidates in the
+    /// same pass over `S` (measured: ~10 instructions a chunk less than two passes): `rc`,
+    /// `rk` address the right pixels of candidates `0..Dq` (reversed index, as
+    /// `right_update`'s slices start at candidate `lo`); the lanes `d ≥ D` read `u16::MAX`, so
+    /// they leave them unchanged.
+    ///
     /// # Safety
-    /// [`V16`]'s contract; the lengths [`wta_checked`] asserts.
+    /// [`V16`]'s contract; the lengths [`wta_checked`] asserts; with `right`, `lo = 0`,
+    /// `hi = D − 1` and `rc`, `rk` address `Dq` writable lanes each.
     #[inline(always)]
-    pub(super) unsafe fn wta<V: V16>(
+    pub(super) unsafe fn wta_right<V: V16>(
         s: &[u16],
         tail: &[u16],
         lo: usize,
         hi: usize,
         second: Second,
+        right: Option<(*mut u16, *mut u16)>,
     ) -> (u16, usize, u16) {
         let (c0, c1) = (lo / V::LANES * V::LANES, (hi / V::LANES + 1) * V::LANES);
         // every candidate in the image (most pixels): the lanes past hi are those `tail` marks
         let all = lo == 0 && tail[hi] == 0 && (hi + 1 == tail.len() || tail[hi + 1] != 0);
-        // SAFETY: chunks d .. d + LANES ≤ c1 ≤ s.len() = tail.len(); NEAR offsets clamped to
-        // 0..=67 − LANES.
+        debug_assert!(right.is_none() || all);
+        // SAFETY: chunks d .. d + LANES ≤ c1 ≤ s.len() = tail.len() (and within rc, rk: the
+        // caller's); NEAR offsets clamped to 0..=67 − LANES.
         unsafe {
             let at = |d: usize| {
                 let mask = if all { V::ld(tail.as_ptr().add(d)) } else { outside::<V>(d, lo, hi) };
                 V::or(V::ld(s.as_ptr().add(d)), mask)
             };
-            // per lane, the smallest S and the first chunk holding it (strictly smaller replaces)
-            let (mut mv, mut iv) = (V::splat(u16::MAX), V::splat(0));
+            // per lane, the smallest S and the first chunk holding it (strictly smaller
+            // replaces); `dv`: the chunk's first candidate in every lane, `k` its lanes'
+            let step = V::splat(V::LANES as u16);
+            let (mut mv, mut iv, mut dv) = (V::splat(u16::MAX), V::splat(0), V::splat(c0 as u16));
             let mut d = c0;
-            while d < c1 {
-                let v = at(d);
-                iv = V::select(V::less(v, mv), V::splat(d as u16), iv);
-                mv = V::min(mv, v);
-                d += V::LANES;
+            match right {
+                None => {
+                    while d < c1 {
+                        let v = at(d);
+                        iv = V::select(V::less(v, mv), dv, iv);
+                        mv = V::min(mv, v);
+                        dv = V::add(dv, step);
+                        d += V::LANES;
+                    }
+                }
+                Some((rc, rk)) => {
+                    let mut k = V::ld(RAMP.as_ptr());
+                    while d < c1 {
+                        let v = V::or(V::ld(s.as_ptr().add(d)), V::ld(tail.as_ptr().add(d)));
+                        iv = V::select(V::less(v, mv), dv, iv);
+                        mv = V::min(mv, v);
+                        let r = V::ld(rc.add(d));
+                        V::st(rc.add(d), V::min(r, v));
+                        V::st(rk.add(d), V::select(V::less(v, r), k, V::ld(rk.add(d))));
+                        (dv, k) = (V::add(dv, step), V::add(k, step));
+                        d += V::LANES;
+                    }
+                }
             }
             let m = mv.hmin();
             // the first candidate holding the minimum: the smallest chunk + lane among the lanes
@@ -1543,31 +1676,6 @@ mod avx2 {
 
     use super::lanes::{self, W256};
 
-    /// [`lanes::paths`] on every lane.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2. Lengths: `c`, `acc`, `tail` have `Dq` (a multiple of 16)
-    /// entries, every `prev[i]` and `out[i]` `Dq + 2` (checked by assertions).
-    #[inline]
-    #[target_feature(enable = "avx2,popcnt")]
-    #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
-    pub(super) unsafe fn paths<const N: usize>(
-        c: &[u16],
-        prev: [&[u16]; N],
-        pmin: [u16; N],
-        p2: [u16; N],
-        p1: u16,
-        mut out: [&mut [u16]; N],
-        acc: &mut [u16],
-        tail: &[u16],
-        set: bool,
-    ) -> [u16; N] {
-        let ndq = c.len();
-        let outp = lanes::paths_checked(c, &prev, &mut out, acc, tail);
-        // SAFETY: AVX2 (this function's features); lengths asserted above.
-        unsafe { lanes::paths::<W256, N>(c, prev, pmin, p2, p1, outp, acc, tail, set, (0, ndq)) }
-    }
-
     /// [`lanes::vertical`] on every lane.
     ///
     /// # Safety
@@ -1611,37 +1719,6 @@ mod avx2 {
         lanes::box_row_checked(cost, colsum, w, r, ndq);
         // SAFETY: AVX2 (this function's features); lengths asserted above.
         unsafe { lanes::box_row::<W256>(cost, colsum, w, r, ndq, (0, ndq)) }
-    }
-
-    /// [`lanes::wta`] at 16 lanes.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2; `s.len()` is a multiple of 16 and `lo ≤ hi < s.len()`
-    /// (asserted).
-    #[inline]
-    #[target_feature(enable = "avx2,popcnt")]
-    pub(super) unsafe fn wta(
-        s: &[u16],
-        tail: &[u16],
-        lo: usize,
-        hi: usize,
-        second: lanes::Second,
-    ) -> (u16, usize, u16) {
-        lanes::wta_checked::<W256>(s, tail, lo, hi);
-        // SAFETY: AVX2 (this function's features); lengths asserted above.
-        unsafe { lanes::wta::<W256>(s, tail, lo, hi, second) }
-    }
-
-    /// [`lanes::right_update`] at 16 lanes.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2; the three slices have the same length (asserted).
-    #[inline]
-    #[target_feature(enable = "avx2,popcnt")]
-    pub(super) unsafe fn right_update(c: &[u16], rc: &mut [u16], rk: &mut [u16], lo: usize) {
-        assert!(rc.len() == c.len() && rk.len() == c.len());
-        // SAFETY: AVX2 (this function's features); lengths asserted above.
-        unsafe { lanes::right_update::<W256>(c, rc, rk, lo) }
     }
 }
 
@@ -1696,7 +1773,7 @@ mod tests {
         }
     }
 
-    /// [`lanes::wta`] against its definition, on sums drawn from a few values (equal sums in
+    /// [`lanes::wta_right`] against its definition, on sums drawn from a few values (equal sums in
     /// neighbouring candidates and in the same lane of different chunks), garbage in the
     /// padding lanes, and candidate ranges cut at either end or not at all.
     ///
@@ -1704,7 +1781,7 @@ mod tests {
     /// The CPU must have `V`'s instruction set, and the caller must be compiled for it.
     #[inline(always)]
     unsafe fn check_wta<V: V16>() {
-        use super::lanes::{Second, wta, wta_checked};
+        use super::lanes::{Second, wta_checked, wta_right};
         let mut r = 0x2545_f491_4f6c_dd1du64;
         let mut rnd = move |n: u64| {
             r ^= r << 13;
@@ -1740,8 +1817,23 @@ mod tests {
                 (Second::Min, rivals().min().unwrap_or(u16::MAX)),
             ] {
                 // SAFETY: lengths checked by `wta_checked`; the instruction set is the caller's.
-                let got = unsafe { wta::<V>(&sums, &tail, lo, hi, second) };
+                let got = unsafe { wta_right::<V>(&sums, &tail, lo, hi, second, None) };
                 assert_eq!(got, (m, kb, third), "{} lanes, D {nd}, {lo}..={hi}, {sums:?}", V::LANES);
+                if (lo, hi) != (0, nd - 1) {
+                    continue;
+                }
+                // fused with the right update: the same result, and the right minima as the
+                // scalar update leaves them (lanes past D untouched)
+                let rc0: Vec<u16> = (0..ndq).map(|_| values[rnd(6) as usize]).collect();
+                let rk0: Vec<u16> = (0..ndq).map(|_| rnd(1000) as u16).collect();
+                let (mut rc, mut rk) = (rc0.clone(), rk0.clone());
+                let (mut rc_want, mut rk_want) = (rc0.clone(), rk0.clone());
+                super::right_update16(&sums[..nd], &mut rc_want[..nd], &mut rk_want[..nd], 0);
+                // SAFETY: as above; rc and rk have Dq lanes.
+                let got =
+                    unsafe { wta_right::<V>(&sums, &tail, lo, hi, second, Some((rc.as_mut_ptr(), rk.as_mut_ptr()))) };
+                assert_eq!(got, (m, kb, third), "fused, D {nd}, {sums:?}");
+                assert_eq!((rc, rk), (rc_want, rk_want), "fused right update, D {nd}, {sums:?}");
             }
         }
     }
