@@ -877,13 +877,7 @@ fn decide_row(
         let uniq = if lo > 0 || hi + 1 < nd { sh.uniq.max(sh.edge_uniq) } else { sh.uniq };
         #[cfg(target_arch = "x86_64")]
         if isa.avx2() {
-            let second = if sh.conf {
-                lanes::Second::Min
-            } else if uniq > 0 {
-                lanes::Second::Count(uniq)
-            } else {
-                lanes::Second::Skip
-            };
+            let second = if sh.conf || uniq > 0 { lanes::Second::Min } else { lanes::Second::Skip };
             let right = fused.then(|| (rcp.wrapping_add(j0), rkp.wrapping_add(j0)));
             // SAFETY: `isa` only in the strip's AVX2 instance; `s` and `tail` have Dq lanes,
             // lo ≤ hi < D (asserted above the loop and by the `lo > hi` exit). With `fused`,
@@ -892,14 +886,9 @@ fn decide_row(
             let (m, kb, third) = unsafe { lanes::wta_right::<lanes::W256>(s, &sc.tail, lo, hi, second, right) };
             // selects, not branches: whether a pixel is unique is data (a branch on it
             // mispredicted)
-            let not_unique = if sh.conf {
-                // `third`: the smallest S apart from the winner and its neighbours
-                let t = (m as u32 + m as u32 * uniq / 100).min(u16::MAX as u32) as u16;
-                (uniq > 0) & (third != u16::MAX) & (third <= t)
-            } else {
-                // `third`: how many of them are within the uniqueness ratio (0 without one)
-                third > 0
-            };
+            // `third`: the smallest S apart from the winner and its neighbours (u16::MAX: none)
+            let t = (m as u32 + m as u32 * uniq / 100).min(u16::MAX as u32) as u16;
+            let not_unique = (uniq > 0) & (third != u16::MAX) & (third <= t);
             st.not_unique += not_unique as usize;
             sc.best[x] = if not_unique { -1 } else { kb as i32 };
             sc.sub[x] = subpixel_offset(&s[..nd], lo, hi, kb, sh.subpixel);
@@ -1109,6 +1098,11 @@ mod lanes {
         /// # Safety
         /// The trait's contract.
         unsafe fn min(a: Self, b: Self) -> Self;
+        /// Unsigned maximum.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn max(a: Self, b: Self) -> Self;
         /// Bitwise or.
         ///
         /// # Safety
@@ -1141,11 +1135,6 @@ mod lanes {
         /// # Safety
         /// The trait's contract.
         unsafe fn select(m: Self, a: Self, b: Self) -> Self;
-        /// How many lanes have `a ≤ b` (unsigned).
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn count_le(a: Self, b: Self) -> u32;
     }
 
     /// One [`V16`] implementation per register width, from its intrinsics.
@@ -1153,8 +1142,7 @@ mod lanes {
         ($name:ident, $reg:ty, $lanes:literal, $doc:literal, $ld:ident, $st:ident, $set1:ident,
          $($op:ident: $intrinsic:ident),+; |$h:ident| $hmin:expr;
          |$u:ident, $ub:ident| $up:expr; |$dn:ident, $da:ident| $down:expr;
-         |$la:ident, $lb:ident| $less:expr; |$sm:ident, $sa:ident, $sb:ident| $select:expr;
-         |$ca:ident, $cb:ident| $count_le:expr) => {
+         |$la:ident, $lb:ident| $less:expr; |$sm:ident, $sa:ident, $sb:ident| $select:expr) => {
             #[doc = $doc]
             #[derive(Clone, Copy)]
             pub(super) struct $name($reg);
@@ -1231,14 +1219,6 @@ mod lanes {
                     // SAFETY: the trait's contract (the instruction set).
                     $name(unsafe { $select })
                 }
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn count_le(a: Self, b: Self) -> u32 {
-                    let ($ca, $cb) = (a.0, b.0);
-                    // SAFETY: the trait's contract (the instruction set).
-                    unsafe { $count_le }
-                }
             }
         };
     }
@@ -1246,7 +1226,7 @@ mod lanes {
     v16!(
         W256, __m256i, 16, "16 lanes (AVX2).", _mm256_loadu_si256, _mm256_storeu_si256, _mm256_set1_epi16,
         add: _mm256_add_epi16, sub: _mm256_sub_epi16, adds: _mm256_adds_epu16, subs: _mm256_subs_epu16,
-        min: _mm256_min_epu16, or: _mm256_or_si256;
+        min: _mm256_min_epu16, max: _mm256_max_epu16, or: _mm256_or_si256;
         |v| {
             let m = _mm_min_epu16(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
             (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as u16
@@ -1257,9 +1237,7 @@ mod lanes {
         |v, a| _mm256_alignr_epi8::<2>(_mm256_permute2x128_si256::<0x21>(v, a), v);
         // a < b ⟺ max(a, b) ≠ a
         |a, b| _mm256_xor_si256(_mm256_cmpeq_epi16(_mm256_max_epu16(a, b), a), _mm256_set1_epi16(-1));
-        |m, a, b| _mm256_blendv_epi8(b, a, m);
-        // a ≤ b ⟺ min(a, b) = a; two mask bits per lane
-        |a, b| (_mm256_movemask_epi8(_mm256_cmpeq_epi16(_mm256_min_epu16(a, b), a)) as u32).count_ones() / 2
+        |m, a, b| _mm256_blendv_epi8(b, a, m)
     );
 
     /// `|a − b|` per lane.
@@ -1510,16 +1488,6 @@ mod lanes {
         }
         t
     };
-    /// Three all-ones lanes at 32..35 among zeros. Loaded at `33 + d − kb` (clamped to
-    /// `0..=67 − LANES`, where it is all zeros): ones in the lanes of candidates `kb − 1 ..= kb + 1`
-    /// of the chunk starting at candidate `d`.
-    static NEAR: [u16; 67] = {
-        let mut t = [0u16; 67];
-        t[32] = u16::MAX;
-        t[33] = u16::MAX;
-        t[34] = u16::MAX;
-        t
-    };
     /// Lane numbers `0..32`.
     static RAMP: [u16; 32] = {
         let mut t = [0u16; 32];
@@ -1558,11 +1526,6 @@ mod lanes {
     pub(super) enum Second {
         /// Nothing (`0`).
         Skip,
-        /// How many have `S ≤ m + m · uniq / 100` (`m` the winner's `S`): the uniqueness check
-        /// without the confidence value. Counted in a pass that needs the minimum only: the
-        /// pass for the smallest of them reads masks at the winner's position and so waits for
-        /// the winner's search.
-        Count(u32),
         /// Their smallest `S` (`u16::MAX`: none).
         Min,
     }
@@ -1595,22 +1558,28 @@ mod lanes {
         let all = lo == 0 && tail[hi] == 0 && (hi + 1 == tail.len() || tail[hi + 1] != 0);
         debug_assert!(right.is_none() || all);
         // SAFETY: chunks d .. d + LANES ≤ c1 ≤ s.len() = tail.len() (and within rc, rk: the
-        // caller's); NEAR offsets clamped to 0..=67 − LANES.
+        // caller's).
         unsafe {
             let at = |d: usize| {
                 let mask = if all { V::ld(tail.as_ptr().add(d)) } else { outside::<V>(d, lo, hi) };
                 V::or(V::ld(s.as_ptr().add(d)), mask)
             };
-            // per lane, the smallest S and the first chunk holding it (strictly smaller
-            // replaces); `dv`: the chunk's first candidate in every lane, `k` its lanes'
+            // per lane, the smallest S, the first chunk holding it (strictly smaller replaces)
+            // and (for `Second::Min`) the second smallest S (equal to the smallest when it
+            // occurs twice); `dv`: the chunk's first candidate in every lane, `k` its lanes'
             let step = V::splat(V::LANES as u16);
             let (mut mv, mut iv, mut dv) = (V::splat(u16::MAX), V::splat(0), V::splat(c0 as u16));
+            let mut m2 = V::splat(u16::MAX);
+            let two = matches!(second, Second::Min);
             let mut d = c0;
             match right {
                 None => {
                     while d < c1 {
                         let v = at(d);
                         iv = V::select(V::less(v, mv), dv, iv);
+                        if two {
+                            m2 = V::min(m2, V::max(mv, v));
+                        }
                         mv = V::min(mv, v);
                         dv = V::add(dv, step);
                         d += V::LANES;
@@ -1621,6 +1590,9 @@ mod lanes {
                     while d < c1 {
                         let v = V::or(V::ld(s.as_ptr().add(d)), V::ld(tail.as_ptr().add(d)));
                         iv = V::select(V::less(v, mv), dv, iv);
+                        if two {
+                            m2 = V::min(m2, V::max(mv, v));
+                        }
                         mv = V::min(mv, v);
                         let r = V::ld(rc.add(d));
                         V::st(rc.add(d), V::min(r, v));
@@ -1634,33 +1606,21 @@ mod lanes {
             // the first candidate holding the minimum: the smallest chunk + lane among the lanes
             // whose minimum it is (the others, m < their minimum, masked to u16::MAX), without a
             // branch on where it is (a data-dependent exit mispredicted)
-            let key = V::or(V::add(iv, V::ld(RAMP.as_ptr())), V::less(V::splat(m), mv));
+            let first = V::add(iv, V::ld(RAMP.as_ptr()));
+            let key = V::or(first, V::less(V::splat(m), mv));
             let kb = key.hmin() as usize;
             match second {
                 Second::Skip => (m, kb, 0),
-                Second::Count(uniq) => {
-                    // below u16::MAX so that no masked lane is counted (a sum is below u16::MAX:
-                    // S ≤ t ⟺ S ≤ min(t, u16::MAX − 1))
-                    let t = (m as u32 + m as u32 * uniq / 100).min(u16::MAX as u32 - 1) as u16;
-                    let (tv, mut n) = (V::splat(t), 0);
-                    let mut d = c0;
-                    while d < c1 {
-                        n += V::count_le(at(d), tv);
-                        d += V::LANES;
-                    }
-                    // the winner and those of its neighbours within t were counted
-                    let near = 1 + (kb > lo && s[kb - 1] <= t) as u32 + (kb < hi && s[kb + 1] <= t) as u32;
-                    (m, kb, (n - near) as u16)
-                }
                 Second::Min => {
-                    let mut m2 = V::splat(u16::MAX);
-                    let mut d = c0;
-                    while d < c1 {
-                        let o = (33 + d as isize - kb as isize).clamp(0, 67 - V::LANES as isize) as usize;
-                        m2 = V::min(m2, V::or(at(d), V::ld(NEAR.as_ptr().add(o))));
-                        d += V::LANES;
-                    }
-                    (m, kb, m2.hmin())
+                    // Each lane holds at most one of kb − 1, kb, kb + 1 (consecutive
+                    // candidates), and without it its smallest S is its second smallest if it
+                    // was the lane's first minimum, else its smallest: one pass (a second pass
+                    // over S with masks at kb measured 12 instructions a chunk, plus the
+                    // neighbours' scalar tests). Lanes whose first minimum is at kb − 1 ..= kb + 1:
+                    // first − (kb − 1) in 0..=2 (wrapping: kb = 0 has no kb − 1).
+                    let off = V::sub(first, V::splat((kb as u16).wrapping_sub(1)));
+                    let near = V::less(off, V::splat(3));
+                    (m, kb, V::select(near, m2, mv).hmin())
                 }
             }
         }
@@ -1788,9 +1748,10 @@ mod tests {
             assert_eq!(got(select), want_select, "select, {n} lanes");
             // SAFETY: as above.
             assert_eq!(unsafe { va.hmin() }, *a.iter().min().unwrap(), "hmin, {n} lanes");
-            // SAFETY: as above.
-            let le = unsafe { V::count_le(va, vb) };
-            assert_eq!(le as usize, (0..n).filter(|&k| a[k] <= b[k]).count(), "count_le, {n} lanes");
+            // SAFETY: as above (the instruction set).
+            let (min, max) = unsafe { (V::min(va, vb), V::max(va, vb)) };
+            assert_eq!(got(min), (0..n).map(|k| a[k].min(b[k])).collect::<Vec<_>>(), "min, {n} lanes");
+            assert_eq!(got(max), (0..n).map(|k| a[k].max(b[k])).collect::<Vec<_>>(), "max, {n} lanes");
         }
     }
 
@@ -1830,13 +1791,7 @@ mod tests {
             let m = *within.iter().min().unwrap();
             let kb = lo + within.iter().position(|&v| v == m).unwrap();
             let rivals = || (lo..=hi).filter(|&d| d.abs_diff(kb) > 1).map(|d| sums[d]);
-            let uniq = [0u32, 10, 15][case % 3];
-            let t = (m as u32 + m as u32 * uniq / 100).min(u16::MAX as u32 - 1) as u16;
-            for (second, third) in [
-                (Second::Skip, 0),
-                (Second::Count(uniq), rivals().filter(|&v| v <= t).count() as u16),
-                (Second::Min, rivals().min().unwrap_or(u16::MAX)),
-            ] {
+            for (second, third) in [(Second::Skip, 0), (Second::Min, rivals().min().unwrap_or(u16::MAX))] {
                 // SAFETY: lengths checked by `wta_checked`; the instruction set is the caller's.
                 let got = unsafe { wta_right::<V>(&sums, &tail, lo, hi, second, None) };
                 assert_eq!(got, (m, kb, third), "{} lanes, D {nd}, {lo}..={hi}, {sums:?}", V::LANES);
