@@ -6,6 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+mod common;
+use common::Temp;
+
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("xtask is inside the workspace").to_path_buf()
 }
@@ -14,36 +17,9 @@ fn fixture(p: &str) -> String {
     root().join("fixtures").join(p).display().to_string()
 }
 
-/// A fresh temporary folder for one test, removed when the test passes (kept when it fails,
-/// to look at).
-struct Temp(PathBuf);
-
-impl std::ops::Deref for Temp {
-    type Target = PathBuf;
-    fn deref(&self) -> &PathBuf {
-        &self.0
-    }
-}
-
-impl AsRef<Path> for Temp {
-    fn as_ref(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl Drop for Temp {
-    fn drop(&mut self) {
-        if !std::thread::panicking() {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
-    }
-}
-
+/// A fresh temporary folder for one test (removed when it passes).
 fn temp(name: &str) -> Temp {
-    let d = std::env::temp_dir().join(format!("xtask-bad-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    Temp(d)
+    Temp::new("bad", name)
 }
 
 fn run(args: &[&str]) -> Output {

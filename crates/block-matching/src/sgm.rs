@@ -630,10 +630,11 @@ unsafe fn paths<const N: usize, const H: usize>(
     m
 }
 
-/// The buffers of one row's sweep as pointers, the lengths checked once per row (a sweep
-/// that sliced them at every pixel spent ~250 instructions a pixel on bounds checks, reloads
-/// and swaps: 1282x1110x224, three paths, callgrind), and `P2'` of the row's pixels towards
-/// the row `other` above (forward) or below (backward) in `p2v`.
+/// The buffers of one row's sweep as pointers, the lengths checked once per row, and `P2'`
+/// of the row's pixels towards the row `other` above (forward) or below (backward) in `p2v`.
+/// (Sliced at every pixel, with bounds checks, reloads and buffer swaps: with the winner search
+/// inlined as well, the per-pixel code fell from ~915 to ~690 instructions a pixel,
+/// 1282x1110x224, three paths, callgrind.)
 struct Sweep {
     cost: *const u16,
     acc: *mut u16,
@@ -1026,7 +1027,8 @@ pub(crate) fn run_strip(
 mod lanes {
     use std::arch::x86_64::*;
 
-    /// Checks the lengths [`vertical`] needs (the entry points assert them before any unchecked access).
+    /// Checks the lengths [`vertical`] needs (the entry points assert them before any
+    /// unchecked access).
     pub(super) fn vertical_checked(colsum: &[u16], rows: Rows, bt: Option<BtRows>, ndq: usize, sub: bool) {
         let (la, ra, lb, rb) = rows;
         let wp = la.len();
@@ -1044,7 +1046,8 @@ mod lanes {
     /// Their Birchfield–Tomasi intervals (left `I⁻`, `I⁺`, right `I⁻`, `I⁺`), rows a and b.
     pub(super) type BtRows<'a> = ([&'a [u16]; 4], [&'a [u16]; 4]);
 
-    /// Checks the lengths [`box_row`] needs (the entry points assert them before any unchecked access).
+    /// Checks the lengths [`box_row`] needs (the entry points assert them before any
+    /// unchecked access).
     pub(super) fn box_row_checked(cost: &[u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
         assert!(ndq.is_multiple_of(16) && w > 0 && cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
     }
@@ -1277,7 +1280,7 @@ mod lanes {
         // a row before: they load slots d, d + 1 and d + 2 (three loads instead of one load and
         // four lane moves; callgrind, one thread: accurate preset on teddy 38.6 → 35.4
         // instructions an evaluation, three paths on 1282x1110x224 3.28 → 3.20 G a frame;
-        // times: the preset 3–10 % faster against OpenCV's MODE_HH, three paths unchanged).
+        // times: the preset 2–10 % faster against OpenCV's MODE_HH, three paths unchanged).
         // SAFETY: (all loads and stores) d + LANES ≤ Dq, and the padded vectors have Dq + 2
         // entries: slots d + 1 .. d + 1 + LANES are inside.
         unsafe {
@@ -1542,7 +1545,8 @@ mod lanes {
     /// they leave them unchanged.
     ///
     /// # Safety
-    /// [`V16`]'s contract; the lengths [`wta_checked`] asserts; with `right`, `lo = 0`,
+    /// [`V16`]'s contract; `s` and `tail` have `Dq` lanes (a multiple of `LANES` below
+    /// 2^15) and `lo ≤ hi < Dq` (what the tests' `wta_checked` asserts); with `right`, `lo = 0`,
     /// `hi = D − 1` and `rc`, `rk` address `Dq` writable lanes each.
     #[inline(always)]
     pub(super) unsafe fn wta_right<V: V16>(
