@@ -253,6 +253,9 @@ pub(crate) struct Shared<'a> {
     pub(crate) conf: bool,
     pub(crate) min_conf: f32,
     pub(crate) subpixel: Subpixel,
+    /// Every matched (prefiltered) pixel is below 128: the vector SAD kernels may take the
+    /// column-sum update's differences on bytes (see `simd::Scratch::pairs`).
+    pub(crate) small_px: bool,
 }
 
 /// Buffers of one row band, reused across frames.
@@ -554,6 +557,7 @@ impl BlockMatcher {
                 (true, Subpixel::Auto) => Subpixel::Parabola,
                 _ => cfg.effective_subpixel(),
             },
+            small_px: maxv < 128,
         };
         let conf_plane: &mut [f32] = if shared.conf {
             self.confidence.resize(w * h, 0.0);

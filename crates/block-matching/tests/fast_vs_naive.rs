@@ -458,6 +458,57 @@ fn fast_equals_naive_with_several_disparity_chunks() {
     }
 }
 
+#[test]
+fn fast_equals_naive_on_ties_across_chunks() {
+    // images of two or four grey levels and small windows: many disparities tie at the minimum,
+    // in the same lane of different chunks too, so the winner must be the first (smallest)
+    // disparity whichever way the kernel visits its chunks (without the left–right check it
+    // visits them downwards); 16- (SAD) and 32-bit lanes (SSD), chunk counts with their own
+    // kernel instances, rows wider than the range so that most columns search all of it
+    let mut case = 0;
+    for nd in [32, 64, 96, 128, 224] {
+        for (maxv, cost) in [(1, CostFunction::Sad), (3, CostFunction::Sad), (3, CostFunction::Ssd)] {
+            for (lr, subpixel) in [(None, Subpixel::Auto), (Some(1), Subpixel::None)] {
+                let cfg = MatcherConfig {
+                    cost,
+                    block_size: 3,
+                    num_disparities: nd,
+                    prefilter: Prefilter::None,
+                    texture_threshold: 0,
+                    uniqueness_ratio: 0,
+                    lr_max_diff: lr,
+                    subpixel,
+                    speckle_window_size: 0,
+                    ..MatcherConfig::default()
+                };
+                run_case(300 + case, nd + 40, 12, maxv, false, cfg, 1);
+                case += 1;
+            }
+        }
+    }
+}
+
+#[test]
+fn fast_equals_naive_with_32_bit_sums_of_small_pixels() {
+    // a 25x25 window of x-Sobel responses up to 126: the SAD sums pass 65534, so the 32-bit
+    // lanes run, and every pixel is below 128, so their column update works on byte pairs (as
+    // the 16-bit lanes' does in the tests above); 1, 2, 3 and 4 chunks of 8 lanes
+    for (case, nd) in [8, 16, 24, 32].into_iter().enumerate() {
+        for lr in [None, Some(1)] {
+            let cfg = MatcherConfig {
+                block_size: 25,
+                num_disparities: nd,
+                prefilter: Prefilter::XSobel { cap: 63 },
+                uniqueness_ratio: 10,
+                lr_max_diff: lr,
+                speckle_window_size: 0,
+                ..MatcherConfig::default()
+            };
+            run_case(400 + case as u64, 60, 30, 255, false, cfg, 2);
+        }
+    }
+}
+
 /// Which instruction-set levels the kernel tests above ran on this machine (each test runs
 /// every level the CPU has, from the portable one up). CI prints this with `--nocapture`.
 #[test]
