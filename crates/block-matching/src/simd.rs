@@ -147,7 +147,9 @@ pub(crate) struct Scratch<E: Lane> {
     /// Disparities per column, rounded up to the lane count.
     ndp: usize,
     colsum: Vec<E>,
-    /// The box sums of the last [`RING`] columns (column `x` in slot `x % RING`).
+    /// The box sums of the last [`RING`] columns (column `x` in slot `x % RING`), each slot
+    /// `ndp` lanes with a vector's lanes of padding either side (see [`slot_of`]): the costs
+    /// beside any winner `0 ≤ k < ndp` are read without clamping its neighbours' indices.
     boxs: Vec<E>,
     l_in: Vec<u16>,
     l_out: Vec<u16>,
@@ -160,6 +162,8 @@ pub(crate) struct Scratch<E: Lane> {
     /// Callgrind, one thread, bm options of `disparity_vs_opencv.py` (x-Sobel, cap 31): 1.31 →
     /// 1.21 instructions per evaluation on 1282x1110x224, 1.91 → 1.84 on 626x555x96.
     pairs: Vec<u8>,
+    /// `l_in` and `l_out` as byte pairs, the same way (`l_in[xp]` the low byte).
+    l_pairs: Vec<u16>,
     /// Right running minimum per lane: lane `k` holds the pixel `u = x − dmin − k` of the
     /// current column (the state moves up one lane per column).
     rc: Vec<E>,
@@ -188,13 +192,14 @@ impl<E: Lane> Scratch<E> {
         let wp = w + 2 * r;
         self.ndp = ndp;
         self.colsum.resize(wp * ndp, E::ZERO);
-        self.boxs.resize(RING * ndp, E::ZERO);
+        self.boxs.resize(RING * (ndp + 2 * lanes), E::ZERO);
         self.l_in.resize(wp, 0);
         self.l_out.resize(wp, 0);
         // the reversed right rows are read at (wp − 1 − xp) + d for d < ndp
         self.r_in.resize(wp + ndp - 1, 0);
         self.r_out.resize(wp + ndp - 1, 0);
         self.pairs.resize(2 * (wp + ndp - 1), 0);
+        self.l_pairs.resize(wp, 0);
         self.rc.resize(ndp, E::MAX);
         self.rk.resize(ndp, E::MAX);
         self.rkf.resize(w, E::MAX);
@@ -290,9 +295,12 @@ macro_rules! kernel {
                         load_rows(sh, yi, &mut sc.l_in, &mut sc.r_in);
                         load_rows(sh, yo, &mut sc.l_out, &mut sc.r_out);
                         if !SQ && sh.small_px {
+                            // below 128 (`small_px`)
                             for ((q, &a), &b) in sc.pairs.chunks_exact_mut(2).zip(&sc.r_in).zip(&sc.r_out) {
-                                // below 128 (`small_px`)
                                 (q[0], q[1]) = (a as u8, b as u8);
+                            }
+                            for ((q, &a), &b) in sc.l_pairs.iter_mut().zip(&sc.l_in).zip(&sc.l_out) {
+                                *q = a | b << 8;
                             }
                             // SAFETY: as above; every pixel is below 128.
                             unsafe { row_n::<true, SQ, true>(sh, sc, y, orow, crow, &mut st) };
@@ -395,6 +403,7 @@ macro_rules! kernel {
                 rin: sc.r_in.as_ptr(),
                 rout: sc.r_out.as_ptr(),
                 pairs: sc.pairs.as_ptr(),
+                l_pairs: sc.l_pairs.as_ptr(),
                 lin: sc.l_in.as_ptr(),
                 lout: sc.l_out.as_ptr(),
                 rc: sc.rc.as_mut_ptr(),
@@ -429,8 +438,8 @@ macro_rules! kernel {
                         acc = add(acc, v);
                     }
                 }
-                // SAFETY: c + L ≤ ndp.
-                unsafe { st(p.bx.add(c), acc) };
+                // SAFETY: c + L ≤ ndp, inside slot 0.
+                unsafe { st(p.bx.add(slot_of(0, ndp, L) + c), acc) };
             }
             // columns whose full range [0, nd) is searchable need no per-lane range mask
             let range = |x: usize| {
@@ -448,13 +457,15 @@ macro_rules! kernel {
                 ($x:expr) => {{
                     let x = $x;
                     // SAFETY: x < w = keys.len() = cm.len() = cp.len(); the slot of x (still
-                    // holding x: fewer than RING columns later) has ndp entries, indices are
-                    // clamped to them.
+                    // holding x: fewer than RING columns later) has ndp entries and L ≥ 1 of
+                    // padding either side, the winner is below ndp (`step`'s indices start at
+                    // 0 and are lanes' disparities), so kb − 1 and kb + 1 are inside.
                     unsafe {
                         let kb = E::key_d(*keys.add(x)) as usize;
-                        let slot = bxp.add((x % RING) * ndp);
-                        *cm.add(x) = *slot.add(kb.wrapping_sub(1).min(ndp - 1));
-                        *cp.add(x) = *slot.add((kb + 1).min(ndp - 1));
+                        debug_assert!(kb < ndp, "a winner's index is a lane's");
+                        let slot = bxp.add(slot_of(x, ndp, L));
+                        *cm.add(x) = *slot.add(kb).sub(1);
+                        *cp.add(x) = *slot.add(kb + 1);
                     }
                 }};
             }
@@ -477,7 +488,7 @@ macro_rules! kernel {
                         } else {
                             // SAFETY: `p` holds this band's buffers; slot x % RING holds the
                             // box sums of x.
-                            unsafe { second(&p, bxp.add((x % RING) * ndp), kb, lo, hi) }
+                            unsafe { second(&p, bxp.add(slot_of(x, ndp, L)), kb, lo, hi) }
                         };
                         // SAFETY: x < w = c2.len().
                         unsafe { *c2.add(x) = v };
@@ -604,15 +615,17 @@ macro_rules! kernel {
             let mut prev_k = splat(E::MAX);
             let xp = x + 2 * p.r;
             // SAFETY: xp < wp.
-            let (lin, lout) = unsafe { (*p.lin.add(xp), *p.lout.add(xp)) };
-            let (li, lo_) = (splat_px(lin), splat_px(lout));
-            let lpair = splat_pair(lin, lout);
+            let (li, lo_) = unsafe { (splat_px(*p.lin.add(xp)), splat_px(*p.lout.add(xp))) };
+            // SAFETY: xp < wp = l_pairs.len() (read only with `PAIRS`, when it was filled).
+            let lpair = if PAIRS { splat_pair(unsafe { *p.l_pairs.add(xp) }) } else { li };
             let base = p.wp - 1 - xp;
             let mut minv = splat(E::MAX);
-            let mut idxv = splat(E::MAX);
+            // (0, not a sentinel: where no lane is searchable the key's cost says so, and its
+            // index stays a lane's, which `beside!` relies on)
+            let mut idxv = splat(E::ZERO);
             let ramp = ramp();
             // this column's slot of box sums and the one before (see `RING`)
-            let (slot, prev_slot) = ((x % RING) * ndp, ((x + RING - 1) % RING) * ndp);
+            let (slot, prev_slot) = (slot_of(x, ndp, L), slot_of(x + RING - 1, ndp, L));
             // SAFETY: both slots are inside the RING · ndp box sums.
             let (bx, bx_prev) = unsafe { (p.bx.add(slot), p.bx.add(prev_slot)) };
             // one chunk; called with constant indices when the count is known, so that `bxr`
@@ -752,6 +765,13 @@ macro_rules! unrolled {
 
 /// Columns of box sums kept (see [`LAG`]).
 const RING: usize = 8;
+
+/// Where the box sums of column `x` start in the ring: slot `x % RING` of `ndp + 2 · lanes`
+/// entries, the sums after `lanes` of padding.
+#[inline(always)]
+fn slot_of(x: usize, ndp: usize, lanes: usize) -> usize {
+    (x % RING) * (ndp + 2 * lanes) + lanes
+}
 /// How many columns later the costs beside a column's winner (for its sub-pixel fit) are read
 /// from the box sums: read at once, the two narrow loads hit the vector stores just made at
 /// other offsets, which do not forward to them (the profile's sample right after those loads
@@ -771,6 +791,7 @@ struct Ptrs<E> {
     rout: *const u16,
     /// [`Scratch::pairs`].
     pairs: *const u8,
+    l_pairs: *const u16,
     lin: *const u16,
     lout: *const u16,
     rc: *mut E,
@@ -928,11 +949,11 @@ macro_rules! lanes16 {
         fn outside(d: V, lo: V, hi: V) -> V {
             _mm256_or_si256(_mm256_cmpgt_epi16(lo, d), _mm256_cmpgt_epi16(d, hi))
         }
-        /// `a` and `b` (both below 128) as the byte pair `(a, b)` in every 16-bit lane.
+        /// A byte pair (`Scratch::l_pairs`) in every 16-bit lane.
         #[inline]
         #[target_feature(enable = $feat)]
-        fn splat_pair(a: u16, b: u16) -> V {
-            _mm256_set1_epi16((a as u8 as u16 | (b as u8 as u16) << 8) as i16)
+        fn splat_pair(ab: u16) -> V {
+            _mm256_set1_epi16(ab as i16)
         }
         /// `|a − r_in| − |b − r_out|` per lane from the byte pairs `(a, b)` of `ab` and `L`
         /// pairs `(r_in, r_out)` at `p` (every byte below 128: the byte difference does not
@@ -1068,12 +1089,11 @@ macro_rules! lanes32 {
         fn outside(d: V, lo: V, hi: V) -> V {
             _mm256_or_si256(_mm256_cmpgt_epi32(lo, d), _mm256_cmpgt_epi32(d, hi))
         }
-        /// `a` and `b` (both below 128) as the byte pair `(a, b)` in every 16-bit lane of the
-        /// low half.
+        /// A byte pair (`Scratch::l_pairs`) in every 16-bit lane.
         #[inline]
         #[target_feature(enable = $feat)]
-        fn splat_pair(a: u16, b: u16) -> V {
-            _mm256_set1_epi16((a as u8 as u16 | (b as u8 as u16) << 8) as i16)
+        fn splat_pair(ab: u16) -> V {
+            _mm256_set1_epi16(ab as i16)
         }
         /// `|a − r_in| − |b − r_out|` per lane from the byte pairs `(a, b)` of `ab` and `L`
         /// pairs `(r_in, r_out)` at `p`, as the 16-bit version, widened.
@@ -1145,7 +1165,7 @@ macro_rules! kernel_module {
             /// Vector registers of the instruction set.
             const REGS: usize = $regs;
 
-            use super::{LAG, Lane, MAX_NCH, Ptrs, RING, Scratch, decide_row, needed};
+            use super::{LAG, Lane, MAX_NCH, Ptrs, RING, Scratch, decide_row, needed, slot_of};
             use crate::engine::{MatchStats, Shared, conf_row, finish_row, load_rows};
 
             $lanes!($feat);
