@@ -289,6 +289,8 @@ pub(crate) struct Scratch {
     p2v: [Vec<u16>; 3],
     rc: Vec<u16>,
     rk: Vec<u16>,
+    /// The right winners at each pixel's match ([`finish_row`]).
+    rw: Vec<u32>,
     best: Vec<i32>,
     sub: Vec<f32>,
     ratio: Vec<f32>,
@@ -363,6 +365,7 @@ impl Scratch {
         // `Dq` lanes past the row: the fused winner search and right update writes whole chunks
         self.rc.resize(w + ndq, u16::MAX);
         self.rk.resize(w + ndq, u16::MAX);
+        self.rw.resize(w, 0);
         self.best.resize(w, -1);
         self.sub.resize(w, 0.0);
         self.ratio.resize(w, 0.0);
@@ -913,7 +916,7 @@ fn decide_row(
         decide_winners(sh, sc, st);
     }
     let rk = &sc.rk;
-    finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, |u| rk[w - 1 - u] as u32);
+    finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, &mut sc.rw, |u| rk[w - 1 - u] as u32);
 }
 
 /// The decisions of a row from the vector winner search's results (`Scratch::win_*`), as

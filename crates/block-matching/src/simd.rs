@@ -184,6 +184,8 @@ pub(crate) struct Scratch<E: Lane> {
     all_true: Vec<bool>,
     best: Vec<i32>,
     sub: Vec<f32>,
+    /// The right winners at each pixel's match ([`finish_row`]).
+    rw: Vec<u32>,
 }
 
 impl<E: Lane> Scratch<E> {
@@ -215,6 +217,7 @@ impl<E: Lane> Scratch<E> {
         self.all_true.resize(w, true);
         self.best.resize(w, -1);
         self.sub.resize(w, 0.0);
+        self.rw.resize(w, 0);
     }
 }
 
@@ -543,7 +546,7 @@ macro_rules! kernel {
                 }
             }
             let rkf = &sc.rkf;
-            finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, stats, |u| {
+            finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, stats, &mut sc.rw, |u| {
                 let v = rkf[u];
                 if v == E::MAX { u32::MAX } else { v.to_u64() as u32 }
             });
