@@ -1179,20 +1179,12 @@ fn lr_checks<const CONF: bool>(
         let mut reject = valid & ((diff > t) | border);
         inconsistent += reject as u32;
         if CONF {
-            let c = ratio[x] * (1.0 / (1.0 + diff as f32));
-            let low = valid & !reject & (c < sh.min_conf);
+            let low;
+            (low, conf[x]) = confidence_of(sh, valid, reject, ratio[x] * (1.0 / (1.0 + diff as f32)));
             low_conf += low as u32;
             reject |= low;
-            conf[x] = if valid & !reject { c } else { 0.0 };
         }
-        let v = (dm + kk as f32) + sub[x];
-        out[x] = if !valid {
-            DisparityMap::INVALID
-        } else if reject {
-            f32::INFINITY
-        } else {
-            v
-        };
+        out[x] = pixel_value(valid, reject, dm, kk as f32, sub[x]);
     }
     st.lr_inconsistent += inconsistent as usize;
     st.low_confidence += low_conf as usize;
@@ -1245,22 +1237,35 @@ fn lr_and_confidence(
             lr_factor = 1.0 / (1.0 + diff as f32);
         }
         if sh.conf {
-            let c = ratio[x] * lr_factor;
-            let low = valid & !reject & (c < sh.min_conf);
+            let low;
+            (low, conf[x]) = confidence_of(sh, valid, reject, ratio[x] * lr_factor);
             st.low_confidence += low as usize;
             reject |= low;
-            conf[x] = if valid & !reject { c } else { 0.0 };
         }
-        // `dmin + k` is an integer below 2^21 in magnitude (|dmin| ≤ 2^20, k < 1024), exact in
-        // f32: one f32 addition rounds the sum as an f64 sum rounded to f32 would
-        let v = (dm + kk as f32) + sub[x];
-        out[x] = if !valid {
-            DisparityMap::INVALID
-        } else if reject {
-            f32::INFINITY
-        } else {
-            v
-        };
+        out[x] = pixel_value(valid, reject, dm, kk as f32, sub[x]);
+    }
+}
+
+/// The confidence threshold on a pixel's confidence `c`: whether it rejects the pixel, and the
+/// value of the confidence map (0 where the pixel is not returned).
+#[inline(always)]
+fn confidence_of(sh: &Shared, valid: bool, reject: bool, c: f32) -> (bool, f32) {
+    let low = valid & !reject & (c < sh.min_conf);
+    (low, if valid & !(reject | low) { c } else { 0.0 })
+}
+
+/// A pixel's output: invalid without a winner, `+inf` when a check rejected it (filled or
+/// invalidated after the row), else `dmin + k + sub`. `dmin + k` is an integer below 2^21 in
+/// magnitude (|dmin| ≤ 2^20, k < 1024), exact in f32: one f32 addition rounds the sum as an f64
+/// sum rounded to f32 would.
+#[inline(always)]
+fn pixel_value(valid: bool, reject: bool, dm: f32, k: f32, sub: f32) -> f32 {
+    if !valid {
+        DisparityMap::INVALID
+    } else if reject {
+        f32::INFINITY
+    } else {
+        (dm + k) + sub
     }
 }
 

@@ -924,10 +924,10 @@ fn decide_row(
 /// the image edge cuts the range), the sub-pixel fit and the confidence ratio. Branch-free
 /// selects over the row, which the compiler vectorises (made per pixel after each search, with
 /// the fit in `f64`: teddy, three paths, one thread, callgrind, 15.33 → 14.78 instructions an
-/// evaluation, 35 a pixel). The fit in `f32`
-/// gives the same offsets: its inputs are integers below 2^17, exact, and one rounding of the
-/// quotient in `f32` equals its rounding in `f64` then to `f32` (such a quotient is never within
-/// 2^-53 of an `f32` rounding midpoint without being one, and then it is exact in `f32`).
+/// evaluation, 35 a pixel). The fit in `f32` gives the same offsets: numerator and denominator
+/// are integers below 2^19 in magnitude, exact in `f32`, and one rounding of their quotient in
+/// `f32` equals its rounding in `f64` then to `f32` (such a quotient is never within 2^-53 of
+/// an `f32` rounding midpoint without being one, and then it is exact in `f32`).
 #[inline(always)]
 fn decide_winners(sh: &Shared, sc: &mut Scratch, st: &mut MatchStats) {
     let (w, nd, dmin) = (sh.w, sh.nd as i64, sh.dmin);

@@ -184,7 +184,7 @@ pub(crate) struct Scratch<E: Lane> {
     all_true: Vec<bool>,
     best: Vec<i32>,
     sub: Vec<f32>,
-    /// The right winners at each pixel's match ([`finish_row`]).
+    /// The right winners at each pixel's match ([`crate::engine::finish_row`]).
     rw: Vec<u32>,
 }
 
@@ -952,12 +952,6 @@ macro_rules! lanes16 {
         fn outside(d: V, lo: V, hi: V) -> V {
             _mm256_or_si256(_mm256_cmpgt_epi16(lo, d), _mm256_cmpgt_epi16(d, hi))
         }
-        /// A byte pair (`Scratch::l_pairs`) in every 16-bit lane.
-        #[inline]
-        #[target_feature(enable = $feat)]
-        fn splat_pair(ab: u16) -> V {
-            _mm256_set1_epi16(ab as i16)
-        }
         /// `|a − r_in| − |b − r_out|` per lane from the byte pairs `(a, b)` of `ab` and `L`
         /// pairs `(r_in, r_out)` at `p` (every byte below 128: the byte difference does not
         /// wrap, its absolute value is below 128, the multiply-add by `(1, −1)` is exact).
@@ -1092,12 +1086,6 @@ macro_rules! lanes32 {
         fn outside(d: V, lo: V, hi: V) -> V {
             _mm256_or_si256(_mm256_cmpgt_epi32(lo, d), _mm256_cmpgt_epi32(d, hi))
         }
-        /// A byte pair (`Scratch::l_pairs`) in every 16-bit lane.
-        #[inline]
-        #[target_feature(enable = $feat)]
-        fn splat_pair(ab: u16) -> V {
-            _mm256_set1_epi16(ab as i16)
-        }
         /// `|a − r_in| − |b − r_out|` per lane from the byte pairs `(a, b)` of `ab` and `L`
         /// pairs `(r_in, r_out)` at `p`, as the 16-bit version, widened.
         ///
@@ -1176,6 +1164,13 @@ macro_rules! kernel_module {
             #[inline]
             #[target_feature(enable = $feat)]
             fn min_update($min: &mut V, $idx: &mut V, $c: V, $d: V) $body
+
+            /// A byte pair (`Scratch::l_pairs`) in every 16-bit lane.
+            #[inline]
+            #[target_feature(enable = $feat)]
+            fn splat_pair(ab: u16) -> V {
+                _mm256_set1_epi16(ab as i16)
+            }
 
             /// As `min_update`, for chunks visited from the highest disparities down: a tie
             /// takes the new (smaller) index.
