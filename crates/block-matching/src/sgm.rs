@@ -41,7 +41,7 @@
 
 use crate::config::{SgmConfig, SgmPaths, Subpixel};
 use crate::engine::{
-    MatchStats, Shared, SimdLevel, conf_row, curve_ratio, decide, finish_row, load_plane_rows, load_rows,
+    Cost, MatchStats, Shared, SimdLevel, conf_row, curve_ratio, decide, finish_row, load_plane_rows, load_rows,
 };
 use crate::error::{BlockMatchingError, Result};
 
@@ -944,7 +944,7 @@ fn decide_winners(sh: &Shared, sc: &mut Scratch, st: &mut MatchStats) {
         let valid = k >= 0;
         let (m, third) = (ms[x] as u32, thirds[x]);
         let u = if (lo > 0) | (hi + 1 < nd) { edge_uniq } else { uniq };
-        let t = (m + m * u / 100).min(u16::MAX as u32) as u16;
+        let t = (m as u16).uniq_thresh(u);
         let nu = valid & (u > 0) & (third != u16::MAX) & (third <= t);
         not_unique += nu as u32;
         best[x] = if valid & !nu { k } else { -1 };

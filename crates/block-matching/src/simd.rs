@@ -29,7 +29,7 @@
 //! AVX-512 code, as no machine the project is tested on can run it.
 
 use crate::config::Subpixel;
-use crate::engine::{MatchStats, Shared, curve_ratio};
+use crate::engine::{Cost, MatchStats, Shared, curve_ratio};
 
 /// A lane type of the kernels: window sums, costs and disparity indices.
 pub(crate) trait Lane: Copy + Default + PartialOrd + Send + Sync + 'static {
@@ -46,10 +46,6 @@ pub(crate) trait Lane: Copy + Default + PartialOrd + Send + Sync + 'static {
     fn to_u64(self) -> u64;
     /// The cost as the sub-pixel fit's float (exact).
     fn to_real(self) -> Self::F;
-    /// OpenCV's uniqueness threshold `c + c·ratio/100` (integer division), saturated at the
-    /// lane maximum, for a validated `ratio ≤ 1000` (in the narrowest integer that holds it: the
-    /// 64-bit products of a generic version cost ~8 scalar multiplies per 8 pixels, callgrind).
-    fn uniq_thresh(self, ratio: u32) -> Self;
 }
 
 /// The float arithmetic of the sub-pixel fit.
@@ -108,11 +104,6 @@ impl Lane for u16 {
     fn to_real(self) -> f32 {
         self as f32
     }
-    fn uniq_thresh(self, ratio: u32) -> u16 {
-        // ≤ 65535 · 1001 < 2^32
-        let c = self as u32;
-        (c + c * ratio.min(1000) / 100).min(u16::MAX as u32) as u16
-    }
 }
 
 impl Lane for u32 {
@@ -134,10 +125,6 @@ impl Lane for u32 {
     }
     fn to_real(self) -> f64 {
         self as f64
-    }
-    fn uniq_thresh(self, ratio: u32) -> u32 {
-        let c = self as u64;
-        (c + c * ratio.min(1000) as u64 / 100).min(u32::MAX as u64) as u32
     }
 }
 
@@ -815,7 +802,7 @@ struct Ptrs<E> {
 /// (in `f32` for 16-bit costs, `f64` for 32-bit ones: exact inputs either way). Branch-free, so the compiler vectorises it (it is inlined
 /// into the kernels).
 #[inline(always)]
-fn decide_row<E: Lane, const UNIQ: bool>(sh: &Shared, sc: &mut Scratch<E>, y: usize, stats: &mut MatchStats) {
+fn decide_row<E: Lane + Cost, const UNIQ: bool>(sh: &Shared, sc: &mut Scratch<E>, y: usize, stats: &mut MatchStats) {
     let w = sh.w;
     // i32 is enough: validated disparities are within ±2^20 and images narrower than 2^31
     let (nd, dmin, wm1) = (sh.nd as i32, sh.dmin as i32, w as i32 - 1);
@@ -833,13 +820,13 @@ fn decide_row<E: Lane, const UNIQ: bool>(sh: &Shared, sc: &mut Scratch<E>, y: us
         let key = keys[x];
         let c0 = E::key_cost(key);
         let kb = E::key_d(key) as i32;
-        let is_none = c0 == E::MAX || lo > hi;
+        let is_none = c0 == <E as Lane>::MAX || lo > hi;
         let is_low = !is_none & check_tex & !tex[x];
         // OpenCV's rule: no candidate further than one disparity from the winner costs at
         // most c0 + c0·uniq/100 (integer division, saturated at the lane maximum)
         let is_nu = UNIQ && {
             let c2 = c2v[x];
-            !is_none & !is_low & (c2 != E::MAX) & (c2 <= c0.uniq_thresh(sh.uniq))
+            !is_none & !is_low & (c2 != <E as Lane>::MAX) & (c2 <= Cost::uniq_thresh(c0, sh.uniq))
         };
         none += is_none as u32;
         low += is_low as u32;
@@ -865,7 +852,7 @@ fn decide_row<E: Lane, const UNIQ: bool>(sh: &Shared, sc: &mut Scratch<E>, y: us
     if sh.conf {
         for x in 0..w {
             let (c1, c2) = (E::key_cost(keys[x]), c2v[x]);
-            sc.ratio[x] = curve_ratio(c1.to_u64() as f64, (c2 != E::MAX).then_some(c2.to_u64() as f64));
+            sc.ratio[x] = curve_ratio(c1.to_u64() as f64, (c2 != <E as Lane>::MAX).then_some(c2.to_u64() as f64));
         }
     }
 }
