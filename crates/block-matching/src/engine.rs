@@ -1127,8 +1127,8 @@ pub(crate) fn finish_row(
         // the row, which the compiler vectorises (in one loop with the gather, ~92 instructions
         // a pixel of a teddy SGM frame, callgrind)
         let rw = &mut rw[..sh.w];
-        for (x, r) in rw.iter_mut().enumerate() {
-            *r = right_winner((x as i64 - dmin - best[x].max(0) as i64).clamp(0, w - 1) as usize);
+        for (x, (r, &k)) in rw.iter_mut().zip(&best[..sh.w]).enumerate() {
+            *r = right_winner((x as i64 - dmin - k.max(0) as i64).clamp(0, w - 1) as usize);
         }
         if sh.conf {
             lr_checks::<true>(sh, tol, best, sub, ratio, rw, out, conf, st);

@@ -60,9 +60,6 @@ pub(crate) const EDGE_UNIQUENESS: u32 = 100;
 /// Largest task memory of the eight-path strips, bytes.
 const STRIP_BYTES: usize = 48 << 20;
 
-/// Row size (`W · Dq · 2` bytes) above which the box sums are made with the column sums.
-const FUSED_BOX_BYTES: usize = 96 << 10;
-
 /// Sentinel of the padding lanes `d = −1` and `d ≥ D` (never a minimum).
 const PAD: u16 = u16::MAX;
 
@@ -193,18 +190,6 @@ impl<'a> SgmParams<'a> {
         })
     }
 
-    /// `P2'` for the intensity difference `di` in 8-bit grey levels: `max(P1, P2·γ / (γ + di))`
-    /// (`γ > 0`).
-    #[inline(always)]
-    fn p2_of(&self, di: u32) -> u16 {
-        if di < 256 {
-            self.p2_table[di as usize]
-        } else {
-            // only 8-bit input scaled wrongly could get here; keep the formula
-            (self.p2 as u32 * self.gamma / (self.gamma + di)).max(self.p1 as u32) as u16
-        }
-    }
-
     /// `out[i] = P2'` between the left pixels `a[i]` and `b[i]`, the difference in 8-bit grey
     /// levels (16-bit input divided by 257, rounded down), for a whole row before its sweep
     /// (the lookups in the sweep cost registers and branches at every pixel). The scale test
@@ -216,14 +201,19 @@ impl<'a> SgmParams<'a> {
             out.fill(self.p2);
             return;
         }
-        let (scale, diffs) = (self.intensity_scale, a.iter().zip(b).map(|(&u, &v)| u.abs_diff(v) as u32));
+        // the difference in 8-bit grey levels is at most 255: 8-bit input is widened (scale 1),
+        // 16-bit input divided by 257; the clamp (a difference no input reaches) keeps the
+        // lookup without a bounds check or a branch to the formula (which cost ~6 instructions
+        // a lookup, two or four rows a row: teddy, three paths, callgrind)
+        let (scale, table) = (self.intensity_scale, &self.p2_table);
+        let diffs = a.iter().zip(b).map(|(&u, &v)| u.abs_diff(v) as u32);
         if scale == 1 {
             for (o, di) in out.iter_mut().zip(diffs) {
-                *o = self.p2_of(di);
+                *o = table[di.min(255) as usize];
             }
         } else {
             for (o, di) in out.iter_mut().zip(diffs) {
-                *o = self.p2_of(di / scale);
+                *o = table[(di / scale).min(255) as usize];
             }
         }
     }
@@ -255,6 +245,10 @@ pub(crate) struct Scratch {
     r_a: Vec<u16>,
     l_b: Vec<u16>,
     r_b: Vec<u16>,
+    /// `r_a` and `r_b` interleaved as bytes (`r_a` first) and `l_a[xp] | l_b[xp] << 8`, when
+    /// every pixel is below 128 (`Shared::small_px`) and both rows' differences are taken.
+    pairs: Vec<u8>,
+    l_pairs: Vec<u16>,
     /// The Birchfield–Tomasi intervals of the rows in `l_a`/`r_a` and `l_b`/`r_b`, laid out as
     /// they are: left `I⁻`, left `I⁺`, right `I⁻`, right `I⁺` (sampling-insensitive cost only).
     bt_a: [Vec<u16>; 4],
@@ -319,6 +313,8 @@ impl Scratch {
         for v in [&mut self.r_a, &mut self.r_b] {
             v.resize(wp + ndq - 1, 0);
         }
+        self.pairs.resize(2 * (wp + ndq - 1), 0);
+        self.l_pairs.resize(wp, 0);
         // left intervals as `l_a`, right ones as `r_a`; empty without the cost that reads them
         let bt_len = |i: usize| {
             if !bt {
@@ -417,17 +413,29 @@ fn step_set(c: &[u16], prev: &[u16], pmin: u16, p1: u16, p2: u16, out: &mut [u16
 /// sums follow each column as soon as its window is complete, into `sc.cost` (the columns they
 /// read are still in L1; a second pass read them back from L2 or beyond); returns whether it did.
 #[inline(always)]
-fn vertical(sc: &mut Scratch, nd: usize, sub: bool, boxed: Option<usize>, bt: bool, isa: Isa) -> bool {
+fn vertical(sc: &mut Scratch, nd: usize, sub: bool, boxed: Option<usize>, bt: bool, small: bool, isa: Isa) -> bool {
     #[cfg(target_arch = "x86_64")]
     if isa.avx2() {
+        let pairs = small && sub && !bt;
+        if pairs {
+            // both rows' differences from byte pairs (every pixel below 128): per 16 candidates,
+            // three operations instead of seven (teddy, three paths, callgrind: SEE_NOTE)
+            for ((q, &a), &b) in sc.pairs.chunks_exact_mut(2).zip(&sc.r_a).zip(&sc.r_b) {
+                (q[0], q[1]) = (a as u8, b as u8);
+            }
+            for ((q, &a), &b) in sc.l_pairs.iter_mut().zip(&sc.l_a).zip(&sc.l_b) {
+                *q = a | b << 8;
+            }
+        }
         let cost = boxed.map(|r| (&mut sc.cost[..], r));
         let rows = (&sc.l_a[..], &sc.r_a[..], &sc.l_b[..], &sc.r_b[..]);
         let bt_rows = bt.then(|| (sc.bt_a.each_ref().map(|v| &v[..]), sc.bt_b.each_ref().map(|v| &v[..])));
+        let pairs = pairs.then(|| (&sc.pairs[..], &sc.l_pairs[..]));
         // SAFETY: `isa` only when the CPU has AVX2; lengths asserted inside.
-        unsafe { avx2::vertical(&mut sc.colsum, rows, bt_rows, lanes(nd), sub, cost) };
+        unsafe { avx2::vertical(&mut sc.colsum, rows, bt_rows, lanes(nd), sub, cost, pairs) };
         return boxed.is_some();
     }
-    let _ = (isa, boxed);
+    let _ = (isa, boxed, small);
     // whole 16-lane chunks (`Dq` per column; the lanes past `D` carry ignored values, hence the
     // wrapping arithmetic): fixed-size chunks the compiler vectorises
     let ndq = lanes(nd);
@@ -504,10 +512,10 @@ fn colsum_init(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, isa: Isa
         let j = j.clamp(0, h - 1) as usize;
         if pp.quant.is_some() {
             load(sh, pp, sc, j, false, true);
-            vertical(sc, sh.nd, false, None, false, isa);
+            vertical(sc, sh.nd, false, None, false, false, isa);
         }
         load(sh, pp, sc, j, false, false);
-        vertical(sc, sh.nd, false, None, pp.bt.is_some(), isa);
+        vertical(sc, sh.nd, false, None, pp.bt.is_some(), false, isa);
     }
 }
 
@@ -529,14 +537,15 @@ fn colsum_move(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, down: bo
     if pp.quant.is_some() {
         load(sh, pp, sc, yi, false, true);
         load(sh, pp, sc, yo, true, true);
-        vertical(sc, sh.nd, true, None, false, isa);
+        vertical(sc, sh.nd, true, None, false, false, isa);
     }
     load(sh, pp, sc, yi, false, false);
     load(sh, pp, sc, yo, true, false);
-    // with the box sums when a row of sums outgrows L1 by far (measured, three paths, 1 thread:
-    // 1282x1110x224 0.95x the time, 626x555x96 0.96x; teddy 450x375x64, 56 KB a row: 1.03x)
-    let boxed = sh.w * lanes(sh.nd) * 2 > FUSED_BOX_BYTES;
-    vertical(sc, sh.nd, true, boxed.then_some(sh.r), pp.bt.is_some(), isa)
+    // with the box sums, in the column pass (measured, three paths, 1 thread, when they took a
+    // second pass over each column: 1282x1110x224 0.95x the time, 626x555x96 0.96x, teddy
+    // 450x375x64 1.03x; in one pass, teddy 0.95x the median time of a row pass, 12 interleaved
+    // rounds at load 1.7, and 10.95 → 10.74 instructions an evaluation)
+    vertical(sc, sh.nd, true, Some(sh.r), pp.bt.is_some(), sh.small_px, isa)
 }
 
 /// `C` of the current row from the column sums: running box sums along the row (unless
@@ -742,46 +751,69 @@ fn forward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: b
     let (mut rp, mut rc) = (sc.rprev.as_mut_ptr(), sc.rcur.as_mut_ptr());
     let (p1, p2) = (pp.p1, pp.p2);
     let (mut pmin, mut rpmin) = (0, 0);
-    for x in 0..w {
-        let xr = w - 1 - x;
-        // SAFETY: x, xr < w, so every offset is inside its buffer (lengths checked above and in
-        // `Sweep::new`); the outputs (`hc`, row `vc`, `acc`) are other buffers than the inputs;
-        // `isa` as the strip's.
-        unsafe {
-            let (c, acc) = (s.cost.add(x * ndq), s.acc.add(x * ndq));
-            let (h, hm, hp2) = if x > 0 { (hp as *const u16, pmin, *p2h.add(x)) } else { (s.zero, 0, p2) };
-            let (t, tm, tp2) = s.before(0, x, w, ndp, first, p2);
-            let vo = |i: usize| s.vc[i].add(x * ndp);
-            if three {
-                let m = paths::<2, 1>(isa, c, [h, t], [hm, tm], [hp2, tp2], p1, [hc, vo(0)], acc, s.tail, nd, x <= xr);
-                pmin = m[0];
-                *s.mc[0].add(x) = m[1];
-            } else {
-                let (l, lm, lp2) = s.before(1, x, w, ndp, first, p2);
-                let (r, rm, rp2) = s.before(2, x, w, ndp, first, p2);
-                let m = paths::<4, 1>(
-                    isa,
-                    c,
-                    [h, t, l, r],
-                    [hm, tm, lm, rm],
-                    [hp2, tp2, lp2, rp2],
-                    p1,
-                    [hc, vo(0), vo(1), vo(2)],
-                    acc,
-                    s.tail,
-                    nd,
-                    x <= xr,
-                );
-                pmin = m[0];
-                (*s.mc[0].add(x), *s.mc[1].add(x), *s.mc[2].add(x)) = (m[1], m[2], m[3]);
+    // the sweep, pasted for each path count (a test of the count at every pixel was not hoisted)
+    macro_rules! sweep {
+        ($three:expr) => {
+            for x in 0..w {
+                let xr = w - 1 - x;
+                // SAFETY: x, xr < w, so every offset is inside its buffer (lengths checked above and in
+                // `Sweep::new`); the outputs (`hc`, row `vc`, `acc`) are other buffers than the inputs;
+                // `isa` as the strip's.
+                unsafe {
+                    let (c, acc) = (s.cost.add(x * ndq), s.acc.add(x * ndq));
+                    let (h, hm, hp2) = if x > 0 { (hp as *const u16, pmin, *p2h.add(x)) } else { (s.zero, 0, p2) };
+                    let (t, tm, tp2) = s.before(0, x, w, ndp, first, p2);
+                    let vo = |i: usize| s.vc[i].add(x * ndp);
+                    if $three {
+                        let m = paths::<2, 1>(
+                            isa,
+                            c,
+                            [h, t],
+                            [hm, tm],
+                            [hp2, tp2],
+                            p1,
+                            [hc, vo(0)],
+                            acc,
+                            s.tail,
+                            nd,
+                            x <= xr,
+                        );
+                        pmin = m[0];
+                        *s.mc[0].add(x) = m[1];
+                    } else {
+                        let (l, lm, lp2) = s.before(1, x, w, ndp, first, p2);
+                        let (r, rm, rp2) = s.before(2, x, w, ndp, first, p2);
+                        let m = paths::<4, 1>(
+                            isa,
+                            c,
+                            [h, t, l, r],
+                            [hm, tm, lm, rm],
+                            [hp2, tp2, lp2, rp2],
+                            p1,
+                            [hc, vo(0), vo(1), vo(2)],
+                            acc,
+                            s.tail,
+                            nd,
+                            x <= xr,
+                        );
+                        pmin = m[0];
+                        (*s.mc[0].add(x), *s.mc[1].add(x), *s.mc[2].add(x)) = (m[1], m[2], m[3]);
+                    }
+                    std::mem::swap(&mut hp, &mut hc);
+                    // right → left at xr
+                    let (prev, m, p2r) =
+                        if xr + 1 < w { (rp as *const u16, rpmin, *p2h.add(xr + 1)) } else { (s.zero, 0, p2) };
+                    let (c, acc) = (s.cost.add(xr * ndq), s.acc.add(xr * ndq));
+                    [rpmin] = paths::<1, 1>(isa, c, [prev], [m], [p2r], p1, [rc], acc, s.tail, nd, x < xr);
+                    std::mem::swap(&mut rp, &mut rc);
+                }
             }
-            std::mem::swap(&mut hp, &mut hc);
-            // right → left at xr
-            let (prev, m, p2r) = if xr + 1 < w { (rp as *const u16, rpmin, *p2h.add(xr + 1)) } else { (s.zero, 0, p2) };
-            let (c, acc) = (s.cost.add(xr * ndq), s.acc.add(xr * ndq));
-            [rpmin] = paths::<1, 1>(isa, c, [prev], [m], [p2r], p1, [rc], acc, s.tail, nd, x < xr);
-            std::mem::swap(&mut rp, &mut rc);
-        }
+        };
+    }
+    if three {
+        sweep!(true);
+    } else {
+        sweep!(false);
     }
     std::mem::swap(&mut sc.vp, &mut sc.vc);
     std::mem::swap(&mut sc.mp, &mut sc.mc);
@@ -845,77 +877,147 @@ fn decide_row(
     assert!(ndq.is_multiple_of(16) && ndq < 1 << 15 && sc.tail.len() == ndq && sc.acc.len() >= w * ndq);
     assert!(sc.rc.len() >= w + ndq && sc.rk.len() >= w + ndq);
     let (rcp, rkp) = (sc.rc.as_mut_ptr(), sc.rk.as_mut_ptr());
-    for x in 0..w {
-        let xd = x as i64 - dmin;
-        let lo = (xd - (w as i64 - 1)).max(0);
-        let hi = xd.min(nd as i64 - 1);
-        if lo > hi {
-            (sc.best[x], sc.win_k[x]) = (-1, -1);
-            st.no_candidate += 1;
-            continue;
-        }
-        let (lo, hi) = (lo as usize, hi as usize);
-        let s = &sc.acc[x * ndq..][..ndq];
-        let j0 = (w as i64 - 1 - xd + lo as i64) as usize;
-        let len = hi - lo + 1;
-        let rejected = sh.texture_ok.is_some_and(|t| !t[y * w + x]);
-        // the right update in the winner search's pass: vector level, every candidate in the
-        // image, a winner to search
-        let fused = isa.avx2() && sh.lr.is_some() && lo == 0 && hi + 1 == nd && !rejected;
-        if sh.lr.is_some() && !fused {
-            // SAFETY: j0 + len ≤ w (the candidates' right pixels), within rc and rk.
-            let (rc, rk) = unsafe {
-                (std::slice::from_raw_parts_mut(rcp.add(j0), len), std::slice::from_raw_parts_mut(rkp.add(j0), len))
-            };
-            let c = &s[lo..=hi];
+    let texture = sh.texture_ok.map(|t| &t[y * w..][..w]);
+    // one pixel with any range (the edge bands, and every pixel at the scalar level); a macro:
+    // pasted before and after the middle's loop (the pixels' order decides the right winners'
+    // ties)
+    macro_rules! any_range {
+        ($x:expr) => {{
+            let x = $x;
+            let xd = x as i64 - dmin;
+            let lo = (xd - (w as i64 - 1)).max(0);
+            let hi = xd.min(nd as i64 - 1);
+            if lo > hi {
+                (sc.best[x], sc.win_k[x]) = (-1, -1);
+                st.no_candidate += 1;
+                continue;
+            }
+            let (lo, hi) = (lo as usize, hi as usize);
+            let s = &sc.acc[x * ndq..][..ndq];
+            let j0 = (w as i64 - 1 - xd + lo as i64) as usize;
+            let len = hi - lo + 1;
+            let rejected = texture.is_some_and(|t| !t[x]);
+            // the right update in the winner search's pass: vector level, every candidate in the
+            // image, a winner to search
+            let fused = isa.avx2() && sh.lr.is_some() && lo == 0 && hi + 1 == nd && !rejected;
+            if sh.lr.is_some() && !fused {
+                // SAFETY: j0 + len ≤ w (the candidates' right pixels), within rc and rk.
+                let (rc, rk) = unsafe {
+                    (std::slice::from_raw_parts_mut(rcp.add(j0), len), std::slice::from_raw_parts_mut(rkp.add(j0), len))
+                };
+                let c = &s[lo..=hi];
+                #[cfg(target_arch = "x86_64")]
+                if isa.avx2() {
+                    // SAFETY: `isa` only in the strip's AVX2 instance; the three slices have `len`
+                    // entries.
+                    unsafe { lanes::right_update::<lanes::W256>(c, rc, rk, lo) };
+                }
+                if !isa.avx2() {
+                    right_update16(c, rc, rk, lo);
+                }
+            }
+            if rejected {
+                (sc.best[x], sc.win_k[x]) = (-1, -1);
+                st.low_texture += 1;
+                continue;
+            }
+            // where the image edge cuts the range, the edge band's margin (it implies the configured
+            // one)
+            let uniq = if lo > 0 || hi + 1 < nd { sh.uniq.max(sh.edge_uniq) } else { sh.uniq };
             #[cfg(target_arch = "x86_64")]
             if isa.avx2() {
-                // SAFETY: `isa` only in the strip's AVX2 instance; the three slices have `len`
-                // entries.
-                unsafe { lanes::right_update::<lanes::W256>(c, rc, rk, lo) };
+                let second = if sh.conf || uniq > 0 { lanes::Second::Min } else { lanes::Second::Skip };
+                let right = fused.then(|| (rcp.wrapping_add(j0), rkp.wrapping_add(j0)));
+                // SAFETY: `isa` only in the strip's AVX2 instance; `s` and `tail` have Dq lanes,
+                // lo ≤ hi < D (asserted above the loop and by the `lo > hi` exit). With `fused`,
+                // lo = 0, hi = D − 1, and rc, rk have Dq lanes from j0 = w − 1 − xd ≤ w − D
+                // (asserted above the loop).
+                let (m, kb, third) = unsafe { lanes::wta_right::<lanes::W256>(s, &sc.tail, lo, hi, second, right) };
+                // `third`: the smallest S apart from the winner and its neighbours (u16::MAX: none)
+                (sc.win_k[x], sc.win_s[x], sc.win_third[x]) = (kb as i32, m, third);
+                (sc.win_m[x], sc.win_p[x]) = (s[kb.saturating_sub(1)], s[(kb + 1).min(nd - 1)]);
+                continue;
             }
-            if !isa.avx2() {
-                right_update16(c, rc, rk, lo);
+            match decide(&s[..nd], lo, hi, uniq, sh.subpixel, sh.conf) {
+                crate::engine::Decision::Best(k, off, ratio) => {
+                    sc.best[x] = k;
+                    sc.sub[x] = off;
+                    sc.ratio[x] = ratio;
+                }
+                crate::engine::Decision::NotUnique => {
+                    sc.best[x] = -1;
+                    st.not_unique += 1;
+                }
             }
+        }};
+    }
+    // the pixels whose candidates are all in the image (as `cost_row`'s bands): at the vector
+    // level, a loop without the range's arithmetic, masks and the uniqueness choice (teddy,
+    // three paths, one thread, callgrind: SEE_NOTE)
+    let left_end = (dmin + nd as i64 - 1).clamp(0, w as i64) as usize;
+    let right_start = (w as i64 + dmin).clamp(left_end as i64, w as i64) as usize;
+    let (mid_start, mid_end) = if isa.avx2() { (left_end, right_start) } else { (w, w) };
+    for x in 0..mid_start {
+        any_range!(x);
+    }
+    #[cfg(target_arch = "x86_64")]
+    if isa.avx2() {
+        let (acc, tail) = (&sc.acc[..w * ndq], &sc.tail[..ndq]);
+        let (ks, ms, thirds) = (&mut sc.win_k[..w], &mut sc.win_s[..w], &mut sc.win_third[..w]);
+        let (cms, cps, best) = (&mut sc.win_m[..w], &mut sc.win_p[..w], &mut sc.best[..w]);
+        // the loop pasted for each search (`$second`) and with or without the left–right
+        // check (`$lr`): tests of them at every pixel were not hoisted
+        macro_rules! middle {
+            ($second:expr, $lr:expr) => {
+                for x in mid_start..mid_end {
+                    let s = &acc[x * ndq..][..ndq];
+                    // the right pixel of candidate 0; candidates 0..D reach j0 + D − 1 =
+                    // w − 1 − (x − dmin) + D − 1 < w (x ≥ left_end), within rc and rk (w + Dq
+                    // lanes, asserted above)
+                    let j0 = (w as i64 - 1 - (x as i64 - dmin)) as usize;
+                    if texture.is_some_and(|t| !t[x]) {
+                        if $lr {
+                            // SAFETY: j0 + D ≤ w, within rc and rk (as above); `isa` as the
+                            // strip's.
+                            unsafe {
+                                let (rc, rk) = (
+                                    std::slice::from_raw_parts_mut(rcp.add(j0), nd),
+                                    std::slice::from_raw_parts_mut(rkp.add(j0), nd),
+                                );
+                                lanes::right_update::<lanes::W256>(&s[..nd], rc, rk, 0);
+                            }
+                        }
+                        (best[x], ks[x]) = (-1, -1);
+                        st.low_texture += 1;
+                        continue;
+                    }
+                    let right = $lr.then(|| (rcp.wrapping_add(j0), rkp.wrapping_add(j0)));
+                    // SAFETY: `isa` only in the strip's AVX2 instance; `s` and `tail` have Dq
+                    // lanes, lo = 0 ≤ hi = D − 1 < Dq and `tail` marks the lanes past D − 1
+                    // (`all`); with `right`, rc and rk have Dq lanes from j0 (asserted above
+                    // the loop: w + Dq lanes).
+                    let (m, kb, third) =
+                        unsafe { lanes::wta_in::<lanes::W256>(s, tail, 0, nd - 1, true, $second, right) };
+                    (ks[x], ms[x], thirds[x]) = (kb as i32, m, third);
+                    (cms[x], cps[x]) = (s[kb.saturating_sub(1)], s[(kb + 1).min(nd - 1)]);
+                }
+            };
         }
-        if rejected {
-            (sc.best[x], sc.win_k[x]) = (-1, -1);
-            st.low_texture += 1;
-            continue;
+        match (sh.conf || sh.uniq > 0, sh.lr.is_some()) {
+            (true, true) => middle!(lanes::Second::Min, true),
+            (true, false) => middle!(lanes::Second::Min, false),
+            (false, true) => middle!(lanes::Second::Skip, true),
+            (false, false) => middle!(lanes::Second::Skip, false),
         }
-        // where the image edge cuts the range, the edge band's margin (it implies the configured
-        // one)
-        let uniq = if lo > 0 || hi + 1 < nd { sh.uniq.max(sh.edge_uniq) } else { sh.uniq };
-        #[cfg(target_arch = "x86_64")]
-        if isa.avx2() {
-            let second = if sh.conf || uniq > 0 { lanes::Second::Min } else { lanes::Second::Skip };
-            let right = fused.then(|| (rcp.wrapping_add(j0), rkp.wrapping_add(j0)));
-            // SAFETY: `isa` only in the strip's AVX2 instance; `s` and `tail` have Dq lanes,
-            // lo ≤ hi < D (asserted above the loop and by the `lo > hi` exit). With `fused`,
-            // lo = 0, hi = D − 1, and rc, rk have Dq lanes from j0 = w − 1 − xd ≤ w − D
-            // (asserted above the loop).
-            let (m, kb, third) = unsafe { lanes::wta_right::<lanes::W256>(s, &sc.tail, lo, hi, second, right) };
-            // `third`: the smallest S apart from the winner and its neighbours (u16::MAX: none)
-            (sc.win_k[x], sc.win_s[x], sc.win_third[x]) = (kb as i32, m, third);
-            (sc.win_m[x], sc.win_p[x]) = (s[kb.saturating_sub(1)], s[(kb + 1).min(nd - 1)]);
-            continue;
-        }
-        match decide(&s[..nd], lo, hi, uniq, sh.subpixel, sh.conf) {
-            crate::engine::Decision::Best(k, off, ratio) => {
-                sc.best[x] = k;
-                sc.sub[x] = off;
-                sc.ratio[x] = ratio;
-            }
-            crate::engine::Decision::NotUnique => {
-                sc.best[x] = -1;
-                st.not_unique += 1;
-            }
-        }
+    }
+    for x in mid_end..w {
+        any_range!(x);
     }
     if isa.avx2() {
         decide_winners(sh, sc, st);
     }
-    let rk = &sc.rk;
+    // (sliced to the row: the index, below w, needs no bounds check)
+    let rk = &sc.rk[..w];
     finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, &mut sc.rw, |u| rk[w - 1 - u] as u32);
 }
 
@@ -1157,6 +1259,11 @@ mod lanes {
         /// # Safety
         /// The trait's contract.
         unsafe fn max(a: Self, b: Self) -> Self;
+        /// All ones in the lanes where `a = b`, zero elsewhere.
+        ///
+        /// # Safety
+        /// The trait's contract.
+        unsafe fn eq(a: Self, b: Self) -> Self;
         /// Bitwise or.
         ///
         /// # Safety
@@ -1189,6 +1296,14 @@ mod lanes {
         /// # Safety
         /// The trait's contract.
         unsafe fn select(m: Self, a: Self, b: Self) -> Self;
+        /// `|a − r_a| − |b − r_b|` per lane (wrapping) from the byte pairs `(a, b)` of `ab`
+        /// and `LANES` byte pairs `(r_a, r_b)` at `p`, every byte below 128: the byte
+        /// difference does not wrap, its absolute value is below 128 and the multiply-add by
+        /// `(1, −1)` is exact.
+        ///
+        /// # Safety
+        /// The trait's contract; `2 · LANES` readable bytes at `p`.
+        unsafe fn pair_diff(ab: Self, p: *const u8) -> Self;
     }
 
     /// One [`V16`] implementation per register width, from its intrinsics.
@@ -1196,7 +1311,8 @@ mod lanes {
         ($name:ident, $reg:ty, $lanes:literal, $doc:literal, $ld:ident, $st:ident, $set1:ident,
          $($op:ident: $intrinsic:ident),+; |$h:ident| $hmin:expr;
          |$u:ident, $ub:ident| $up:expr; |$dn:ident, $da:ident| $down:expr;
-         |$la:ident, $lb:ident| $less:expr; |$sm:ident, $sa:ident, $sb:ident| $select:expr) => {
+         |$la:ident, $lb:ident| $less:expr; |$sm:ident, $sa:ident, $sb:ident| $select:expr;
+         |$pa:ident, $pp:ident| $pair:expr) => {
             #[doc = $doc]
             #[derive(Clone, Copy)]
             pub(super) struct $name($reg);
@@ -1273,6 +1389,14 @@ mod lanes {
                     // SAFETY: the trait's contract (the instruction set).
                     $name(unsafe { $select })
                 }
+                /// # Safety
+                /// The trait's contract.
+                #[inline(always)]
+                unsafe fn pair_diff(ab: Self, p: *const u8) -> Self {
+                    let ($pa, $pp) = (ab.0, p);
+                    // SAFETY: the trait's contract (the bytes at p, the instruction set).
+                    $name(unsafe { $pair })
+                }
             }
         };
     }
@@ -1280,7 +1404,7 @@ mod lanes {
     v16!(
         W256, __m256i, 16, "16 lanes (AVX2).", _mm256_loadu_si256, _mm256_storeu_si256, _mm256_set1_epi16,
         add: _mm256_add_epi16, sub: _mm256_sub_epi16, adds: _mm256_adds_epu16, subs: _mm256_subs_epu16,
-        min: _mm256_min_epu16, max: _mm256_max_epu16, or: _mm256_or_si256;
+        min: _mm256_min_epu16, max: _mm256_max_epu16, eq: _mm256_cmpeq_epi16, or: _mm256_or_si256;
         |v| {
             let m = _mm_min_epu16(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
             (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as u16
@@ -1291,7 +1415,11 @@ mod lanes {
         |v, a| _mm256_alignr_epi8::<2>(_mm256_permute2x128_si256::<0x21>(v, a), v);
         // a < b ⟺ max(a, b) ≠ a
         |a, b| _mm256_xor_si256(_mm256_cmpeq_epi16(_mm256_max_epu16(a, b), a), _mm256_set1_epi16(-1));
-        |m, a, b| _mm256_blendv_epi8(b, a, m)
+        |m, a, b| _mm256_blendv_epi8(b, a, m);
+        |ab, p| {
+            let r = _mm256_loadu_si256(p as *const __m256i);
+            _mm256_maddubs_epi16(_mm256_abs_epi8(_mm256_sub_epi8(ab, r)), _mm256_set1_epi16(0xff01u16 as i16))
+        }
     );
 
     /// `|a − b|` per lane.
@@ -1374,9 +1502,19 @@ mod lanes {
                     V::st(acc.as_mut_ptr().add(d), sum);
                 }};
             }
+            let next = |d: usize| -> [V; N] { std::array::from_fn(|i| V::ld(prev[i].as_ptr().add(d + 1 + V::LANES))) };
+            // the chunks before the last three at a time: the horizontal paths' `before`,
+            // `cur` and `next` then come back to the registers they started in, without the
+            // moves a loop of one chunk made (teddy, three paths, callgrind: SEE_NOTE)
             let mut d = 0;
+            for _ in 0..(ndq / V::LANES - 1) / 3 {
+                chunk!(d, next(d), false);
+                chunk!(d + V::LANES, next(d + V::LANES), false);
+                chunk!(d + 2 * V::LANES, next(d + 2 * V::LANES), false);
+                d += 3 * V::LANES;
+            }
             while d + V::LANES < ndq {
-                chunk!(d, std::array::from_fn(|i| V::ld(prev[i].as_ptr().add(d + 1 + V::LANES))), false);
+                chunk!(d, next(d), false);
                 d += V::LANES;
             }
             chunk!(d, [pad; N], true);
@@ -1386,15 +1524,19 @@ mod lanes {
 
     /// [`super::vertical`] on lanes `from..to` of every column: `colsum[xp] += |l_a[xp] −
     /// r_a[base + d]|` (and, with `SUB`, `−= |l_b[xp] − r_b[base + d]|`), wrapping lanes.
+    /// With `PAIRS` (`SUB`, not `BT`, every pixel below 128), both differences at once from
+    /// the rows as byte pairs ([`Scratch::pairs`](super::Scratch)): `pairs.0` the right rows'
+    /// (`r_a` the low byte), `pairs.1` the left rows' (`l_a[xp] | l_b[xp] << 8`).
     ///
     /// # Safety
     /// [`V16`]'s contract; the lengths the callers assert.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)] // both row pairs, the lane count and range
-    pub(super) unsafe fn vertical<V: V16, const BT: bool, const SUB: bool>(
+    pub(super) unsafe fn vertical<V: V16, const BT: bool, const SUB: bool, const PAIRS: bool>(
         colsum: &mut [u16],
         (la, ra, lb, rb): Rows,
         bt: Option<BtRows>,
+        pairs: (*const u8, *const u16),
         ndq: usize,
         boxed: Option<(*mut u16, usize)>,
         (from, to): (usize, usize),
@@ -1429,29 +1571,54 @@ mod lanes {
                 }
             }
         };
-        // one column's update; pasted into the loops with and without the box sums (a macro: a
-        // closure called from both loops was not inlined, so lost AVX2), so the column loop
-        // keeps no test of `boxed` (and the registers it would hold)
+        // one column's update, then `$after` on each new chunk of sums (`$d`: its first lane,
+        // `$v`: the chunk) in the same pass; pasted into the loops with and without the box
+        // sums (a macro: a closure called from both loops was not inlined, so lost AVX2), so
+        // the column loop keeps no test of `boxed` (and the registers it would hold)
         macro_rules! column {
-            ($xp:expr) => {{
+            ($xp:expr) => {
+                column!($xp, |_d, _v| {})
+            };
+            ($xp:expr, |$d:ident, $v:ident| $after:block) => {{
                 let xp = $xp;
                 let base = wp - 1 - xp;
-                let (ua, ua0, ua1) = splat3(la, &bta, xp);
-                // SAFETY: the trait's contract.
-                let zero = unsafe { V::splat(0) };
-                let (ub, ub0, ub1) = if SUB { splat3(lb, &btb, xp) } else { (zero, zero, zero) };
-                let mut d = from;
-                while d < to {
-                    // SAFETY: xp·ndq + d + LANES ≤ wp·ndq (asserted by the callers).
+                if PAIRS {
+                    // SAFETY: xp < wp, within the left pairs; the right pairs' bytes
+                    // 2(base + d) .. 2(base + d + LANES) ≤ 2(wp − 1 + ndq), and the column sums
+                    // as below; `$after`'s (asserted by the callers).
                     unsafe {
-                        let p = cs.add(xp * ndq + d);
-                        let mut v = V::add(V::ld(p), diff(ua, ua0, ua1, ra, &bta, base + d));
-                        if SUB {
-                            v = V::sub(v, diff(ub, ub0, ub1, rb, &btb, base + d));
+                        let lp = V::splat(*pairs.1.add(xp));
+                        let mut d = from;
+                        while d < to {
+                            let p = cs.add(xp * ndq + d);
+                            let v = V::add(V::ld(p), V::pair_diff(lp, pairs.0.add(2 * (base + d))));
+                            V::st(p, v);
+                            let ($d, $v) = (d, v);
+                            $after
+                            d += V::LANES;
                         }
-                        V::st(p, v);
                     }
-                    d += V::LANES;
+                } else {
+                    let (ua, ua0, ua1) = splat3(la, &bta, xp);
+                    // SAFETY: the trait's contract.
+                    let zero = unsafe { V::splat(0) };
+                    let (ub, ub0, ub1) = if SUB { splat3(lb, &btb, xp) } else { (zero, zero, zero) };
+                    let mut d = from;
+                    while d < to {
+                        // SAFETY: xp·ndq + d + LANES ≤ wp·ndq (asserted by the callers);
+                        // `$after`'s.
+                        unsafe {
+                            let p = cs.add(xp * ndq + d);
+                            let mut v = V::add(V::ld(p), diff(ua, ua0, ua1, ra, &bta, base + d));
+                            if SUB {
+                                v = V::sub(v, diff(ub, ub0, ub1, rb, &btb, base + d));
+                            }
+                            V::st(p, v);
+                            let ($d, $v) = (d, v);
+                            $after
+                        }
+                        d += V::LANES;
+                    }
                 }
             }};
         }
@@ -1462,28 +1629,34 @@ mod lanes {
             return;
         };
         for xp in 0..wp {
+            if xp > 2 * r {
+                // the box sum of pixel x = xp − 2r (its window's last column complete) from
+                // x − 1's, with the new column in the register (one pass over the chunks, not
+                // two: 1282x1110x224, three paths, callgrind: SEE_NOTE)
+                let x = xp - 2 * r;
+                // (SAFETY, in `column`'s unsafe block: x·ndq + d + LANES ≤ (wp − 2r)·ndq lanes
+                // of cost, and the column sums as above, asserted by the callers)
+                column!(xp, |d, v| {
+                    let run = V::add(V::ld(c.add((x - 1) * ndq + d)), v);
+                    V::st(c.add(x * ndq + d), V::sub(run, V::ld(cs.add((x - 1) * ndq + d))));
+                });
+                continue;
+            }
             column!(xp);
-            // the box sum of pixel x = xp − 2r: its window's last column is complete
             if xp < 2 * r {
                 continue;
             }
-            let x = xp - 2 * r;
+            // pixel 0: its window's 2r + 1 columns
             let mut d = from;
             while d < to {
-                // SAFETY: x·ndq + d + LANES ≤ (wp − 2r)·ndq lanes of cost, and the column sums
-                // as above (asserted by the callers).
+                // SAFETY: d + LANES ≤ ndq lanes of cost, and the column sums as above (asserted
+                // by the callers).
                 unsafe {
-                    let v = if x == 0 {
-                        let mut acc = V::splat(0);
-                        for k in 0..=2 * r {
-                            acc = V::add(acc, V::ld(cs.add(k * ndq + d)));
-                        }
-                        acc
-                    } else {
-                        let run = V::add(V::ld(c.add((x - 1) * ndq + d)), V::ld(cs.add(xp * ndq + d)));
-                        V::sub(run, V::ld(cs.add((x - 1) * ndq + d)))
-                    };
-                    V::st(c.add(x * ndq + d), v);
+                    let mut acc = V::splat(0);
+                    for k in 0..=2 * r {
+                        acc = V::add(acc, V::ld(cs.add(k * ndq + d)));
+                    }
+                    V::st(c.add(d), acc);
                 }
                 d += V::LANES;
             }
@@ -1608,9 +1781,31 @@ mod lanes {
         second: Second,
         right: Option<(*mut u16, *mut u16)>,
     ) -> (u16, usize, u16) {
-        let (c0, c1) = (lo / V::LANES * V::LANES, (hi / V::LANES + 1) * V::LANES);
         // every candidate in the image (most pixels): the lanes past hi are those `tail` marks
         let all = lo == 0 && tail[hi] == 0 && (hi + 1 == tail.len() || tail[hi + 1] != 0);
+        // SAFETY: the caller's; `all` as computed.
+        unsafe { wta_in::<V>(s, tail, lo, hi, all, second, right) }
+    }
+
+    /// [`wta_right`] told whether every candidate is in the image (`all`: `lo = 0` and the
+    /// lanes past `hi` are those `tail` marks), for a caller that knows it for a whole range
+    /// of pixels (the test per pixel is two loads and four branches).
+    ///
+    /// # Safety
+    /// [`wta_right`]'s, and `all` true only where the above holds.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // wta_right's, and what it would compute
+    pub(super) unsafe fn wta_in<V: V16>(
+        s: &[u16],
+        tail: &[u16],
+        lo: usize,
+        hi: usize,
+        all: bool,
+        second: Second,
+        right: Option<(*mut u16, *mut u16)>,
+    ) -> (u16, usize, u16) {
+        let (c0, c1) = (lo / V::LANES * V::LANES, (hi / V::LANES + 1) * V::LANES);
+        debug_assert!(all == (lo == 0 && tail[hi] == 0 && (hi + 1 == tail.len() || tail[hi + 1] != 0)));
         debug_assert!(right.is_none() || all);
         // SAFETY: chunks d .. d + LANES ≤ c1 ≤ s.len() = tail.len() (and within rc, rk: the
         // caller's).
@@ -1633,11 +1828,14 @@ mod lanes {
                 None => {
                     while d < c1 {
                         let v = at(d);
-                        iv = V::select(V::less(v, mv), dv, iv);
+                        // v ≥ mv ⟺ min(mv, v) = mv: a compare on the new minimum (`less` is
+                        // three operations)
+                        let (nm, old) = (V::min(mv, v), mv);
+                        iv = V::select(V::eq(nm, old), iv, dv);
                         if two {
-                            m2 = V::min(m2, V::max(mv, v));
+                            m2 = V::min(m2, V::max(old, v));
                         }
-                        mv = V::min(mv, v);
+                        mv = nm;
                         dv = V::add(dv, step);
                         d += V::LANES;
                     }
@@ -1646,14 +1844,17 @@ mod lanes {
                     let mut k = V::ld(RAMP.as_ptr());
                     while d < c1 {
                         let v = V::or(V::ld(s.as_ptr().add(d)), V::ld(tail.as_ptr().add(d)));
-                        iv = V::select(V::less(v, mv), dv, iv);
+                        let (nm, old) = (V::min(mv, v), mv);
+                        iv = V::select(V::eq(nm, old), iv, dv);
                         if two {
-                            m2 = V::min(m2, V::max(mv, v));
+                            m2 = V::min(m2, V::max(old, v));
                         }
-                        mv = V::min(mv, v);
+                        mv = nm;
+                        // (v ≥ r likewise: the right pixel keeps its candidate)
                         let r = V::ld(rc.add(d));
-                        V::st(rc.add(d), V::min(r, v));
-                        V::st(rk.add(d), V::select(V::less(v, r), k, V::ld(rk.add(d))));
+                        let nr = V::min(r, v);
+                        V::st(rc.add(d), nr);
+                        V::st(rk.add(d), V::select(V::eq(nr, r), V::ld(rk.add(d)), k));
                         (dv, k) = (V::add(dv, step), V::add(k, step));
                         d += V::LANES;
                     }
@@ -1728,8 +1929,13 @@ mod avx2 {
         ndq: usize,
         sub: bool,
         cost: Option<(&mut [u16], usize)>,
+        pairs: Option<(&[u8], &[u16])>,
     ) {
         lanes::vertical_checked(colsum, rows, bt, ndq, sub);
+        let wp = rows.0.len();
+        // the byte pairs only for the differences of both rows without intervals
+        assert!(pairs.is_none_or(|(p, l)| sub && bt.is_none() && p.len() + 2 >= 2 * (wp + ndq) && l.len() >= wp));
+        let pp = pairs.map_or((std::ptr::null(), std::ptr::null()), |(p, l)| (p.as_ptr(), l.as_ptr()));
         let boxed = cost.map(|(cost, r)| {
             let wp = rows.0.len();
             assert!(wp > 2 * r);
@@ -1738,11 +1944,19 @@ mod avx2 {
         });
         // SAFETY: AVX2 (this function's features); lengths asserted above.
         unsafe {
-            match (bt.is_some(), sub) {
-                (true, true) => lanes::vertical::<W256, true, true>(colsum, rows, bt, ndq, boxed, (0, ndq)),
-                (true, false) => lanes::vertical::<W256, true, false>(colsum, rows, bt, ndq, boxed, (0, ndq)),
-                (false, true) => lanes::vertical::<W256, false, true>(colsum, rows, bt, ndq, boxed, (0, ndq)),
-                (false, false) => lanes::vertical::<W256, false, false>(colsum, rows, bt, ndq, boxed, (0, ndq)),
+            let all = (0, ndq);
+            match (bt.is_some(), sub, pairs.is_some()) {
+                (true, true, _) => lanes::vertical::<W256, true, true, false>(colsum, rows, bt, pp, ndq, boxed, all),
+                (true, false, _) => lanes::vertical::<W256, true, false, false>(colsum, rows, bt, pp, ndq, boxed, all),
+                (false, true, true) => {
+                    lanes::vertical::<W256, false, true, true>(colsum, rows, bt, pp, ndq, boxed, all)
+                }
+                (false, true, false) => {
+                    lanes::vertical::<W256, false, true, false>(colsum, rows, bt, pp, ndq, boxed, all)
+                }
+                (false, false, _) => {
+                    lanes::vertical::<W256, false, false, false>(colsum, rows, bt, pp, ndq, boxed, all)
+                }
             }
         }
     }
