@@ -992,11 +992,11 @@ fn decide_row(
                         continue;
                     }
                     let right = $lr.then(|| (rcp.wrapping_add(j0), rkp.wrapping_add(j0)));
-                    // SAFETY: `isa` only in the strip's AVX2 instance; `s` and `tail` have Dq
-                    // lanes, lo = 0 ≤ hi = D − 1 < Dq and `tail` marks the lanes past D − 1
-                    // (`all`); with `right`, rc and rk have Dq lanes from j0 (asserted above
-                    // the loop: w + Dq lanes).
                     let (m, kb, third) =
+                        // SAFETY: `isa` only in the strip's AVX2 instance; `s` and `tail` have
+                        // Dq lanes, lo = 0 ≤ hi = D − 1 < Dq and `tail` marks the lanes past
+                        // D − 1 (`all`); with `right`, rc and rk have Dq lanes from j0 (asserted
+                        // above the loop: w + Dq lanes).
                         unsafe { lanes::wta_in::<lanes::W256>(s, tail, 0, nd - 1, true, $second, right) };
                     (ks[x], ms[x], thirds[x]) = (kb as i32, m, third);
                     (cms[x], cps[x]) = (s[kb.saturating_sub(1)], s[(kb + 1).min(nd - 1)]);
