@@ -419,7 +419,8 @@ fn vertical(sc: &mut Scratch, nd: usize, sub: bool, boxed: Option<usize>, bt: bo
         let pairs = small && sub && !bt;
         if pairs {
             // both rows' differences from byte pairs (every pixel below 128): per 16 candidates,
-            // three operations instead of seven (teddy, three paths, callgrind: SEE_NOTE)
+            // three operations instead of seven (teddy, three paths, one thread, callgrind: 11.83 →
+            // 11.36 instructions an evaluation)
             for ((q, &a), &b) in sc.pairs.chunks_exact_mut(2).zip(&sc.r_a).zip(&sc.r_b) {
                 (q[0], q[1]) = (a as u8, b as u8);
             }
@@ -543,7 +544,7 @@ fn colsum_move(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, down: bo
     load(sh, pp, sc, yo, true, false);
     // with the box sums, in the column pass (measured, three paths, 1 thread, when they took a
     // second pass over each column: 1282x1110x224 0.95x the time, 626x555x96 0.96x, teddy
-    // 450x375x64 1.03x; in one pass, teddy 0.95x the median time of a row pass, 12 interleaved
+    // 450x375x64 1.03x; in one pass, teddy 0.95x the median time of the second pass, 12 interleaved
     // rounds at load 1.7, and 10.95 → 10.74 instructions an evaluation)
     vertical(sc, sh.nd, true, Some(sh.r), pp.bt.is_some(), sh.small_px, isa)
 }
@@ -953,7 +954,8 @@ fn decide_row(
     }
     // the pixels whose candidates are all in the image (as `cost_row`'s bands): at the vector
     // level, a loop without the range's arithmetic, masks and the uniqueness choice (teddy,
-    // three paths, one thread, callgrind: SEE_NOTE)
+    // three paths, one thread, callgrind: 13.91 → 12.80 instructions an evaluation, and with the
+    // search kind and the left–right check hoisted, 12.26 → 11.83)
     let left_end = (dmin + nd as i64 - 1).clamp(0, w as i64) as usize;
     let right_start = (w as i64 + dmin).clamp(left_end as i64, w as i64) as usize;
     let (mid_start, mid_end) = if isa.avx2() { (left_end, right_start) } else { (w, w) };
@@ -1505,7 +1507,8 @@ mod lanes {
             let next = |d: usize| -> [V; N] { std::array::from_fn(|i| V::ld(prev[i].as_ptr().add(d + 1 + V::LANES))) };
             // the chunks before the last three at a time: the horizontal paths' `before`,
             // `cur` and `next` then come back to the registers they started in, without the
-            // moves a loop of one chunk made (teddy, three paths, callgrind: SEE_NOTE)
+            // moves a loop of one chunk made (three paths, one thread, callgrind: teddy 11.31 → 10.99
+            // instructions an evaluation)
             let mut d = 0;
             for _ in 0..(ndq / V::LANES - 1) / 3 {
                 chunk!(d, next(d), false);
@@ -1632,7 +1635,8 @@ mod lanes {
             if xp > 2 * r {
                 // the box sum of pixel x = xp − 2r (its window's last column complete) from
                 // x − 1's, with the new column in the register (one pass over the chunks, not
-                // two: 1282x1110x224, three paths, callgrind: SEE_NOTE)
+                // two: 1282x1110x224, three paths, one thread, callgrind: 7.03 → 6.67 instructions an
+                // evaluation)
                 let x = xp - 2 * r;
                 // (SAFETY, in `column`'s unsafe block: x·ndq + d + LANES ≤ (wp − 2r)·ndq lanes
                 // of cost, and the column sums as above, asserted by the callers)
