@@ -847,23 +847,57 @@ fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, 
     std::mem::swap(&mut sc.mp, &mut sc.mc);
 }
 
-/// [`forward_row`] compiled for the lane counts of small disparity ranges (16 to 64), where the
-/// sweep's per-pixel work is a large share: with the count a constant, the chunk loops unroll
-/// and the strides are immediates (three paths, one thread, callgrind, instructions an evaluation: tsukuba 25.57 → 20.72, venus
-/// 15.90 → 12.82, teddy 10.49 → 9.05).
+/// [`forward_row`] at the vector level compiled for each lane count up to 256 (`Dq` = 16, 32,
+/// …, 256; larger ranges and the scalar level run the one for any count): with the count a
+/// constant, the chunk loops unroll, the strides are immediates and fewer values live in
+/// registers across a pixel. With [`decide_row_any`] and the byte pairs' column pass likewise,
+/// one thread, callgrind, instructions an evaluation, three paths: tsukuba 25.57 → 19.09, venus
+/// 15.90 → 11.64, teddy 10.49 → 8.26, 626x555x96 9.28 → 7.24, 1282x1110x224 6.67 → 6.13; teddy
+/// with five paths 14.54 → 11.39, eight 24.78 → 21.37.
 #[inline(always)]
 fn forward_row_any(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
-    match lanes(sh.nd) {
-        16 => forward_row::<16>(sh, sc, pp, y, first, isa),
-        32 => forward_row::<32>(sh, sc, pp, y, first, isa),
-        48 => forward_row::<48>(sh, sc, pp, y, first, isa),
-        64 => forward_row::<64>(sh, sc, pp, y, first, isa),
-        _ => forward_row::<0>(sh, sc, pp, y, first, isa),
+    // (each count in a function of its own: inlined into the strip, seven counts made the
+    // crate's build 37 → 206 s, debug profile; as functions, sixteen take 59 s)
+    #[cfg(target_arch = "x86_64")]
+    if isa.avx2() {
+        // SAFETY: `isa` is AVX2 only when the CPU has AVX2 and POPCNT (`run_strip`).
+        unsafe {
+            match lanes(sh.nd) {
+                16 => return forward_row_avx2::<16>(sh, sc, pp, y, first),
+                32 => return forward_row_avx2::<32>(sh, sc, pp, y, first),
+                48 => return forward_row_avx2::<48>(sh, sc, pp, y, first),
+                64 => return forward_row_avx2::<64>(sh, sc, pp, y, first),
+                80 => return forward_row_avx2::<80>(sh, sc, pp, y, first),
+                96 => return forward_row_avx2::<96>(sh, sc, pp, y, first),
+                112 => return forward_row_avx2::<112>(sh, sc, pp, y, first),
+                128 => return forward_row_avx2::<128>(sh, sc, pp, y, first),
+                144 => return forward_row_avx2::<144>(sh, sc, pp, y, first),
+                160 => return forward_row_avx2::<160>(sh, sc, pp, y, first),
+                176 => return forward_row_avx2::<176>(sh, sc, pp, y, first),
+                192 => return forward_row_avx2::<192>(sh, sc, pp, y, first),
+                208 => return forward_row_avx2::<208>(sh, sc, pp, y, first),
+                224 => return forward_row_avx2::<224>(sh, sc, pp, y, first),
+                240 => return forward_row_avx2::<240>(sh, sc, pp, y, first),
+                256 => return forward_row_avx2::<256>(sh, sc, pp, y, first),
+                _ => {}
+            }
+        }
     }
+    forward_row::<0>(sh, sc, pp, y, first, isa)
 }
 
-/// [`decide_row`] compiled for the lane counts of small disparity ranges, as
-/// [`forward_row_any`] (tsukuba 20.72 → 19.51, venus 12.82 → 11.99, teddy 9.05 → 8.56).
+/// [`forward_row`] with `NDQ` lanes at the vector level.
+///
+/// # Safety
+/// The CPU has AVX2 and POPCNT.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,popcnt")]
+#[inline(never)]
+unsafe fn forward_row_avx2<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool) {
+    forward_row::<NDQ>(sh, sc, pp, y, first, Isa::Avx2)
+}
+
+/// [`decide_row`] compiled for each lane count up to 256, as [`forward_row_any`].
 #[inline(always)]
 fn decide_row_any(
     sh: &Shared,
@@ -874,13 +908,50 @@ fn decide_row_any(
     st: &mut MatchStats,
     isa: Isa,
 ) {
-    match lanes(sh.nd) {
-        16 => decide_row::<16>(sh, sc, y, out, conf, st, isa),
-        32 => decide_row::<32>(sh, sc, y, out, conf, st, isa),
-        48 => decide_row::<48>(sh, sc, y, out, conf, st, isa),
-        64 => decide_row::<64>(sh, sc, y, out, conf, st, isa),
-        _ => decide_row::<0>(sh, sc, y, out, conf, st, isa),
+    #[cfg(target_arch = "x86_64")]
+    if isa.avx2() {
+        // SAFETY: as in `forward_row_any`.
+        unsafe {
+            match lanes(sh.nd) {
+                16 => return decide_row_avx2::<16>(sh, sc, y, out, conf, st),
+                32 => return decide_row_avx2::<32>(sh, sc, y, out, conf, st),
+                48 => return decide_row_avx2::<48>(sh, sc, y, out, conf, st),
+                64 => return decide_row_avx2::<64>(sh, sc, y, out, conf, st),
+                80 => return decide_row_avx2::<80>(sh, sc, y, out, conf, st),
+                96 => return decide_row_avx2::<96>(sh, sc, y, out, conf, st),
+                112 => return decide_row_avx2::<112>(sh, sc, y, out, conf, st),
+                128 => return decide_row_avx2::<128>(sh, sc, y, out, conf, st),
+                144 => return decide_row_avx2::<144>(sh, sc, y, out, conf, st),
+                160 => return decide_row_avx2::<160>(sh, sc, y, out, conf, st),
+                176 => return decide_row_avx2::<176>(sh, sc, y, out, conf, st),
+                192 => return decide_row_avx2::<192>(sh, sc, y, out, conf, st),
+                208 => return decide_row_avx2::<208>(sh, sc, y, out, conf, st),
+                224 => return decide_row_avx2::<224>(sh, sc, y, out, conf, st),
+                240 => return decide_row_avx2::<240>(sh, sc, y, out, conf, st),
+                256 => return decide_row_avx2::<256>(sh, sc, y, out, conf, st),
+                _ => {}
+            }
+        }
     }
+    decide_row::<0>(sh, sc, y, out, conf, st, isa)
+}
+
+/// [`decide_row`] with `NDQ` lanes at the vector level.
+///
+/// # Safety
+/// The CPU has AVX2 and POPCNT.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,popcnt")]
+#[inline(never)]
+unsafe fn decide_row_avx2<const NDQ: usize>(
+    sh: &Shared,
+    sc: &mut Scratch,
+    y: usize,
+    out: &mut [f32],
+    conf: &mut [f32],
+    st: &mut MatchStats,
+) {
+    decide_row::<NDQ>(sh, sc, y, out, conf, st, Isa::Avx2)
 }
 
 /// The backward paths of row `y` (from the row below unless `first`): bottom, bottom-left,
@@ -2019,14 +2090,16 @@ mod avx2 {
             match (bt.is_some(), sub, pairs.is_some()) {
                 (true, true, _) => lanes::vertical::<W256, true, true, false>(colsum, rows, bt, pp, ndq, boxed, all),
                 (true, false, _) => lanes::vertical::<W256, true, false, false>(colsum, rows, bt, pp, ndq, boxed, all),
-                // (the byte pairs, the default cost's case, compiled for the lane counts of small
-                // disparity ranges as `forward_row_any`: tsukuba 19.51 → 19.12, venus 11.99 → 11.70, teddy
-                // 8.56 → 8.32 instructions an evaluation)
+                // (the byte pairs, the default cost's case, compiled for 16 to 128 lanes as
+                // `forward_row_any`: three paths, tsukuba 19.51 → 19.12, venus
+                // 11.99 → 11.70, teddy 8.56 → 8.32 instructions an evaluation)
                 (false, true, true) => match ndq {
                     16 => lanes::vertical::<W256, false, true, true>(colsum, rows, bt, pp, 16, boxed, (0, 16)),
                     32 => lanes::vertical::<W256, false, true, true>(colsum, rows, bt, pp, 32, boxed, (0, 32)),
                     48 => lanes::vertical::<W256, false, true, true>(colsum, rows, bt, pp, 48, boxed, (0, 48)),
                     64 => lanes::vertical::<W256, false, true, true>(colsum, rows, bt, pp, 64, boxed, (0, 64)),
+                    96 => lanes::vertical::<W256, false, true, true>(colsum, rows, bt, pp, 96, boxed, (0, 96)),
+                    128 => lanes::vertical::<W256, false, true, true>(colsum, rows, bt, pp, 128, boxed, (0, 128)),
                     _ => lanes::vertical::<W256, false, true, true>(colsum, rows, bt, pp, ndq, boxed, all),
                 },
                 (false, true, false) => {

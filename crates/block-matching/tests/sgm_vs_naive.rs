@@ -545,6 +545,46 @@ fn sgm_fast_equals_naive_with_several_vectors_of_disparities() {
 }
 
 #[test]
+fn sgm_fast_equals_naive_at_each_compiled_lane_count() {
+    // one range for each of the lane counts the vector level compiles on its own (16 to 256),
+    // each with lanes past the range (D = Dq − 5), over the path counts
+    for k in 1..=16usize {
+        let paths = [SgmPaths::Three, SgmPaths::Five, SgmPaths::Eight][k % 3];
+        let cfg = MatcherConfig {
+            method: Method::Sgm,
+            num_disparities: 16 * k - 5,
+            min_disparity: k as i32 % 3 - 1,
+            speckle_window_size: 0,
+            confidence_map: k % 2 == 0,
+            sgm: SgmConfig { paths, strip_rows: 5, overlap: 2, ..SgmConfig::default() },
+            ..MatcherConfig::default()
+        };
+        run_case(50 + k as u64, 280, 9, cfg);
+    }
+}
+
+#[test]
+fn sgm_fast_equals_naive_with_more_lanes_than_the_compiled_counts() {
+    // the vector level runs a sweep and decisions compiled for each lane count up to 256 and
+    // one for any count above: 272 and 264 candidates (17 chunks) reach the latter, with each
+    // path count
+    for (seed, paths, nd, dmin) in
+        [(41, SgmPaths::Three, 272, 0), (42, SgmPaths::Five, 264, -3), (43, SgmPaths::Eight, 272, 2)]
+    {
+        let cfg = MatcherConfig {
+            method: Method::Sgm,
+            num_disparities: nd,
+            min_disparity: dmin,
+            speckle_window_size: 0,
+            confidence_map: true,
+            sgm: SgmConfig { paths, strip_rows: 7, overlap: 3, ..SgmConfig::default() },
+            ..MatcherConfig::default()
+        };
+        run_case(seed, 300, 12, cfg);
+    }
+}
+
+#[test]
 fn sgm_fast_equals_naive_on_rows_wide_enough_for_the_fused_box_sums() {
     // 600 pixels x 96 lanes x 2 bytes = 112.5 KiB a row: over `FUSED_BOX_BYTES` (96 KiB), so the
     // box sums are made with the column sums (the narrower tests take the separate pass)
