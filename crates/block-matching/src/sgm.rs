@@ -847,6 +847,20 @@ fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, 
     std::mem::swap(&mut sc.mp, &mut sc.mc);
 }
 
+/// Returns `$f::<Dq>(args)` for the lane counts compiled on their own (16 to 256: see
+/// [`forward_row_any`]); any other count falls through.
+macro_rules! by_lane_count {
+    ($dq:expr, $f:ident $args:tt) => {
+        by_lane_count!(@ $dq, $f $args; 16, 32, 48, 64, 80, 96, 112, 128, 144, 160, 176, 192, 208, 224, 240, 256)
+    };
+    (@ $dq:expr, $f:ident $args:tt; $($k:literal),*) => {
+        match $dq {
+            $($k => return $f::<$k> $args,)*
+            _ => {}
+        }
+    };
+}
+
 /// [`forward_row`] at the vector level compiled for each lane count up to 256 (`Dq` = 16, 32,
 /// …, 256; larger ranges and the scalar level run the one for any count): with the count a
 /// constant, the chunk loops unroll, the strides are immediates and fewer values live in
@@ -861,27 +875,7 @@ fn forward_row_any(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, firs
     #[cfg(target_arch = "x86_64")]
     if isa.avx2() {
         // SAFETY: `isa` is AVX2 only when the CPU has AVX2 and POPCNT (`run_strip`).
-        unsafe {
-            match lanes(sh.nd) {
-                16 => return forward_row_avx2::<16>(sh, sc, pp, y, first),
-                32 => return forward_row_avx2::<32>(sh, sc, pp, y, first),
-                48 => return forward_row_avx2::<48>(sh, sc, pp, y, first),
-                64 => return forward_row_avx2::<64>(sh, sc, pp, y, first),
-                80 => return forward_row_avx2::<80>(sh, sc, pp, y, first),
-                96 => return forward_row_avx2::<96>(sh, sc, pp, y, first),
-                112 => return forward_row_avx2::<112>(sh, sc, pp, y, first),
-                128 => return forward_row_avx2::<128>(sh, sc, pp, y, first),
-                144 => return forward_row_avx2::<144>(sh, sc, pp, y, first),
-                160 => return forward_row_avx2::<160>(sh, sc, pp, y, first),
-                176 => return forward_row_avx2::<176>(sh, sc, pp, y, first),
-                192 => return forward_row_avx2::<192>(sh, sc, pp, y, first),
-                208 => return forward_row_avx2::<208>(sh, sc, pp, y, first),
-                224 => return forward_row_avx2::<224>(sh, sc, pp, y, first),
-                240 => return forward_row_avx2::<240>(sh, sc, pp, y, first),
-                256 => return forward_row_avx2::<256>(sh, sc, pp, y, first),
-                _ => {}
-            }
-        }
+        unsafe { by_lane_count!(lanes(sh.nd), forward_row_avx2(sh, sc, pp, y, first)) }
     }
     forward_row::<0>(sh, sc, pp, y, first, isa)
 }
@@ -911,27 +905,7 @@ fn decide_row_any(
     #[cfg(target_arch = "x86_64")]
     if isa.avx2() {
         // SAFETY: as in `forward_row_any`.
-        unsafe {
-            match lanes(sh.nd) {
-                16 => return decide_row_avx2::<16>(sh, sc, y, out, conf, st),
-                32 => return decide_row_avx2::<32>(sh, sc, y, out, conf, st),
-                48 => return decide_row_avx2::<48>(sh, sc, y, out, conf, st),
-                64 => return decide_row_avx2::<64>(sh, sc, y, out, conf, st),
-                80 => return decide_row_avx2::<80>(sh, sc, y, out, conf, st),
-                96 => return decide_row_avx2::<96>(sh, sc, y, out, conf, st),
-                112 => return decide_row_avx2::<112>(sh, sc, y, out, conf, st),
-                128 => return decide_row_avx2::<128>(sh, sc, y, out, conf, st),
-                144 => return decide_row_avx2::<144>(sh, sc, y, out, conf, st),
-                160 => return decide_row_avx2::<160>(sh, sc, y, out, conf, st),
-                176 => return decide_row_avx2::<176>(sh, sc, y, out, conf, st),
-                192 => return decide_row_avx2::<192>(sh, sc, y, out, conf, st),
-                208 => return decide_row_avx2::<208>(sh, sc, y, out, conf, st),
-                224 => return decide_row_avx2::<224>(sh, sc, y, out, conf, st),
-                240 => return decide_row_avx2::<240>(sh, sc, y, out, conf, st),
-                256 => return decide_row_avx2::<256>(sh, sc, y, out, conf, st),
-                _ => {}
-            }
-        }
+        unsafe { by_lane_count!(lanes(sh.nd), decide_row_avx2(sh, sc, y, out, conf, st)) }
     }
     decide_row::<0>(sh, sc, y, out, conf, st, isa)
 }
