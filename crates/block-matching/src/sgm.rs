@@ -891,6 +891,29 @@ unsafe fn forward_row_avx2<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: 
     forward_row::<NDQ>(sh, sc, pp, y, first, Isa::Avx2)
 }
 
+/// [`backward_row`] compiled for each lane count up to 256, as [`forward_row_any`] (eight
+/// paths, teddy, one thread, callgrind: 21.37 → 19.97 instructions an evaluation).
+#[inline(always)]
+fn backward_row_any(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
+    #[cfg(target_arch = "x86_64")]
+    if isa.avx2() {
+        // SAFETY: as in `forward_row_any`.
+        unsafe { by_lane_count!(lanes(sh.nd), backward_row_avx2(sh, sc, pp, y, first)) }
+    }
+    backward_row::<0>(sh, sc, pp, y, first, isa)
+}
+
+/// [`backward_row`] with `NDQ` lanes at the vector level.
+///
+/// # Safety
+/// The CPU has AVX2 and POPCNT.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,popcnt")]
+#[inline(never)]
+unsafe fn backward_row_avx2<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool) {
+    backward_row::<NDQ>(sh, sc, pp, y, first, Isa::Avx2)
+}
+
 /// [`decide_row`] compiled for each lane count up to 256, as [`forward_row_any`].
 #[inline(always)]
 fn decide_row_any(
@@ -931,9 +954,12 @@ unsafe fn decide_row_avx2<const NDQ: usize>(
 /// The backward paths of row `y` (from the row below unless `first`): bottom, bottom-left,
 /// bottom-right, added to `acc`.
 #[inline(always)]
-fn backward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
+fn backward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
     let (w, nd) = (sh.w, sh.nd);
-    let (ndq, ndp) = (lanes(nd), lanes(nd) + 2);
+    let ndq = lanes(nd);
+    assert!(NDQ == 0 || NDQ == ndq);
+    let ndq = if NDQ > 0 { NDQ } else { ndq };
+    let ndp = ndq + 2;
     let row = &pp.intensity[y * w..][..w];
     let below = if first { row } else { &pp.intensity[(y + 1) * w..][..w] };
     let s = Sweep::new(sh, sc, pp, row, below, 3, first);
@@ -946,8 +972,19 @@ fn backward_row(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: 
             let (r, rm, rp2) = s.before(2, x, w, ndp, p2);
             let outs = [0, 1, 2].map(|i| s.vc[i].add(x * ndp));
             let (c, acc) = (s.cost.add(x * ndq), s.acc.add(x * ndq));
-            let m =
-                paths::<3, 0, 0>(isa, c, [t, l, r], [tm, lm, rm], [tp2, lp2, rp2], pp.p1, outs, acc, s.tail, nd, false);
+            let m = paths::<3, 0, NDQ>(
+                isa,
+                c,
+                [t, l, r],
+                [tm, lm, rm],
+                [tp2, lp2, rp2],
+                pp.p1,
+                outs,
+                acc,
+                s.tail,
+                nd,
+                false,
+            );
             (*s.mc[0].add(x), *s.mc[1].add(x), *s.mc[2].add(x)) = (m[0], m[1], m[2]);
         }
     }
@@ -1221,7 +1258,7 @@ fn strip(
             } else {
                 sc.acc.fill(0);
             }
-            backward_row(sh, sc, pp, y, y + 1 == ye, isa);
+            backward_row_any(sh, sc, pp, y, y + 1 == ye, isa);
             if y < y1 {
                 decide_row_any(sh, sc, y, &mut out[(y - y0) * w..][..w], conf_row(sh, conf, y, y0), &mut st, isa);
             }
