@@ -863,95 +863,61 @@ macro_rules! by_lane_count {
     };
 }
 
-/// [`forward_row`] at the vector level compiled for each lane count up to 256 (`Dq` = 16, 32,
-/// …, 256; larger ranges and the scalar level run the one for any count): with the count a
-/// constant, the chunk loops unroll, the strides are immediates and fewer values live in
-/// registers across a pixel. With [`decide_row_any`] and the byte pairs' column pass likewise,
-/// one thread, callgrind, instructions an evaluation, three paths: tsukuba 25.57 → 19.09, venus
-/// 15.90 → 11.64, teddy 10.49 → 8.26, 626x555x96 9.28 → 7.24, 1282x1110x224 6.67 → 6.13; teddy
-/// with five paths 14.54 → 11.39, eight 24.78 → 21.37.
-#[inline(always)]
-fn forward_row_any(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
-    // (each count in a function of its own: inlined into the strip, seven counts made the
-    // crate's build 37 → 206 s, debug profile; as functions, sixteen take 59 s)
-    #[cfg(target_arch = "x86_64")]
-    if isa.avx2() {
-        // SAFETY: `isa` is AVX2 only when the CPU has AVX2 and POPCNT (`run_strip`).
-        unsafe { by_lane_count!(lanes(sh.nd), forward_row_avx2(sh, sc, pp, y, first)) }
-    }
-    forward_row::<0>(sh, sc, pp, y, first, isa)
+/// `$any`: `$f` compiled for each lane count up to 256 at the vector level (through `$avx2`,
+/// one `#[target_feature]` function per count, chosen by [`by_lane_count!`] from `$dq`), and
+/// for any count otherwise; `$dq`, the lane count, reads the arguments.
+macro_rules! per_lane_count {
+    ($(#[$doc:meta])* $any:ident, $avx2:ident, $f:ident, $dq:expr, ($($a:ident: $t:ty),*)) => {
+        $(#[$doc])*
+        #[inline(always)]
+        fn $any($($a: $t,)* isa: Isa) {
+            // (each count in a function of its own: inlined into the strip, seven counts made
+            // the crate's build 37 → 206 s, debug profile; as functions, sixteen take 59 s)
+            #[cfg(target_arch = "x86_64")]
+            if isa.avx2() {
+                // SAFETY: `isa` is AVX2 only when the CPU has AVX2 and POPCNT (`run_strip`).
+                unsafe { by_lane_count!($dq, $avx2($($a),*)) }
+            }
+            $f::<0>($($a,)* isa)
+        }
+
+        #[doc = concat!("[`", stringify!($f), "`] with `NDQ` lanes at the vector level.")]
+        ///
+        /// # Safety
+        /// The CPU has AVX2 and POPCNT.
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,popcnt")]
+        #[inline(never)]
+        unsafe fn $avx2<const NDQ: usize>($($a: $t),*) {
+            $f::<NDQ>($($a,)* Isa::Avx2)
+        }
+    };
 }
 
-/// [`forward_row`] with `NDQ` lanes at the vector level.
-///
-/// # Safety
-/// The CPU has AVX2 and POPCNT.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,popcnt")]
-#[inline(never)]
-unsafe fn forward_row_avx2<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool) {
-    forward_row::<NDQ>(sh, sc, pp, y, first, Isa::Avx2)
-}
+per_lane_count!(
+    /// [`forward_row`] at the vector level compiled for each lane count up to 256 (`Dq` = 16, 32,
+    /// …, 256; larger ranges and the scalar level run the one for any count): with the count a
+    /// constant, the chunk loops unroll, the strides are immediates and fewer values live in
+    /// registers across a pixel. With [`decide_row_any`] and the byte pairs' column pass likewise,
+    /// one thread, callgrind, instructions an evaluation, three paths: tsukuba 25.57 → 19.09, venus
+    /// 15.90 → 11.64, teddy 10.49 → 8.26, 626x555x96 9.28 → 7.24, 1282x1110x224 6.67 → 6.13; teddy
+    /// with five paths 14.54 → 11.39, eight 24.78 → 21.37.
+    forward_row_any, forward_row_avx2, forward_row, lanes(sh.nd),
+    (sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool)
+);
 
-/// [`backward_row`] compiled for each lane count up to 256, as [`forward_row_any`] (eight
-/// paths, teddy, one thread, callgrind: 21.37 → 19.97 instructions an evaluation).
-#[inline(always)]
-fn backward_row_any(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
-    #[cfg(target_arch = "x86_64")]
-    if isa.avx2() {
-        // SAFETY: as in `forward_row_any`.
-        unsafe { by_lane_count!(lanes(sh.nd), backward_row_avx2(sh, sc, pp, y, first)) }
-    }
-    backward_row::<0>(sh, sc, pp, y, first, isa)
-}
+per_lane_count!(
+    /// [`backward_row`] compiled for each lane count up to 256, as [`forward_row_any`] (eight
+    /// paths, teddy, one thread, callgrind: 21.37 → 19.97 instructions an evaluation).
+    backward_row_any, backward_row_avx2, backward_row, lanes(sh.nd),
+    (sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool)
+);
 
-/// [`backward_row`] with `NDQ` lanes at the vector level.
-///
-/// # Safety
-/// The CPU has AVX2 and POPCNT.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,popcnt")]
-#[inline(never)]
-unsafe fn backward_row_avx2<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool) {
-    backward_row::<NDQ>(sh, sc, pp, y, first, Isa::Avx2)
-}
-
-/// [`decide_row`] compiled for each lane count up to 256, as [`forward_row_any`].
-#[inline(always)]
-fn decide_row_any(
-    sh: &Shared,
-    sc: &mut Scratch,
-    y: usize,
-    out: &mut [f32],
-    conf: &mut [f32],
-    st: &mut MatchStats,
-    isa: Isa,
-) {
-    #[cfg(target_arch = "x86_64")]
-    if isa.avx2() {
-        // SAFETY: as in `forward_row_any`.
-        unsafe { by_lane_count!(lanes(sh.nd), decide_row_avx2(sh, sc, y, out, conf, st)) }
-    }
-    decide_row::<0>(sh, sc, y, out, conf, st, isa)
-}
-
-/// [`decide_row`] with `NDQ` lanes at the vector level.
-///
-/// # Safety
-/// The CPU has AVX2 and POPCNT.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,popcnt")]
-#[inline(never)]
-unsafe fn decide_row_avx2<const NDQ: usize>(
-    sh: &Shared,
-    sc: &mut Scratch,
-    y: usize,
-    out: &mut [f32],
-    conf: &mut [f32],
-    st: &mut MatchStats,
-) {
-    decide_row::<NDQ>(sh, sc, y, out, conf, st, Isa::Avx2)
-}
+per_lane_count!(
+    /// [`decide_row`] compiled for each lane count up to 256, as [`forward_row_any`].
+    decide_row_any, decide_row_avx2, decide_row, lanes(sh.nd),
+    (sh: &Shared, sc: &mut Scratch, y: usize, out: &mut [f32], conf: &mut [f32], st: &mut MatchStats)
+);
 
 /// The backward paths of row `y` (from the row below unless `first`): bottom, bottom-left,
 /// bottom-right, added to `acc`.

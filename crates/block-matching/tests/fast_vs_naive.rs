@@ -9,9 +9,8 @@ use parallax_block_matching::{BlockMatcher, CostFunction, Gray16Image, MatcherCo
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 
-fn clampi(v: i64, hi: usize) -> usize {
-    v.clamp(0, hi as i64 - 1) as usize
-}
+mod common;
+use common::clampi;
 
 fn sobel_naive(src: &[u16], w: usize, h: usize, cap: i64) -> Vec<u16> {
     let p = |x: i64, y: i64| src[clampi(y, h) * w + clampi(x, w)] as i64;
@@ -253,13 +252,7 @@ fn compare(fast: &[f32], slow: &[f32], w: usize, tol: f32, what: &str) {
 
 /// A pair with structure: right = left shifted by a random disparity field plus noise.
 fn make_pair(seed: u64, w: usize, h: usize, maxv: u32) -> (Vec<u16>, Vec<u16>) {
-    let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-    let mut rnd = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        s
-    };
+    let mut rnd = common::rng(seed);
     let big = w + 40;
     let tex: Vec<u16> = (0..big * h).map(|_| (rnd() % (maxv as u64 + 1)) as u16).collect();
     let shift = (rnd() % 8) as usize;
@@ -268,7 +261,7 @@ fn make_pair(seed: u64, w: usize, h: usize, maxv: u32) -> (Vec<u16>, Vec<u16>) {
     let right: Vec<u16> = (0..w * h)
         .map(|i| {
             let v = tex[(i / w) * big + i % w + 20 + shift];
-            if noise > 0 && rnd() % 4 == 0 {
+            if noise > 0 && rnd().is_multiple_of(4) {
                 v.saturating_add((rnd() % noise as u64) as u16).min(maxv as u16)
             } else {
                 v

@@ -12,9 +12,8 @@ use parallax_block_matching::{
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 
-fn clampi(v: i64, hi: usize) -> usize {
-    v.clamp(0, hi as i64 - 1) as usize
-}
+mod common;
+use common::clampi;
 
 /// The naive SGM: returns the disparity map (NaN invalid) and the confidence (0 where invalid).
 /// `scale`: 1 for 8-bit input, 257 for 16-bit (prefilter caps and intensity differences).
@@ -272,13 +271,7 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
 
 /// Right = left shifted by a piecewise-constant disparity (two layers) plus sparse noise.
 fn make_pair(seed: u64, w: usize, h: usize) -> (Vec<u16>, Vec<u16>) {
-    let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-    let mut rnd = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        s
-    };
+    let mut rnd = common::rng(seed);
     let big = w + 40;
     let tex: Vec<u16> = (0..big * h).map(|_| (rnd() % 256) as u16).collect();
     let (d0, d1) = ((rnd() % 6) as usize, (rnd() % 6) as usize + 2);
@@ -288,7 +281,7 @@ fn make_pair(seed: u64, w: usize, h: usize) -> (Vec<u16>, Vec<u16>) {
             let (x, y) = (i % w, i / w);
             let d = if x > w / 3 && x < 2 * w / 3 && y > h / 4 { d1 } else { d0 };
             let v = tex[y * big + x + 20 + d];
-            if rnd() % 5 == 0 { v.saturating_add((rnd() % 9) as u16).min(255) } else { v }
+            if rnd().is_multiple_of(5) { v.saturating_add((rnd() % 9) as u16).min(255) } else { v }
         })
         .collect();
     (left, right)
@@ -297,13 +290,7 @@ fn make_pair(seed: u64, w: usize, h: usize) -> (Vec<u16>, Vec<u16>) {
 /// Right = left shifted as in [`make_pair`], without noise, of a texture made of constant runs
 /// (4–23 columns, bands of 4–9 rows): low-texture pixels inside long runs, texture at the steps.
 fn make_flat_pair(seed: u64, w: usize, h: usize) -> (Vec<u16>, Vec<u16>) {
-    let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-    let mut rnd = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        s
-    };
+    let mut rnd = common::rng(seed);
     let big = w + 40;
     let mut tex = vec![0u16; big * h];
     let mut y = 0;
