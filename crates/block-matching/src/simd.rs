@@ -1174,12 +1174,16 @@ macro_rules! kernel_module {
 // old index) or the new cost (downwards: a tie takes the new index, which is then the blend's
 // second operand, so a constant index vector is read from memory by the blend itself), byte
 // blend of the indices
+// (downwards, the new minimum passes through `super::opaque`: seeing `min(m, c) = c`, the
+// compiler tests `max(m, c) = m` instead, one operation more a chunk; 1282x1110x224, StereoBM's
+// options, one thread, callgrind: 1.159 → 1.118 instructions an evaluation, 626x555x96 1.711 →
+// 1.699)
 kernel_module!(avx2_16, lanes16, "avx2", 16, fn min_update(min, idx, c, d) {
     let nm = _mm256_min_epu16(*min, c);
     *idx = _mm256_blendv_epi8(d, *idx, _mm256_cmpeq_epi16(nm, *min));
     *min = nm;
 } fn min_update_down(min, idx, c, d) {
-    let nm = _mm256_min_epu16(*min, c);
+    let nm = super::opaque(_mm256_min_epu16(*min, c));
     *idx = _mm256_blendv_epi8(*idx, d, _mm256_cmpeq_epi16(nm, c));
     *min = nm;
 });
@@ -1188,7 +1192,19 @@ kernel_module!(avx2_32, lanes32, "avx2", 16, fn min_update(min, idx, c, d) {
     *idx = _mm256_blendv_epi8(d, *idx, _mm256_cmpeq_epi32(nm, *min));
     *min = nm;
 } fn min_update_down(min, idx, c, d) {
-    let nm = _mm256_min_epu32(*min, c);
+    let nm = super::opaque(_mm256_min_epu32(*min, c));
     *idx = _mm256_blendv_epi8(*idx, d, _mm256_cmpeq_epi32(nm, c));
     *min = nm;
 });
+
+/// `v` unchanged, but opaque to the optimiser (an empty `asm!` that takes and gives back its
+/// register): no instruction runs.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn opaque(mut v: std::arch::x86_64::__m256i) -> std::arch::x86_64::__m256i {
+    // SAFETY: the template is a comment: nothing executes, and only `v`'s register is named
+    // (read and written back unchanged).
+    unsafe { std::arch::asm!("/* {0} */", inout(ymm_reg) v, options(pure, nomem, nostack, preserves_flags)) };
+    v
+}
