@@ -20,8 +20,8 @@ pub enum SimdLevel {
     /// Portable code (the compiler's baseline, SSE2 on x86-64).
     Scalar,
     /// The same loops compiled with AVX2 (256-bit), and the explicit 256-bit kernels. A CPU
-    /// with AVX-512 runs these too: the AVX-512 copies were removed, as no machine the project
-    /// is tested on can run them.
+    /// with AVX-512 runs these too: the AVX-512 copies were removed when the project's machine
+    /// had no AVX-512 (no test there could run them).
     Avx2,
 }
 
@@ -1078,11 +1078,44 @@ fn row_decisions<A: Acc, const K: u8>(
         }
     }
     let rk = &sc.rk;
-    finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, &mut sc.rw, |u| rk[w - 1 - u]);
+    finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, &mut sc.rw, &WinnersBy(|u| rk[w - 1 - u]));
+}
+
+/// The right image's own winners of a row, as [`finish_row`]'s left–right check reads them.
+pub(crate) trait RightWinners {
+    /// The winner at right pixel `u` (`u < w`).
+    fn at(&self, u: usize) -> u32;
+
+    /// `rw[x] = at(clamp(x − dmin − max(best[x], 0), 0, w − 1))` for every pixel `x` of the
+    /// row (`w = rw.len() = best.len()`): the winner at each pixel's match, read at a clamped
+    /// position for a pixel without a winner (read and ignored).
+    #[inline(always)]
+    fn gather(&self, best: &[i32], dmin: i64, rw: &mut [u32]) {
+        gather_from(self, best, dmin, rw, 0);
+    }
+}
+
+/// [`RightWinners::gather`] lane by lane from pixel `from` on.
+#[inline(always)]
+pub(crate) fn gather_from<R: RightWinners + ?Sized>(right: &R, best: &[i32], dmin: i64, rw: &mut [u32], from: usize) {
+    let w = rw.len() as i64;
+    for (x, (r, &k)) in rw.iter_mut().zip(best).enumerate().skip(from) {
+        *r = right.at((x as i64 - dmin - k.max(0) as i64).clamp(0, w - 1) as usize);
+    }
+}
+
+/// A closure `u ↦ winner` as [`RightWinners`].
+pub(crate) struct WinnersBy<F>(pub(crate) F);
+
+impl<F: Fn(usize) -> u32> RightWinners for WinnersBy<F> {
+    #[inline(always)]
+    fn at(&self, u: usize) -> u32 {
+        (self.0)(u)
+    }
 }
 
 /// Writes the row's disparities from the winners `best` (−1 = none) and sub-pixel offsets `sub`,
-/// applying the left–right check (`right_winner(u)` is the right image's own winner at right
+/// applying the left–right check (`right.at(u)` is the right image's own winner at right
 /// pixel `u`, `0 ≤ u < w`; `x` at candidate `k` is matched with `u = x − dmin − k`), the
 /// confidence (from the cost-curve `ratio`, when `sh.conf`; written to `conf`, else empty) and
 /// its threshold, and the fill of the rejects. `sub` is reused as scratch by the fill, `rw`
@@ -1097,7 +1130,7 @@ pub(crate) fn finish_row(
     conf: &mut [f32],
     st: &mut MatchStats,
     rw: &mut [u32],
-    right_winner: impl Fn(usize) -> u32,
+    right: &impl RightWinners,
 ) {
     let dmin = sh.dmin;
     if sh.lr.is_none() && !sh.conf {
@@ -1121,22 +1154,19 @@ pub(crate) fn finish_row(
     // 2 px off, three / five / eight paths: 785 / 825 / 941 of 12107 before, 178 / 140 / 521
     // after; the band's matchable pixels kept: 10476 → 10235 (three paths); venus 341 / 455 /
     // 395 → 169 / 187 / 177 of 4055.
-    let w = sh.w as i64;
     if let (Some(tol), false) = (sh.lr, sh.lr_subpixel) {
         // the integer rule: the right winners gathered first, then the checks as selects over
         // the row, which the compiler vectorises (in one loop with the gather, ~92 instructions
         // a pixel of a teddy SGM frame, callgrind)
         let rw = &mut rw[..sh.w];
-        for (x, (r, &k)) in rw.iter_mut().zip(&best[..sh.w]).enumerate() {
-            *r = right_winner((x as i64 - dmin - k.max(0) as i64).clamp(0, w - 1) as usize);
-        }
+        right.gather(&best[..sh.w], dmin, rw);
         if sh.conf {
             lr_checks::<true>(sh, tol, best, sub, ratio, rw, out, conf, st);
         } else {
             lr_checks::<false>(sh, tol, best, sub, ratio, rw, out, conf, st);
         }
     } else {
-        lr_and_confidence(sh, best, sub, ratio, out, conf, st, right_winner);
+        lr_and_confidence(sh, best, sub, ratio, out, conf, st, |u| right.at(u));
     }
     if sh.fill {
         fill_rejected(out, sub, st);

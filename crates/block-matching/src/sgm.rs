@@ -34,14 +34,15 @@
 //! exceed 16 bits). The path steps, column sums, box sums, winner search and right-image
 //! minima are written once over the vector width (module `lanes`) and run on 256-bit vectors
 //! when the CPU has AVX2 (module `avx2`); plain loops otherwise. The level is chosen once per
-//! strip. (A 512-bit instance was removed: no machine the project is tested on has AVX-512, and
-//! code no test here can run does not stay.) The naive reference in
+//! strip. (A 512-bit instance was removed when the project's machine had no AVX-512: code no
+//! test there could run does not stay.) The naive reference in
 //! `tests/sgm_vs_naive.rs` implements the same definition directly on a full cost volume and
 //! every level must match it exactly.
 
 use crate::config::{SgmConfig, SgmPaths, Subpixel};
 use crate::engine::{
-    Cost, MatchStats, Shared, SimdLevel, conf_row, curve_ratio, decide, finish_row, load_plane_rows, load_rows,
+    Cost, MatchStats, RightWinners, Shared, SimdLevel, conf_row, curve_ratio, decide, finish_row, gather_from,
+    load_plane_rows, load_rows,
 };
 use crate::error::{BlockMatchingError, Result};
 
@@ -281,6 +282,9 @@ pub(crate) struct Scratch {
     /// row above (below, backward) at `x`, `x − 1` and `x + 1`.
     p2h: Vec<u16>,
     p2v: [Vec<u16>; 3],
+    /// The right image's minima of `S` and their candidates (first wins) per right pixel `u`
+    /// at `w − 1 − u`, in two copies of `w + Dq` entries ([`decide_row`]), merged into the
+    /// first at the row's end.
     rc: Vec<u16>,
     rk: Vec<u16>,
     /// The right winners at each pixel's match ([`finish_row`]).
@@ -358,9 +362,10 @@ impl Scratch {
             v.resize(w, 0);
         }
         self.p2h.resize(w + 1, 0);
-        // `Dq` lanes past the row: the fused winner search and right update writes whole chunks
-        self.rc.resize(w + ndq, u16::MAX);
-        self.rk.resize(w + ndq, u16::MAX);
+        // two copies of `Dq` lanes past the row: the fused winner search and right update
+        // writes whole chunks
+        self.rc.resize(2 * (w + ndq), u16::MAX);
+        self.rk.resize(2 * (w + ndq), u16::MAX);
         self.rw.resize(w, 0);
         self.best.resize(w, -1);
         self.sub.resize(w, 0.0);
@@ -979,7 +984,13 @@ fn decide_row<const NDQ: usize>(
     // what the vector kernels need, once per row (the winner search's contract: `Dq` a multiple
     // of 16 below 2^15, `tail` of `Dq` lanes; per pixel lo ≤ hi < D ≤ Dq holds by construction)
     assert!(ndq.is_multiple_of(16) && ndq < 1 << 15 && sc.tail.len() == ndq && sc.acc.len() >= w * ndq);
-    assert!(sc.rc.len() >= w + ndq && sc.rk.len() >= w + ndq);
+    // the right minima in two copies (`stride` apart): the middle's and the band's pixels
+    // alternate between them, so that a pixel's right update does not load the lanes the pixel
+    // just before stored, one lane off (a store that is not forwarded, and a load that waits for
+    // it to reach the cache: ~40 % of the decisions' samples at tsukuba, perf); the copies are
+    // merged at the row's end
+    let stride = w + ndq;
+    assert!(sc.rc.len() >= 2 * stride && sc.rk.len() >= 2 * stride);
     let (rcp, rkp) = (sc.rc.as_mut_ptr(), sc.rk.as_mut_ptr());
     let texture = sh.texture_ok.map(|t| &t[y * w..][..w]);
     // one pixel with any range (the edge bands, and every pixel at the scalar level); a macro:
@@ -1094,11 +1105,11 @@ fn decide_row<const NDQ: usize>(
                 for (x, s) in (from..to).zip(acc[from * ndq..to * ndq].chunks_exact(ndq)) {
                     // the pixel's last candidate: D − 1, or in the band x − dmin < D − 1; the
                     // right pixel of candidate 0, j0 = w − 1 − (x − dmin): candidates 0..=hi
-                    // reach j0 + hi ≤ w − 1, and j0 + Dq ≤ w + Dq, within rc and rk (w + Dq
-                    // lanes, asserted above)
+                    // reach j0 + hi ≤ w − 1, and j0 + Dq ≤ w + Dq, within either copy of rc
+                    // and rk (the second from `stride`; 2 · stride lanes, asserted above)
                     let xd = x as i64 - dmin;
                     let hi = if $band { xd as usize } else { nd - 1 };
-                    let j0 = (w as i64 - 1 - xd) as usize;
+                    let j0 = (w as i64 - 1 - xd) as usize + (x & 1) * stride;
                     if texture.is_some_and(|t| !t[x]) {
                         if $lr {
                             // SAFETY: j0 + hi < w, within rc and rk (as above); `isa` as the
@@ -1147,9 +1158,106 @@ fn decide_row<const NDQ: usize>(
     if isa.avx2() {
         decide_winners(sh, sc, st);
     }
-    // (sliced to the row: the index, below w, needs no bounds check)
-    let rk = &sc.rk[..w];
-    finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, &mut sc.rw, |u| rk[w - 1 - u] as u32);
+    if sh.lr.is_some() {
+        merge_right(&sc.rc, &mut sc.rk, w, stride);
+    }
+    let right = Reversed::new(&sc.rk, w, isa.avx2());
+    finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, &mut sc.rw, &right);
+}
+
+/// Merges the second copy of the right minima (`stride` on) into the first's candidates for the
+/// row's `w` right pixels: the smaller `S`, and at equal `S` the smaller candidate (the one a
+/// single copy would have kept: a right pixel's candidates arrive in increasing order). Selects
+/// the compiler vectorises.
+#[inline(always)]
+fn merge_right(rc: &[u16], rk: &mut [u16], w: usize, stride: usize) {
+    let (rk, rk2) = rk.split_at_mut(stride);
+    let (ca, cb, kb) = (&rc[..w], &rc[stride..][..w], &rk2[..w]);
+    for (((k, &a), &b), &k2) in rk[..w].iter_mut().zip(ca).zip(cb).zip(kb) {
+        let second = (b < a) | ((b == a) & (k2 < *k));
+        *k = if second { k2 } else { *k };
+    }
+}
+
+/// The right image's winners of a row as the decisions keep them: right pixel `u`'s candidate
+/// at `rk[w − 1 − u]` (`u16::MAX`: none).
+struct Reversed<'a> {
+    /// At least `w + 1` entries (the vector gather reads a 32-bit lane at `w − 1`).
+    rk: &'a [u16],
+    w: usize,
+    /// Gather with AVX2: asked for and found on the CPU.
+    avx2: bool,
+}
+
+impl<'a> Reversed<'a> {
+    /// `avx2`: gather with AVX2 if the CPU has it (the caller at the vector level, compiled for
+    /// it, so that the intrinsics are inlined).
+    #[inline(always)]
+    fn new(rk: &'a [u16], w: usize, avx2: bool) -> Self {
+        assert!(rk.len() > w && w < 1 << 30);
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = avx2 && std::arch::is_x86_feature_detected!("avx2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx2 = {
+            let _ = avx2;
+            false
+        };
+        Self { rk, w, avx2 }
+    }
+}
+
+impl RightWinners for Reversed<'_> {
+    #[inline(always)]
+    fn at(&self, u: usize) -> u32 {
+        // (u < w: the index is below w, inside rk)
+        self.rk[self.w - 1 - u] as u32
+    }
+
+    /// Eight pixels a step with AVX2 (the scalar gather took 19 instructions a pixel: tsukuba,
+    /// three paths, callgrind), the rest lane by lane.
+    #[inline(always)]
+    fn gather(&self, best: &[i32], dmin: i64, rw: &mut [u32]) {
+        let mut from = 0;
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            assert!(best.len() == self.w && rw.len() == self.w);
+            // SAFETY: `avx2` only when the CPU has AVX2 (`new`); rk has more than w entries and
+            // w < 2^30 (`new`), best and rw w (asserted above).
+            from = unsafe { gather_reversed_avx2(self.rk, best, dmin, rw) };
+        }
+        gather_from(self, best, dmin, rw, from);
+    }
+}
+
+/// [`Reversed::gather`] for the first `w / 8 · 8` pixels: per pixel the 32-bit word at the
+/// `u16` index `w − 1 − u` (scale 2), its low half kept; returns the pixels done.
+///
+/// # Safety
+/// The CPU has AVX2; `rk.len() > w` (the word at index `w − 1` ends inside), `best.len() =
+/// rw.len() = w < 2^30`; `|dmin| ≤ 2^20` and `best[x] < 2^16` (validated ranges), so that
+/// `x − dmin − k` fits `i32`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn gather_reversed_avx2(rk: &[u16], best: &[i32], dmin: i64, rw: &mut [u32]) -> usize {
+    use std::arch::x86_64::*;
+    let w = rw.len();
+    // SAFETY: x + 8 ≤ w for the loads and stores of best and rw; every gathered index
+    // w − 1 − u lies in 0..=w − 1 (u clamped to 0..=w − 1), its word within rk (the caller's).
+    unsafe {
+        let (zero, wm1) = (_mm256_setzero_si256(), _mm256_set1_epi32(w as i32 - 1));
+        let (low, eight) = (_mm256_set1_epi32(0xFFFF), _mm256_set1_epi32(8));
+        // x − dmin for the step's eight pixels
+        let mut xd = _mm256_sub_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(dmin as i32));
+        let mut x = 0;
+        while x + 8 <= w {
+            let k = _mm256_max_epi32(_mm256_loadu_si256(best.as_ptr().add(x).cast()), zero);
+            let u = _mm256_min_epi32(_mm256_max_epi32(_mm256_sub_epi32(xd, k), zero), wm1);
+            let g = _mm256_i32gather_epi32::<2>(rk.as_ptr().cast(), _mm256_sub_epi32(wm1, u));
+            _mm256_storeu_si256(rw.as_mut_ptr().add(x).cast(), _mm256_and_si256(g, low));
+            (xd, x) = (_mm256_add_epi32(xd, eight), x + 8);
+        }
+        x
+    }
 }
 
 /// The decisions of a row from the vector winner search's results (`Scratch::win_*`), as
@@ -2260,6 +2368,36 @@ mod tests {
         if level >= SimdLevel::Avx2 {
             // SAFETY: `detect()` found AVX2.
             unsafe { check_avx2() };
+        }
+    }
+
+    /// The right winners' vector gather against the scalar one (which clamps each pixel's right
+    /// pixel to the row), with winners, no winners and ranges past both ends of the row.
+    #[test]
+    fn right_winners_gather_matches_the_scalar_gather() {
+        use super::{Reversed, RightWinners};
+        if super::SimdLevel::detect() < super::SimdLevel::Avx2 {
+            eprintln!("skipped: no AVX2 on this CPU");
+            return;
+        }
+        for seed in 0..200u64 {
+            let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+            let mut next = |m: u64| {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                s % m
+            };
+            let w = 1 + next(70) as usize;
+            let nd = 1 + next(40) as i64;
+            let dmin = next(2 * w as u64 + 20) as i64 - (w as i64 + 10);
+            // every entry distinct (a wrong index reads another value), past w too
+            let rk: Vec<u16> = (0..w + 16).map(|i| (i as u16).wrapping_mul(7919) ^ 0x5A5A).collect();
+            let best: Vec<i32> = (0..w).map(|_| next(nd as u64 + 1) as i32 - 1).collect();
+            let (mut fast, mut slow) = (vec![0u32; w], vec![0u32; w]);
+            Reversed::new(&rk, w, true).gather(&best, dmin, &mut fast);
+            Reversed::new(&rk, w, false).gather(&best, dmin, &mut slow);
+            assert_eq!(fast, slow, "w {w}, dmin {dmin}, best {best:?}");
         }
     }
 }

@@ -26,7 +26,7 @@
 //! the 256-bit kernel on an AVX-512 machine (3.91 ms against 3.69 ms on teddy, 33.4 ms against
 //! 24.1 ms on 1280x720x128, one thread: the per-pixel reduction and mask traffic dominate); a
 //! 256-bit copy with AVX-512VL's masked moves for the arg-mins was removed with the other
-//! AVX-512 code, as no machine the project is tested on can run it.
+//! AVX-512 code, when the project's machine had no AVX-512.
 
 use crate::config::Subpixel;
 use crate::engine::{Cost, MatchStats, Shared, curve_ratio};
@@ -533,10 +533,11 @@ macro_rules! kernel {
                 }
             }
             let rkf = &sc.rkf;
-            finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, stats, &mut sc.rw, |u| {
+            let right = WinnersBy(|u: usize| {
                 let v = rkf[u];
                 if v == E::MAX { u32::MAX } else { v.to_u64() as u32 }
             });
+            finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, stats, &mut sc.rw, &right);
         }
 
         /// The smallest box sum `bx` (the current column's slot) over the searchable range
@@ -1144,7 +1145,7 @@ macro_rules! kernel_module {
             const REGS: usize = $regs;
 
             use super::{LAG, Lane, MAX_NCH, Ptrs, RING, Scratch, decide_row, needed, slot_of};
-            use crate::engine::{MatchStats, Shared, conf_row, finish_row, load_rows};
+            use crate::engine::{MatchStats, Shared, conf_row, finish_row, load_rows, WinnersBy};
 
             $lanes!($feat);
 
