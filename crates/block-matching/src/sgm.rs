@@ -1158,7 +1158,8 @@ fn decide_row<const NDQ: usize>(
     if isa.avx2() {
         decide_winners(sh, sc, st);
     }
-    if sh.lr.is_some() {
+    // (at the scalar level every update went to the first copy)
+    if sh.lr.is_some() && isa.avx2() {
         merge_right(&sc.rc, &mut sc.rk, w, stride);
     }
     let right = Reversed::new(&sc.rk, w, isa.avx2());
