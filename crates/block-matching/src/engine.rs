@@ -8,7 +8,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{CostFunction, MatcherConfig, Method, Prefilter, Subpixel};
 use crate::error::{BlockMatchingError, Result};
-use crate::prefilter::{box_sum, normalized_response, rank_transform_into, texture_mask_into, x_sobel_into};
+use crate::prefilter::{
+    TextureRows, TextureSource, box_sum, normalized_response, rank_transform_into, x_sobel_into, x_sobel_u8_into,
+};
 use crate::speckle::filter_speckles;
 
 /// A 16-bit grayscale image (`image` crate buffer).
@@ -75,6 +77,7 @@ pub struct MatchStats {
 
 impl MatchStats {
     fn add(&mut self, o: &MatchStats) {
+        self.valid += o.valid;
         self.no_candidate += o.no_candidate;
         self.low_texture += o.low_texture;
         self.not_unique += o.not_unique;
@@ -239,7 +242,8 @@ pub(crate) struct Shared<'a> {
     pub(crate) dmin: i64,
     pub(crate) left: &'a [u16],
     pub(crate) right: &'a [u16],
-    pub(crate) texture_ok: Option<&'a [bool]>,
+    /// The texture measure's input, when it is on (each band computes its own rows).
+    pub(crate) texture: Option<TextureSource<'a>>,
     ncc: &'a NccPlanes,
     n: f64,
     pub(crate) uniq: u32,
@@ -282,6 +286,7 @@ struct Scratch<A> {
     ratio: Vec<f32>,
     sr_rev: Vec<f64>,
     ir_rev: Vec<f64>,
+    texture: TextureRows,
 }
 
 impl<A: Acc> Scratch<A> {
@@ -322,7 +327,8 @@ pub struct BlockMatcher {
     pre_left: Vec<u16>,
     pre_right: Vec<u16>,
     sobel: Vec<u16>,
-    texture_ok: Vec<bool>,
+    /// Frames computed, which tells the bands' texture rows one frame from the next.
+    frame: u64,
     confidence: Vec<f32>,
     ncc: NccPlanes,
     scratch32: Vec<Scratch<u32>>,
@@ -360,7 +366,7 @@ impl BlockMatcher {
             pre_left: Vec::new(),
             pre_right: Vec::new(),
             sobel: Vec::new(),
-            texture_ok: Vec::new(),
+            frame: 0,
             confidence: Vec::new(),
             ncc: NccPlanes::default(),
             scratch32: Vec::new(),
@@ -443,47 +449,56 @@ impl BlockMatcher {
     }
 
     fn run_in_pool(&mut self, w: usize, h: usize, input: Input, out: &mut DisparityMap) -> Result<()> {
-        // the raw planes: 8-bit input widened into the matcher's buffers, 16-bit input as given
-        let (raw_left, raw_right, scale): (&[u16], &[u16], u32) = match input {
-            Input::U8(l, r) => {
-                let (left, right) = (&mut self.left, &mut self.right);
-                rayon::join(|| to_u16(l, left), || to_u16(r, right));
-                (&self.left, &self.right, 1)
-            }
-            Input::U16(l, r) => (l, r, 257),
+        let scale: u32 = match input {
+            Input::U8(..) => 1,
+            Input::U16(..) => 257,
         };
         let cfg = self.config.clone();
         let r = cfg.block_size / 2;
         let use_texture = cfg.texture_threshold > 0;
         // texture from the clipped x-Sobel magnitude of the raw left image (OpenCV's measure);
-        // with the default prefilter this is also the prefiltered left image. The left and
-        // right Sobel run side by side, then the texture measure on both threads (run after
-        // the left Sobel on one side of the join, it kept the other thread idle for most of
-        // the 135–160 µs the step took of a 1.6 ms teddy frame on 2 threads).
+        // with the default prefilter this is also the prefiltered left image. Each side widens
+        // its 8-bit input into the matcher's buffer (16-bit input is used as given) and takes
+        // its Sobel, of an 8-bit input from the input itself (in 16-bit lanes); the two sides
+        // run side by side (the widening as a step of its own, before them, was ~2 % of a teddy
+        // frame on 2 threads); the measure itself is taken by the bands.
         let sobel_is_prefilter = cfg.prefilter == Prefilter::XSobel { cap: 31 };
         let (pre_left, pre_right, sobel) = (&mut self.pre_left, &mut self.pre_right, &mut self.sobel);
+        let (buf_left, buf_right) = (&mut self.left, &mut self.right);
         let tcap = 31 * scale;
-        let left_sobel = || {
+        // widens side `i` (0 left, 1 right) into `buf`; returns its x-Sobel at a cap
+        let widen = |i: usize, buf: &mut Vec<u16>| {
+            let px = input.side(i);
+            if let Pixels::U8(p) = px {
+                to_u16(p, buf);
+            }
+            move |cap: u32, out: &mut Vec<u16>| match px {
+                Pixels::U8(p) => x_sobel_u8_into(p, w, h, cap, out),
+                Pixels::U16(p) => x_sobel_into(p, w, h, cap, out),
+            }
+        };
+        let left_side = || {
+            let sobel_of = widen(0, buf_left);
             if use_texture {
-                let sob = if sobel_is_prefilter { &mut *pre_left } else { &mut *sobel };
-                x_sobel_into(raw_left, w, h, tcap, sob);
+                sobel_of(tcap, if sobel_is_prefilter { &mut *pre_left } else { &mut *sobel });
             }
             if let Prefilter::XSobel { cap } = cfg.prefilter
                 && !(use_texture && sobel_is_prefilter)
             {
-                x_sobel_into(raw_left, w, h, cap as u32 * scale, pre_left);
+                sobel_of(cap as u32 * scale, pre_left);
             }
         };
-        let right_prefilter = || {
+        let right_side = || {
+            let sobel_of = widen(1, buf_right);
             if let Prefilter::XSobel { cap } = cfg.prefilter {
-                x_sobel_into(raw_right, w, h, cap as u32 * scale, pre_right);
+                sobel_of(cap as u32 * scale, pre_right);
             }
         };
-        rayon::join(left_sobel, right_prefilter);
-        if use_texture {
-            let sob = if sobel_is_prefilter { &self.pre_left } else { &self.sobel };
-            texture_mask_into(sob, w, h, r, tcap, cfg.texture_threshold * scale, &mut self.texture_ok);
-        }
+        rayon::join(left_side, right_side);
+        let (raw_left, raw_right): (&[u16], &[u16]) = match input {
+            Input::U8(..) => (&self.left, &self.right),
+            Input::U16(l, r) => (l, r),
+        };
         match cfg.prefilter {
             Prefilter::None | Prefilter::XSobel { .. } => {}
             Prefilter::Rank { size } => {
@@ -538,6 +553,17 @@ impl BlockMatcher {
             h.div_ceil(nbands)
         };
         let nbands = h.div_ceil(band_rows);
+        self.frame = self.frame.wrapping_add(1);
+        // the texture measure runs inside the bands, each on its own rows (see `TextureRows`)
+        let texture = use_texture.then(|| TextureSource {
+            sobel: if sobel_is_prefilter { &self.pre_left[..] } else { &self.sobel[..] },
+            w,
+            h,
+            r,
+            cap: tcap,
+            threshold: cfg.texture_threshold * scale,
+            frame: self.frame,
+        });
         let shared = Shared {
             w,
             h,
@@ -547,7 +573,7 @@ impl BlockMatcher {
             dmin: cfg.min_disparity as i64,
             left,
             right,
-            texture_ok: use_texture.then_some(&self.texture_ok[..]),
+            texture,
             ncc: &self.ncc,
             n: n as f64,
             uniq: cfg.uniqueness_ratio,
@@ -668,18 +694,37 @@ impl BlockMatcher {
             }
         }
         stats.pixels = w * h;
-        // as `DisparityMap::valid_count`, in parallel
-        stats.valid = out.data().par_chunks(1 << 14).map(|c| c.iter().filter(|d| d.is_finite()).count()).sum();
+        if stats.speckle > 0 {
+            // as `DisparityMap::valid_count`, in parallel (the bands counted before the filter)
+            stats.valid = out.data().par_chunks(1 << 14).map(|c| c.iter().filter(|d| d.is_finite()).count()).sum();
+        }
         stats.density = if w * h == 0 { 0.0 } else { stats.valid as f64 / (w * h) as f64 };
         self.stats = stats;
     }
 }
 
 /// The input pair of one frame, before conversion to the matcher's `u16` planes.
+/// One side's pixels.
+#[derive(Clone, Copy)]
+enum Pixels<'a> {
+    U8(&'a [u8]),
+    U16(&'a [u16]),
+}
+
 #[derive(Clone, Copy)]
 enum Input<'a> {
     U8(&'a [u8], &'a [u8]),
     U16(&'a [u16], &'a [u16]),
+}
+
+impl<'a> Input<'a> {
+    /// The left (0) or right (1) image.
+    fn side(self, i: usize) -> Pixels<'a> {
+        match self {
+            Input::U8(l, r) => Pixels::U8(if i == 0 { l } else { r }),
+            Input::U16(l, r) => Pixels::U16(if i == 0 { l } else { r }),
+        }
+    }
 }
 
 /// Widens an 8-bit plane into `dst` (resized), rows in parallel.
@@ -710,7 +755,7 @@ pub(crate) fn check_pair(lw: u32, lh: u32, rw: u32, rh: u32) -> Result<(usize, u
 
 /// Runs `band(scratch, rows, conf_rows, y0, y1)` on every row band in parallel, each with its
 /// own scratch (grown to `nbands` entries and kept for the next frame); returns the per-band
-/// statistics. `conf` is the confidence plane (`w · h`) or empty, and so are its band rows.
+/// statistics, each with the band's valid pixels. `conf` is the confidence plane (`w · h`) or empty, and so are its band rows.
 pub(crate) fn for_each_band<S: Default + Send>(
     sh: &Shared,
     scratch: &mut Vec<S>,
@@ -734,7 +779,11 @@ pub(crate) fn for_each_band<S: Default + Send>(
         .enumerate()
         .map(|(b, ((rows, sc), conf))| {
             let y0 = b * band_rows;
-            band(sc, rows, conf, y0, (y0 + band_rows).min(sh.h))
+            let mut st = band(sc, rows, conf, y0, (y0 + band_rows).min(sh.h));
+            // the band's valid pixels, while its rows are in its core's cache (a parallel
+            // count of its own after the bands was ~2 % of a teddy frame on 2 threads)
+            st.valid = rows.iter().filter(|d| d.is_finite()).count();
+            st
         })
         .collect()
 }
@@ -1007,6 +1056,7 @@ fn row_decisions<A: Acc, const K: u8>(
 ) {
     let (w, r, nd, dmin) = (sh.w, sh.r, sh.nd, sh.dmin);
     let ncc = K == K_NCC;
+    let texture = sh.texture.as_ref().map(|t| sc.texture.row(t, y));
     // box sums of x = 0: padded columns 0..=2r
     sc.boxs.fill(A::default());
     for xp in 0..=2 * r {
@@ -1060,7 +1110,7 @@ fn row_decisions<A: Acc, const K: u8>(
             right_update::<A>(&sc.boxs[lo..=hi], &mut sc.rc[j0..][..len], &mut sc.rk[j0..][..len], lo);
             decide::<A>(&sc.boxs, lo, hi, sh.uniq, sh.subpixel, sh.conf)
         };
-        if sh.texture_ok.is_some_and(|t| !t[y * w + x]) {
+        if texture.is_some_and(|t| !t[x]) {
             sc.best[x] = -1;
             st.low_texture += 1;
             continue;

@@ -45,6 +45,7 @@ use crate::engine::{
     load_plane_rows, load_rows,
 };
 use crate::error::{BlockMatchingError, Result};
+use crate::prefilter::TextureRows;
 
 /// Uniqueness margin (percent) a winner needs where the image edge cuts its pixel's candidates
 /// short of the range (the left band `x < dmin + D − 1`, or the right one with negative
@@ -292,6 +293,8 @@ pub(crate) struct Scratch {
     best: Vec<i32>,
     sub: Vec<f32>,
     ratio: Vec<f32>,
+    /// The texture measure of the strip's rows.
+    texture: TextureRows,
     /// The vector winner search's results per pixel of the row, decided in one pass over the
     /// row afterwards ([`decide_winners`]): the winner (−1: no candidate or rejected before
     /// the search), its `S`, the smallest `S` apart from it and its neighbours, and `S` at the
@@ -992,7 +995,7 @@ fn decide_row<const NDQ: usize>(
     let stride = w + ndq;
     assert!(sc.rc.len() >= 2 * stride && sc.rk.len() >= 2 * stride);
     let (rcp, rkp) = (sc.rc.as_mut_ptr(), sc.rk.as_mut_ptr());
-    let texture = sh.texture_ok.map(|t| &t[y * w..][..w]);
+    let texture = sh.texture.as_ref().map(|t| sc.texture.row(t, y));
     // one pixel with any range (the edge bands, and every pixel at the scalar level); a macro:
     // pasted before and after the middle's loop (the pixels' order decides the right winners'
     // ties)

@@ -30,6 +30,7 @@
 
 use crate::config::Subpixel;
 use crate::engine::{Cost, MatchStats, Shared, curve_ratio};
+use crate::prefilter::TextureRows;
 
 /// A lane type of the kernels: window sums, costs and disparity indices.
 pub(crate) trait Lane: Copy + Default + PartialOrd + Send + Sync + 'static {
@@ -169,6 +170,8 @@ pub(crate) struct Scratch<E: Lane> {
     ratio: Vec<f32>,
     /// `w` times `true`: the texture mask when the texture check is off.
     all_true: Vec<bool>,
+    /// The texture measure of the band's rows.
+    texture: TextureRows,
     best: Vec<i32>,
     sub: Vec<f32>,
     /// The right winners at each pixel's match ([`crate::engine::finish_row`]).
@@ -807,8 +810,8 @@ fn decide_row<E: Lane + Cost, const UNIQ: bool>(sh: &Shared, sc: &mut Scratch<E>
     let w = sh.w;
     // i32 is enough: validated disparities are within ±2^20 and images narrower than 2^31
     let (nd, dmin, wm1) = (sh.nd as i32, sh.dmin as i32, w as i32 - 1);
-    let (check_tex, tex) = match sh.texture_ok {
-        Some(t) => (true, &t[y * w..][..w]),
+    let (check_tex, tex) = match &sh.texture {
+        Some(t) => (true, sc.texture.row(t, y)),
         None => (false, &sc.all_true[..w]),
     };
     let (equi, fit_on) = (sh.subpixel == Subpixel::Equiangular, sh.subpixel != Subpixel::None);

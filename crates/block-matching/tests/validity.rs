@@ -2,7 +2,7 @@
 //! are invalid unless filling is asked for, the rejection counts add up, the confidence ranks
 //! right pixels above wrong ones, and a swapped pair is detected.
 
-use parallax_block_matching::{BlockMatcher, MatcherConfig, evaluate};
+use parallax_block_matching::{BlockMatcher, MatcherConfig, Method, evaluate};
 use parallax_synthetic::{StereoScene, StereoSceneConfig, render_stereo_scene};
 
 fn scene(seed: u64) -> StereoScene {
@@ -235,6 +235,36 @@ fn sgm_returns_no_disparity_where_the_match_left_the_right_image() {
                 );
                 assert_eq!(outside_returned, 0, "shift {shift} seed {seed} {paths}");
                 assert!(kept > 0.85, "shift {shift} seed {seed} {paths}: {kept}");
+            }
+        }
+    }
+}
+
+#[test]
+fn the_valid_count_is_the_maps_in_every_mode() {
+    // the bands count their own valid pixels (recounted after a speckle filter): with and
+    // without the filter, filled, block matching and semi-global, one to three threads (one
+    // band per thread), 8- and 16-bit input
+    let s = scene(3);
+    let l16 = parallax_block_matching::Gray16Image::from_fn(s.left.width(), s.left.height(), |x, y| {
+        image::Luma([s.left.get_pixel(x, y)[0] as u16 * 257])
+    });
+    let r16 = parallax_block_matching::Gray16Image::from_fn(s.right.width(), s.right.height(), |x, y| {
+        image::Luma([s.right.get_pixel(x, y)[0] as u16 * 257])
+    });
+    for method in [Method::BlockMatching, Method::Sgm] {
+        for (speckle, fill) in [(0, false), (100, false), (0, true)] {
+            for threads in 1..=3 {
+                let base =
+                    MatcherConfig { method, speckle_window_size: speckle, fill, threads, ..MatcherConfig::default() };
+                let mut m = BlockMatcher::new(cfg(base)).unwrap();
+                for sixteen in [false, true] {
+                    let d = if sixteen { m.compute_u16(&l16, &r16) } else { m.compute(&s.left, &s.right) }.unwrap();
+                    let st = m.last_stats();
+                    assert_eq!(st.valid, d.valid_count(), "{method:?} speckle {speckle} fill {fill} threads {threads}");
+                    assert!(st.valid > st.pixels / 2 && st.valid < st.pixels || fill, "{st:?}");
+                    assert_eq!(st.density, d.density());
+                }
             }
         }
     }
