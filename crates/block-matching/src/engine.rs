@@ -458,10 +458,10 @@ impl BlockMatcher {
         let use_texture = cfg.texture_threshold > 0;
         // texture from the clipped x-Sobel magnitude of the raw left image (OpenCV's measure);
         // with the default prefilter this is also the prefiltered left image. Each side widens
-        // its 8-bit input into the matcher's buffer (16-bit input is used as given) and takes
-        // its Sobel, of an 8-bit input from the input itself (in 16-bit lanes); the two sides
-        // run side by side (the widening as a step of its own, before them, was ~2 % of a teddy
-        // frame on 2 threads); the measure itself is taken by the bands.
+        // its 8-bit input into the matcher's buffer when the raw planes are read (16-bit input
+        // is used as given) and takes its Sobel from the input itself (8-bit in 16-bit lanes);
+        // the two sides run side by side (the widening as a step of its own, before them, was
+        // ~2 % of a teddy frame on 2 threads); the measure itself is taken by the bands.
         let sobel_is_prefilter = cfg.prefilter == Prefilter::XSobel { cap: 31 };
         let (pre_left, pre_right, sobel) = (&mut self.pre_left, &mut self.pre_right, &mut self.sobel);
         let (buf_left, buf_right) = (&mut self.left, &mut self.right);
@@ -469,32 +469,29 @@ impl BlockMatcher {
         // block matching on the x-Sobel reads only the Sobel planes: no widening there (~1.5 %
         // of a teddy frame's samples)
         let need_raw = cfg.method == Method::Sgm || !matches!(cfg.prefilter, Prefilter::XSobel { .. });
-        // widens side `i` (0 left, 1 right) into `buf` when needed; returns its x-Sobel at a cap
+        // side `i` (0 left, 1 right), widened into `buf` when needed
         let widen = |i: usize, buf: &mut Vec<u16>| {
             let px = input.side(i);
             if need_raw && let Pixels::U8(p) = px {
                 to_u16(p, buf);
             }
-            move |cap: u32, out: &mut Vec<u16>| match px {
-                Pixels::U8(p) => x_sobel_u8_into(p, w, h, cap, out),
-                Pixels::U16(p) => x_sobel_into(p, w, h, cap, out),
-            }
+            px
         };
         let left_side = || {
-            let sobel_of = widen(0, buf_left);
+            let px = widen(0, buf_left);
             if use_texture {
-                sobel_of(tcap, if sobel_is_prefilter { &mut *pre_left } else { &mut *sobel });
+                px.x_sobel_into(w, h, tcap, if sobel_is_prefilter { &mut *pre_left } else { &mut *sobel });
             }
             if let Prefilter::XSobel { cap } = cfg.prefilter
                 && !(use_texture && sobel_is_prefilter)
             {
-                sobel_of(cap as u32 * scale, pre_left);
+                px.x_sobel_into(w, h, cap as u32 * scale, pre_left);
             }
         };
         let right_side = || {
-            let sobel_of = widen(1, buf_right);
+            let px = widen(1, buf_right);
             if let Prefilter::XSobel { cap } = cfg.prefilter {
-                sobel_of(cap as u32 * scale, pre_right);
+                px.x_sobel_into(w, h, cap as u32 * scale, pre_right);
             }
         };
         rayon::join(left_side, right_side);
@@ -708,7 +705,6 @@ impl BlockMatcher {
     }
 }
 
-/// The input pair of one frame, before conversion to the matcher's `u16` planes.
 /// One side's pixels.
 #[derive(Clone, Copy)]
 enum Pixels<'a> {
@@ -716,6 +712,17 @@ enum Pixels<'a> {
     U16(&'a [u16]),
 }
 
+impl Pixels<'_> {
+    /// The x-Sobel at `cap` into `out` (8-bit pixels summed in 16-bit lanes).
+    fn x_sobel_into(self, w: usize, h: usize, cap: u32, out: &mut Vec<u16>) {
+        match self {
+            Pixels::U8(p) => x_sobel_u8_into(p, w, h, cap, out),
+            Pixels::U16(p) => x_sobel_into(p, w, h, cap, out),
+        }
+    }
+}
+
+/// The input pair of one frame, before conversion to the matcher's `u16` planes.
 #[derive(Clone, Copy)]
 enum Input<'a> {
     U8(&'a [u8], &'a [u8]),
@@ -733,7 +740,7 @@ impl<'a> Input<'a> {
 }
 
 /// The finite values of `v` (as `DisparityMap::valid_count`), summed in `u32` lanes a block at a
-/// time (a `usize` count per value took twice the operations).
+/// time (twice as many a vector as a `usize` count's).
 fn count_finite(v: &[f32]) -> usize {
     v.chunks(1 << 16).map(|c| c.iter().map(|d| d.is_finite() as u32).sum::<u32>() as usize).sum()
 }
@@ -766,7 +773,8 @@ pub(crate) fn check_pair(lw: u32, lh: u32, rw: u32, rh: u32) -> Result<(usize, u
 
 /// Runs `band(scratch, rows, conf_rows, y0, y1)` on every row band in parallel, each with its
 /// own scratch (grown to `nbands` entries and kept for the next frame); returns the per-band
-/// statistics, each with the band's valid pixels. `conf` is the confidence plane (`w · h`) or empty, and so are its band rows.
+/// statistics, each with the band's valid pixels. `conf` is the confidence plane (`w · h`) or
+/// empty, and so are its band rows.
 pub(crate) fn for_each_band<S: Default + Send>(
     sh: &Shared,
     scratch: &mut Vec<S>,

@@ -496,6 +496,16 @@ mod tests {
         }
     }
 
+    /// A xorshift generator (deterministic test data).
+    fn xorshift(mut seed: u64) -> impl FnMut() -> u64 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        }
+    }
+
     /// The texture measure by its definition: the clamp-to-edge window sum of `|sobel − cap|`.
     fn texture_direct(sobel: &[u16], w: usize, h: usize, r: usize, cap: u32, threshold: u32, y: usize) -> Vec<bool> {
         let r = r as i64;
@@ -516,13 +526,7 @@ mod tests {
 
     #[test]
     fn texture_rows_match_the_definition_in_any_row_order_and_across_frames() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15);
         let mut seen = [0usize; 2];
         for (w, h) in [(1, 1), (2, 9), (17, 12), (40, 23)] {
             for r in [0, 1, 2, 4, 5, 7] {
@@ -540,7 +544,7 @@ mod tests {
                                     return 0;
                                 }
                                 let v = next();
-                                let dev = if v % 4 == 0 { v >> 8 } else { (v >> 8) % 5 } % (cap as u64 + 1);
+                                let dev = if v.is_multiple_of(4) { v >> 8 } else { (v >> 8) % 5 } % (cap as u64 + 1);
                                 (if v & 2 == 0 { cap as u64 + dev } else { cap as u64 - dev }) as u16
                             })
                             .collect();
@@ -614,16 +618,14 @@ mod tests {
 
     #[test]
     fn x_sobel_of_8_bit_pixels_in_16_bit_lanes_matches_the_32_bit_sums() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = xorshift(0x2545_f491_4f6c_dd1d);
         for (w, h) in [(1, 1), (2, 3), (3, 2), (33, 7), (70, 40)] {
             // full-range noise, then columns 0, 0, 255, 255, … (|sum| 4 · 255 at the steps)
             let px: Vec<u8> = (0..w * h)
                 .map(|i| {
-                    seed ^= seed << 13;
-                    seed ^= seed >> 7;
-                    seed ^= seed << 17;
+                    let v = next();
                     if i / w < h / 2 {
-                        (seed >> 32) as u8
+                        (v >> 32) as u8
                     } else if i % w % 4 < 2 {
                         0
                     } else {
