@@ -8,8 +8,9 @@
 //! 1. the vertical update of the column sums of the entering column (`+term` of the row that
 //!    enters the window, `−term` of the row that leaves it),
 //! 2. the horizontal running box sum (`+` entering column, `−` leaving column),
-//! 3. the left winner-take-all as a per-lane running minimum and arg-minimum (one horizontal
-//!    reduction per pixel; ties go to the smallest disparity),
+//! 3. the left winner-take-all as a per-lane running minimum and arg-minimum (16-bit lanes: the
+//!    minimum of `(cost << 16) | d` keys; one horizontal reduction per pixel; ties go to the
+//!    smallest disparity),
 //! 4. the right image's running minimum for the left–right check, kept per lane and moved up one
 //!    lane per column (lane `k` always holds the right pixel `x − dmin − k`; the lane leaving the
 //!    top is final), strict `<` in increasing `x`, i.e. first wins, as the generic engine and the
@@ -386,7 +387,10 @@ macro_rules! kernel {
         ) {
             let (w, r, nd, dmin) = (sh.w, sh.r, sh.nd, sh.dmin);
             let wp = w + 2 * r;
-            let ndp = sc.ndp;
+            // (a constant when the chunk count is: the ring's slot offsets in `beside!` then need
+            // no multiplication by a loaded stride)
+            let ndp = if NCH > 0 { NCH * L } else { sc.ndp };
+            debug_assert_eq!(ndp, sc.ndp);
             sc.rc.fill(E::MAX);
             sc.rk.fill(E::MAX);
             sc.rkf.fill(E::MAX);
@@ -601,7 +605,8 @@ macro_rules! kernel {
             let keep = NCH > 0 && NCH <= REGS / 2;
             let (lov, hiv) = (splat_i(lo), splat_i(hi));
             // without the right state (whose lane moves carry upwards from chunk to chunk),
-            // chunks are visited from the top down (see `min_update_down`): callgrind, one
+            // chunks are visited from the top down (see `min_update_down`; `Win`'s keys take any
+            // order): callgrind, one
             // thread, bm options of `disparity_vs_opencv.py`: 1.33 → 1.31 instructions per evaluation on
             // 1282x1110x224, 1.96 → 1.91 on 626x555x96
             let down = NCH > 0 && !LR;
@@ -613,10 +618,9 @@ macro_rules! kernel {
             // SAFETY: xp < wp = l_pairs.len() (read only with `PAIRS`, when it was filled).
             let lpair = if PAIRS { splat_pair(unsafe { *p.l_pairs.add(xp) }) } else { li };
             let base = p.wp - 1 - xp;
-            let mut minv = splat(E::MAX);
-            // (0, not a sentinel: where no lane is searchable the key's cost says so, and its
-            // index stays a lane's, which `beside!` relies on)
-            let mut idxv = splat(E::ZERO);
+            // keys for the left winner where the box sums stay in registers (see `Win`)
+            let keys = keep;
+            let mut win = win_new(keys);
             let ramp = ramp();
             // this column's slot of box sums and the one before (see `RING`)
             let (slot, prev_slot) = (slot_of(x, ndp, L), slot_of(x + RING - 1, ndp, L));
@@ -684,11 +688,7 @@ macro_rules! kernel {
                         b
                     };
                     let bm = or(b, m);
-                    if down {
-                        min_update_down(&mut minv, &mut idxv, bm, dv);
-                    } else {
-                        min_update(&mut minv, &mut idxv, bm, dv);
-                    }
+                    win_update(&mut win, bm, dv, down, keys);
                     if LR {
                         // move the right state up one lane (a new pixel enters at lane 0), then
                         // take this column's costs; loads and stores hit the same addresses, so
@@ -728,7 +728,7 @@ macro_rules! kernel {
                 // SAFETY: u < w = rkf.len().
                 unsafe { *p.rkf.add(u as usize) = top(prev_k) };
             }
-            reduce(minv, idxv)
+            win_key(win, keys)
         }
     };
 }
@@ -980,11 +980,52 @@ macro_rules! lanes16 {
             let m = _mm_min_epu16(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
             (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as E
         }
+        /// The left winner so far, with `keys`: each lane's `(cost << 16) | d` as a 32-bit key,
+        /// lanes 0–3 and 8–11 of the chunks in the first vector, 4–7 and 12–15 in the second.
+        /// The smallest key is the smallest cost, then the smallest d, whatever the order of the
+        /// chunks: two unpacks and two minima a chunk, none of them a byte blend (on this Intel
+        /// Xeon `vpblendvb` ran one a cycle, `vpunpcklwd` and `vpminud` two). Without `keys`,
+        /// the running minimum per lane and its disparity (`min_update`, `min_update_down`).
+        /// The kernel takes keys when the box sums stay in registers (up to 8 chunks; with
+        /// more, the two disparity vectors a chunk are loads: 1282x1110x224 ran 1–2 % slower).
+        /// Teddy, StereoBM's options, one thread, medians of 61 frames in 3 interleaved
+        /// rounds: 1.90 → 1.86 ms; 626x555x96 4.80 → 4.79 ms.
+        type Win = (V, V);
+        /// No chunk seen: cost `E::MAX` (the sentinel) at index 0, a lane's index, as `beside!`
+        /// needs.
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn win_new(keys: bool) -> Win {
+            if keys {
+                let k = _mm256_set1_epi32(0xffff_0000u32 as i32);
+                (k, k)
+            } else {
+                (splat(E::MAX), splat(E::ZERO))
+            }
+        }
+        /// Takes the costs `c` of the disparities `d`: with `keys` in any chunk order, else
+        /// upwards (ties keep the old index) or, when `down`, downwards (ties take the new one).
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn win_update(w: &mut Win, c: V, d: V, down: bool, keys: bool) {
+            if keys {
+                w.0 = _mm256_min_epu32(w.0, _mm256_unpacklo_epi16(d, c));
+                w.1 = _mm256_min_epu32(w.1, _mm256_unpackhi_epi16(d, c));
+            } else if down {
+                min_update_down(&mut w.0, &mut w.1, c, d);
+            } else {
+                min_update(&mut w.0, &mut w.1, c, d);
+            }
+        }
         /// The smallest `(min << 16) | idx` over the lanes.
         #[inline]
         #[target_feature(enable = $feat)]
-        fn reduce(min: V, idx: V) -> u32 {
-            let k = _mm256_min_epu32(_mm256_unpacklo_epi16(idx, min), _mm256_unpackhi_epi16(idx, min));
+        fn win_key(w: Win, keys: bool) -> u32 {
+            let k = if keys {
+                _mm256_min_epu32(w.0, w.1)
+            } else {
+                _mm256_min_epu32(_mm256_unpacklo_epi16(w.1, w.0), _mm256_unpackhi_epi16(w.1, w.0))
+            };
             let k = _mm_min_epu32(_mm256_castsi256_si128(k), _mm256_extracti128_si256::<1>(k));
             let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b01_00_11_10>(k));
             let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b10_11_00_01>(k));
@@ -1120,6 +1161,33 @@ macro_rules! lanes32 {
         #[target_feature(enable = $feat)]
         fn hmin_lane(v: V) -> E {
             _mm256_extract_epi32::<0>(hmin(v)) as E
+        }
+        /// The left winner so far: the running minimum per lane and its disparity (`AVX2` has
+        /// no unsigned 64-bit minimum for packed keys).
+        type Win = (V, V);
+        /// No chunk seen: the sentinel at index 0 (not a sentinel: where no lane is searchable
+        /// the key's cost says so, and its index stays a lane's, which `beside!` relies on).
+        /// (`keys`: the 16-bit lanes' choice; no keys here.)
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn win_new(_keys: bool) -> Win {
+            (splat(E::MAX), splat(E::ZERO))
+        }
+        /// Takes the costs `c` of the disparities `d`, chunks visited upwards (ties keep the old
+        /// index) or, when `down`, downwards (ties take the new one).
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn win_update(w: &mut Win, c: V, d: V, down: bool, _keys: bool) {
+            if down {
+                min_update_down(&mut w.0, &mut w.1, c, d);
+            } else {
+                min_update(&mut w.0, &mut w.1, c, d);
+            }
+        }
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn win_key(w: Win, _keys: bool) -> u64 {
+            reduce(w.0, w.1)
         }
         /// `(min << 32) | idx` of the smallest cost, the smallest index among equal costs.
         #[inline]
