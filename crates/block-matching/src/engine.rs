@@ -896,23 +896,53 @@ pub(crate) fn load_plane_rows(sh: &Shared, left: &[u16], right: &[u16], y: usize
     l[..r].fill(lrow[0]);
     l[r..r + w].copy_from_slice(lrow);
     l[r + w..].fill(lrow[w - 1]);
-    // rrev[i] = right[clamp(umax − i)]: the right edge value while umax − i ≥ w, then the row
-    // reversed, then the left edge value (segment ends clamped: dmin may be far outside)
-    let umax = w as i64 - 1 + r as i64 - sh.dmin;
-    let n = rrev.len() as i64;
-    let a = (umax - (w as i64 - 1)).clamp(0, n);
-    let b = (umax + 1).clamp(a, n);
-    let (a, b) = (a as usize, b as usize);
+    let (a, b, lo) = reversed_segments(sh, rrev.len());
     rrev[..a].fill(rrow[w - 1]);
-    if b > a {
-        // i in a..b reads u = umax − i, from umax − a down to umax − b + 1
-        let hi = (umax - a as i64) as usize;
-        let lo = (umax - b as i64 + 1) as usize;
-        for (v, &s) in rrev[a..b].iter_mut().zip(rrow[lo..=hi].iter().rev()) {
-            *v = s;
-        }
+    for (v, &s) in rrev[a..b].iter_mut().zip(rrow[lo..lo + (b - a)].iter().rev()) {
+        *v = s;
     }
     rrev[b..].fill(rrow[0]);
+}
+
+/// The segments of a reversed right row of `n` entries (`load_plane_rows`): `rrev[i] =
+/// right[clamp(umax − i)]` is the right edge value for `i < a`, the row reversed for `a ≤ i < b`
+/// (pixels `lo + (b − a) − 1` down to `lo`), the left edge value from `b` (segment ends clamped:
+/// `dmin` may be far outside).
+#[inline(always)]
+fn reversed_segments(sh: &Shared, n: usize) -> (usize, usize, usize) {
+    let (w, r) = (sh.w, sh.r);
+    let umax = w as i64 - 1 + r as i64 - sh.dmin;
+    let n = n as i64;
+    let a = (umax - (w as i64 - 1)).clamp(0, n);
+    let b = (umax + 1).clamp(a, n);
+    // i in a..b reads u = umax − i, from umax − a down to umax − b + 1 (0 when b = a)
+    let lo = if b > a { umax - b + 1 } else { 0 };
+    (a as usize, b as usize, lo as usize)
+}
+
+/// [`load_rows`] of the rows `yi` (entering the window) and `yo` (leaving it) at once, as byte
+/// pairs (`yi`'s pixel the low byte, `yo`'s the high), for images whose pixels are all below
+/// 128: `l_pairs[xp]` pairs the two left rows' padded column `xp`, `pairs[i]` the two reversed
+/// right rows' entry `i`. Read from the planes directly: the rows are never widened into
+/// `u16` copies and then interleaved.
+#[inline(always)]
+pub(crate) fn load_row_pairs(sh: &Shared, yi: usize, yo: usize, l_pairs: &mut [u16], pairs: &mut [u16]) {
+    let (w, r) = (sh.w, sh.r);
+    let pair = |a: u16, b: u16| a | b << 8;
+    let (li, lo) = (&sh.left[yi * w..][..w], &sh.left[yo * w..][..w]);
+    l_pairs[..r].fill(pair(li[0], lo[0]));
+    for ((q, &a), &b) in l_pairs[r..r + w].iter_mut().zip(li).zip(lo) {
+        *q = pair(a, b);
+    }
+    l_pairs[r + w..].fill(pair(li[w - 1], lo[w - 1]));
+    let (ri, ro) = (&sh.right[yi * w..][..w], &sh.right[yo * w..][..w]);
+    let (a, b, lo) = reversed_segments(sh, pairs.len());
+    pairs[..a].fill(pair(ri[w - 1], ro[w - 1]));
+    let n = b - a;
+    for ((q, &x), &y) in pairs[a..b].iter_mut().zip(ri[lo..lo + n].iter().rev()).zip(ro[lo..lo + n].iter().rev()) {
+        *q = pair(x, y);
+    }
+    pairs[b..].fill(pair(ri[0], ro[0]));
 }
 
 /// Adds the row held in `l_in/r_in` to the column sums (and subtracts `l_out/r_out` if `sub`).

@@ -144,13 +144,15 @@ pub(crate) struct Scratch<E: Lane> {
     l_out: Vec<u16>,
     r_in: Vec<u16>,
     r_out: Vec<u16>,
-    /// `r_in` and `r_out` interleaved as bytes (`r_in[j]` at `2j`, `r_out[j]` at `2j + 1`),
-    /// when every pixel is below 128 (`Shared::small_px`) and rows enter and leave the window:
-    /// one load, a byte difference, its absolute value and one multiply-add by `(1, −1)` give
-    /// `|l_in − r_in| − |l_out − r_out|` of 16 disparities (five operations on 16-bit lanes).
-    /// Callgrind, one thread, bm options of `disparity_vs_opencv.py` (x-Sobel, cap 31): 1.31 →
-    /// 1.21 instructions per evaluation on 1282x1110x224, 1.91 → 1.84 on 626x555x96.
-    pairs: Vec<u8>,
+    /// What `r_in` and `r_out` would hold, interleaved as bytes (`r_in[j] | r_out[j] << 8`:
+    /// read as bytes, `r_in[j]` at `2j` and `r_out[j]` at `2j + 1`, x86 being little-endian),
+    /// when every pixel is below 128 (`Shared::small_px`) and rows enter and leave the window
+    /// (`load_row_pairs`; `l_in`, `r_in`, `l_out` and `r_out` are then not filled): one load, a
+    /// byte difference, its absolute value and one multiply-add by `(1, −1)` give `|l_in −
+    /// r_in| − |l_out − r_out|` of 16 disparities (five operations on 16-bit lanes). Callgrind,
+    /// one thread, bm options of `disparity_vs_opencv.py` (x-Sobel, cap 31): 1.31 → 1.21
+    /// instructions per evaluation on 1282x1110x224, 1.91 → 1.84 on 626x555x96.
+    pairs: Vec<u16>,
     /// `l_in` and `l_out` as byte pairs, the same way (`l_in[xp]` the low byte).
     l_pairs: Vec<u16>,
     /// Right running minimum per lane: lane `k` holds the pixel `u = x − dmin − k` of the
@@ -191,7 +193,7 @@ impl<E: Lane> Scratch<E> {
         // the reversed right rows are read at (wp − 1 − xp) + d for d < ndp
         self.r_in.resize(wp + ndp - 1, 0);
         self.r_out.resize(wp + ndp - 1, 0);
-        self.pairs.resize(2 * (wp + ndp - 1), 0);
+        self.pairs.resize(wp + ndp - 1, 0);
         self.l_pairs.resize(wp, 0);
         self.rc.resize(ndp, E::MAX);
         self.rk.resize(ndp, E::MAX);
@@ -286,19 +288,14 @@ macro_rules! kernel {
                     let yi = clamp_y(y as i64 + r as i64);
                     let yo = clamp_y(y as i64 - r as i64 - 1);
                     if yi != yo {
-                        load_rows(sh, yi, &mut sc.l_in, &mut sc.r_in);
-                        load_rows(sh, yo, &mut sc.l_out, &mut sc.r_out);
                         if !SQ && sh.small_px {
                             // below 128 (`small_px`)
-                            for ((q, &a), &b) in sc.pairs.chunks_exact_mut(2).zip(&sc.r_in).zip(&sc.r_out) {
-                                (q[0], q[1]) = (a as u8, b as u8);
-                            }
-                            for ((q, &a), &b) in sc.l_pairs.iter_mut().zip(&sc.l_in).zip(&sc.l_out) {
-                                *q = a | b << 8;
-                            }
+                            load_row_pairs(sh, yi, yo, &mut sc.l_pairs, &mut sc.pairs);
                             // SAFETY: as above; every pixel is below 128.
                             unsafe { row_n::<true, SQ, true>(sh, sc, y, orow, crow, &mut st) };
                         } else {
+                            load_rows(sh, yi, &mut sc.l_in, &mut sc.r_in);
+                            load_rows(sh, yo, &mut sc.l_out, &mut sc.r_out);
                             // SAFETY: as above.
                             unsafe { row_n::<true, SQ, false>(sh, sc, y, orow, crow, &mut st) };
                         }
@@ -399,7 +396,7 @@ macro_rules! kernel {
                 bx: sc.boxs.as_mut_ptr(),
                 rin: sc.r_in.as_ptr(),
                 rout: sc.r_out.as_ptr(),
-                pairs: sc.pairs.as_ptr(),
+                pairs: sc.pairs.as_ptr() as *const u8,
                 l_pairs: sc.l_pairs.as_ptr(),
                 lin: sc.l_in.as_ptr(),
                 lout: sc.l_out.as_ptr(),
@@ -425,10 +422,14 @@ macro_rules! kernel {
                         let mut v = ld(q);
                         if VERT && needed(c, xp, dmin) {
                             let base = wp - 1 - xp;
-                            let t = sub(
-                                term::<SQ>(splat_px(sc.l_in[xp]), ld_px(p.rin.add(base + c))),
-                                term::<SQ>(splat_px(sc.l_out[xp]), ld_px(p.rout.add(base + c))),
-                            );
+                            let t = if PAIRS {
+                                pair_difference(splat_pair(sc.l_pairs[xp]), p.pairs.add(2 * (base + c)))
+                            } else {
+                                sub(
+                                    term::<SQ>(splat_px(sc.l_in[xp]), ld_px(p.rin.add(base + c))),
+                                    term::<SQ>(splat_px(sc.l_out[xp]), ld_px(p.rout.add(base + c))),
+                                )
+                            };
                             v = add(v, t);
                             st(q, v);
                         }
@@ -613,10 +614,16 @@ macro_rules! kernel {
             let mut prev_c = splat(E::MAX);
             let mut prev_k = splat(E::MAX);
             let xp = x + 2 * p.r;
-            // SAFETY: xp < wp.
-            let (li, lo_) = unsafe { (splat_px(*p.lin.add(xp)), splat_px(*p.lout.add(xp))) };
-            // SAFETY: xp < wp = l_pairs.len() (read only with `PAIRS`, when it was filled).
-            let lpair = if PAIRS { splat_pair(unsafe { *p.l_pairs.add(xp) }) } else { li };
+            // (with `PAIRS` only the byte pairs hold this row's pixels)
+            let (li, lo_, lpair) = if PAIRS {
+                // SAFETY: xp < wp = l_pairs.len().
+                let lp = splat_pair(unsafe { *p.l_pairs.add(xp) });
+                (lp, lp, lp)
+            } else {
+                // SAFETY: xp < wp.
+                let (li, lo_) = unsafe { (splat_px(*p.lin.add(xp)), splat_px(*p.lout.add(xp))) };
+                (li, lo_, li)
+            };
             let base = p.wp - 1 - xp;
             // keys for the left winner where the box sums stay in registers (see `Win`)
             let keys = keep;
@@ -1216,7 +1223,7 @@ macro_rules! kernel_module {
             const REGS: usize = $regs;
 
             use super::{LAG, Lane, MAX_NCH, Ptrs, RING, Scratch, decide_row, needed, slot_of};
-            use crate::engine::{MatchStats, Shared, conf_row, finish_row, load_rows, WinnersBy};
+            use crate::engine::{MatchStats, Shared, conf_row, finish_row, load_row_pairs, load_rows, WinnersBy};
 
             $lanes!($feat);
 
