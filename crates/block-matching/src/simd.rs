@@ -615,12 +615,16 @@ macro_rules! kernel {
             // would spill: then each column reads the previous column's stored sums back)
             let keep = NCH > 0 && NCH <= REGS / 2;
             let (lov, hiv) = (splat_i(lo), splat_i(hi));
-            // without the right state (whose lane moves carry upwards from chunk to chunk),
-            // chunks are visited from the top down (see `min_update_down`; `Win`'s keys take any
-            // order): callgrind, one
-            // thread, bm options of `disparity_vs_opencv.py`: 1.33 → 1.31 instructions per evaluation on
-            // 1282x1110x224, 1.96 → 1.91 on 626x555x96
-            let down = NCH > 0 && !LR;
+            // keys for the left winner where the lane type has them and the box sums stay in
+            // registers (see `Win`)
+            let keys = KEYS && keep;
+            // without the right state (whose lane moves carry upwards from chunk to chunk) or
+            // keys, chunks are visited from the top down (see `min_update_down`): callgrind, one
+            // thread, bm options of `disparity_vs_opencv.py`: 1.33 → 1.31 instructions per
+            // evaluation on 1282x1110x224, 1.96 → 1.91 on 626x555x96. Keys take any order, and
+            // upwards measured faster (one thread, 626x555x96 4.62 → 4.41 ms, teddy 1.78 → 1.74
+            // ms; two threads 2.41 → 2.34 ms and 0.945 → 0.90 ms; 3 interleaved rounds)
+            let down = NCH > 0 && !LR && !keys;
             let mut prev_c = splat(E::MAX);
             let mut prev_k = splat(E::MAX);
             let xp = x + 2 * p.r;
@@ -635,8 +639,6 @@ macro_rules! kernel {
                 (li, lo_, li)
             };
             let base = p.wp - 1 - xp;
-            // keys for the left winner where the box sums stay in registers (see `Win`)
-            let keys = keep;
             let mut win = win_new(keys);
             let ramp = ramp();
             // this column's slot of box sums and the one before (see `RING`)
@@ -890,6 +892,8 @@ macro_rules! lanes16 {
         type E = u16;
         type V = __m256i;
         const L: usize = 16;
+        /// The left winner can be kept as keys (see `Win`).
+        const KEYS: bool = true;
 
         #[inline]
         #[target_feature(enable = $feat)]
@@ -1063,6 +1067,8 @@ macro_rules! lanes32 {
         type E = u32;
         type V = __m256i;
         const L: usize = 8;
+        /// No keys for the left winner (see `Win`).
+        const KEYS: bool = false;
 
         #[inline]
         #[target_feature(enable = $feat)]
