@@ -707,7 +707,13 @@ macro_rules! kernel {
                         b
                     };
                     let bm = or(b, m);
-                    win_update(&mut win, bm, dv, down, keys);
+                    if keys && !BORDER && ci == 0 {
+                        // the first chunk, always visited here (upwards): its keys are the
+                        // winner so far, with no minimum against the initial value
+                        win = win_first(bm, dv);
+                    } else {
+                        win_update(&mut win, bm, dv, down, keys);
+                    }
                     if LR {
                         // move the right state up one lane (a new pixel enters at lane 0), then
                         // take this column's costs; loads and stores hit the same addresses, so
@@ -1030,6 +1036,13 @@ macro_rules! lanes16 {
                 (splat(E::MAX), splat(E::ZERO))
             }
         }
+        /// The keys of the costs `c` of the disparities `d`: `win_update` of `win_new(true)`
+        /// when these are the first chunk's.
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn win_first(c: V, d: V) -> Win {
+            (_mm256_unpacklo_epi16(d, c), _mm256_unpackhi_epi16(d, c))
+        }
         /// Takes the costs `c` of the disparities `d`: with `keys` in any chunk order, else
         /// upwards (ties keep the old index) or, when `down`, downwards (ties take the new one).
         #[inline]
@@ -1212,6 +1225,15 @@ macro_rules! lanes32 {
             } else {
                 min_update(&mut w.0, &mut w.1, c, d);
             }
+        }
+        /// The first chunk's costs `c` of the disparities `d` (`win_update` of `win_new`; not
+        /// called: these lanes keep no keys).
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn win_first(c: V, d: V) -> Win {
+            let mut w = win_new(false);
+            win_update(&mut w, c, d, false, false);
+            w
         }
         #[inline]
         #[target_feature(enable = $feat)]
