@@ -4,7 +4,7 @@
 //! texture, uniqueness, left–right check, sub-pixel, speckle filter). Throughput is reported in
 //! elements = width x height x disparities, so criterion's "elem/s" reads as disparity
 //! evaluations per second. `BM_QUICK=1` keeps only SAD at 450x375 (for side-by-side runs with
-//! OpenCV's peer/stereo_bm.py). `BM_SIMD=scalar|avx2` caps the instruction set (to measure
+//! OpenCV's peer/stereo_bm.py). `BM_SIMD=scalar|avx2|avx512` caps the instruction set (to measure
 //! what the explicit SIMD paths buy). `disparity-sgm/…` benches semi-global matching (the
 //! measurement preset, five and eight paths) on the same inputs.
 
@@ -48,6 +48,7 @@ fn bench(c: &mut Criterion) {
                     match std::env::var("BM_SIMD").as_deref() {
                         Ok("scalar") => m.set_simd(SimdLevel::Scalar),
                         Ok("avx2") => m.set_simd(SimdLevel::Avx2),
+                        Ok("avx512") => m.set_simd(SimdLevel::Avx512),
                         _ => m.simd(),
                     };
                     let mut out = m.compute(left, right).expect("same size");

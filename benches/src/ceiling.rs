@@ -1,8 +1,8 @@
 //! This machine's vector throughput, the base of the block matcher's ceiling: eight independent
 //! chains of 16-bit vector adds (`vpaddw`, one of the cheapest vector instructions) in inline
-//! assembly, at 128 and 256 bits, on every core at once. (Not 512: the block matcher has no
-//! AVX-512 code — removed when the project's machine had none —, so its ceiling is the widest
-//! width it uses.)
+//! assembly, at 128 and 256 bits, on every core at once. (Not 512: the block matcher's vectors
+//! are 256-bit at every level, its AVX-512 level included, which uses AVX-512's 32 registers at
+//! 256 bits; its ceiling is the widest width it uses.)
 //!
 //! `../shared/reference/stereo-limits.md` puts SAD block matching with running box sums at
 //! ~9.5 vector operations per disparity evaluation (|L − R| of the entering and leaving rows, the

@@ -16,21 +16,19 @@ fn main() {
     let (l, r) = (l.into_luma8(), image::open(format!("{TEDDY}/imR.png")).unwrap().into_luma8());
     let nd = 64;
     let evals = (l.width() * l.height()) as f64 * nd as f64;
+    // the best instruction set this CPU has, and the portable one
+    let best = SimdLevel::detect();
     for cost in [CostFunction::Sad, CostFunction::Ssd, CostFunction::Ncc] {
         for (label, lr) in [("default", Some(1)), ("no-lr", None)] {
             for block in [5, 9, 15] {
                 for threads in [1, 2] {
-                    for simd in [SimdLevel::Avx2, SimdLevel::Scalar] {
-                        if (simd != SimdLevel::Avx2) && (block != 9 || threads != 1 || cost != CostFunction::Sad) {
+                    for simd in [best, SimdLevel::Scalar] {
+                        if (simd != best) && (block != 9 || threads != 1 || cost != CostFunction::Sad) {
                             continue;
                         }
                         // SPEED_ONLY=1: only SAD, default options, 9x9, 1 thread, best SIMD (for profiling)
                         if std::env::var_os("SPEED_ONLY").is_some()
-                            && (cost != CostFunction::Sad
-                                || lr.is_none()
-                                || block != 9
-                                || threads != 1
-                                || simd != SimdLevel::Avx2)
+                            && (cost != CostFunction::Sad || lr.is_none() || block != 9 || threads != 1 || simd != best)
                         {
                             continue;
                         }

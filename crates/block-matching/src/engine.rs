@@ -21,10 +21,15 @@ pub type Gray16Image = ImageBuffer<Luma<u16>, Vec<u16>>;
 pub enum SimdLevel {
     /// Portable code (the compiler's baseline, SSE2 on x86-64).
     Scalar,
-    /// The same loops compiled with AVX2 (256-bit), and the explicit 256-bit kernels. A CPU
-    /// with AVX-512 runs these too: the AVX-512 copies were removed when the project's machine
-    /// had no AVX-512 (no test there could run them).
+    /// The same loops compiled with AVX2 (256-bit), and the explicit 256-bit kernels.
     Avx2,
+    /// [`SimdLevel::Avx2`], with block matching's 16-bit kernel (SAD whose window sums fit in
+    /// 16 bits: the x-Sobel and rank prefilters) compiled for AVX-512 F/BW/VL: the same 256-bit
+    /// operations and results, with 32 vector registers instead of 16, so that up to 16 chunks
+    /// of running box sums stay in registers from column to column (8 with AVX2). Every other
+    /// kernel runs its AVX2 code at this level (measured no faster with 32 registers: semi-global
+    /// matching, whose path steps are bound by the vector units, not by registers).
+    Avx512,
 }
 
 impl SimdLevel {
@@ -40,6 +45,12 @@ impl SimdLevel {
                 && is_x86_feature_detected!("bmi2")
                 && is_x86_feature_detected!("lzcnt")
                 && is_x86_feature_detected!("popcnt");
+            let avx512 = is_x86_feature_detected!("avx512f")
+                && is_x86_feature_detected!("avx512bw")
+                && is_x86_feature_detected!("avx512vl");
+            if avx2 && avx512 {
+                return SimdLevel::Avx512;
+            }
             if avx2 {
                 return SimdLevel::Avx2;
             }
@@ -622,7 +633,7 @@ impl BlockMatcher {
         // sentinel)
         #[cfg(target_arch = "x86_64")]
         let kernel = {
-            let avx2 = simd == SimdLevel::Avx2;
+            let avx2 = simd >= SimdLevel::Avx2;
             let fits = |limit: u64| n.checked_mul(max_term).is_some_and(|s| s < limit);
             match cfg.cost {
                 CostFunction::Sad if avx2 && fits(u16::MAX as u64) => Some(SimdKernel::Lanes16),
@@ -633,8 +644,9 @@ impl BlockMatcher {
         };
         let mut job = || -> Vec<MatchStats> {
             #[cfg(target_arch = "x86_64")]
-            // SAFETY (both kernels): `kernel` was chosen above only at `SimdLevel::Avx2`, which
-            // `SimdLevel::detect()` found, and when every window sum fits below the lane maximum.
+            // SAFETY (both kernels): `kernel` was chosen above only at `SimdLevel::Avx2` or above,
+            // which `SimdLevel::detect()` found, and when every window sum fits below the lane
+            // maximum.
             match kernel {
                 Some(SimdKernel::Lanes16) => {
                     return for_each_band(
@@ -644,9 +656,12 @@ impl BlockMatcher {
                         band_rows,
                         data,
                         conf_plane,
-                        // SAFETY: AVX2 was detected and the 16-bit kernel was chosen only when
-                        // every window sum fits below the lane maximum.
-                        |sc, rows, conf, y0, y1| unsafe { crate::simd::band16(&shared, sc, rows, conf, y0, y1) },
+                        // SAFETY: AVX2 was detected (and AVX-512 F/BW/VL at that level: `simd`
+                        // never exceeds `SimdLevel::detect()`) and the 16-bit kernel was chosen
+                        // only when every window sum fits below the lane maximum.
+                        |sc, rows, conf, y0, y1| unsafe {
+                            crate::simd::band16(&shared, sc, rows, conf, y0, y1, simd == SimdLevel::Avx512)
+                        },
                     );
                 }
                 Some(SimdKernel::Lanes32 { squared }) => {
@@ -853,8 +868,9 @@ fn dispatch<A: Acc, const K: u8>(
     #[cfg(target_arch = "x86_64")]
     {
         match simd {
-            // SAFETY: `simd` never exceeds `SimdLevel::detect()`, which checked AVX2.
-            SimdLevel::Avx2 => return unsafe { band_avx2::<A, K>(sh, sc, out, conf, y0, y1) },
+            // SAFETY: `simd` never exceeds `SimdLevel::detect()`, which checked AVX2 (the
+            // AVX-512 level includes it).
+            SimdLevel::Avx2 | SimdLevel::Avx512 => return unsafe { band_avx2::<A, K>(sh, sc, out, conf, y0, y1) },
             SimdLevel::Scalar => {}
         }
     }

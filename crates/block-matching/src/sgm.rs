@@ -34,8 +34,12 @@
 //! exceed 16 bits). The path steps, column sums, box sums, winner search and right-image
 //! minima are written once over the vector width (module `lanes`) and run on 256-bit vectors
 //! when the CPU has AVX2 (module `avx2`); plain loops otherwise. The level is chosen once per
-//! strip. (A 512-bit instance was removed when the project's machine had no AVX-512: code no
-//! test there could run does not stay.) The naive reference in
+//! strip, and the AVX-512 level (`SimdLevel::Avx512`) runs the AVX2 code: on the Intel Xeon
+//! whose AVX-512 it was measured on, 512-bit path steps made the frame slower (three paths, one
+//! thread, 3 interleaved rounds: teddy 6.6–6.8 → 7.4–7.8 ms, 1282x1110x224 190–205 → 197–213 ms,
+//! same maps), as its 512-bit minima and saturating adds issue one a cycle against two 256-bit
+//! ones (the same `u16` lanes a second, 112 G/s, in a microbenchmark of eight chains), and the
+//! AVX2 code compiled with AVX-512's 32 registers ran within ±3 %. The naive reference in
 //! `tests/sgm_vs_naive.rs` implements the same definition directly on a full cost volume and
 //! every level must match it exactly.
 
@@ -1407,8 +1411,9 @@ pub(crate) fn run_strip(
     let simd = simd.min(SimdLevel::detect());
     #[cfg(target_arch = "x86_64")]
     match simd {
-        // SAFETY: `detect()` found AVX2 and POPCNT on this CPU.
-        SimdLevel::Avx2 => return unsafe { strip_avx2(sh, pp, sc, out, conf, y0, y1) },
+        // SAFETY: `detect()` found AVX2 and POPCNT on this CPU (the AVX-512 level runs the AVX2
+        // kernels here: see `SimdLevel::Avx512`).
+        SimdLevel::Avx2 | SimdLevel::Avx512 => return unsafe { strip_avx2(sh, pp, sc, out, conf, y0, y1) },
         SimdLevel::Scalar => {}
     }
     let _ = simd;

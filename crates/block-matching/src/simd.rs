@@ -25,9 +25,9 @@
 //! (teddy 450x375x64, SAD 9x9, one thread: 23.8 ms with `SimdLevel::Scalar` against 2.6 ms here;
 //! `BM_SIMD=scalar` in `benches/benches/disparity.rs`). A 512-bit copy was measured slower than
 //! the 256-bit kernel on an AVX-512 machine (3.91 ms against 3.69 ms on teddy, 33.4 ms against
-//! 24.1 ms on 1280x720x128, one thread: the per-pixel reduction and mask traffic dominate); a
-//! 256-bit copy with AVX-512VL's masked moves for the arg-mins was removed with the other
-//! AVX-512 code, when the project's machine had no AVX-512.
+//! 24.1 ms on 1280x720x128, one thread: the per-pixel reduction and mask traffic dominate). The
+//! 16-bit kernel has a second instance compiled for AVX-512 F/BW/VL, 256-bit operations with 32
+//! registers (`SimdLevel::Avx512`, `avx512_16`).
 
 use crate::config::Subpixel;
 use crate::engine::{Cost, MatchStats, Shared, curve_ratio};
@@ -214,10 +214,12 @@ impl<E: Lane> Scratch<E> {
     }
 }
 
-/// Runs rows `y0..y1` of one band with 16-bit lanes (SAD).
+/// Runs rows `y0..y1` of one band with 16-bit lanes (SAD); `avx512`: the instance compiled for
+/// AVX-512 F/BW/VL (32 registers, see `SimdLevel::Avx512`).
 ///
 /// # Safety
-/// The CPU must support AVX2 (checked by `SimdLevel::detect`) and `block² · max pixel ≤ 65534`.
+/// The CPU must support AVX2 (checked by `SimdLevel::detect`), with `avx512` AVX-512 F/BW/VL as
+/// well, and `block² · max pixel ≤ 65534`.
 pub(crate) unsafe fn band16(
     sh: &Shared,
     sc: &mut Scratch<u16>,
@@ -225,10 +227,17 @@ pub(crate) unsafe fn band16(
     conf: &mut [f32],
     y0: usize,
     y1: usize,
+    avx512: bool,
 ) -> MatchStats {
     sc.resize(sh.w, sh.r, sh.nd, 16);
     // SAFETY: forwarded from the caller; `sc` has just been sized for 16 lanes.
-    unsafe { avx2_16::band::<false>(sh, sc, out, conf, y0, y1) }
+    unsafe {
+        if avx512 {
+            avx512_16::band::<false>(sh, sc, out, conf, y0, y1)
+        } else {
+            avx2_16::band::<false>(sh, sc, out, conf, y0, y1)
+        }
+    }
 }
 
 /// Runs rows `y0..y1` of one band with 32-bit lanes: SSD when `squared`, else SAD.
@@ -609,8 +618,11 @@ macro_rules! kernel {
             let keep = NCH > 0 && NCH <= REGS / 2;
             let (lov, hiv) = (splat_i(lo), splat_i(hi));
             // keys for the left winner where the lane type has them and the box sums stay in
-            // registers (see `Win`)
-            let keys = KEYS && keep;
+            // registers (see `Win`), up to 8 chunks: with 32 registers (`SimdLevel::Avx512`)
+            // the 14 chunks of 1282x1110x224 keep their box sums too, and there the blended
+            // index measured faster than keys (StereoBM's options, one thread, 3 interleaved
+            // rounds: 34.6–34.8 ms against 35.4–36.4 ms; two threads the same within the noise)
+            let keys = KEYS && keep && NCH <= 8;
             // without the right state (whose lane moves carry upwards from chunk to chunk) or
             // keys, chunks are visited from the top down (see `min_update_down`): callgrind, one
             // thread, bm options of `disparity_vs_opencv.py`: 1.33 → 1.31 instructions per
@@ -1301,6 +1313,22 @@ macro_rules! kernel_module {
 // options, one thread, callgrind: 1.159 → 1.118 instructions an evaluation, 626x555x96 1.711 →
 // 1.699)
 kernel_module!(avx2_16, lanes16, "avx2", 16, fn min_update(min, idx, c, d) {
+    let nm = _mm256_min_epu16(*min, c);
+    *idx = _mm256_blendv_epi8(d, *idx, _mm256_cmpeq_epi16(nm, *min));
+    *min = nm;
+} fn min_update_down(min, idx, c, d) {
+    let nm = super::opaque(_mm256_min_epu16(*min, c));
+    *idx = _mm256_blendv_epi8(*idx, d, _mm256_cmpeq_epi16(nm, c));
+    *min = nm;
+});
+// The 16-bit kernel again for AVX-512 F/BW/VL (`SimdLevel::Avx512`): the same 256-bit
+// operations and results, 32 vector registers (the EVEX encodings reach ymm16–31), so the box
+// sums of up to 16 chunks stay in registers (`keep`), not 8. StereoBM's options, one thread, 3
+// interleaved rounds on the Intel Xeon: 1282x1110x224 38.5–39.3 → 35.2–35.5 ms, 626x555x96
+// 4.34–4.52 → 4.09–4.13 ms, teddy 1.78–1.83 → 1.62–1.67 ms; maps byte-identical. (The 32-bit
+// kernel and semi-global matching keep their AVX2 code at this level: SGM compiled with the
+// same features ran within ±3 % of it, one thread.)
+kernel_module!(avx512_16, lanes16, "avx2,avx512f,avx512bw,avx512vl", 32, fn min_update(min, idx, c, d) {
     let nm = _mm256_min_epu16(*min, c);
     *idx = _mm256_blendv_epi8(d, *idx, _mm256_cmpeq_epi16(nm, *min));
     *min = nm;

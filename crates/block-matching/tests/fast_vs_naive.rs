@@ -276,7 +276,7 @@ fn run_case(seed: u64, w: usize, h: usize, maxv: u32, sixteen: bool, cfg: Matche
     let scale = if sixteen { 257 } else { 1 };
     let (expect, expect_conf) = naive(&l, &r, w, h, &cfg, scale);
     let tol = if cfg.cost == CostFunction::Ncc { 1e-5 } else { 1e-6 };
-    for level in [SimdLevel::Scalar, SimdLevel::Avx2] {
+    for level in [SimdLevel::Scalar, SimdLevel::Avx2, SimdLevel::Avx512] {
         let mut m = BlockMatcher::new(MatcherConfig { threads, ..cfg.clone() }).unwrap();
         let used = m.set_simd(level);
         if used != level {
@@ -506,7 +506,7 @@ fn fast_equals_naive_with_32_bit_sums_of_small_pixels() {
 /// every level the CPU has, from the portable one up). CI prints this with `--nocapture`.
 #[test]
 fn simd_levels_run_on_this_machine() {
-    let levels: Vec<SimdLevel> = [SimdLevel::Scalar, SimdLevel::Avx2]
+    let levels: Vec<SimdLevel> = [SimdLevel::Scalar, SimdLevel::Avx2, SimdLevel::Avx512]
         .into_iter()
         .filter(|&l| BlockMatcher::new(MatcherConfig::default()).unwrap().set_simd(l) == l)
         .collect();

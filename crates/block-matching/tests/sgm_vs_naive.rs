@@ -332,7 +332,7 @@ fn run_pair(l: &[u16], r: &[u16], seed: u64, w: usize, h: usize, cfg: &MatcherCo
     let (expect, expect_conf) = naive(l, r, w, h, cfg, 1);
     let li = GrayImage::from_fn(w as u32, h as u32, |x, y| Luma([l[y as usize * w + x as usize] as u8]));
     let ri = GrayImage::from_fn(w as u32, h as u32, |x, y| Luma([r[y as usize * w + x as usize] as u8]));
-    for level in [SimdLevel::Scalar, SimdLevel::Avx2] {
+    for level in [SimdLevel::Scalar, SimdLevel::Avx2, SimdLevel::Avx512] {
         // two threads: the strip layout does not depend on them
         let mut m = BlockMatcher::new(MatcherConfig { threads: 2, ..cfg.clone() }).unwrap();
         if m.set_simd(level) != level {
@@ -623,7 +623,7 @@ fn sgm_fast_equals_naive_on_16_bit_images() {
         let (expect, expect_conf) = naive(&l, &r, w, h, &cfg, 257);
         let li = Gray16Image::from_raw(w as u32, h as u32, l.clone()).unwrap();
         let ri = Gray16Image::from_raw(w as u32, h as u32, r.clone()).unwrap();
-        for level in [SimdLevel::Scalar, SimdLevel::Avx2] {
+        for level in [SimdLevel::Scalar, SimdLevel::Avx2, SimdLevel::Avx512] {
             let mut m = BlockMatcher::new(MatcherConfig { threads: 2, ..cfg.clone() }).unwrap();
             if m.set_simd(level) != level {
                 continue;
