@@ -619,12 +619,16 @@ fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, boxed: bool, isa: Isa) {
 /// minimum `pmin[i]` and jump penalty `p2[i]`; writes the new vectors to `out[i]` (padded) and
 /// returns their minima. `acc` (`Dq` lanes) receives their sum (`set`: replaces it). The first
 /// `H` paths are horizontal (their predecessor was stored by the step just before). The cost's
-/// lanes `d ≥ D` hold `PAD` ([`cost_row`]), and so do the new vectors' there.
+/// lanes `d ≥ D` hold `PAD` ([`cost_row`]), and so do the new vectors' there. With `in_place`
+/// (vector level only), each path after the first `H` writes its new vector over its
+/// predecessor (`out[i] = prev[i]`: see [`lanes::paths`]).
 ///
 /// # Safety
 /// `c` and `acc` address `Dq` lanes, every `prev[i]` and `out[i]` `Dq + 2`; no `out[i]`
-/// nor `acc` overlaps another of them or an input. With [`Isa::Avx2`] the CPU has AVX2 and
-/// the caller is compiled for it (the strip's AVX2 instance, [`strip_avx2`]).
+/// nor `acc` overlaps another of them or an input, except that with `in_place` the paths after
+/// the first `H` have `out[i] = prev[i]` (the same address). With [`Isa::Avx2`] the CPU has
+/// AVX2 and the caller is compiled for it (the strip's AVX2 instance, [`strip_avx2`]); the
+/// scalar level never runs `in_place`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
 unsafe fn paths<const N: usize, const H: usize, const NDQ: usize>(
@@ -638,24 +642,28 @@ unsafe fn paths<const N: usize, const H: usize, const NDQ: usize>(
     acc: *mut u16,
     nd: usize,
     set: bool,
+    in_place: bool,
 ) -> [u16; N] {
     let ndq = if NDQ > 0 { NDQ } else { lanes(nd) };
     // SAFETY: the lengths and the absence of overlap are the caller's.
     let (c, acc) = unsafe { (std::slice::from_raw_parts(c, ndq), std::slice::from_raw_parts_mut(acc, ndq)) };
-    // SAFETY: as above.
-    let prev = prev.map(|p| unsafe { std::slice::from_raw_parts(p, ndq + 2) });
     #[cfg(target_arch = "x86_64")]
     if isa.avx2() {
-        // SAFETY: the caller's (lengths, the instruction set); all lanes 0..Dq.
+        use lanes::W256;
+        // SAFETY: the caller's (lengths, the instruction set, `in_place`); all lanes 0..Dq.
         return unsafe {
-            if set {
-                lanes::paths::<lanes::W256, N, H, true>(c, prev, pmin, p2, p1, out, acc)
-            } else {
-                lanes::paths::<lanes::W256, N, H, false>(c, prev, pmin, p2, p1, out, acc)
+            match (set, in_place) {
+                (true, true) => lanes::paths::<W256, N, H, true, true>(c, prev, pmin, p2, p1, out, acc),
+                (true, false) => lanes::paths::<W256, N, H, true, false>(c, prev, pmin, p2, p1, out, acc),
+                (false, true) => lanes::paths::<W256, N, H, false, true>(c, prev, pmin, p2, p1, out, acc),
+                (false, false) => lanes::paths::<W256, N, H, false, false>(c, prev, pmin, p2, p1, out, acc),
             }
         };
     }
     let _ = isa;
+    assert!(!in_place, "the scalar steps read their predecessors as slices");
+    // SAFETY: as above (no `out[i]` overlaps them without `in_place`).
+    let prev = prev.map(|p| unsafe { std::slice::from_raw_parts(p, ndq + 2) });
     let mut m = [0u16; N];
     for (i, o) in out.into_iter().enumerate() {
         // SAFETY: the caller's.
@@ -687,8 +695,10 @@ struct Sweep {
 
 impl Sweep {
     /// Checks every length the sweep of a row relies on and takes the pointers; `vertical`: the
-    /// vertical and diagonal paths in use (1 or 3), `first`: no row before (no `P2'` towards it).
+    /// vertical and diagonal paths in use (1 or 3), `first`: no row before (no `P2'` towards it),
+    /// `in_place`: the new vertical vectors are written over the row before's (`vc = vp`).
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // the row, its neighbour and the sweep's kind
     fn new(
         sh: &Shared,
         sc: &mut Scratch,
@@ -697,6 +707,7 @@ impl Sweep {
         other: &[u16],
         vertical: usize,
         first: bool,
+        in_place: bool,
     ) -> Self {
         let w = sh.w;
         let (ndq, ndp) = (lanes(sh.nd), lanes(sh.nd) + 2);
@@ -724,12 +735,13 @@ impl Sweep {
                 pp.p2_row(&row[..w - 1], &other[1..], &mut r[..w - 1]);
             }
         }
+        let vp = sc.vp.each_mut().map(|v| v.as_mut_ptr());
         Self {
             cost: sc.cost.as_ptr(),
             acc: sc.acc.as_mut_ptr(),
             zero: sc.zero.as_ptr(),
-            vp: sc.vp.each_ref().map(|v| v.as_ptr()),
-            vc: sc.vc.each_mut().map(|v| v.as_mut_ptr()),
+            vp: vp.map(|p| p as *const u16),
+            vc: if in_place { vp } else { sc.vc.each_mut().map(|v| v.as_mut_ptr()) },
             mp: sc.mp.each_ref().map(|v| v.as_ptr()),
             mc: sc.mc.each_mut().map(|v| v.as_mut_ptr()),
             p2v: sc.p2v.each_ref().map(|v| v.as_ptr()),
@@ -778,7 +790,11 @@ fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, 
     // at both ends the path starts (`P2`)
     pp.p2_row(&row[1..], &row[..w - 1], &mut sc.p2h[1..w]);
     (sc.p2h[0], sc.p2h[w]) = (pp.p2, pp.p2);
-    let s = Sweep::new(sh, sc, pp, row, above, if three { 1 } else { 3 }, first);
+    // three paths at the vector level: the top path's vectors rewritten in place (one row-sized
+    // buffer, not two written in turn; three paths, 3 interleaved rounds: 1282x1110x224 one
+    // thread 196–198 → 187–188 ms, two threads 99–104 → 96–99 ms; teddy within ±1 %)
+    let in_place = three && isa.avx2();
+    let s = Sweep::new(sh, sc, pp, row, above, if three { 1 } else { 3 }, first, in_place);
     // both horizontal paths start from the path start (zeros, minimum 0)
     sc.hprev.copy_from_slice(&sc.zero);
     sc.rprev.copy_from_slice(&sc.zero);
@@ -817,6 +833,7 @@ fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, 
                             acc,
                             nd,
                             $set || x == xr,
+                            in_place,
                         );
                         pmin = m[0];
                         *s.mc[0].add(x) = m[1];
@@ -834,6 +851,7 @@ fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, 
                             acc,
                             nd,
                             $set || x == xr,
+                            false,
                         );
                         pmin = m[0];
                         (*s.mc[0].add(x), *s.mc[1].add(x), *s.mc[2].add(x)) = (m[1], m[2], m[3]);
@@ -841,7 +859,8 @@ fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, 
                     std::mem::swap(&mut hp, &mut hc);
                     // right → left at xr
                     let (c, acc) = (s.cost.add(xr * ndq), s.acc.add(xr * ndq));
-                    [rpmin] = paths::<1, 1, NDQ>(isa, c, [rp], [rpmin], [*p2h.add(xr + 1)], p1, [rc], acc, nd, $set);
+                    [rpmin] =
+                        paths::<1, 1, NDQ>(isa, c, [rp], [rpmin], [*p2h.add(xr + 1)], p1, [rc], acc, nd, $set, false);
                     std::mem::swap(&mut rp, &mut rc);
                 }
             }
@@ -857,7 +876,9 @@ fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, 
         sweep!(false, half..mid, false);
         sweep!(false, mid..w, false);
     }
-    std::mem::swap(&mut sc.vp, &mut sc.vc);
+    if !in_place {
+        std::mem::swap(&mut sc.vp, &mut sc.vc);
+    }
     std::mem::swap(&mut sc.mp, &mut sc.mc);
 }
 
@@ -942,7 +963,7 @@ fn backward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams,
     let ndp = ndq + 2;
     let row = &pp.intensity[y * w..][..w];
     let below = if first { row } else { &pp.intensity[(y + 1) * w..][..w] };
-    let s = Sweep::new(sh, sc, pp, row, below, 3, first);
+    let s = Sweep::new(sh, sc, pp, row, below, 3, first, false);
     let p2 = pp.p2;
     for x in 0..w {
         // SAFETY: as in `forward_row`.
@@ -952,7 +973,19 @@ fn backward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams,
             let (r, rm, rp2) = s.before(2, x, w, ndp, p2);
             let outs = [0, 1, 2].map(|i| s.vc[i].add(x * ndp));
             let (c, acc) = (s.cost.add(x * ndq), s.acc.add(x * ndq));
-            let m = paths::<3, 0, NDQ>(isa, c, [t, l, r], [tm, lm, rm], [tp2, lp2, rp2], pp.p1, outs, acc, nd, false);
+            let m = paths::<3, 0, NDQ>(
+                isa,
+                c,
+                [t, l, r],
+                [tm, lm, rm],
+                [tp2, lp2, rp2],
+                pp.p1,
+                outs,
+                acc,
+                nd,
+                false,
+                false,
+            );
             (*s.mc[0].add(x), *s.mc[1].add(x), *s.mc[2].add(x)) = (m[0], m[1], m[2]);
         }
     }
@@ -1686,14 +1719,21 @@ mod lanes {
     /// path; below, `C + P2` stays under `PAD`); `acc` replaced with (`SET`) or increased by
     /// the sum of the paths. Returns each path's minimum over the lanes.
     ///
+    /// With `IN_PLACE`, the paths after the first `H` write over their predecessors (`out[i] =
+    /// prev[i]`): a chunk stores slots `d + 1 ..= d + LANES` after its three loads (slots from
+    /// `d`, `d + 1`, `d + 2`), and the next chunk's first load, slot `d + LANES`, is taken before
+    /// that store and carried; its other loads start past the store (see `forward_row` for what
+    /// writing the new vectors to a second row-sized buffer cost).
+    ///
     /// # Safety
     /// [`V16`]'s contract; `c`, `acc` have `Dq` entries (a positive multiple of `LANES`) and
-    /// every `prev[i]` and `out[i]` `Dq + 2` (the callers assert it).
+    /// every `prev[i]` and `out[i]` `Dq + 2` (the callers assert it); no `out[i]` overlaps an
+    /// input or another output, but with `IN_PLACE` those after the first `H` equal `prev[i]`.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
-    pub(super) unsafe fn paths<V: V16, const N: usize, const H: usize, const SET: bool>(
+    pub(super) unsafe fn paths<V: V16, const N: usize, const H: usize, const SET: bool, const IN_PLACE: bool>(
         c: &[u16],
-        prev: [&[u16]; N],
+        prev: [*const u16; N],
         pmin: [u16; N],
         p2: [u16; N],
         p1: u16,
@@ -1724,7 +1764,9 @@ mod lanes {
             let mut mv = [V::splat(u16::MAX); N];
             // the lanes just outside 0..Dq: slots 0 and Dq + 1 (PAD)
             let mut before = [pad; N];
-            let mut cur: [V; N] = std::array::from_fn(|i| V::ld(prev[i].as_ptr().add(1)));
+            let mut cur: [V; N] = std::array::from_fn(|i| V::ld(prev[i].add(1)));
+            // (`IN_PLACE`: each vertical path's next first load, taken before the store)
+            let mut carried = [pad; N];
             // one chunk at d with the predecessors' next chunks `next`. A macro, not a closure:
             // a closure is compiled without the caller's instruction set unless inlined.
             macro_rules! chunk {
@@ -1737,8 +1779,13 @@ mod lanes {
                         let (a, b, e) = if i < H {
                             (cur[i].up(before[i]), cur[i], cur[i].down(next[i]))
                         } else {
-                            let p = prev[i].as_ptr().add(d);
-                            (V::ld(p), V::ld(p.add(1)), V::ld(p.add(2)))
+                            let p = prev[i].add(d);
+                            let a = if IN_PLACE && d > 0 { carried[i] } else { V::ld(p) };
+                            let (b, e) = (V::ld(p.add(1)), V::ld(p.add(2)));
+                            if IN_PLACE && d + V::LANES < ndq {
+                                carried[i] = V::ld(p.add(V::LANES));
+                            }
+                            (a, b, e)
                         };
                         // min(a + P1, e + P1) = min(a, e) + P1 (saturating addition is monotone)
                         let best = V::min(V::min(b, jump[i]), V::adds(V::min(a, e), p1v));
@@ -1752,7 +1799,7 @@ mod lanes {
                     V::st(acc.as_mut_ptr().add(d), sum);
                 }};
             }
-            let next = |d: usize| -> [V; N] { std::array::from_fn(|i| V::ld(prev[i].as_ptr().add(d + 1 + V::LANES))) };
+            let next = |d: usize| -> [V; N] { std::array::from_fn(|i| V::ld(prev[i].add(d + 1 + V::LANES))) };
             // the chunks before the last three at a time: the horizontal paths' `before`,
             // `cur` and `next` then come back to the registers they started in, without the
             // moves a loop of one chunk made (three paths, one thread, callgrind: teddy 11.31 → 10.99
@@ -2360,6 +2407,71 @@ mod tests {
         }
     }
 
+    /// [`lanes::paths`] for a horizontal and a vertical path, with separate outputs and with the
+    /// vertical path's written over its predecessor (`IN_PLACE`), against the scalar step (the
+    /// definition) on random predecessors, costs and penalties, one to fourteen chunks.
+    ///
+    /// # Safety
+    /// The CPU must have `V`'s instruction set, and the caller must be compiled for it.
+    #[inline(always)]
+    unsafe fn check_paths<V: V16>() {
+        use super::{PAD, lanes::paths, step};
+        let mut r = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rnd = move |n: u64| {
+            r ^= r << 13;
+            r ^= r >> 7;
+            r ^= r << 17;
+            r % n
+        };
+        for case in 0..600 {
+            let chunks = 1 + case % 14;
+            let ndq = chunks * V::LANES;
+            let nd = ndq - (rnd(V::LANES as u64) as usize).min(ndq - 1);
+            // predecessors from a few levels (ties between neighbours), padded as the sweep's
+            let pred = |rnd: &mut dyn FnMut(u64) -> u64| -> Vec<u16> {
+                (0..ndq + 2)
+                    .map(|k| {
+                        if k == 0 || k > nd { PAD } else { [0u16, 40, 41, 300, 2500][rnd(5) as usize] + rnd(3) as u16 }
+                    })
+                    .collect()
+            };
+            let prev = [pred(&mut rnd), pred(&mut rnd)];
+            let pmin = prev.each_ref().map(|v| *v[1..=nd].iter().min().unwrap());
+            let c: Vec<u16> = (0..ndq).map(|d| if d < nd { rnd(1500) as u16 } else { PAD }).collect();
+            let acc0: Vec<u16> = (0..ndq).map(|_| rnd(5000) as u16).collect();
+            let (p1, p2) = (rnd(300) as u16 + 1, [rnd(2000) as u16 + 300, rnd(2000) as u16 + 300]);
+            // the definition
+            let mut want_acc = acc0.clone();
+            let mut want = [vec![0u16; ndq + 2], vec![0u16; ndq + 2]];
+            let want_min: Vec<u16> =
+                (0..2).map(|i| step(&c[..nd], &prev[i], pmin[i], p1, p2[i], &mut want[i], &mut want_acc)).collect();
+            for in_place in [false, true] {
+                let mut acc = acc0.clone();
+                let mut out_h = vec![0u16; ndq + 2];
+                let mut out_v = if in_place { prev[1].clone() } else { vec![0u16; ndq + 2] };
+                let mut prev_h = prev[0].clone();
+                let prev_v = if in_place { out_v.as_mut_ptr() as *const u16 } else { prev[1].as_ptr() };
+                let prevs = [prev_h.as_mut_ptr() as *const u16, prev_v];
+                let outs = [out_h.as_mut_ptr(), out_v.as_mut_ptr()];
+                // SAFETY: every vector has Dq + 2 lanes, c and acc Dq; the outputs overlap nothing
+                // but, in place, the vertical path's predecessor; the instruction set is the
+                // caller's.
+                let got_min = unsafe {
+                    if in_place {
+                        paths::<V, 2, 1, false, true>(&c, prevs, pmin, p2, p1, outs, &mut acc)
+                    } else {
+                        paths::<V, 2, 1, false, false>(&c, prevs, pmin, p2, p1, outs, &mut acc)
+                    }
+                };
+                let what = format!("{} lanes, D {nd} of {ndq}, in place {in_place}", V::LANES);
+                assert_eq!(got_min.to_vec(), want_min, "minima, {what}");
+                assert_eq!(out_h[1..=nd], want[0][1..=nd], "horizontal path, {what}");
+                assert_eq!(out_v[1..=nd], want[1][1..=nd], "vertical path, {what}");
+                assert_eq!(acc[..nd], want_acc[..nd], "sums, {what}");
+            }
+        }
+    }
+
     #[target_feature(enable = "avx2,popcnt")]
     /// # Safety
     /// The CPU must support AVX2.
@@ -2367,7 +2479,9 @@ mod tests {
         // SAFETY: compiled for AVX2, which the caller checked.
         unsafe { check::<W256>() };
         // SAFETY: as above.
-        unsafe { check_wta::<W256>() }
+        unsafe { check_wta::<W256>() };
+        // SAFETY: as above.
+        unsafe { check_paths::<W256>() }
     }
 
     #[test]
