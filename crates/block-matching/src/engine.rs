@@ -16,8 +16,11 @@ use crate::speckle::filter_speckles;
 /// A 16-bit grayscale image (`image` crate buffer).
 pub type Gray16Image = ImageBuffer<Luma<u16>, Vec<u16>>;
 
-/// Which instruction set the inner loops were compiled for (chosen at run time).
+/// Which instruction set the inner loops were compiled for (chosen at run time). Levels are
+/// ordered: a CPU that has a level has every level below it. More may come with new instruction
+/// sets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[non_exhaustive]
 pub enum SimdLevel {
     /// Portable code (the compiler's baseline, SSE2 on x86-64).
     Scalar,

@@ -41,8 +41,9 @@
 //! Speed: window sums are running box sums over disparity-major column sums kept per row band in
 //! cache (the cost volume is never materialised), exact integer arithmetic, row bands in parallel
 //! with rayon, prefilter and texture passes parallel too. The cost does not grow with the window.
-//! SAD and SSD run a fused kernel in explicit 256-bit SIMD chosen at run time (AVX2), in 16-bit
-//! lanes when the window sums fit (SAD with the default x-Sobel or the rank prefilter, any
+//! SAD and SSD run a fused kernel in explicit 256-bit SIMD chosen at run time (AVX2; the 16-bit
+//! kernel also compiled for AVX-512 F/BW/VL, `SimdLevel::Avx512`: the same operations with 32
+//! registers), in 16-bit lanes when the window sums fit (SAD with the default x-Sobel or the rank prefilter, any
 //! window) and in 32-bit lanes otherwise; NCC (and sums beyond 32 bits) runs generic
 //! `u32`/`u64`/`f64` loops compiled for the baseline and AVX2 and chosen at run time. All paths give identical results (tested against a naive reference).
 //! Speed against OpenCV 5.1 on this project's 2-core AVX2 machine (interleaved runs, same

@@ -276,7 +276,10 @@ pub(crate) struct Scratch {
     rcur: Vec<u16>,
     /// Start of a path: zeros with padded ends.
     zero: Vec<u16>,
-    /// The three vertical/diagonal paths, previous and current row, `W · (Dq + 2)` each.
+    /// The three vertical/diagonal paths (top, top-left, top-right), previous and current row,
+    /// `W · (Dq + 2)` each. In the forward sweep at the vector level the top and top-right paths
+    /// rewrite `vp` in place ([`Sweep::new`]): their `vc` is left empty unless the backward pass
+    /// of eight paths needs it.
     vp: [Vec<u16>; 3],
     vc: [Vec<u16>; 3],
     /// Their per-pixel minima.
@@ -311,7 +314,9 @@ pub(crate) struct Scratch {
 }
 
 impl Scratch {
-    fn resize(&mut self, sh: &Shared, strip: usize, paths: SgmPaths, bt: bool) {
+    /// Sizes the buffers for a strip of `strip` rows; `in_place`: the forward sweep rewrites the
+    /// top and top-right paths' vectors in place (the vector level).
+    fn resize(&mut self, sh: &Shared, strip: usize, paths: SgmPaths, bt: bool, in_place: bool) {
         let eight = paths == SgmPaths::Eight;
         let (w, r, nd) = (sh.w, sh.r, sh.nd);
         let ndq = lanes(nd);
@@ -361,7 +366,9 @@ impl Scratch {
         let vertical = if paths == SgmPaths::Three { 1 } else { 3 };
         for (i, v) in self.vp.iter_mut().chain(self.vc.iter_mut()).enumerate() {
             v.clear();
-            if i % 3 < vertical {
+            // (`vc` of the paths rewritten in place only for the backward pass)
+            let used = i < 3 || !in_place || i == 4 || eight;
+            if i % 3 < vertical && used {
                 v.resize(w * ndp, PAD);
             }
         }
@@ -620,13 +627,13 @@ fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, boxed: bool, isa: Isa) {
 /// returns their minima. `acc` (`Dq` lanes) receives their sum (`set`: replaces it). The first
 /// `H` paths are horizontal (their predecessor was stored by the step just before). The cost's
 /// lanes `d ≥ D` hold `PAD` ([`cost_row`]), and so do the new vectors' there. With `in_place`
-/// (vector level only), each path after the first `H` writes its new vector over its
+/// (vector level only), a path after the first `H` may write its new vector over its
 /// predecessor (`out[i] = prev[i]`: see [`lanes::paths`]).
 ///
 /// # Safety
 /// `c` and `acc` address `Dq` lanes, every `prev[i]` and `out[i]` `Dq + 2`; no `out[i]`
-/// nor `acc` overlaps another of them or an input, except that with `in_place` the paths after
-/// the first `H` have `out[i] = prev[i]` (the same address). With [`Isa::Avx2`] the CPU has
+/// nor `acc` overlaps another of them or an input, except that with `in_place` a path after
+/// the first `H` may have `out[i] = prev[i]` (the same address). With [`Isa::Avx2`] the CPU has
 /// AVX2 and the caller is compiled for it (the strip's AVX2 instance, [`strip_avx2`]); the
 /// scalar level never runs `in_place`.
 #[inline(always)]
@@ -696,7 +703,10 @@ struct Sweep {
 impl Sweep {
     /// Checks every length the sweep of a row relies on and takes the pointers; `vertical`: the
     /// vertical and diagonal paths in use (1 or 3), `first`: no row before (no `P2'` towards it),
-    /// `in_place`: the new vertical vectors are written over the row before's (`vc = vp`).
+    /// `in_place`: the top and top-right paths' new vectors are written into the buffers they read
+    /// (`vc[i] = vp[i]`: pixel `x` reads slots `x` and `x + 1` and writes slot `x`, which no later
+    /// pixel of the row reads there); the top-left path's, whose slot `x` pixel `x + 1` still
+    /// reads, into the other buffer.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)] // the row, its neighbour and the sweep's kind
     fn new(
@@ -714,7 +724,7 @@ impl Sweep {
         assert!(row.len() == w && other.len() == w && w > 0);
         assert!(sc.cost.len() >= w * ndq && sc.acc.len() >= w * ndq && sc.zero.len() == ndp);
         for i in 0..vertical {
-            assert!(sc.vp[i].len() >= w * ndp && sc.vc[i].len() >= w * ndp);
+            assert!(sc.vp[i].len() >= w * ndp && ((in_place && i != 1) || sc.vc[i].len() >= w * ndp));
             assert!(sc.mp[i].len() >= w && sc.mc[i].len() >= w && sc.p2v[i].len() >= w);
         }
         if first {
@@ -741,7 +751,10 @@ impl Sweep {
             acc: sc.acc.as_mut_ptr(),
             zero: sc.zero.as_ptr(),
             vp: vp.map(|p| p as *const u16),
-            vc: if in_place { vp } else { sc.vc.each_mut().map(|v| v.as_mut_ptr()) },
+            vc: {
+                let vc = sc.vc.each_mut().map(|v| v.as_mut_ptr());
+                if in_place { [vp[0], vc[1], vp[2]] } else { vc }
+            },
             mp: sc.mp.each_ref().map(|v| v.as_ptr()),
             mc: sc.mc.each_mut().map(|v| v.as_mut_ptr()),
             p2v: sc.p2v.each_ref().map(|v| v.as_ptr()),
@@ -790,10 +803,11 @@ fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, 
     // at both ends the path starts (`P2`)
     pp.p2_row(&row[1..], &row[..w - 1], &mut sc.p2h[1..w]);
     (sc.p2h[0], sc.p2h[w]) = (pp.p2, pp.p2);
-    // three paths at the vector level: the top path's vectors rewritten in place (one row-sized
-    // buffer, not two written in turn; three paths, 3 interleaved rounds: 1282x1110x224 one
-    // thread 196–198 → 187–188 ms, two threads 99–104 → 96–99 ms; teddy within ±1 %)
-    let in_place = three && isa.avx2();
+    // at the vector level, the top and top-right paths' vectors rewritten in place (one row-sized
+    // buffer each, not two written in turn; three paths, 3 interleaved rounds: 1282x1110x224 one
+    // thread 196–198 → 187–188 ms, two threads 99–104 → 96–99 ms; teddy within ±1 %; five
+    // paths, one thread: 1282x1110x224 337–343 → 305–311 ms, teddy 10.32–10.45 → 10.14–10.21 ms)
+    let in_place = isa.avx2();
     let s = Sweep::new(sh, sc, pp, row, above, if three { 1 } else { 3 }, first, in_place);
     // both horizontal paths start from the path start (zeros, minimum 0)
     sc.hprev.copy_from_slice(&sc.zero);
@@ -814,8 +828,10 @@ fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, 
             for x in $xs {
                 let xr = w - 1 - x;
                 // SAFETY: x, xr < w, so every offset is inside its buffer (lengths checked above and in
-                // `Sweep::new`); the outputs (`hc`, row `vc`, `acc`) are other buffers than the inputs;
-                // `isa` as the strip's.
+                // `Sweep::new`); the outputs (`hc`, row `vc`, `acc`) are other buffers than the inputs,
+                // but with `in_place` the top path's output is its input (the same vector) and the
+                // top-right's is pixel x's slot of the buffer it reads at x + 1 (no overlap), as
+                // `paths` allows; `isa` as the strip's.
                 unsafe {
                     let (c, acc) = (s.cost.add(x * ndq), s.acc.add(x * ndq));
                     let (h, hm, hp2) = (hp as *const u16, pmin, *p2h.add(x));
@@ -851,7 +867,7 @@ fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, 
                             acc,
                             nd,
                             $set || x == xr,
-                            false,
+                            in_place,
                         );
                         pmin = m[0];
                         (*s.mc[0].add(x), *s.mc[1].add(x), *s.mc[2].add(x)) = (m[1], m[2], m[3]);
@@ -876,7 +892,10 @@ fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, 
         sweep!(false, half..mid, false);
         sweep!(false, mid..w, false);
     }
-    if !in_place {
+    if in_place {
+        // (three paths leave the diagonals' buffers empty)
+        std::mem::swap(&mut sc.vp[1], &mut sc.vc[1]);
+    } else {
         std::mem::swap(&mut sc.vp, &mut sc.vc);
     }
     std::mem::swap(&mut sc.mp, &mut sc.mc);
@@ -1361,7 +1380,7 @@ fn strip(
     let (w, h) = (sh.w, sh.h);
     let nd = lanes(sh.nd);
     let eight = pp.paths == SgmPaths::Eight;
-    sc.resize(sh, y1 - y0, pp.paths, pp.bt.is_some());
+    sc.resize(sh, y1 - y0, pp.paths, pp.bt.is_some(), isa.avx2());
     let mut st = MatchStats::default();
     let ys = y0.saturating_sub(pp.overlap);
     colsum_init(sh, pp, sc, ys, isa);
@@ -1719,7 +1738,7 @@ mod lanes {
     /// path; below, `C + P2` stays under `PAD`); `acc` replaced with (`SET`) or increased by
     /// the sum of the paths. Returns each path's minimum over the lanes.
     ///
-    /// With `IN_PLACE`, the paths after the first `H` write over their predecessors (`out[i] =
+    /// With `IN_PLACE`, a path after the first `H` may write over its predecessor (`out[i] =
     /// prev[i]`): a chunk stores slots `d + 1 ..= d + LANES` after its three loads (slots from
     /// `d`, `d + 1`, `d + 2`), and the next chunk's first load, slot `d + LANES`, is taken before
     /// that store and carried; its other loads start past the store (see `forward_row` for what
@@ -1728,7 +1747,7 @@ mod lanes {
     /// # Safety
     /// [`V16`]'s contract; `c`, `acc` have `Dq` entries (a positive multiple of `LANES`) and
     /// every `prev[i]` and `out[i]` `Dq + 2` (the callers assert it); no `out[i]` overlaps an
-    /// input or another output, but with `IN_PLACE` those after the first `H` equal `prev[i]`.
+    /// input or another output, but with `IN_PLACE` one after the first `H` may equal `prev[i]`.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
     pub(super) unsafe fn paths<V: V16, const N: usize, const H: usize, const SET: bool, const IN_PLACE: bool>(
@@ -1749,7 +1768,9 @@ mod lanes {
         // instructions an evaluation, three paths on 1282x1110x224 3.28 → 3.20 G a frame;
         // times: the preset 2–10 % faster against OpenCV's MODE_HH, three paths unchanged).
         // SAFETY: (all loads and stores) d + LANES ≤ Dq, and the padded vectors have Dq + 2
-        // entries: slots d + 1 .. d + 1 + LANES are inside.
+        // entries: slots d + 1 .. d + 1 + LANES are inside; the carried load (`IN_PLACE`) runs
+        // when d + LANES < Dq, both multiples of LANES, so its slots end at d + 2 · LANES − 1 <
+        // Dq.
         unsafe {
             let ndq = c.len();
             let p1v = V::splat(p1);
@@ -2445,10 +2466,10 @@ mod tests {
             let mut want = [vec![0u16; ndq + 2], vec![0u16; ndq + 2]];
             let want_min: Vec<u16> =
                 (0..2).map(|i| step(&c[..nd], &prev[i], pmin[i], p1, p2[i], &mut want[i], &mut want_acc)).collect();
-            for in_place in [false, true] {
-                let mut acc = acc0.clone();
+            for (in_place, set) in [(false, false), (true, false), (false, true), (true, true)] {
+                let mut acc = if set { vec![0; ndq] } else { acc0.clone() };
                 let mut out_h = vec![0u16; ndq + 2];
-                let mut out_v = if in_place { prev[1].clone() } else { vec![0u16; ndq + 2] };
+                let mut out_v = if in_place { prev[1].clone() } else { vec![PAD; ndq + 2] };
                 let mut prev_h = prev[0].clone();
                 let prev_v = if in_place { out_v.as_mut_ptr() as *const u16 } else { prev[1].as_ptr() };
                 let prevs = [prev_h.as_mut_ptr() as *const u16, prev_v];
@@ -2457,17 +2478,26 @@ mod tests {
                 // but, in place, the vertical path's predecessor; the instruction set is the
                 // caller's.
                 let got_min = unsafe {
-                    if in_place {
-                        paths::<V, 2, 1, false, true>(&c, prevs, pmin, p2, p1, outs, &mut acc)
-                    } else {
-                        paths::<V, 2, 1, false, false>(&c, prevs, pmin, p2, p1, outs, &mut acc)
+                    match (in_place, set) {
+                        (true, true) => paths::<V, 2, 1, true, true>(&c, prevs, pmin, p2, p1, outs, &mut acc),
+                        (true, false) => paths::<V, 2, 1, false, true>(&c, prevs, pmin, p2, p1, outs, &mut acc),
+                        (false, true) => paths::<V, 2, 1, true, false>(&c, prevs, pmin, p2, p1, outs, &mut acc),
+                        (false, false) => paths::<V, 2, 1, false, false>(&c, prevs, pmin, p2, p1, outs, &mut acc),
                     }
                 };
-                let what = format!("{} lanes, D {nd} of {ndq}, in place {in_place}", V::LANES);
+                let what = format!("{} lanes, D {nd} of {ndq}, in place {in_place}, set {set}", V::LANES);
                 assert_eq!(got_min.to_vec(), want_min, "minima, {what}");
                 assert_eq!(out_h[1..=nd], want[0][1..=nd], "horizontal path, {what}");
                 assert_eq!(out_v[1..=nd], want[1][1..=nd], "vertical path, {what}");
-                assert_eq!(acc[..nd], want_acc[..nd], "sums, {what}");
+                // the padding the next row reads: slot 0 and the lanes past D
+                assert!(out_v[0] == PAD && out_v[nd + 1..].iter().all(|&v| v == PAD), "padding, {what}");
+                // with `set` the sums are the two paths' alone
+                let want_sums: Vec<u16> = if set {
+                    (0..nd).map(|d| want[0][d + 1].wrapping_add(want[1][d + 1])).collect()
+                } else {
+                    want_acc[..nd].to_vec()
+                };
+                assert_eq!(acc[..nd], want_sums[..], "sums, {what}");
             }
         }
     }

@@ -318,7 +318,8 @@ macro_rules! kernel {
         }
 
         /// [`row`] with the chunk count as a constant for the common ranges (16-lane chunks: up
-        /// to 64 disparities, 96, 128, 224 and 256; the box sums then stay in registers).
+        /// to 64 disparities, 96, 128, 224 and 256; the box sums then stay in registers, up to
+        /// 128 disparities with AVX2's 16, all of these with the AVX-512 level's 32).
         #[target_feature(enable = $feat)]
         ///
         /// # Safety
@@ -733,7 +734,7 @@ macro_rules! kernel {
                 }
             };
             if NCH > 0 {
-                // every known count unrolled, also past the 8 box sums that stay in registers:
+                // every known count unrolled, also past the 8 box sums that stay in AVX2's registers:
                 // the loop LLVM kept at 14 chunks paid per chunk its counter, the tail test, the
                 // mask `or` and the index vector, and the box sums went through the stack. Unrolled
                 // (callgrind, one thread, bm options of `disparity_vs_opencv.py`): 2.19 → 1.44
@@ -1024,8 +1025,9 @@ macro_rules! lanes16 {
         /// chunks: two unpacks and two minima a chunk, none of them a byte blend (on this Intel
         /// Xeon `vpblendvb` ran one a cycle, `vpunpcklwd` and `vpminud` two). Without `keys`,
         /// the running minimum per lane and its disparity (`min_update`, `min_update_down`).
-        /// The kernel takes keys when the box sums stay in registers (up to 8 chunks; with
-        /// more, the two disparity vectors a chunk are loads: 1282x1110x224 ran 1–2 % slower).
+        /// The kernel takes keys up to 8 chunks, where the box sums stay in registers at both
+        /// levels (with AVX2's 16 registers and 14 chunks the two disparity vectors a chunk were
+        /// loads and 1282x1110x224 ran 1–2 % slower; with the AVX-512 level's 32, 2–4 %).
         /// Teddy, StereoBM's options, one thread, medians of 61 frames in 3 interleaved
         /// rounds: 1.90 → 1.86 ms; 626x555x96 4.80 → 4.79 ms.
         type Win = (V, V);
