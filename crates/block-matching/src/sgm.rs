@@ -2339,6 +2339,17 @@ mod tests {
             .collect()
     }
 
+    /// A xorshift generator from `seed` (not 0): each call gives a number below its argument.
+    fn xorshift(seed: u64) -> impl FnMut(u64) -> u64 {
+        let mut r = seed;
+        move |n| {
+            r ^= r << 13;
+            r ^= r >> 7;
+            r ^= r << 17;
+            r % n
+        }
+    }
+
     /// Every lane operation of one width against its scalar definition.
     ///
     /// # Safety
@@ -2385,13 +2396,7 @@ mod tests {
     #[inline(always)]
     unsafe fn check_wta<V: V16>() {
         use super::lanes::{Second, wta_checked, wta_right};
-        let mut r = 0x2545_f491_4f6c_dd1du64;
-        let mut rnd = move |n: u64| {
-            r ^= r << 13;
-            r ^= r >> 7;
-            r ^= r << 17;
-            r % n
-        };
+        let mut rnd = xorshift(0x2545_f491_4f6c_dd1d);
         for case in 0..4000 {
             let nd: usize = [5, 16, 17, 32, 40, 64, 70, 96][case % 8];
             let ndq = nd.div_ceil(V::LANES) * V::LANES;
@@ -2446,13 +2451,7 @@ mod tests {
     #[inline(always)]
     unsafe fn check_paths<V: V16>() {
         use super::{PAD, lanes::paths, step};
-        let mut r = 0x9e37_79b9_7f4a_7c15u64;
-        let mut rnd = move |n: u64| {
-            r ^= r << 13;
-            r ^= r >> 7;
-            r ^= r << 17;
-            r % n
-        };
+        let mut rnd = xorshift(0x9e37_79b9_7f4a_7c15);
         for case in 0..600 {
             let chunks = 1 + case % 14;
             let ndq = chunks * V::LANES;

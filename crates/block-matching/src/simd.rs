@@ -1019,6 +1019,30 @@ macro_rules! lanes16 {
             let m = _mm_min_epu16(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
             (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as E
         }
+        /// Per lane: if `c < min` (unsigned), then `min = c` and `idx = d`: unsigned minimum,
+        /// equality against the old minimum (chunks upwards: a tie keeps the old index), byte
+        /// blend of the indices.
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn min_update(min: &mut V, idx: &mut V, c: V, d: V) {
+            let nm = _mm256_min_epu16(*min, c);
+            *idx = _mm256_blendv_epi8(d, *idx, _mm256_cmpeq_epi16(nm, *min));
+            *min = nm;
+        }
+        /// As `min_update`, for chunks visited from the highest disparities down: a tie takes the
+        /// new (smaller) index, so the equality is against the new cost and the new index is the
+        /// blend's second operand (a constant index vector is then read from memory by the blend
+        /// itself). The new minimum passes through `super::opaque`: seeing `min(m, c) = c`, the
+        /// compiler tests `max(m, c) = m` instead, one operation more a chunk (1282x1110x224,
+        /// StereoBM's options, one thread, callgrind: 1.159 → 1.118 instructions an evaluation,
+        /// 626x555x96 1.711 → 1.699).
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn min_update_down(min: &mut V, idx: &mut V, c: V, d: V) {
+            let nm = super::opaque(_mm256_min_epu16(*min, c));
+            *idx = _mm256_blendv_epi8(*idx, d, _mm256_cmpeq_epi16(nm, c));
+            *min = nm;
+        }
         /// The left winner so far, with `keys`: each lane's `(cost << 16) | d` as a 32-bit key,
         /// lanes 0–3 and 8–11 of the chunks in the first vector, 4–7 and 12–15 in the second.
         /// The smallest key is the smallest cost, then the smallest d, whatever the order of the
@@ -1209,6 +1233,30 @@ macro_rules! lanes32 {
         fn hmin_lane(v: V) -> E {
             _mm256_extract_epi32::<0>(hmin(v)) as E
         }
+        /// Per lane: if `c < min` (unsigned), then `min = c` and `idx = d`: unsigned minimum,
+        /// equality against the old minimum (chunks upwards: a tie keeps the old index), byte
+        /// blend of the indices.
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn min_update(min: &mut V, idx: &mut V, c: V, d: V) {
+            let nm = _mm256_min_epu32(*min, c);
+            *idx = _mm256_blendv_epi8(d, *idx, _mm256_cmpeq_epi32(nm, *min));
+            *min = nm;
+        }
+        /// As `min_update`, for chunks visited from the highest disparities down: a tie takes the
+        /// new (smaller) index, so the equality is against the new cost and the new index is the
+        /// blend's second operand (a constant index vector is then read from memory by the blend
+        /// itself). The new minimum passes through `super::opaque`: seeing `min(m, c) = c`, the
+        /// compiler tests `max(m, c) = m` instead, one operation more a chunk (1282x1110x224,
+        /// StereoBM's options, one thread, callgrind: 1.159 → 1.118 instructions an evaluation,
+        /// 626x555x96 1.711 → 1.699).
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn min_update_down(min: &mut V, idx: &mut V, c: V, d: V) {
+            let nm = super::opaque(_mm256_min_epu32(*min, c));
+            *idx = _mm256_blendv_epi8(*idx, d, _mm256_cmpeq_epi32(nm, c));
+            *min = nm;
+        }
         /// The left winner so far: the running minimum per lane and its disparity (`AVX2` has
         /// no unsigned 64-bit minimum for packed keys).
         type Win = (V, V);
@@ -1254,12 +1302,10 @@ macro_rules! lanes32 {
     };
 }
 
-/// One kernel module: the lane helpers `$lanes!`, the per-ISA `min_update` (per lane: if
-/// `c < min` unsigned, then `min = c` and `idx = d`) and the kernel, all compiled with `$feat`
-/// (`$regs` vector registers).
+/// One kernel module: the lane helpers `$lanes!` and the kernel, compiled with `$feat` (`$regs`
+/// vector registers).
 macro_rules! kernel_module {
-    ($name:ident, $lanes:ident, $feat:literal, $regs:literal, fn min_update($min:ident, $idx:ident, $c:ident, $d:ident) $body:block
-     fn min_update_down($min2:ident, $idx2:ident, $c2:ident, $d2:ident) $body2:block) => {
+    ($name:ident, $lanes:ident, $feat:literal, $regs:literal) => {
         #[cfg(target_arch = "x86_64")]
         mod $name {
             use std::arch::x86_64::*;
@@ -1268,13 +1314,9 @@ macro_rules! kernel_module {
             const REGS: usize = $regs;
 
             use super::{LAG, Lane, MAX_NCH, Ptrs, RING, Scratch, decide_row, needed, slot_of};
-            use crate::engine::{MatchStats, Shared, conf_row, finish_row, load_row_pairs, load_rows, WinnersBy};
+            use crate::engine::{MatchStats, Shared, WinnersBy, conf_row, finish_row, load_row_pairs, load_rows};
 
             $lanes!($feat);
-
-            #[inline]
-            #[target_feature(enable = $feat)]
-            fn min_update($min: &mut V, $idx: &mut V, $c: V, $d: V) $body
 
             /// A byte pair (`Scratch::l_pairs`) in every 16-bit lane.
             #[inline]
@@ -1282,12 +1324,6 @@ macro_rules! kernel_module {
             fn splat_pair(ab: u16) -> V {
                 _mm256_set1_epi16(ab as i16)
             }
-
-            /// As `min_update`, for chunks visited from the highest disparities down: a tie
-            /// takes the new (smaller) index.
-            #[inline]
-            #[target_feature(enable = $feat)]
-            fn min_update_down($min2: &mut V, $idx2: &mut V, $c2: V, $d2: V) $body2
 
             /// The running minimum per lane and its disparity (the left winner without keys:
             /// `(min, idx)`), chunks visited upwards or, when `down`, downwards.
@@ -1306,23 +1342,7 @@ macro_rules! kernel_module {
     };
 }
 
-// AVX2: unsigned minimum, equality against the old minimum (chunks upwards: a tie keeps the
-// old index) or the new cost (downwards: a tie takes the new index, which is then the blend's
-// second operand, so a constant index vector is read from memory by the blend itself), byte
-// blend of the indices
-// (downwards, the new minimum passes through `super::opaque`: seeing `min(m, c) = c`, the
-// compiler tests `max(m, c) = m` instead, one operation more a chunk; 1282x1110x224, StereoBM's
-// options, one thread, callgrind: 1.159 → 1.118 instructions an evaluation, 626x555x96 1.711 →
-// 1.699)
-kernel_module!(avx2_16, lanes16, "avx2", 16, fn min_update(min, idx, c, d) {
-    let nm = _mm256_min_epu16(*min, c);
-    *idx = _mm256_blendv_epi8(d, *idx, _mm256_cmpeq_epi16(nm, *min));
-    *min = nm;
-} fn min_update_down(min, idx, c, d) {
-    let nm = super::opaque(_mm256_min_epu16(*min, c));
-    *idx = _mm256_blendv_epi8(*idx, d, _mm256_cmpeq_epi16(nm, c));
-    *min = nm;
-});
+kernel_module!(avx2_16, lanes16, "avx2", 16);
 // The 16-bit kernel again for AVX-512 F/BW/VL (`SimdLevel::Avx512`): the same 256-bit
 // operations and results, 32 vector registers (the EVEX encodings reach ymm16–31), so the box
 // sums of up to 16 chunks stay in registers (`keep`), not 8. StereoBM's options, one thread, 3
@@ -1330,24 +1350,8 @@ kernel_module!(avx2_16, lanes16, "avx2", 16, fn min_update(min, idx, c, d) {
 // 4.34–4.52 → 4.09–4.13 ms, teddy 1.78–1.83 → 1.62–1.67 ms; maps byte-identical. (The 32-bit
 // kernel and semi-global matching keep their AVX2 code at this level: SGM compiled with the
 // same features ran within ±3 % of it, one thread.)
-kernel_module!(avx512_16, lanes16, "avx2,avx512f,avx512bw,avx512vl", 32, fn min_update(min, idx, c, d) {
-    let nm = _mm256_min_epu16(*min, c);
-    *idx = _mm256_blendv_epi8(d, *idx, _mm256_cmpeq_epi16(nm, *min));
-    *min = nm;
-} fn min_update_down(min, idx, c, d) {
-    let nm = super::opaque(_mm256_min_epu16(*min, c));
-    *idx = _mm256_blendv_epi8(*idx, d, _mm256_cmpeq_epi16(nm, c));
-    *min = nm;
-});
-kernel_module!(avx2_32, lanes32, "avx2", 16, fn min_update(min, idx, c, d) {
-    let nm = _mm256_min_epu32(*min, c);
-    *idx = _mm256_blendv_epi8(d, *idx, _mm256_cmpeq_epi32(nm, *min));
-    *min = nm;
-} fn min_update_down(min, idx, c, d) {
-    let nm = super::opaque(_mm256_min_epu32(*min, c));
-    *idx = _mm256_blendv_epi8(*idx, d, _mm256_cmpeq_epi32(nm, c));
-    *min = nm;
-});
+kernel_module!(avx512_16, lanes16, "avx2,avx512f,avx512bw,avx512vl", 32);
+kernel_module!(avx2_32, lanes32, "avx2", 16);
 
 /// `v` unchanged, but opaque to the optimiser (an empty `asm!` that takes and gives back its
 /// register): no instruction runs.
