@@ -781,7 +781,10 @@ impl Sweep {
 }
 
 /// The forward paths of row `y`: right→left, left→right and, from the row above (unless
-/// `first`), top, top-left and top-right. Writes `S` of these paths to `acc`.
+/// `first`), top, top-left and top-right. Writes `S` of these paths to `acc`. With `carry_only`
+/// (a row of the overlap above a strip, which no decision reads), only the paths the next row
+/// continues: top, top-left and top-right, whose sum `acc` then holds (the next row's sweep
+/// rewrites it).
 ///
 /// One sweep: step `x` runs the four paths at `x` and the right→left path at `w − 1 − x`. Each
 /// horizontal path is a chain (a pixel needs the minimum of its predecessor); run alone, the
@@ -791,7 +794,16 @@ impl Sweep {
 /// `p` is visited by the four paths at step `p` and by the right→left path at step `w − 1 − p`,
 /// the four paths first when both fall on the same step.
 #[inline(always)]
-fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
+#[allow(clippy::too_many_arguments)] // the row, its kind and the instruction set
+fn forward_row<const NDQ: usize>(
+    sh: &Shared,
+    sc: &mut Scratch,
+    pp: &SgmParams,
+    y: usize,
+    first: bool,
+    carry_only: bool,
+    isa: Isa,
+) {
     let (w, nd) = (sh.w, sh.nd);
     let ndq = lanes(nd);
     assert!(NDQ == 0 || NDQ == ndq);
@@ -800,6 +812,52 @@ fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, 
     let row = &pp.intensity[y * w..][..w];
     let above = if first { row } else { &pp.intensity[(y - 1) * w..][..w] };
     let three = pp.paths == SgmPaths::Three;
+    if carry_only {
+        // the horizontal paths restart on every row and the overlap's decisions are not made:
+        // only the vertical and diagonal paths carry into the strip (three paths, 3 interleaved
+        // rounds, maps unchanged: 1282x1110x224, five strips below the first, two threads
+        // 92.7–93.4 → 89.9–91.5 ms, one thread 180–183 → 177–183 ms; teddy within 1 %)
+        let in_place = isa.avx2();
+        let s = Sweep::new(sh, sc, pp, row, above, if three { 1 } else { 3 }, first, in_place);
+        let p2 = pp.p2;
+        for x in 0..w {
+            // SAFETY: as in the sweep below; `acc` is pixel x's entry of the row's sums, which
+            // the next row's sweep rewrites before any decision reads it.
+            unsafe {
+                let (c, acc) = (s.cost.add(x * ndq), s.acc.add(x * ndq));
+                let (t, tm, tp2) = s.before(0, x, w, ndp, p2);
+                let vo = |i: usize| s.vc[i].add(x * ndp);
+                if three {
+                    let [m] = paths::<1, 0, NDQ>(isa, c, [t], [tm], [tp2], pp.p1, [vo(0)], acc, nd, true, in_place);
+                    *s.mc[0].add(x) = m;
+                } else {
+                    let (l, lm, lp2) = s.before(1, x, w, ndp, p2);
+                    let (r, rm, rp2) = s.before(2, x, w, ndp, p2);
+                    let m = paths::<3, 0, NDQ>(
+                        isa,
+                        c,
+                        [t, l, r],
+                        [tm, lm, rm],
+                        [tp2, lp2, rp2],
+                        pp.p1,
+                        [vo(0), vo(1), vo(2)],
+                        acc,
+                        nd,
+                        true,
+                        in_place,
+                    );
+                    (*s.mc[0].add(x), *s.mc[1].add(x), *s.mc[2].add(x)) = (m[0], m[1], m[2]);
+                }
+            }
+        }
+        if in_place {
+            std::mem::swap(&mut sc.vp[1], &mut sc.vc[1]);
+        } else {
+            std::mem::swap(&mut sc.vp, &mut sc.vc);
+        }
+        std::mem::swap(&mut sc.mp, &mut sc.mc);
+        return;
+    }
     // P2' along the row: p2h[x] between x and x − 1 (the right→left path at x reads p2h[x + 1]);
     // at both ends the path starts (`P2`)
     pp.p2_row(&row[1..], &row[..w - 1], &mut sc.p2h[1..w]);
@@ -956,7 +1014,7 @@ per_lane_count!(
     /// 15.90 → 11.64, teddy 10.49 → 8.26, 626x555x96 9.28 → 7.24, 1282x1110x224 6.67 → 6.13; teddy
     /// with five paths 14.54 → 11.39, eight 24.78 → 21.37.
     forward_row_any, forward_row_avx2, forward_row, lanes(sh.nd),
-    (sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool)
+    (sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, carry_only: bool)
 );
 
 per_lane_count!(
@@ -1396,7 +1454,7 @@ fn strip(
     for y in ys..y1 {
         let boxed = y > ys && colsum_move(sh, pp, sc, y - 1, true, isa);
         cost_row(sh, sc, pp.cmax, boxed, isa);
-        forward_row_any(sh, sc, pp, y, y == ys, isa);
+        forward_row_any(sh, sc, pp, y, y == ys, y < y0, isa);
         if y < y0 {
             continue;
         }
