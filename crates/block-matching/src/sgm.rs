@@ -22,13 +22,14 @@
 //!
 //! Scheduling (bounded memory, parallel): the image is cut into strips of `strip` rows, each run
 //! by one rayon task with its own buffers. Paths from above start `overlap` rows above the
-//! strip; with eight paths, the three paths from below start `overlap` rows below it. Three
-//! paths (left→right, right→left, from the top) and five (adding top-left and top-right) need
-//! one pass and
-//! `≈ 9 · W · Dq · 2` bytes per task (`Dq`: `D` rounded up to 16 lanes); eight paths add a
-//! backward pass (bottom, bottom-left, bottom-right) over the strip's stored forward sums:
-//! `≈ (strip + 9) · W · Dq · 2` bytes per task, where the strip height is capped so this stays
-//! under 48 MiB. Never the `W · H · D` volume.
+//! strip; with eight paths, the three paths from below start `overlap` rows below it; in the
+//! overlap only the paths that carry into the strip run. Three paths (left→right, right→left,
+//! from the top) and five (adding top-left and top-right) need one pass and at most
+//! `≈ 9 · W · Dq · 2` bytes per task (`Dq`: `D` rounded up to 16 lanes; at the vector level,
+//! where the paths rewrite their vectors in place, `≈ 6 · W · Dq · 2` for five paths and 4 for
+//! three); eight paths add a backward pass (bottom, bottom-left, bottom-right) over the strip's
+//! stored forward sums: at most `≈ (strip + 9) · W · Dq · 2` bytes per task, where the strip
+//! height is capped so this stays under 48 MiB. Never the `W · H · D` volume.
 //!
 //! Every step is exact 16-bit integer arithmetic (the run refuses costs whose sums could
 //! exceed 16 bits). The path steps, column sums, box sums, winner search and right-image
@@ -278,10 +279,13 @@ pub(crate) struct Scratch {
     zero: Vec<u16>,
     /// The three vertical/diagonal paths (top, top-left, top-right), previous and current row,
     /// `W · (Dq + 2)` each (bottom, bottom-left, bottom-right in the backward pass). At the vector
-    /// level the straight and the `x + 1` path rewrite `vp` in place ([`Sweep::new`]): their `vc`
-    /// is left empty.
+    /// level every path rewrites `vp` in place ([`Sweep::new`]) and `vc` is left empty; the
+    /// `x − 1` path's vectors then move down one slot a row, in `(W + rows) · (Dq + 2)` lanes
+    /// (`rows`: the most rows of one pass, `strip + overlap`), from slot `diag`.
     vp: [Vec<u16>; 3],
     vc: [Vec<u16>; 3],
+    /// The slot of the `x − 1` path's vector at pixel 0 of the row before (in place).
+    diag: usize,
     /// Their per-pixel minima.
     mp: [Vec<u16>; 3],
     mc: [Vec<u16>; 3],
@@ -314,9 +318,10 @@ pub(crate) struct Scratch {
 }
 
 impl Scratch {
-    /// Sizes the buffers for a strip of `strip` rows; `in_place`: the forward sweep rewrites the
-    /// top and top-right paths' vectors in place (the vector level).
-    fn resize(&mut self, sh: &Shared, strip: usize, paths: SgmPaths, bt: bool, in_place: bool) {
+    /// Sizes the buffers for a strip of `strip` rows with `overlap` rows outside; `in_place`: the
+    /// sweeps rewrite the vertical and diagonal paths' vectors in place (the vector level).
+    #[allow(clippy::too_many_arguments)] // the strip's shape and the run's kind
+    fn resize(&mut self, sh: &Shared, strip: usize, overlap: usize, paths: SgmPaths, bt: bool, in_place: bool) {
         let eight = paths == SgmPaths::Eight;
         let (w, r, nd) = (sh.w, sh.r, sh.nd);
         let ndq = lanes(nd);
@@ -366,10 +371,11 @@ impl Scratch {
         let vertical = if paths == SgmPaths::Three { 1 } else { 3 };
         for (i, v) in self.vp.iter_mut().chain(self.vc.iter_mut()).enumerate() {
             v.clear();
-            // (`vc` of the paths rewritten in place, the straight and the `x + 1` one, unused)
-            let used = i < 3 || !in_place || i == 4;
-            if i % 3 < vertical && used {
-                v.resize(w * ndp, PAD);
+            // (`vc` unused in place; the `x − 1` path's slots shift down one a row there, a
+            // pass's first row reading `rows` slots up, its last row writing from slot 0)
+            if i % 3 < vertical && (i < 3 || !in_place) {
+                let shift = if i == 1 && in_place { strip + overlap } else { 0 };
+                v.resize((w + shift) * ndp, PAD);
             }
         }
         for v in self.mp.iter_mut().chain(self.mc.iter_mut()).chain(self.p2v.iter_mut()) {
@@ -388,6 +394,20 @@ impl Scratch {
         for v in [&mut self.win_s, &mut self.win_third, &mut self.win_m, &mut self.win_p] {
             v.resize(w, 0);
         }
+    }
+}
+
+impl Scratch {
+    /// Ends a row's vertical and diagonal paths (`vertical` of them): their new vectors and
+    /// minima become the next row's predecessors. In place ([`Sweep::new`]) the vectors already
+    /// are where the next row reads them, the `x − 1` path's one slot lower.
+    fn end_row(&mut self, in_place: bool, vertical: usize) {
+        if !in_place {
+            std::mem::swap(&mut self.vp, &mut self.vc);
+        } else if vertical == 3 {
+            self.diag -= 1;
+        }
+        std::mem::swap(&mut self.mp, &mut self.mc);
     }
 }
 
@@ -703,11 +723,13 @@ struct Sweep {
 impl Sweep {
     /// Checks every length the sweep of a row relies on and takes the pointers; `vertical`: the
     /// vertical and diagonal paths in use (1 or 3), `first`: no row before (no `P2'` towards it),
-    /// `in_place`: the straight and the `x + 1` paths' new vectors (top and top-right forward,
-    /// bottom and bottom-right backward) are written into the buffers they read (`vc[i] =
-    /// vp[i]`: pixel `x` reads slots `x` and `x + 1` and writes slot `x`, which no later pixel of
-    /// the row reads there); the `x − 1` path's, whose slot `x` pixel `x + 1` still reads, into
-    /// the other buffer.
+    /// `in_place`: the new vectors are written into the buffers the paths read. The straight
+    /// and the `x + 1` paths (top and top-right forward, bottom and bottom-right backward) write
+    /// pixel `x`'s into slot `x` (`vc[i] = vp[i]`: pixel `x` reads slots `x` and `x + 1`, and no
+    /// later pixel of the row reads slot `x` there). The `x − 1` path, whose predecessor of
+    /// pixel `x + 1` is slot `x`, writes pixel `x`'s into the slot it read, one below (`vc[1] =
+    /// vp[1] − 1` slot), so its vectors move down one slot a row ([`Scratch::end_row`]): from
+    /// slot `rows` at a pass's first row (the buffer's top `W` slots) to slot 0 at its last.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)] // the row, its neighbour and the sweep's kind
     fn new(
@@ -724,15 +746,24 @@ impl Sweep {
         let (ndq, ndp) = (lanes(sh.nd), lanes(sh.nd) + 2);
         assert!(row.len() == w && other.len() == w && w > 0);
         assert!(sc.cost.len() >= w * ndq && sc.acc.len() >= w * ndq && sc.zero.len() == ndp);
+        let diag = in_place && vertical == 3;
+        if diag && first {
+            sc.diag = sc.vp[1].len() / ndp - w;
+        }
+        // each path's slot 0 in `vp`
+        let off = |i: usize| if diag && i == 1 { sc.diag * ndp } else { 0 };
         for i in 0..vertical {
-            assert!(sc.vp[i].len() >= w * ndp && ((in_place && i != 1) || sc.vc[i].len() >= w * ndp));
+            assert!(sc.vp[i].len() >= off(i) + w * ndp && (in_place || sc.vc[i].len() >= w * ndp));
             assert!(sc.mp[i].len() >= w && sc.mc[i].len() >= w && sc.p2v[i].len() >= w);
         }
+        // (the `x − 1` path's pixel 0 writes the slot below: `Scratch::resize` left one)
+        assert!(!diag || sc.diag >= 1);
         if first {
             // no row before: every predecessor is a path start (zeros, minimum 0, `P2`), so
             // the sweep reads the row before without a test at each pixel
             for i in 0..vertical {
-                for v in sc.vp[i][..w * ndp].chunks_exact_mut(ndp) {
+                let off = off(i);
+                for v in sc.vp[i][off..off + w * ndp].chunks_exact_mut(ndp) {
                     v.copy_from_slice(&sc.zero);
                 }
                 sc.mp[i][..w].fill(0);
@@ -746,7 +777,7 @@ impl Sweep {
                 pp.p2_row(&row[..w - 1], &other[1..], &mut r[..w - 1]);
             }
         }
-        let vp = sc.vp.each_mut().map(|v| v.as_mut_ptr());
+        let vp: [*mut u16; 3] = std::array::from_fn(|i| sc.vp[i].as_mut_ptr().wrapping_add(off(i)));
         Self {
             cost: sc.cost.as_ptr(),
             acc: sc.acc.as_mut_ptr(),
@@ -754,7 +785,7 @@ impl Sweep {
             vp: vp.map(|p| p as *const u16),
             vc: {
                 let vc = sc.vc.each_mut().map(|v| v.as_mut_ptr());
-                if in_place { [vp[0], vc[1], vp[2]] } else { vc }
+                if in_place { [vp[0], vp[1].wrapping_sub(ndp), vp[2]] } else { vc }
             },
             mp: sc.mp.each_ref().map(|v| v.as_ptr()),
             mc: sc.mc.each_mut().map(|v| v.as_mut_ptr()),
@@ -850,20 +881,16 @@ fn forward_row<const NDQ: usize>(
                 }
             }
         }
-        if in_place {
-            std::mem::swap(&mut sc.vp[1], &mut sc.vc[1]);
-        } else {
-            std::mem::swap(&mut sc.vp, &mut sc.vc);
-        }
-        std::mem::swap(&mut sc.mp, &mut sc.mc);
+        sc.end_row(in_place, if three { 1 } else { 3 });
         return;
     }
     // P2' along the row: p2h[x] between x and x − 1 (the right→left path at x reads p2h[x + 1]);
     // at both ends the path starts (`P2`)
     pp.p2_row(&row[1..], &row[..w - 1], &mut sc.p2h[1..w]);
     (sc.p2h[0], sc.p2h[w]) = (pp.p2, pp.p2);
-    // at the vector level, the top and top-right paths' vectors rewritten in place (one row-sized
-    // buffer each, not two written in turn; three paths, 3 interleaved rounds: 1282x1110x224 one
+    // at the vector level, the vertical and diagonal paths' vectors rewritten in place (one
+    // buffer each, not two written in turn; the top and top-right paths, three paths, 3
+    // interleaved rounds: 1282x1110x224 one
     // thread 196–198 → 187–188 ms, two threads 99–104 → 96–99 ms; teddy within ±1 %; five
     // paths, one thread: 1282x1110x224 337–343 → 305–311 ms, teddy 10.32–10.45 → 10.14–10.21 ms)
     let in_place = isa.avx2();
@@ -888,9 +915,9 @@ fn forward_row<const NDQ: usize>(
                 let xr = w - 1 - x;
                 // SAFETY: x, xr < w, so every offset is inside its buffer (lengths checked above and in
                 // `Sweep::new`); the outputs (`hc`, row `vc`, `acc`) are other buffers than the inputs,
-                // but with `in_place` the top path's output is its input (the same vector) and the
-                // top-right's is pixel x's slot of the buffer it reads at x + 1 (no overlap), as
-                // `paths` allows; `isa` as the strip's.
+                // but with `in_place` the top and top-left paths' outputs are their inputs (the
+                // same vectors) and the top-right's is pixel x's slot of the buffer it reads at
+                // x + 1 (no overlap), as `paths` allows; `isa` as the strip's.
                 unsafe {
                     let (c, acc) = (s.cost.add(x * ndq), s.acc.add(x * ndq));
                     let (h, hm, hp2) = (hp as *const u16, pmin, *p2h.add(x));
@@ -951,13 +978,7 @@ fn forward_row<const NDQ: usize>(
         sweep!(false, half..mid, false);
         sweep!(false, mid..w, false);
     }
-    if in_place {
-        // (three paths leave the diagonals' buffers empty)
-        std::mem::swap(&mut sc.vp[1], &mut sc.vc[1]);
-    } else {
-        std::mem::swap(&mut sc.vp, &mut sc.vc);
-    }
-    std::mem::swap(&mut sc.mp, &mut sc.mc);
+    sc.end_row(in_place, if three { 1 } else { 3 });
 }
 
 /// Returns `$f::<Dq>(args)` for the lane counts compiled on their own (16 to 256: see
@@ -1041,7 +1062,7 @@ fn backward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams,
     let ndp = ndq + 2;
     let row = &pp.intensity[y * w..][..w];
     let below = if first { row } else { &pp.intensity[(y + 1) * w..][..w] };
-    // the bottom and bottom-right paths rewritten in place, as the forward sweep's (eight paths,
+    // the paths rewritten in place, as the forward sweep's (the bottom and bottom-right, eight paths,
     // one thread, 3 interleaved rounds, with the forward sweep's already in place: 1282x1110x224
     // 753–769 → 681–690 ms, teddy 20.35–20.49 → 19.04–19.25 ms)
     let in_place = isa.avx2();
@@ -1071,12 +1092,7 @@ fn backward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams,
             (*s.mc[0].add(x), *s.mc[1].add(x), *s.mc[2].add(x)) = (m[0], m[1], m[2]);
         }
     }
-    if in_place {
-        std::mem::swap(&mut sc.vp[1], &mut sc.vc[1]);
-    } else {
-        std::mem::swap(&mut sc.vp, &mut sc.vc);
-    }
-    std::mem::swap(&mut sc.mp, &mut sc.mc);
+    sc.end_row(in_place, 3);
 }
 
 /// Keeps, per right pixel (reversed index), the smallest `S` and its candidate (first wins).
@@ -1447,7 +1463,7 @@ fn strip(
     let (w, h) = (sh.w, sh.h);
     let nd = lanes(sh.nd);
     let eight = pp.paths == SgmPaths::Eight;
-    sc.resize(sh, y1 - y0, pp.paths, pp.bt.is_some(), isa.avx2());
+    sc.resize(sh, y1 - y0, pp.overlap, pp.paths, pp.bt.is_some(), isa.avx2());
     let mut st = MatchStats::default();
     let ys = y0.saturating_sub(pp.overlap);
     colsum_init(sh, pp, sc, ys, isa);
