@@ -756,7 +756,8 @@ impl Sweep {
             assert!(sc.vp[i].len() >= off(i) + w * ndp && (in_place || sc.vc[i].len() >= w * ndp));
             assert!(sc.mp[i].len() >= w && sc.mc[i].len() >= w && sc.p2v[i].len() >= w);
         }
-        // (the `x − 1` path's pixel 0 writes the slot below: `Scratch::resize` left one)
+        // (the `x − 1` path's pixel 0 writes the slot below `diag`: `Scratch::resize` left one
+        // for each row of a pass)
         assert!(!diag || sc.diag >= 1);
         if first {
             // no row before: every predecessor is a path start (zeros, minimum 0, `P2`), so
@@ -809,6 +810,46 @@ impl Sweep {
         // SAFETY: xs < w (the ends are path starts) and the lengths checked in `new`.
         unsafe { (self.vp[i].add(xs * ndp), *self.mp[i].add(xs), *self.p2v[i].add(x)) }
     }
+
+    /// Pixel `x`'s vertical and diagonal paths (`vertical`: the straight one, or all three)
+    /// without a horizontal one: their sum into `acc` (`set`: replaces it), their minima into
+    /// `mc`.
+    ///
+    /// # Safety
+    /// `x < w`, the sweep made for `vertical` paths and `in_place` as `new`'s; `isa` as the
+    /// strip's (the lengths were checked in `new`, the outputs as [`paths`] allows).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // the pixel, the range, the penalties and the sweep's kind
+    unsafe fn vertical<const NDQ: usize>(
+        &self,
+        isa: Isa,
+        x: usize,
+        w: usize,
+        nd: usize,
+        (p1, p2): (u16, u16),
+        vertical: usize,
+        set: bool,
+        in_place: bool,
+    ) {
+        let ndq = if NDQ > 0 { NDQ } else { lanes(nd) };
+        let ndp = ndq + 2;
+        // SAFETY: the caller's.
+        unsafe {
+            let (c, acc) = (self.cost.add(x * ndq), self.acc.add(x * ndq));
+            let (t, tm, tp2) = self.before(0, x, w, ndp, p2);
+            let out = |i: usize| self.vc[i].add(x * ndp);
+            if vertical == 1 {
+                let [m] = paths::<1, 0, NDQ>(isa, c, [t], [tm], [tp2], p1, [out(0)], acc, nd, set, in_place);
+                *self.mc[0].add(x) = m;
+            } else {
+                let (l, lm, lp2) = self.before(1, x, w, ndp, p2);
+                let (r, rm, rp2) = self.before(2, x, w, ndp, p2);
+                let (prev, pmin, p2s) = ([t, l, r], [tm, lm, rm], [tp2, lp2, rp2]);
+                let m = paths::<3, 0, NDQ>(isa, c, prev, pmin, p2s, p1, [0, 1, 2].map(out), acc, nd, set, in_place);
+                (*self.mc[0].add(x), *self.mc[1].add(x), *self.mc[2].add(x)) = (m[0], m[1], m[2]);
+            }
+        }
+    }
 }
 
 /// The forward paths of row `y`: right→left, left→right and, from the row above (unless
@@ -849,37 +890,12 @@ fn forward_row<const NDQ: usize>(
         // rounds, maps unchanged: 1282x1110x224, five strips below the first, two threads
         // 92.7–93.4 → 89.9–91.5 ms, one thread 180–183 → 177–183 ms; teddy within 1 %)
         let in_place = isa.avx2();
-        let s = Sweep::new(sh, sc, pp, row, above, if three { 1 } else { 3 }, first, in_place);
-        let p2 = pp.p2;
+        let vertical = if three { 1 } else { 3 };
+        let s = Sweep::new(sh, sc, pp, row, above, vertical, first, in_place);
         for x in 0..w {
-            // SAFETY: as in the sweep below; `acc` is pixel x's entry of the row's sums, which
-            // the next row's sweep rewrites before any decision reads it.
-            unsafe {
-                let (c, acc) = (s.cost.add(x * ndq), s.acc.add(x * ndq));
-                let (t, tm, tp2) = s.before(0, x, w, ndp, p2);
-                let vo = |i: usize| s.vc[i].add(x * ndp);
-                if three {
-                    let [m] = paths::<1, 0, NDQ>(isa, c, [t], [tm], [tp2], pp.p1, [vo(0)], acc, nd, true, in_place);
-                    *s.mc[0].add(x) = m;
-                } else {
-                    let (l, lm, lp2) = s.before(1, x, w, ndp, p2);
-                    let (r, rm, rp2) = s.before(2, x, w, ndp, p2);
-                    let m = paths::<3, 0, NDQ>(
-                        isa,
-                        c,
-                        [t, l, r],
-                        [tm, lm, rm],
-                        [tp2, lp2, rp2],
-                        pp.p1,
-                        [vo(0), vo(1), vo(2)],
-                        acc,
-                        nd,
-                        true,
-                        in_place,
-                    );
-                    (*s.mc[0].add(x), *s.mc[1].add(x), *s.mc[2].add(x)) = (m[0], m[1], m[2]);
-                }
-            }
+            // SAFETY: x < w, the sweep made as `vertical` asks; `acc` is pixel x's entry of the
+            // row's sums, which the next row's sweep rewrites before any decision reads it.
+            unsafe { s.vertical::<NDQ>(isa, x, w, nd, (pp.p1, pp.p2), vertical, true, in_place) };
         }
         sc.end_row(in_place, if three { 1 } else { 3 });
         return;
@@ -1056,10 +1072,7 @@ per_lane_count!(
 #[inline(always)]
 fn backward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
     let (w, nd) = (sh.w, sh.nd);
-    let ndq = lanes(nd);
-    assert!(NDQ == 0 || NDQ == ndq);
-    let ndq = if NDQ > 0 { NDQ } else { ndq };
-    let ndp = ndq + 2;
+    assert!(NDQ == 0 || NDQ == lanes(nd));
     let row = &pp.intensity[y * w..][..w];
     let below = if first { row } else { &pp.intensity[(y + 1) * w..][..w] };
     // the paths rewritten in place, as the forward sweep's (the bottom and bottom-right, eight paths,
@@ -1067,30 +1080,9 @@ fn backward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams,
     // 753–769 → 681–690 ms, teddy 20.35–20.49 → 19.04–19.25 ms)
     let in_place = isa.avx2();
     let s = Sweep::new(sh, sc, pp, row, below, 3, first, in_place);
-    let p2 = pp.p2;
     for x in 0..w {
-        // SAFETY: as in `forward_row`.
-        unsafe {
-            let (t, tm, tp2) = s.before(0, x, w, ndp, p2);
-            let (l, lm, lp2) = s.before(1, x, w, ndp, p2);
-            let (r, rm, rp2) = s.before(2, x, w, ndp, p2);
-            let outs = [0, 1, 2].map(|i| s.vc[i].add(x * ndp));
-            let (c, acc) = (s.cost.add(x * ndq), s.acc.add(x * ndq));
-            let m = paths::<3, 0, NDQ>(
-                isa,
-                c,
-                [t, l, r],
-                [tm, lm, rm],
-                [tp2, lp2, rp2],
-                pp.p1,
-                outs,
-                acc,
-                nd,
-                false,
-                in_place,
-            );
-            (*s.mc[0].add(x), *s.mc[1].add(x), *s.mc[2].add(x)) = (m[0], m[1], m[2]);
-        }
+        // SAFETY: x < w, the sweep made for three paths; `isa` as the strip's.
+        unsafe { s.vertical::<NDQ>(isa, x, w, nd, (pp.p1, pp.p2), 3, false, in_place) };
     }
     sc.end_row(in_place, 3);
 }
