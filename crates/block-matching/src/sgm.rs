@@ -24,12 +24,13 @@
 //! by one rayon task with its own buffers. Paths from above start `overlap` rows above the
 //! strip; with eight paths, the three paths from below start `overlap` rows below it; in the
 //! overlap only the paths that carry into the strip run. Three paths (left→right, right→left,
-//! from the top) and five (adding top-left and top-right) need one pass and at most
-//! `≈ 9 · W · Dq · 2` bytes per task (`Dq`: `D` rounded up to 16 lanes; at the vector level,
-//! where the paths rewrite their vectors in place, `≈ 6 · W · Dq · 2` for five paths and 4 for
-//! three); eight paths add a backward pass (bottom, bottom-left, bottom-right) over the strip's
-//! stored forward sums: at most `≈ (strip + 9) · W · Dq · 2` bytes per task, where the strip
-//! height is capped so this stays under 48 MiB. Never the `W · H · D` volume.
+//! from the top) and five (adding top-left and top-right) need one pass and `≈ 9 · W · Dq · 2`
+//! bytes per task (`Dq`: `D` rounded up to 16 lanes; at the vector level, where the paths
+//! rewrite their vectors in place, `≈ (6 · W + strip + overlap) · Dq · 2` for five paths and
+//! `≈ 4 · W · Dq · 2` for three); eight paths add a backward pass (bottom, bottom-left,
+//! bottom-right) over the strip's stored forward sums: `≈ (strip + 9) · W · Dq · 2` bytes per
+//! task, where the strip height is capped so this stays under 48 MiB. Never the `W · H · D`
+//! volume.
 //!
 //! Every step is exact 16-bit integer arithmetic (the run refuses costs whose sums could
 //! exceed 16 bits). The path steps, column sums, box sums, winner search and right-image
