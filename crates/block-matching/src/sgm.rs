@@ -854,10 +854,7 @@ impl Sweep {
 }
 
 /// The forward paths of row `y`: right→left, left→right and, from the row above (unless
-/// `first`), top, top-left and top-right. Writes `S` of these paths to `acc`. With `carry_only`
-/// (a row of the overlap above a strip, which no decision reads), only the paths the next row
-/// continues: top, top-left and top-right, whose sum `acc` then holds (the next row's sweep
-/// rewrites it).
+/// `first`), top, top-left and top-right. Writes `S` of these paths to `acc`.
 ///
 /// One sweep: step `x` runs the four paths at `x` and the right→left path at `w − 1 − x`. Each
 /// horizontal path is a chain (a pixel needs the minimum of its predecessor); run alone, the
@@ -867,16 +864,7 @@ impl Sweep {
 /// `p` is visited by the four paths at step `p` and by the right→left path at step `w − 1 − p`,
 /// the four paths first when both fall on the same step.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)] // the row, its kind and the instruction set
-fn forward_row<const NDQ: usize>(
-    sh: &Shared,
-    sc: &mut Scratch,
-    pp: &SgmParams,
-    y: usize,
-    first: bool,
-    carry_only: bool,
-    isa: Isa,
-) {
+fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
     let (w, nd) = (sh.w, sh.nd);
     let ndq = lanes(nd);
     assert!(NDQ == 0 || NDQ == ndq);
@@ -885,22 +873,6 @@ fn forward_row<const NDQ: usize>(
     let row = &pp.intensity[y * w..][..w];
     let above = if first { row } else { &pp.intensity[(y - 1) * w..][..w] };
     let three = pp.paths == SgmPaths::Three;
-    if carry_only {
-        // the horizontal paths restart on every row and the overlap's decisions are not made:
-        // only the vertical and diagonal paths carry into the strip (three paths, 3 interleaved
-        // rounds, maps unchanged: 1282x1110x224, five strips below the first, two threads
-        // 92.7–93.4 → 89.9–91.5 ms, one thread 180–183 → 177–183 ms; teddy within 1 %)
-        let in_place = isa.avx2();
-        let vertical = if three { 1 } else { 3 };
-        let s = Sweep::new(sh, sc, pp, row, above, vertical, first, in_place);
-        for x in 0..w {
-            // SAFETY: x < w, the sweep made as `vertical` asks; `acc` is pixel x's entry of the
-            // row's sums, which the next row's sweep rewrites before any decision reads it.
-            unsafe { s.vertical::<NDQ>(isa, x, w, nd, (pp.p1, pp.p2), vertical, true, in_place) };
-        }
-        sc.end_row(in_place, if three { 1 } else { 3 });
-        return;
-    }
     // P2' along the row: p2h[x] between x and x − 1 (the right→left path at x reads p2h[x + 1]);
     // at both ends the path starts (`P2`)
     pp.p2_row(&row[1..], &row[..w - 1], &mut sc.p2h[1..w]);
@@ -998,6 +970,39 @@ fn forward_row<const NDQ: usize>(
     sc.end_row(in_place, if three { 1 } else { 3 });
 }
 
+/// A row of the overlap above a strip (`first`: its first row), which no decision reads: only
+/// the paths the next row continues, top and (five and eight paths) top-left and top-right, whose
+/// sum `acc` then holds (the next row's sweep rewrites it). The horizontal paths restart on every
+/// row (three paths, 3 interleaved rounds, maps unchanged: 1282x1110x224, five strips below the
+/// first, two threads 92.7–93.4 → 89.9–91.5 ms, one thread 180–183 → 177–183 ms; teddy within
+/// 1 %). A function of its own, not a branch of [`forward_row`]: as a branch, incidental changes
+/// to it (the same maps, the same one-thread times) moved the two-thread time at 626x555x96
+/// between 9.5–9.9 and 10.2–10.8 ms (three paths, 3–4 interleaved rounds); as its own function
+/// 9.55–9.93 ms, against 9.87–10.18 ms with the whole sweep in the overlap (5 rounds).
+#[inline(always)]
+fn carry_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
+    let (w, nd) = (sh.w, sh.nd);
+    assert!(NDQ == 0 || NDQ == lanes(nd));
+    let row = &pp.intensity[y * w..][..w];
+    let above = if first { row } else { &pp.intensity[(y - 1) * w..][..w] };
+    let three = pp.paths == SgmPaths::Three;
+    let in_place = isa.avx2();
+    let vertical = if three { 1 } else { 3 };
+    let s = Sweep::new(sh, sc, pp, row, above, vertical, first, in_place);
+    for x in 0..w {
+        // SAFETY: x < w, the sweep made as `vertical` asks; `acc` is pixel x's entry of the
+        // row's sums, which the next row's sweep rewrites before any decision reads it.
+        unsafe {
+            if three {
+                s.vertical::<NDQ>(isa, x, w, nd, (pp.p1, pp.p2), 1, true, in_place)
+            } else {
+                s.vertical::<NDQ>(isa, x, w, nd, (pp.p1, pp.p2), 3, true, in_place)
+            }
+        };
+    }
+    sc.end_row(in_place, vertical);
+}
+
 /// Returns `$f::<Dq>(args)` for the lane counts compiled on their own (16 to 256: see
 /// [`forward_row_any`]); any other count falls through.
 macro_rules! by_lane_count {
@@ -1052,7 +1057,13 @@ per_lane_count!(
     /// 15.90 → 11.64, teddy 10.49 → 8.26, 626x555x96 9.28 → 7.24, 1282x1110x224 6.67 → 6.13; teddy
     /// with five paths 14.54 → 11.39, eight 24.78 → 21.37.
     forward_row_any, forward_row_avx2, forward_row, lanes(sh.nd),
-    (sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, carry_only: bool)
+    (sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool)
+);
+
+per_lane_count!(
+    /// [`carry_row`] compiled for each lane count up to 256, as [`forward_row_any`].
+    carry_row_any, carry_row_avx2, carry_row, lanes(sh.nd),
+    (sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool)
 );
 
 per_lane_count!(
@@ -1463,10 +1474,11 @@ fn strip(
     for y in ys..y1 {
         let boxed = y > ys && colsum_move(sh, pp, sc, y - 1, true, isa);
         cost_row(sh, sc, pp.cmax, boxed, isa);
-        forward_row_any(sh, sc, pp, y, y == ys, y < y0, isa);
         if y < y0 {
+            carry_row_any(sh, sc, pp, y, y == ys, isa);
             continue;
         }
+        forward_row_any(sh, sc, pp, y, y == ys, isa);
         if eight {
             sc.vol[(y - y0) * w * nd..][..w * nd].copy_from_slice(&sc.acc);
         } else {
