@@ -899,6 +899,37 @@ fn decide_row<E: Lane + Cost, const UNIQ: bool, const EQUI: bool>(
 }
 
 /// Helpers shared by both instruction sets, 16-bit lanes.
+/// The winner updates of a lane type (`lanes16!`, `lanes32!`), from its unsigned minimum `$min`
+/// and equality `$eq`: written once for both widths.
+macro_rules! min_updates {
+    ($feat:literal, $min:ident, $eq:ident) => {
+        /// Per lane: if `c < min` (unsigned), then `min = c` and `idx = d`: unsigned minimum,
+        /// equality against the old minimum (chunks upwards: a tie keeps the old index), byte
+        /// blend of the indices.
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn min_update(min: &mut V, idx: &mut V, c: V, d: V) {
+            let nm = $min(*min, c);
+            *idx = _mm256_blendv_epi8(d, *idx, $eq(nm, *min));
+            *min = nm;
+        }
+        /// As `min_update`, for chunks visited from the highest disparities down: a tie takes the
+        /// new (smaller) index, so the equality is against the new cost and the new index is the
+        /// blend's second operand (a constant index vector is then read from memory by the blend
+        /// itself). The new minimum passes through `super::opaque`: seeing `min(m, c) = c`, the
+        /// compiler tests `max(m, c) = m` instead, one operation more a chunk (1282x1110x224,
+        /// StereoBM's options, one thread, callgrind: 1.159 → 1.118 instructions an evaluation,
+        /// 626x555x96 1.711 → 1.699).
+        #[inline]
+        #[target_feature(enable = $feat)]
+        fn min_update_down(min: &mut V, idx: &mut V, c: V, d: V) {
+            let nm = super::opaque($min(*min, c));
+            *idx = _mm256_blendv_epi8(*idx, d, $eq(nm, c));
+            *min = nm;
+        }
+    };
+}
+
 macro_rules! lanes16 {
     ($feat:literal) => {
         type E = u16;
@@ -1019,30 +1050,7 @@ macro_rules! lanes16 {
             let m = _mm_min_epu16(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
             (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as E
         }
-        /// Per lane: if `c < min` (unsigned), then `min = c` and `idx = d`: unsigned minimum,
-        /// equality against the old minimum (chunks upwards: a tie keeps the old index), byte
-        /// blend of the indices.
-        #[inline]
-        #[target_feature(enable = $feat)]
-        fn min_update(min: &mut V, idx: &mut V, c: V, d: V) {
-            let nm = _mm256_min_epu16(*min, c);
-            *idx = _mm256_blendv_epi8(d, *idx, _mm256_cmpeq_epi16(nm, *min));
-            *min = nm;
-        }
-        /// As `min_update`, for chunks visited from the highest disparities down: a tie takes the
-        /// new (smaller) index, so the equality is against the new cost and the new index is the
-        /// blend's second operand (a constant index vector is then read from memory by the blend
-        /// itself). The new minimum passes through `super::opaque`: seeing `min(m, c) = c`, the
-        /// compiler tests `max(m, c) = m` instead, one operation more a chunk (1282x1110x224,
-        /// StereoBM's options, one thread, callgrind: 1.159 → 1.118 instructions an evaluation,
-        /// 626x555x96 1.711 → 1.699).
-        #[inline]
-        #[target_feature(enable = $feat)]
-        fn min_update_down(min: &mut V, idx: &mut V, c: V, d: V) {
-            let nm = super::opaque(_mm256_min_epu16(*min, c));
-            *idx = _mm256_blendv_epi8(*idx, d, _mm256_cmpeq_epi16(nm, c));
-            *min = nm;
-        }
+        min_updates!($feat, _mm256_min_epu16, _mm256_cmpeq_epi16);
         /// The left winner so far, with `keys`: each lane's `(cost << 16) | d` as a 32-bit key,
         /// lanes 0–3 and 8–11 of the chunks in the first vector, 4–7 and 12–15 in the second.
         /// The smallest key is the smallest cost, then the smallest d, whatever the order of the
@@ -1233,30 +1241,7 @@ macro_rules! lanes32 {
         fn hmin_lane(v: V) -> E {
             _mm256_extract_epi32::<0>(hmin(v)) as E
         }
-        /// Per lane: if `c < min` (unsigned), then `min = c` and `idx = d`: unsigned minimum,
-        /// equality against the old minimum (chunks upwards: a tie keeps the old index), byte
-        /// blend of the indices.
-        #[inline]
-        #[target_feature(enable = $feat)]
-        fn min_update(min: &mut V, idx: &mut V, c: V, d: V) {
-            let nm = _mm256_min_epu32(*min, c);
-            *idx = _mm256_blendv_epi8(d, *idx, _mm256_cmpeq_epi32(nm, *min));
-            *min = nm;
-        }
-        /// As `min_update`, for chunks visited from the highest disparities down: a tie takes the
-        /// new (smaller) index, so the equality is against the new cost and the new index is the
-        /// blend's second operand (a constant index vector is then read from memory by the blend
-        /// itself). The new minimum passes through `super::opaque`: seeing `min(m, c) = c`, the
-        /// compiler tests `max(m, c) = m` instead, one operation more a chunk (1282x1110x224,
-        /// StereoBM's options, one thread, callgrind: 1.159 → 1.118 instructions an evaluation,
-        /// 626x555x96 1.711 → 1.699).
-        #[inline]
-        #[target_feature(enable = $feat)]
-        fn min_update_down(min: &mut V, idx: &mut V, c: V, d: V) {
-            let nm = super::opaque(_mm256_min_epu32(*min, c));
-            *idx = _mm256_blendv_epi8(*idx, d, _mm256_cmpeq_epi32(nm, c));
-            *min = nm;
-        }
+        min_updates!($feat, _mm256_min_epu32, _mm256_cmpeq_epi32);
         /// The left winner so far: the running minimum per lane and its disparity (`AVX2` has
         /// no unsigned 64-bit minimum for packed keys).
         type Win = (V, V);
