@@ -18,7 +18,7 @@ use std::hint::black_box;
 fn synthetic_view() -> image::GrayImage {
     let camera = Camera {
         intrinsics: Intrinsics::new(600.0, 600.0, 322.0, 238.0),
-        distortion: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0),
+        lens: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0).into(),
         width: 640,
         height: 480,
     };
@@ -36,7 +36,7 @@ fn synthetic_view() -> image::GrayImage {
 fn large_view() -> image::GrayImage {
     let camera = Camera {
         intrinsics: Intrinsics::new(1400.0, 1400.0, 802.5, 597.5),
-        distortion: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0),
+        lens: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0).into(),
         width: 1600,
         height: 1200,
     };
@@ -61,7 +61,7 @@ fn large_view() -> image::GrayImage {
 fn charuco_view(board: &CharucoBoard) -> image::GrayImage {
     let camera = Camera {
         intrinsics: Intrinsics::new(760.0, 760.0, 402.0, 297.0),
-        distortion: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0),
+        lens: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0).into(),
         width: 800,
         height: 600,
     };

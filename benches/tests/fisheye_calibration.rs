@@ -2,7 +2,7 @@
 //! detected (`corner-detection`) and calibrated without a focal guess (`planar-calibration`),
 //! against the rendering's exact corners and camera.
 
-use parallax_camera_model::{Chessboard, FisheyeCamera, FisheyeLens, Intrinsics, KannalaBrandt};
+use parallax_camera_model::{Camera, Chessboard, Intrinsics, KannalaBrandt, Lens};
 use parallax_corner_detection::{ChessboardConfig, find_chessboard};
 use parallax_planar_calibration::{FisheyeCalibrationConfig, calibrate_fisheye};
 use parallax_synthetic::{RenderOptions, WideViewSetConfig, render_chessboard, wide_angle_calibration_poses};
@@ -15,9 +15,9 @@ use rayon::prelude::*;
 /// all found, 0.019 px detection RMS, fx off by 0.004 %, principal point by 0.015 px).
 #[test]
 fn rendered_fisheye_views_detect_and_calibrate() {
-    let truth = FisheyeCamera::new(
+    let truth = Camera::new(
         Intrinsics::new(226.0, 225.0, 399.5, 299.5),
-        FisheyeLens::KannalaBrandt(KannalaBrandt::new(0.021, -0.0043, 0.0011, -0.00017).unwrap()),
+        Lens::KannalaBrandt(KannalaBrandt::new(0.021, -0.0043, 0.0011, -0.00017).unwrap()),
         800,
         600,
     )

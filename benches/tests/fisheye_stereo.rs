@@ -6,10 +6,8 @@
 use glam::{DVec2, DVec3};
 use image::Luma;
 use parallax_block_matching::{BlockMatcher, MatcherConfig, evaluate};
-use parallax_camera_model::{
-    DisparityMap, FisheyeCamera, FisheyeLens, FisheyeStereoRig, Intrinsics, Isometry3, KannalaBrandt,
-};
-use parallax_stereo_rectify::{Border, Interpolation, WideProjection, WideView, fisheye_wide_rectify, remap};
+use parallax_camera_model::{Camera, DisparityMap, Intrinsics, Isometry3, KannalaBrandt, Lens, StereoRig};
+use parallax_stereo_rectify::{Border, Interpolation, WideProjection, WideView, wide_rectify, remap};
 use parallax_synthetic::{TexturedRoom, render_room};
 
 /// Two ~190° Kannala–Brandt cameras 120 mm apart inside a 4 x 3 x 5 m textured room, rectified
@@ -19,11 +17,11 @@ use parallax_synthetic::{TexturedRoom, render_room};
 /// truth; the disparity RMS over the matched pixels is below 0.5 px.
 #[test]
 fn block_matcher_runs_on_a_rectified_fisheye_pair() {
-    let lens = |k1: f64| FisheyeLens::KannalaBrandt(KannalaBrandt::new(k1, -0.0043, 0.0011, -0.00017).unwrap());
-    let left = FisheyeCamera::new(Intrinsics::new(290.0, 290.0, 511.5, 383.5), lens(0.021), 1024, 768).unwrap();
-    let right = FisheyeCamera::new(Intrinsics::new(292.0, 291.0, 514.0, 381.0), lens(0.019), 1024, 768).unwrap();
+    let lens = |k1: f64| Lens::KannalaBrandt(KannalaBrandt::new(k1, -0.0043, 0.0011, -0.00017).unwrap());
+    let left = Camera::new(Intrinsics::new(290.0, 290.0, 511.5, 383.5), lens(0.021), 1024, 768).unwrap();
+    let right = Camera::new(Intrinsics::new(292.0, 291.0, 514.0, 381.0), lens(0.019), 1024, 768).unwrap();
     let right_from_left = Isometry3::from_rvec_tvec(DVec3::new(0.004, -0.01, 0.003), DVec3::new(-120.0, 1.0, 2.0));
-    let rig = FisheyeStereoRig::new(left, right, right_from_left).unwrap();
+    let rig = StereoRig::new(left, right, right_from_left).unwrap();
     let room = TexturedRoom {
         min: DVec3::new(-2000.0, -1500.0, -2000.0),
         max: DVec3::new(2000.0, 1500.0, 3000.0),
@@ -37,7 +35,7 @@ fn block_matcher_runs_on_a_rectified_fisheye_pair() {
         || render_room(&right, &right_from_room, &room, 3).unwrap(),
     );
     let view = WideView::with_field_of_view(WideProjection::Cylindrical, 120.0, 150.0, 640, 400).unwrap();
-    let rect = fisheye_wide_rectify(&rig, &view).unwrap();
+    let rect = wide_rectify(&rig, &view).unwrap();
     let border = Border::Constant(Luma([0u8]));
     let l = remap(&l_img, &rect.left_map, Interpolation::Bilinear, border).unwrap();
     let r = remap(&r_img, &rect.right_map, Interpolation::Bilinear, border).unwrap();

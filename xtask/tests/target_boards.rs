@@ -55,7 +55,7 @@ fn charuco_corners_file_has_ids_and_calibrates() {
     std::fs::create_dir_all(&dir).unwrap();
     let cam = Camera {
         intrinsics: Intrinsics::new(760.0, 758.0, 402.0, 297.0),
-        distortion: Distortion::new(-0.1, 0.04, 0.0, 0.0, 0.0),
+        lens: Distortion::new(-0.1, 0.04, 0.0, 0.0, 0.0).into(),
         width: 800,
         height: 600,
     };

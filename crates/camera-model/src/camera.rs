@@ -1,7 +1,7 @@
 use glam::{DMat3, DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
-use crate::{CameraModelError, Result};
+use crate::{CameraModelError, KannalaBrandt, Lens, LensModel, Result};
 
 /// Pinhole intrinsics in pixels: `K = [fx skew cx; 0 fy cy; 0 0 1]`.
 ///
@@ -234,13 +234,21 @@ impl Distortion {
     }
 }
 
-/// A calibrated camera: intrinsics, distortion and the image size they belong to.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// A calibrated camera: pinhole intrinsics `K`, a [`Lens`] (Brown–Conrady, Kannala–Brandt or
+/// double sphere) and the image size they belong to. One type for every lens: the stages
+/// project, unproject and differentiate through it (or the [`crate::CameraModel`] trait) and
+/// match on [`Camera::lens`] only where a lens really needs other code.
+///
+/// In files a Brown–Conrady camera is written as before lenses were a choice
+/// (`intrinsics, distortion, width, height`), a wide-angle one as `intrinsics, lens, width,
+/// height`; both forms are read, and every camera read is checked as by [`Camera::new`].
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
-    /// Pinhole intrinsics.
+    /// Pinhole intrinsics (for the wide-angle lenses OpenCV fisheye's `K`, with
+    /// `skew = K[0][1]`, OpenCV's `alpha · fx`).
     pub intrinsics: Intrinsics,
-    /// Lens distortion.
-    pub distortion: Distortion,
+    /// The lens model and its parameters.
+    pub lens: Lens,
     /// Image width in pixels.
     pub width: u32,
     /// Image height in pixels.
@@ -248,26 +256,154 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// A validated camera: finite parameters, positive focal lengths, non-zero size.
-    pub fn new(intrinsics: Intrinsics, distortion: Distortion, width: u32, height: u32) -> Result<Self> {
-        let camera = Self { intrinsics, distortion, width, height };
+    /// A validated camera: finite parameters, positive focal lengths, non-zero size. `lens`
+    /// is a [`Lens`] or any model's parameters ([`Distortion`], [`KannalaBrandt`],
+    /// [`crate::DoubleSphere`]).
+    pub fn new(intrinsics: Intrinsics, lens: impl Into<Lens>, width: u32, height: u32) -> Result<Self> {
+        let camera = Self { intrinsics, lens: lens.into(), width, height };
         camera.validate()?;
         Ok(camera)
     }
 
-    /// Checks the invariants of [`Self::new`] (useful after deserialising).
+    /// A Kannala–Brandt camera from OpenCV fisheye's `K` (3x3) and `D` (4 values).
+    pub fn from_opencv_fisheye(k: DMat3, d: &[f64], width: u32, height: u32) -> Result<Self> {
+        Self::new(Intrinsics::from_matrix(k)?, KannalaBrandt::from_opencv(d)?, width, height)
+    }
+
+    /// Checks the invariants of [`Self::new`] (useful after building one field by field).
     pub fn validate(&self) -> Result<()> {
         self.intrinsics.validate()?;
-        self.distortion.validate()?;
+        self.lens.validate()?;
         if self.width == 0 || self.height == 0 {
             return Err(CameraModelError::InvalidImageSize { width: self.width, height: self.height });
         }
         Ok(())
     }
 
+    /// The pinhole part.
+    pub fn intrinsics(&self) -> Intrinsics {
+        self.intrinsics
+    }
+
+    /// The lens.
+    pub fn lens(&self) -> Lens {
+        self.lens
+    }
+
+    /// The lens model's name ([`LensModel`]).
+    pub fn lens_model(&self) -> LensModel {
+        self.lens.model()
+    }
+
+    /// The Brown–Conrady coefficients; `None` for a wide-angle lens.
+    pub fn distortion(&self) -> Option<&Distortion> {
+        self.lens.distortion()
+    }
+
+    /// Image width in pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Image height in pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
     /// True when the pixel lies inside the image (pixel centres `0..width-1`, with half a
     /// pixel of border on each side).
     pub fn contains(&self, pixel: DVec2) -> bool {
         pixel.x >= -0.5 && pixel.y >= -0.5 && pixel.x <= self.width as f64 - 0.5 && pixel.y <= self.height as f64 - 0.5
+    }
+
+    /// The same lens and size with other intrinsics (checked).
+    pub fn with_intrinsics(&self, intrinsics: Intrinsics) -> Result<Self> {
+        Self::new(intrinsics, self.lens, self.width, self.height)
+    }
+
+    /// The same intrinsics and size with another lens (checked).
+    pub fn with_lens(&self, lens: impl Into<Lens>) -> Result<Self> {
+        Self::new(self.intrinsics, lens, self.width, self.height)
+    }
+
+    /// Largest angle from the optical axis that is imaged (exclusive), radians: π/2 for
+    /// Brown–Conrady.
+    pub fn max_field_angle(&self) -> f64 {
+        self.lens.max_theta()
+    }
+}
+
+impl Serialize for Camera {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut st = s.serialize_struct("Camera", 4)?;
+        st.serialize_field("intrinsics", &self.intrinsics)?;
+        match &self.lens {
+            Lens::BrownConrady(d) => st.serialize_field("distortion", d)?,
+            lens => st.serialize_field("lens", lens)?,
+        }
+        st.serialize_field("width", &self.width)?;
+        st.serialize_field("height", &self.height)?;
+        st.end()
+    }
+}
+
+impl<'de> Deserialize<'de> for Camera {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        d.deserialize_struct("Camera", &["intrinsics", "distortion", "lens", "width", "height"], CameraVisitor)
+    }
+}
+
+/// The field names of a camera in a file.
+#[derive(Deserialize)]
+#[serde(field_identifier, rename_all = "lowercase")]
+enum CameraField {
+    Intrinsics,
+    Distortion,
+    Lens,
+    Width,
+    Height,
+    #[serde(other)]
+    Other,
+}
+
+/// Reads either form of a camera (a visitor, not a derived struct of options: RON reads an
+/// `Option` only as `Some(…)`, and the pinhole form has the bare coefficients).
+struct CameraVisitor;
+
+impl<'de> serde::de::Visitor<'de> for CameraVisitor {
+    type Value = Camera;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a camera: intrinsics, distortion or lens, width, height")
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> std::result::Result<Camera, A::Error> {
+        use serde::de::Error;
+        let (mut intrinsics, mut lens, mut width, mut height) = (None, None, None, None);
+        while let Some(key) = map.next_key::<CameraField>()? {
+            let twice = |name: &'static str| A::Error::duplicate_field(name);
+            match key {
+                CameraField::Intrinsics if intrinsics.is_some() => return Err(twice("intrinsics")),
+                CameraField::Intrinsics => intrinsics = Some(map.next_value::<Intrinsics>()?),
+                CameraField::Distortion | CameraField::Lens if lens.is_some() => {
+                    return Err(A::Error::custom("a camera has `distortion` or `lens`, once"));
+                }
+                CameraField::Distortion => lens = Some(Lens::BrownConrady(map.next_value::<Distortion>()?)),
+                CameraField::Lens => lens = Some(map.next_value::<Lens>()?),
+                CameraField::Width if width.is_some() => return Err(twice("width")),
+                CameraField::Width => width = Some(map.next_value::<u32>()?),
+                CameraField::Height if height.is_some() => return Err(twice("height")),
+                CameraField::Height => height = Some(map.next_value::<u32>()?),
+                CameraField::Other => {
+                    map.next_value::<serde::de::IgnoredAny>()?;
+                }
+            }
+        }
+        let intrinsics = intrinsics.ok_or_else(|| A::Error::missing_field("intrinsics"))?;
+        let lens = lens.ok_or_else(|| A::Error::custom("a camera needs `distortion` (Brown–Conrady) or `lens`"))?;
+        let width = width.ok_or_else(|| A::Error::missing_field("width"))?;
+        let height = height.ok_or_else(|| A::Error::missing_field("height"))?;
+        Camera::new(intrinsics, lens, width, height).map_err(A::Error::custom)
     }
 }

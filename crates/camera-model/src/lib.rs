@@ -1,10 +1,12 @@
 //! # camera-model — the shared vocabulary of parallax
 //!
-//! Cameras ([`Intrinsics`], [`Distortion`], [`Camera`]), rigid transforms ([`Isometry3`],
+//! Cameras ([`Intrinsics`] and a [`Lens`] — Brown–Conrady [`Distortion`], [`KannalaBrandt`] or
+//! [`DoubleSphere`] — in one [`Camera`] type), rigid transforms ([`Isometry3`],
 //! named `a_from_b`), stereo rigs ([`StereoRig`]), calibration targets ([`Chessboard`],
 //! [`CornerGrid`]) and the dense [`DisparityMap`] hand-off type. Projection follows OpenCV's
-//! pinhole + Brown–Conrady model number for number, with analytic Jacobians with respect to the
-//! point, the pose, the intrinsics and the distortion coefficients.
+//! pinhole + Brown–Conrady model (and `cv::fisheye` for Kannala–Brandt) number for number, with
+//! analytic Jacobians with respect to the point, the pose, the intrinsics and the lens
+//! parameters.
 //!
 //! Conventions (as OpenCV): pixel `(u, v)` with `u` right and `v` down, `(0, 0)` the centre of
 //! the top-left pixel; camera frame `x` right, `y` down, `z` forward. This crate has no pixel
@@ -34,7 +36,7 @@
 mod camera;
 mod disparity;
 mod error;
-mod fisheye;
+mod lens;
 mod marker_dictionaries;
 mod model;
 mod projection;
@@ -46,10 +48,9 @@ mod transform;
 pub use camera::{Camera, Distortion, Intrinsics};
 pub use disparity::DisparityMap;
 pub use error::CameraModelError;
-pub use fisheye::{
-    DoubleSphere, DoubleSphereParameters, FISHEYE_UNPROJECT_MAX_ITERATIONS, FISHEYE_UNPROJECT_TOLERANCE, FisheyeCamera,
-    FisheyeCameraParameters, FisheyeLens, FisheyeStereoRig, KannalaBrandt, KannalaBrandtCoefficients,
-    NormalizedProjection,
+pub use lens::{
+    DoubleSphere, DoubleSphereParameters, FISHEYE_UNPROJECT_MAX_ITERATIONS, FISHEYE_UNPROJECT_TOLERANCE, KannalaBrandt,
+    KannalaBrandtCoefficients, Lens, LensModel, NormalizedProjection,
 };
 pub use model::CameraModel;
 pub use projection::{ProjectionJacobians, UNDISTORT_MAX_ITERATIONS, UNDISTORT_TOLERANCE};

@@ -1,6 +1,6 @@
-//! The projection interface shared by every camera model: the pinhole [`Camera`] and the
-//! wide-angle [`crate::FisheyeCamera`]. Stages that only project, unproject and differentiate
-//! can be generic over [`CameraModel`].
+//! The projection interface of a camera: [`Camera`] with any [`crate::Lens`] implements it.
+//! Stages that only project, unproject and differentiate can be generic over [`CameraModel`]
+//! (and so take a user's own camera type too).
 
 use glam::{DVec2, DVec3};
 
@@ -14,15 +14,15 @@ use crate::{Camera, Intrinsics, Isometry3, ProjectionJacobians, Result};
 /// model's own, in its order (see [`CameraModel::num_lens_parameters`]); unused columns are 0.
 ///
 /// ```
-/// use parallax_camera_model::{CameraModel, FisheyeCamera, FisheyeLens, Intrinsics, KannalaBrandt};
+/// use parallax_camera_model::{Camera, CameraModel, Intrinsics, KannalaBrandt};
 /// use glam::DVec3;
 ///
 /// fn ray_round_trip<C: CameraModel>(camera: &C, p: DVec3) -> f64 {
 ///     let ray = camera.unproject_ray(camera.project(p).unwrap()).unwrap();
 ///     (ray.normalize() - p.normalize()).length()
 /// }
-/// let lens = FisheyeLens::KannalaBrandt(KannalaBrandt::new(0.02, -0.005, 0.001, -0.0002)?);
-/// let fisheye = FisheyeCamera::new(Intrinsics::new(300.0, 300.0, 511.5, 383.5), lens, 1024, 768)?;
+/// let lens = KannalaBrandt::new(0.02, -0.005, 0.001, -0.0002)?;
+/// let fisheye = Camera::new(Intrinsics::new(300.0, 300.0, 511.5, 383.5), lens, 1024, 768)?;
 /// // 100° from the optical axis: behind the image plane, still imaged by a 200° lens.
 /// let p = DVec3::new(100f64.to_radians().sin(), 0.0, 100f64.to_radians().cos());
 /// assert!(ray_round_trip(&fisheye, p) < 1e-12);
@@ -99,17 +99,18 @@ impl CameraModel for Camera {
     ) -> Result<ProjectionJacobians> {
         Camera::project_with_jacobians(self, camera_from_object, point_object)
     }
-    /// `(x, y, 1)`: the undistorted normalised coordinates of [`Camera::unproject`].
+    /// [`Camera::unproject`]: `(x, y, 1)` for Brown–Conrady, a unit ray for a wide lens.
     fn unproject_ray(&self, pixel: DVec2) -> Result<DVec3> {
         Camera::unproject(self, pixel)
     }
-    /// π/2: a pinhole images only points in front of it (`z > 0`).
+    /// π/2 for Brown–Conrady (it images only points in front of it, `z > 0`), the lens's
+    /// bound otherwise.
     fn max_field_angle(&self) -> f64 {
-        std::f64::consts::FRAC_PI_2
+        self.lens.max_theta()
     }
-    /// 8: `(k1, k2, p1, p2, k3, k4, k5, k6)`.
+    /// 8 `(k1, k2, p1, p2, k3, k4, k5, k6)`, 4 `(k1..k4)` or 2 `(ξ, α)`.
     fn num_lens_parameters(&self) -> usize {
-        8
+        self.lens.num_parameters()
     }
     fn contains(&self, pixel: DVec2) -> bool {
         Camera::contains(self, pixel)

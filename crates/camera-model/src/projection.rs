@@ -4,7 +4,7 @@
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
-use crate::{Camera, CameraModelError, Distortion, Isometry3, Result};
+use crate::{Camera, CameraModelError, Distortion, Isometry3, Lens, Result};
 
 /// Convergence tolerance of [`Camera::undistort_normalized`]: the distorted estimate must
 /// match the input to within this distance in normalised image coordinates (≈ `fx · 1e-12` px).
@@ -26,8 +26,9 @@ pub struct ProjectionJacobians {
     pub d_pose: [[f64; 6]; 2],
     /// ∂pixel/∂(fx, fy, cx, cy, skew).
     pub d_intrinsics: [[f64; 5]; 2],
-    /// ∂pixel/∂(k1, k2, p1, p2, k3, k4, k5, k6) for [`Camera`]; for a [`crate::FisheyeCamera`] the lens
-    /// parameters `(k1, k2, k3, k4)` or `(ξ, α)` in the first columns, the rest 0.
+    /// ∂pixel/∂(lens parameters) in the lens model's order: `(k1, k2, p1, p2, k3, k4, k5, k6)`
+    /// for Brown–Conrady, `(k1, k2, k3, k4)` or `(ξ, α)` in the first columns for the wide
+    /// lenses, the rest 0.
     pub d_distortion: [[f64; 8]; 2],
 }
 
@@ -51,14 +52,21 @@ pub(crate) fn point_and_pose_jacobians(
 }
 
 impl Camera {
-    /// Projects a point given in the camera frame to a pixel (OpenCV's `projectPoints`).
+    /// Projects a point given in the camera frame to a pixel (OpenCV's `projectPoints`, or
+    /// `fisheye::projectPoints` for Kannala–Brandt).
     ///
-    /// Errors on a non-finite point or one with `z ≤ 0`.
+    /// Errors on a non-finite point, on one with `z ≤ 0` (Brown–Conrady) and outside a wide
+    /// lens's valid region ([`Camera::max_field_angle`]; points behind the image plane are
+    /// imaged by lenses wider than 180°).
     #[inline]
     pub fn project(&self, point_camera: DVec3) -> Result<DVec2> {
-        check_point(point_camera)?;
-        let n = DVec2::new(point_camera.x / point_camera.z, point_camera.y / point_camera.z);
-        Ok(self.intrinsics.to_pixel(self.distortion.distort(n)))
+        if let Lens::BrownConrady(d) = &self.lens {
+            check_point(point_camera)?;
+            let n = DVec2::new(point_camera.x / point_camera.z, point_camera.y / point_camera.z);
+            return Ok(self.intrinsics.to_pixel(d.distort(n)));
+        }
+        let (m, _, _) = self.lens.project_normalized(point_camera)?;
+        Ok(self.intrinsics.to_pixel(m))
     }
 
     /// Projects a point of an object frame seen through `camera_from_object`.
@@ -67,75 +75,82 @@ impl Camera {
         self.project(camera_from_object.transform_point(point_object))
     }
 
-    /// Projects `point_object` through `camera_from_object` and returns every Jacobian.
+    /// Projects `point_object` through `camera_from_object` and returns every Jacobian: the
+    /// lens's normalised projection and its Jacobians, then one chain rule through `K`, the
+    /// point and the pose for every lens.
     pub fn project_with_jacobians(
         &self,
         camera_from_object: &Isometry3,
         point_object: DVec3,
     ) -> Result<ProjectionJacobians> {
         let pc = camera_from_object.transform_point(point_object);
-        check_point(pc)?;
+        let (m, dm, dl) = self.lens.project_normalized(pc)?;
         let k = &self.intrinsics;
-        let iz = 1.0 / pc.z;
-        let n = DVec2::new(pc.x * iz, pc.y * iz);
-        let (nd, jd) = self.distortion.distort_with_jacobian(n);
-        let pixel = k.to_pixel(nd);
-        // ∂pixel/∂nd = [[fx, skew], [0, fy]]
+        let pixel = k.to_pixel(m);
+        // ∂pixel/∂m = [[fx, skew], [0, fy]]
         let jk = [[k.fx, k.skew], [0.0, k.fy]];
-        // ∂pixel/∂n = jk · jd
-        let mut jn = [[0.0; 2]; 2];
-        for r in 0..2 {
-            for c in 0..2 {
-                jn[r][c] = jk[r][0] * jd[0][c] + jk[r][1] * jd[1][c];
-            }
-        }
-        // ∂n/∂pc = [[1/z, 0, -x/z²], [0, 1/z, -y/z²]]
-        let jp = [[iz, 0.0, -n.x * iz], [0.0, iz, -n.y * iz]];
-        let mut d_pc = [[0.0; 3]; 2];
-        for r in 0..2 {
-            for c in 0..3 {
-                d_pc[r][c] = jn[r][0] * jp[0][c] + jn[r][1] * jp[1][c];
-            }
-        }
+        let d_pc: [[f64; 3]; 2] =
+            std::array::from_fn(|r| std::array::from_fn(|c| jk[r][0] * dm[0][c] + jk[r][1] * dm[1][c]));
         let (d_point, d_pose) = point_and_pose_jacobians(&d_pc, camera_from_object, pc);
-        let d_intrinsics = [[nd.x, 0.0, 1.0, 0.0, nd.y], [0.0, nd.y, 0.0, 1.0, 0.0]];
-        let jc = self.distortion.jacobian_coefficients(n);
-        let mut d_distortion = [[0.0; 8]; 2];
-        for r in 0..2 {
-            for c in 0..8 {
-                d_distortion[r][c] = jk[r][0] * jc[0][c] + jk[r][1] * jc[1][c];
-            }
-        }
+        let d_intrinsics = [[m.x, 0.0, 1.0, 0.0, m.y], [0.0, m.y, 0.0, 1.0, 0.0]];
+        let d_distortion = std::array::from_fn(|r| std::array::from_fn(|c| jk[r][0] * dl[0][c] + jk[r][1] * dl[1][c]));
         Ok(ProjectionJacobians { pixel, point_camera: pc, d_point, d_pose, d_intrinsics, d_distortion })
     }
 
-    /// Removes the distortion from normalised coordinates by Newton's method on the distortion
-    /// model (started at the distorted point), stopping when the re-distorted estimate is within
-    /// [`UNDISTORT_TOLERANCE`] of the input; [`CameraModelError::UndistortionDidNotConverge`]
-    /// after [`UNDISTORT_MAX_ITERATIONS`] or when the only root found lies where the lens model
-    /// folds back (non-positive Jacobian determinant): a point outside the invertible region. OpenCV's `undistortPoints` uses a fixed count of fixed-point iterations instead.
+    /// Removes the lens from normalised coordinates: the `(X/Z, Y/Z)` of the ray through
+    /// them. Brown–Conrady: Newton's method on the distortion model (started at the distorted
+    /// point), stopping when the re-distorted estimate is within [`UNDISTORT_TOLERANCE`] of the
+    /// input; [`CameraModelError::UndistortionDidNotConverge`] after [`UNDISTORT_MAX_ITERATIONS`]
+    /// or when the only root found lies where the lens model folds back (non-positive Jacobian
+    /// determinant): a point outside the invertible region. OpenCV's `undistortPoints` uses a
+    /// fixed count of fixed-point iterations instead. Wide lenses: the ray of
+    /// [`Camera::unproject`], refused when it does not point in front of the camera (`z ≤ 0`).
     pub fn undistort_normalized(&self, distorted: DVec2) -> Result<DVec2> {
-        undistort(&self.distortion, distorted).map_err(|(iterations, residual)| {
-            let pixel = self.intrinsics.to_pixel(distorted);
-            CameraModelError::UndistortionDidNotConverge { u: pixel.x, v: pixel.y, iterations, residual }
-        })
+        let pixel = || self.intrinsics.to_pixel(distorted);
+        match &self.lens {
+            Lens::BrownConrady(d) => undistort(d, distorted).map_err(|(iterations, residual)| {
+                let pixel = pixel();
+                CameraModelError::UndistortionDidNotConverge { u: pixel.x, v: pixel.y, iterations, residual }
+            }),
+            _ => {
+                let ray = self.unproject(pixel())?;
+                if ray.z <= 0.0 {
+                    return Err(CameraModelError::PointBehindCamera { z: ray.z });
+                }
+                Ok(ray.truncate() / ray.z)
+            }
+        }
     }
 
-    /// The undistorted normalised coordinates `(X/Z, Y/Z)` of a pixel: the ray through it is
-    /// `(x, y, 1)`. Inverse of [`Self::project`] up to depth.
+    /// A ray through a pixel: `(x, y, 1)` with the undistorted normalised coordinates for
+    /// Brown–Conrady (the inverse of [`Self::project`] up to depth), the unit ray for a wide
+    /// lens (it may point behind the image plane, `z < 0`). Errors where no ray of the valid
+    /// region maps to the pixel; the Kannala–Brandt inversion stops at
+    /// [`crate::FISHEYE_UNPROJECT_TOLERANCE`].
     pub fn unproject(&self, pixel: DVec2) -> Result<DVec3> {
         if !pixel.is_finite() {
             return Err(CameraModelError::NonFinite { what: "pixel" });
         }
-        let n = self.undistort_normalized(self.intrinsics.to_normalized(pixel))?;
-        Ok(n.extend(1.0))
+        let n = self.intrinsics.to_normalized(pixel);
+        if let Lens::BrownConrady(_) = self.lens {
+            return Ok(self.undistort_normalized(n)?.extend(1.0));
+        }
+        self.lens.unproject_normalized(n).map_err(|e| match e {
+            CameraModelError::UndistortionDidNotConverge { iterations, residual, .. } => {
+                CameraModelError::UndistortionDidNotConverge { u: pixel.x, v: pixel.y, iterations, residual }
+            }
+            CameraModelError::OutsideValidRegion { what, detail } => {
+                CameraModelError::OutsideValidRegion { what, detail: format!("({}, {}): {detail}", pixel.x, pixel.y) }
+            }
+            other => other,
+        })
     }
 
     /// The pixel an undistorted pinhole camera with the same `K` would see: removes the lens
-    /// distortion from a pixel (OpenCV's `undistortPoints(..., P = K)`).
+    /// from a pixel (OpenCV's `undistortPoints(..., P = K)`).
     pub fn undistort_pixel(&self, pixel: DVec2) -> Result<DVec2> {
-        let ray = self.unproject(pixel)?;
-        Ok(self.intrinsics.to_pixel(ray.truncate()))
+        let n = self.undistort_normalized(self.intrinsics.to_normalized(pixel))?;
+        Ok(self.intrinsics.to_pixel(n))
     }
 }
 
@@ -150,7 +165,7 @@ fn check_point(p: DVec3) -> Result<()> {
 }
 
 /// Newton iteration; on failure returns (iterations, residual).
-fn undistort(d: &Distortion, target: DVec2) -> std::result::Result<DVec2, (usize, f64)> {
+pub(crate) fn undistort(d: &Distortion, target: DVec2) -> std::result::Result<DVec2, (usize, f64)> {
     if d.is_zero() {
         return Ok(target);
     }

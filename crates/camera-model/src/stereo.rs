@@ -62,7 +62,7 @@ impl ProjectionMatrix {
     }
 }
 
-/// Two calibrated cameras and the pose of the right one relative to the left one.
+/// Two calibrated cameras (any lenses) and the pose of the right one relative to the left one.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct StereoRig {
     /// The left (reference) camera; the rig's world frame is the left camera frame.
@@ -89,12 +89,14 @@ impl StereoRig {
         self.right_from_left.translation.length()
     }
 
-    /// Essential matrix `E = [t]× R` with `x_rᵀ E x_l = 0` for normalised undistorted rays.
+    /// Essential matrix `E = [t]× R` with `r_rᵀ E r_l = 0` for the rays of a match (any lens).
     pub fn essential(&self) -> DMat3 {
         skew_symmetric(self.right_from_left.translation) * self.right_from_left.rotation_matrix()
     }
 
-    /// Fundamental matrix `F = K_r⁻ᵀ E K_l⁻¹` with `p_rᵀ F p_l = 0` for undistorted pixels.
+    /// Fundamental matrix `F = K_r⁻ᵀ E K_l⁻¹` with `p_rᵀ F p_l = 0` for undistorted pixels
+    /// (pinhole pixels `K (x/z, y/z, 1)`; for a wide lens it relates only rays in front of both
+    /// cameras).
     pub fn fundamental(&self) -> DMat3 {
         let kl = self.left.intrinsics.matrix().inverse();
         let kr = self.right.intrinsics.matrix().inverse();

@@ -13,7 +13,7 @@ fn view(w: u32, h: u32, cols: usize, rows: usize, blur: f64, seed: u64) -> (imag
     let f = 0.875 * w as f64;
     let cam = Camera {
         intrinsics: Intrinsics::new(f, f, (w as f64 - 1.0) / 2.0 + 3.0, (h as f64 - 1.0) / 2.0 - 2.0),
-        distortion: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0),
+        lens: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0).into(),
         width: w,
         height: h,
     };

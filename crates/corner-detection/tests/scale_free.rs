@@ -13,7 +13,7 @@ use parallax_synthetic::{RenderOptions, ViewSetConfig, calibration_poses, render
 fn camera(w: u32, h: u32, f: f64) -> Camera {
     Camera {
         intrinsics: Intrinsics::new(f, f, (w as f64 - 1.0) / 2.0 + 3.0, (h as f64 - 1.0) / 2.0 - 2.0),
-        distortion: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0),
+        lens: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0).into(),
         width: w,
         height: h,
     }

@@ -13,7 +13,7 @@ use rand::Rng;
 fn single_tag_corners_are_exact() {
     let cam = Camera {
         intrinsics: Intrinsics::new(760.0, 760.0, 402.0, 297.0),
-        distortion: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0),
+        lens: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0).into(),
         width: 800,
         height: 600,
     };

@@ -12,7 +12,7 @@ use parallax_synthetic::{RenderOptions, ViewSetConfig, calibration_poses, render
 fn camera() -> Camera {
     Camera {
         intrinsics: Intrinsics::new(600.0, 600.0, 322.0, 238.0),
-        distortion: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0),
+        lens: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0).into(),
         width: 640,
         height: 480,
     }

@@ -3,8 +3,7 @@
 
 use glam::{DMat3, DVec3};
 use parallax_camera_model::{
-    Camera, Distortion, DoubleSphere, FisheyeCamera, FisheyeLens, FisheyeStereoRig, Intrinsics, Isometry3,
-    KannalaBrandt, ProjectionMatrix, StereoRig,
+    Camera, Distortion, DoubleSphere, Intrinsics, Isometry3, KannalaBrandt, Lens, ProjectionMatrix, StereoRig,
 };
 use parallax_hand_eye::Setup;
 use serde_json::{Map, Value};
@@ -19,7 +18,7 @@ use crate::model::{
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Cam {
     Pinhole(Camera),
-    Fisheye(FisheyeCamera),
+    Fisheye(Camera),
 }
 
 /// The model marker of an OpenCV or ROS node: `fisheye_model` (OpenCV's calibration sample
@@ -59,7 +58,7 @@ fn is_fisheye(o: &Map<String, Value>, what: &str) -> Result<bool> {
 }
 
 /// A Kannala–Brandt camera from `K` and `D` (exactly `k1 k2 k3 k4`), with every check.
-fn fisheye_camera(k: DMat3, d: &[f64], width: u32, height: u32, key: &str, what: &str) -> Result<FisheyeCamera> {
+fn fisheye_camera(k: DMat3, d: &[f64], width: u32, height: u32, key: &str, what: &str) -> Result<Camera> {
     let below = [k.x_axis.y, k.x_axis.z, k.y_axis.z];
     if below.iter().any(|v| *v != 0.0) {
         return Err(content(what, format!("camera matrix is not upper triangular ({below:?} below the diagonal)")));
@@ -74,7 +73,7 @@ fn fisheye_camera(k: DMat3, d: &[f64], width: u32, height: u32, key: &str, what:
             ),
         ));
     }
-    FisheyeCamera::from_opencv(k, d, width, height).map_err(model(what))
+    Camera::from_opencv_fisheye(k, d, width, height).map_err(model(what))
 }
 
 /// A pinhole or (with a marker) Kannala–Brandt camera from `K`, `D` and a size.
@@ -86,10 +85,10 @@ fn camera_marked(fisheye: bool, k: DMat3, d: &[f64], w: u32, h: u32, key: &str, 
     }
 }
 
-/// The lens of a native `FisheyeCamera`: serde's tagged form (`{"KannalaBrandt": {k1 ..}}`) or
+/// The lens of a native `Camera`: serde's tagged form (`{"KannalaBrandt": {k1 ..}}`) or
 /// the bare parameters RON's untyped reading leaves (`{k1 k2 k3 k4}` or `{xi alpha}`: the field
 /// names tell the model).
-fn native_lens(v: &Value, what: &str) -> Result<FisheyeLens> {
+fn native_lens(v: &Value, what: &str) -> Result<Lens> {
     let mut v = v;
     loop {
         match v {
@@ -104,10 +103,10 @@ fn native_lens(v: &Value, what: &str) -> Result<FisheyeLens> {
     let num = |k: &str| o.get(k).and_then(Value::as_f64);
     match (num("k1"), num("k2"), num("k3"), num("k4"), num("xi"), num("alpha")) {
         (Some(k1), Some(k2), Some(k3), Some(k4), None, None) if o.len() == 4 => {
-            KannalaBrandt::new(k1, k2, k3, k4).map(FisheyeLens::KannalaBrandt).map_err(model(what))
+            KannalaBrandt::new(k1, k2, k3, k4).map(Lens::KannalaBrandt).map_err(model(what))
         }
         (None, None, None, None, Some(xi), Some(alpha)) if o.len() == 2 => {
-            DoubleSphere::new(xi, alpha).map(FisheyeLens::DoubleSphere).map_err(model(what))
+            DoubleSphere::new(xi, alpha).map(Lens::DoubleSphere).map_err(model(what))
         }
         _ => Err(content(
             what,
@@ -123,8 +122,8 @@ fn is_fisheye_camera_shape(o: &Map<String, Value>) -> bool {
     ["intrinsics", "lens", "width", "height"].iter().all(|k| o.contains_key(*k))
 }
 
-/// A native `FisheyeCamera` (`intrinsics`, `lens`, `width`, `height`), checked.
-fn native_fisheye(o: &Map<String, Value>, what: &str) -> Result<FisheyeCamera> {
+/// A native `Camera` (`intrinsics`, `lens`, `width`, `height`), checked.
+fn native_fisheye(o: &Map<String, Value>, what: &str) -> Result<Camera> {
     let intrinsics: Intrinsics = from_native(&o["intrinsics"], "intrinsics", what)?;
     let lens = native_lens(&o["lens"], what)?;
     let dim = |k: &str| {
@@ -132,11 +131,11 @@ fn native_fisheye(o: &Map<String, Value>, what: &str) -> Result<FisheyeCamera> {
             .and_then(|n| u32::try_from(n).ok())
             .ok_or_else(|| content(what, format!("{k}: {} is not an image size", o[k])))
     };
-    FisheyeCamera::new(intrinsics, lens, dim("width")?, dim("height")?).map_err(model(what))
+    Camera::new(intrinsics, lens, dim("width")?, dim("height")?).map_err(model(what))
 }
 
 /// A record's `lens_model` (when present) must name the camera's lens.
-fn check_lens_model(o: &Map<String, Value>, cameras: &[&FisheyeCamera], what: &str) -> Result<()> {
+fn check_lens_model(o: &Map<String, Value>, cameras: &[&Camera], what: &str) -> Result<()> {
     if let Some(name) = o.get("lens_model") {
         for c in cameras {
             let actual = lens_model_name(&c.lens());
@@ -355,7 +354,7 @@ fn opencv_stereo(o: &Map<String, Value>, what: &str) -> Result<Calibration> {
     let (rms_px, per_view_rms_px) = (rms_of(o), per_view_stereo(o, what)?);
     let (left, right) = match (left, right) {
         (Cam::Fisheye(left), Cam::Fisheye(right)) => {
-            let rig = FisheyeStereoRig::new(left, right, right_from_left).map_err(model(what))?;
+            let rig = StereoRig::new(left, right, right_from_left).map_err(model(what))?;
             check_up_to_scale(o, "E", rig.essential(), what)?;
             if o.contains_key("F") {
                 return Err(content(
@@ -484,8 +483,8 @@ fn kalibr_camera(o: &Map<String, Value>, name: &str, what: &str) -> Result<Cam> 
                     ),
                 ));
             }
-            let lens = FisheyeLens::DoubleSphere(DoubleSphere::new(xi, alpha).map_err(model(what))?);
-            Ok(Cam::Fisheye(FisheyeCamera::new(Intrinsics::new(fu, fv, pu, pv), lens, w, h).map_err(model(what))?))
+            let lens = Lens::DoubleSphere(DoubleSphere::new(xi, alpha).map_err(model(what))?);
+            Ok(Cam::Fisheye(Camera::new(Intrinsics::new(fu, fv, pu, pv), lens, w, h).map_err(model(what))?))
         }
         other => Err(content(
             what,
@@ -532,7 +531,7 @@ fn kalibr(o: &Map<String, Value>, what: &str) -> Result<Calibration> {
         }
         (Cam::Fisheye(l), Cam::Fisheye(rc)) => {
             let right_from_left = Isometry3::from_rotation_translation(r, tv).map_err(model(what))?;
-            let rig = FisheyeStereoRig::new(l, rc, right_from_left).map_err(model(what))?;
+            let rig = StereoRig::new(l, rc, right_from_left).map_err(model(what))?;
             Ok(Calibration::FisheyeStereo(FisheyeStereoCalibration {
                 rig,
                 rectification: None,
@@ -619,7 +618,7 @@ fn rig_difference(a: &StereoRig, b: &StereoRig) -> f64 {
     let cam = |c: &Camera| {
         let k = c.intrinsics;
         let mut v = vec![k.fx, k.fy, k.cx, k.cy, k.skew];
-        v.extend(c.distortion.to_array());
+        v.extend(c.lens.parameters());
         v
     };
     let mut worst: f64 = 0.0;
@@ -636,15 +635,15 @@ fn rig_difference(a: &StereoRig, b: &StereoRig) -> f64 {
 }
 
 /// A native fisheye rig (`left`, `right` with a `lens`, `right_from_left`), checked.
-fn native_fisheye_rig(o: &Map<String, Value>, what: &str) -> Result<FisheyeStereoRig> {
-    let side = |k: &str| -> Result<FisheyeCamera> {
+fn native_fisheye_rig(o: &Map<String, Value>, what: &str) -> Result<StereoRig> {
+    let side = |k: &str| -> Result<Camera> {
         match o.get(k) {
             Some(Value::Object(c)) if is_fisheye_camera_shape(c) => native_fisheye(c, what),
             _ => Err(content(what, format!("rig.{k} is not a fisheye camera (intrinsics, lens, width, height)"))),
         }
     };
     let right_from_left: Isometry3 = from_native(&o["right_from_left"], "right_from_left", what)?;
-    FisheyeStereoRig::new(side("left")?, side("right")?, right_from_left).map_err(model(what))
+    StereoRig::new(side("left")?, side("right")?, right_from_left).map_err(model(what))
 }
 
 fn rig_is_fisheye(o: &Map<String, Value>) -> bool {
@@ -754,7 +753,7 @@ fn mono_at(o: &Map<String, Value>, what: &str) -> Result<Option<Calibration>> {
         {
             let same = match opencv_mono(m, what)? {
                 Calibration::FisheyeMono(cv) => {
-                    let p = |c: &FisheyeCamera| {
+                    let p = |c: &Camera| {
                         let k = c.intrinsics();
                         let mut v = vec![k.fx, k.fy, k.cx, k.cy, k.skew];
                         v.extend(c.lens().parameters());
@@ -951,7 +950,7 @@ pub fn rig_from_ros_pair(left: &Value, right: &Value, what: &str) -> Result<Cali
         (Calibration::FisheyeMono(l), Calibration::FisheyeMono(rc)) => {
             let right_from_left = Isometry3::from_rotation_translation(r, translation).map_err(model(what))?;
             Ok(Calibration::FisheyeStereo(FisheyeStereoCalibration {
-                rig: FisheyeStereoRig::new(l.camera, rc.camera, right_from_left).map_err(model(what))?,
+                rig: StereoRig::new(l.camera, rc.camera, right_from_left).map_err(model(what))?,
                 rectification,
                 rms_px: None,
                 per_view_rms_px: Vec::new(),

@@ -37,10 +37,10 @@
 //!
 //! ```
 //! use parallax_interop::{Calibration, FisheyeMonoCalibration, Format, parse, render};
-//! use parallax_interop::parallax_camera_model::{DoubleSphere, FisheyeCamera, FisheyeLens, Intrinsics};
+//! use parallax_interop::parallax_camera_model::{DoubleSphere, Camera, Lens, Intrinsics};
 //!
-//! let ds = FisheyeLens::DoubleSphere(DoubleSphere::new(-0.2, 0.6).unwrap());
-//! let camera = FisheyeCamera::new(Intrinsics::new(250.0, 250.0, 319.5, 239.5), ds, 640, 480).unwrap();
+//! let ds = Lens::DoubleSphere(DoubleSphere::new(-0.2, 0.6).unwrap());
+//! let camera = Camera::new(Intrinsics::new(250.0, 250.0, 319.5, 239.5), ds, 640, 480).unwrap();
 //! let mono = Calibration::FisheyeMono(FisheyeMonoCalibration { camera, rms_px: None, per_view_rms_px: vec![] });
 //! let kalibr = &render(&mono, Format::Kalibr, "camchain.yaml".as_ref()).unwrap()[0].1;
 //! assert!(kalibr.contains("camera_model: ds"));
@@ -320,6 +320,7 @@ pub fn default_rectify_config() -> parallax_stereo_rectify::RectifyConfig {
         new_size: None,
         zero_disparity: true,
         extents: parallax_stereo_rectify::ExtentMethod::OpenCv,
+        ..Default::default()
     }
 }
 
@@ -335,12 +336,8 @@ pub fn rectify_default(rig: &parallax_camera_model::StereoRig) -> Result<Rectifi
 /// size, `CALIB_ZERO_DISPARITY`). A rig whose image edges lie 90° or more from the rectified axis
 /// has no pinhole rectification: that is an error (rectify it with a chosen `fov_scale` and
 /// write the result).
-pub fn fisheye_rectify_default(rig: &parallax_camera_model::FisheyeStereoRig) -> Result<RectificationMatrices> {
-    let r = parallax_stereo_rectify::fisheye_stereo_rectify(
-        rig,
-        &parallax_stereo_rectify::FisheyeRectifyConfig::default(),
-    )
-    .map_err(|e| {
+pub fn fisheye_rectify_default(rig: &parallax_camera_model::StereoRig) -> Result<RectificationMatrices> {
+    let r = parallax_stereo_rectify::stereo_rectify(rig, &parallax_stereo_rectify::RectifyConfig::default()).map_err(|e| {
         InteropError::Unsupported(format!(
             "rectifying the fisheye rig to a pinhole pair (ROS camera_info needs R and P): {e}; rectify it with \
                  a field of view that fits (fov_scale) and write the calibration with that rectification"

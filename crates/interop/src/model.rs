@@ -1,9 +1,7 @@
 //! What a calibration file holds, and the row-major records the native (RON / JSON) files use.
 
 use glam::{DMat3, DVec3};
-use parallax_camera_model::{
-    Camera, FisheyeCamera, FisheyeLens, FisheyeStereoRig, Isometry3, ProjectionMatrix, StereoRig,
-};
+use parallax_camera_model::{Camera, Isometry3, Lens, ProjectionMatrix, StereoRig};
 use parallax_hand_eye::{PoseConventions, Setup};
 use parallax_stereo_rectify::Rectification;
 use serde::{Deserialize, Serialize};
@@ -76,7 +74,7 @@ pub struct StereoCalibration {
 #[derive(Debug, Clone, PartialEq)]
 pub struct FisheyeMonoCalibration {
     /// The camera (intrinsics, lens, image size).
-    pub camera: FisheyeCamera,
+    pub camera: Camera,
     /// RMS reprojection error over all corners, pixels.
     pub rms_px: Option<f64>,
     /// RMS reprojection error per view, pixels.
@@ -87,7 +85,7 @@ pub struct FisheyeMonoCalibration {
 #[derive(Debug, Clone, PartialEq)]
 pub struct FisheyeStereoCalibration {
     /// Both cameras and `right_from_left`.
-    pub rig: FisheyeStereoRig,
+    pub rig: StereoRig,
     /// `R1 R2 P1 P2 Q` of the rectification to a pinhole pair (`cv::fisheye::stereoRectify`),
     /// when the file holds them.
     pub rectification: Option<RectificationMatrices>,
@@ -99,10 +97,11 @@ pub struct FisheyeStereoCalibration {
 
 /// The name of a lens model in files and messages: `kannala_brandt` (OpenCV's `fisheye`, ROS's
 /// and Kalibr's `equidistant`) or `double_sphere` (Kalibr's `ds`).
-pub fn lens_model_name(lens: &FisheyeLens) -> &'static str {
+pub fn lens_model_name(lens: &Lens) -> &'static str {
     match lens {
-        FisheyeLens::KannalaBrandt(_) => "kannala_brandt",
-        FisheyeLens::DoubleSphere(_) => "double_sphere",
+        Lens::BrownConrady(_) => "brown_conrady",
+        Lens::KannalaBrandt(_) => "kannala_brandt",
+        Lens::DoubleSphere(_) => "double_sphere",
     }
 }
 
@@ -184,7 +183,7 @@ impl Calibration {
     }
 
     /// One fisheye camera: the mono calibration's, or the chosen side of a fisheye rig.
-    pub fn fisheye_camera(&self, side: Side, what: &str) -> Result<FisheyeCamera> {
+    pub fn fisheye_camera(&self, side: Side, what: &str) -> Result<Camera> {
         match (self, side) {
             (Self::FisheyeMono(m), _) => Ok(m.camera),
             (Self::FisheyeStereo(s), Side::Left) => Ok(s.rig.left),
@@ -284,8 +283,12 @@ pub struct MonoMatrices {
 
 /// OpenCV's distortion vector of `camera`: 5 values, or 8 with the rational model.
 pub fn distortion_vector(camera: &Camera) -> Vec<f64> {
-    let d = camera.distortion.to_array();
-    if camera.distortion.is_rational() { d.to_vec() } else { d[..5].to_vec() }
+    match camera.distortion() {
+        Some(d) if d.is_rational() => d.to_array().to_vec(),
+        Some(d) => d.to_array()[..5].to_vec(),
+        // (`Calibration::camera` hands pinhole stages Brown–Conrady cameras only)
+        None => camera.lens.parameters(),
+    }
 }
 
 impl MonoMatrices {
@@ -526,8 +529,8 @@ pub struct FisheyeMatrices {
 
 impl FisheyeMatrices {
     /// The matrices of `camera`, or `None` for a lens OpenCV has no model of (double sphere).
-    pub fn of(camera: &FisheyeCamera) -> Option<Self> {
-        let FisheyeLens::KannalaBrandt(kb) = camera.lens() else { return None };
+    pub fn of(camera: &Camera) -> Option<Self> {
+        let Lens::KannalaBrandt(kb) = camera.lens() else { return None };
         Some(Self {
             fisheye_model: 1,
             camera_matrix: rows3(&camera.intrinsics().matrix()),
@@ -544,7 +547,7 @@ impl FisheyeMatrices {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FisheyeMonoRecord {
     /// The camera.
-    pub camera: FisheyeCamera,
+    pub camera: Camera,
     /// `kannala_brandt` or `double_sphere`.
     pub lens_model: &'static str,
     /// `K` and `D` as `cv::fisheye` (Kannala–Brandt only).
@@ -574,7 +577,7 @@ impl FisheyeMonoRecord {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FisheyeStereoRecord {
     /// The rig.
-    pub rig: FisheyeStereoRig,
+    pub rig: StereoRig,
     /// `kannala_brandt` or `double_sphere` (both cameras).
     pub lens_model: &'static str,
     /// `right_from_left` as translation, quaternion, matrix, rotation vector and tf line.

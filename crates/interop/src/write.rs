@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use parallax_camera_model::{Camera, FisheyeCamera, FisheyeLens, Isometry3};
+use parallax_camera_model::{Camera, Isometry3, Lens};
 use serde::Serialize;
 
 use crate::error::{InteropError, Result};
@@ -87,10 +87,11 @@ fn no_double_sphere(format: &str) -> InteropError {
 }
 
 /// `cv::fisheye`'s `K` and `D = [k1 k2 k3 k4]` of a Kannala–Brandt camera.
-fn fisheye_kd(c: &FisheyeCamera, format: &str) -> Result<(Entry, [f64; 4])> {
+fn fisheye_kd(c: &Camera, format: &str) -> Result<(Entry, [f64; 4])> {
     match c.lens() {
-        FisheyeLens::KannalaBrandt(kb) => Ok((Entry::matrix(&rows3(&c.intrinsics().matrix())), kb.coefficients())),
-        FisheyeLens::DoubleSphere(_) => Err(no_double_sphere(format)),
+        Lens::KannalaBrandt(kb) => Ok((Entry::matrix(&rows3(&c.intrinsics().matrix())), kb.coefficients())),
+        Lens::DoubleSphere(_) => Err(no_double_sphere(format)),
+        Lens::BrownConrady(_) => Err(InteropError::Unsupported(format!("{format}: not a fisheye camera"))),
     }
 }
 
@@ -219,16 +220,17 @@ impl RosLens {
 
     /// ROS's `equidistant` model (what `camera_calibration` writes for a fisheye: OpenCV's
     /// `cv::fisheye`, `D = [k1 k2 k3 k4]`).
-    fn fisheye(c: &FisheyeCamera) -> Result<Self> {
+    fn fisheye(c: &Camera) -> Result<Self> {
         match c.lens() {
-            FisheyeLens::KannalaBrandt(kb) => Ok(Self {
+            Lens::KannalaBrandt(kb) => Ok(Self {
                 width: c.width(),
                 height: c.height(),
                 k: c.intrinsics().matrix(),
                 model: "equidistant",
                 d: kb.coefficients().to_vec(),
             }),
-            FisheyeLens::DoubleSphere(_) => Err(no_double_sphere("ROS camera_info")),
+            Lens::DoubleSphere(_) => Err(no_double_sphere("ROS camera_info")),
+            Lens::BrownConrady(_) => Ok(Self::pinhole(c)),
         }
     }
 }
@@ -309,7 +311,7 @@ struct KalibrCamera {
 
 fn kalibr_camera(c: &Camera, name: &str, t: Option<&Isometry3>) -> Result<KalibrCamera> {
     let k = c.intrinsics;
-    let d = c.distortion;
+    let Some(&d) = c.distortion() else { return kalibr_fisheye(c, name, t) };
     if k.skew != 0.0 || d.k3 != 0.0 || d.is_rational() {
         return Err(InteropError::Unsupported(format!(
             "{name}: Kalibr's pinhole-radtan model has no skew, k3 or k4..k6 (this camera has skew {}, k3 {}, k4..k6 \
@@ -344,7 +346,7 @@ fn kalibr_transform(t: &Isometry3) -> [[f64; 4]; 4] {
 /// Kalibr's `pinhole-equi` (`camera_model: pinhole`, `distortion_model: equidistant`,
 /// intrinsics `[fu fv pu pv]`, coefficients `[k1 k2 k3 k4]`) or `ds` (intrinsics
 /// `[xi alpha fu fv pu pv]`, `distortion_model: none`, no coefficients).
-fn kalibr_fisheye(c: &FisheyeCamera, name: &str, t: Option<&Isometry3>) -> Result<KalibrCamera> {
+fn kalibr_fisheye(c: &Camera, name: &str, t: Option<&Isometry3>) -> Result<KalibrCamera> {
     let k = c.intrinsics();
     if k.skew != 0.0 {
         return Err(InteropError::Unsupported(format!(
@@ -354,10 +356,9 @@ fn kalibr_fisheye(c: &FisheyeCamera, name: &str, t: Option<&Isometry3>) -> Resul
         )));
     }
     let (camera_model, intrinsics, distortion_model, distortion_coeffs) = match c.lens() {
-        FisheyeLens::KannalaBrandt(kb) => {
-            ("pinhole", vec![k.fx, k.fy, k.cx, k.cy], "equidistant", kb.coefficients().to_vec())
-        }
-        FisheyeLens::DoubleSphere(ds) => ("ds", vec![ds.xi(), ds.alpha(), k.fx, k.fy, k.cx, k.cy], "none", vec![]),
+        Lens::KannalaBrandt(kb) => ("pinhole", vec![k.fx, k.fy, k.cx, k.cy], "equidistant", kb.coefficients().to_vec()),
+        Lens::DoubleSphere(ds) => ("ds", vec![ds.xi(), ds.alpha(), k.fx, k.fy, k.cx, k.cy], "none", vec![]),
+        Lens::BrownConrady(_) => return kalibr_camera(c, name, t),
     };
     Ok(KalibrCamera {
         camera_model,

@@ -6,9 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use parallax_camera_model::{
-    DoubleSphere, FisheyeCamera, FisheyeLens, FisheyeStereoRig, Intrinsics, Isometry3, KannalaBrandt,
-};
+use parallax_camera_model::{Camera, DoubleSphere, Intrinsics, Isometry3, KannalaBrandt, Lens, StereoRig};
 use parallax_interop::{
     Calibration, FisheyeMonoCalibration, FisheyeStereoCalibration, Format, Side, detect, parse, read, render,
     rig_from_ros_pair,
@@ -22,20 +20,20 @@ fn data(name: &str) -> PathBuf {
 const ALL: [Format; 6] =
     [Format::OpenCvYaml, Format::OpenCvXml, Format::Json, Format::Ron, Format::Ros, Format::Kalibr];
 
-fn kb(fx: f64, k: [f64; 4]) -> FisheyeCamera {
-    FisheyeCamera::new(
+fn kb(fx: f64, k: [f64; 4]) -> Camera {
+    Camera::new(
         Intrinsics::new(fx, fx - 0.25, 319.25, 241.75),
-        FisheyeLens::KannalaBrandt(KannalaBrandt::new(k[0], k[1], k[2], k[3]).unwrap()),
+        Lens::KannalaBrandt(KannalaBrandt::new(k[0], k[1], k[2], k[3]).unwrap()),
         640,
         480,
     )
     .unwrap()
 }
 
-fn ds(fx: f64, xi: f64, alpha: f64) -> FisheyeCamera {
-    FisheyeCamera::new(
+fn ds(fx: f64, xi: f64, alpha: f64) -> Camera {
+    Camera::new(
         Intrinsics::new(fx, fx - 0.25, 321.5, 238.25),
-        FisheyeLens::DoubleSphere(DoubleSphere::new(xi, alpha).unwrap()),
+        Lens::DoubleSphere(DoubleSphere::new(xi, alpha).unwrap()),
         640,
         480,
     )
@@ -46,13 +44,13 @@ fn right_from_left() -> Isometry3 {
     Isometry3::from_rvec_tvec(DVec3::new(0.01, -0.02, 0.005), DVec3::new(-80.0, 0.5, 1.25))
 }
 
-fn mono(camera: FisheyeCamera) -> Calibration {
+fn mono(camera: Camera) -> Calibration {
     Calibration::FisheyeMono(FisheyeMonoCalibration { camera, rms_px: Some(0.21), per_view_rms_px: vec![0.2, 0.22] })
 }
 
-fn stereo(left: FisheyeCamera, right: FisheyeCamera) -> Calibration {
+fn stereo(left: Camera, right: Camera) -> Calibration {
     Calibration::FisheyeStereo(FisheyeStereoCalibration {
-        rig: FisheyeStereoRig::new(left, right, right_from_left()).unwrap(),
+        rig: StereoRig::new(left, right, right_from_left()).unwrap(),
         rectification: None,
         rms_px: Some(0.3),
         per_view_rms_px: vec![[0.2, 0.25], [0.3, 0.35]],
@@ -60,7 +58,7 @@ fn stereo(left: FisheyeCamera, right: FisheyeCamera) -> Calibration {
 }
 
 /// `fx fy cx cy skew`, the lens parameters and the size.
-fn params(c: &FisheyeCamera) -> (Vec<f64>, u32, u32) {
+fn params(c: &Camera) -> (Vec<f64>, u32, u32) {
     let k = c.intrinsics();
     let mut v = vec![k.fx, k.fy, k.cx, k.cy, k.skew];
     v.extend(c.lens().parameters());
@@ -157,9 +155,9 @@ fn fisheye_and_pinhole_are_not_confused() {
 /// rectification cv2.fisheye.stereoRectify wrote is read, and ours reproduces it.
 #[test]
 fn opencv_written_fisheye_files() {
-    let truth_l = FisheyeCamera::new(
+    let truth_l = Camera::new(
         Intrinsics::new(310.5, 310.25, 319.25, 241.75),
-        FisheyeLens::KannalaBrandt(KannalaBrandt::new(0.021, -0.0052, 0.0011, -0.00021).unwrap()),
+        Lens::KannalaBrandt(KannalaBrandt::new(0.021, -0.0052, 0.0011, -0.00021).unwrap()),
         640,
         480,
     )

@@ -18,7 +18,7 @@ use parallax_hand_eye::{HandEyeConfig, HandEyeSolution, Method, Setup};
 use parallax_planar_calibration::{
     FisheyeModelKind, FisheyeStereoCalibrationResult, FisheyeStereoConfig, StereoCalibrationResult, StereoConfig,
 };
-use parallax_stereo_rectify::{FisheyeRectifyConfig, RectifyConfig};
+use parallax_stereo_rectify::RectifyConfig;
 use parallax_triangulation::{CornerDistance, Measurement, PointCloud, TriangulationConfig};
 
 use crate::stages::{self, FisheyeRectifiedRig, RectifiedRig, StereoViews};
@@ -121,7 +121,7 @@ pub struct ChainInput {
     /// cameras' `model`).
     pub fisheye_stereo: FisheyeStereoConfig,
     /// Rectification of a fisheye rig to a pinhole pair (`balance`, `fov_scale`).
-    pub fisheye_rectify: FisheyeRectifyConfig,
+    pub fisheye_rectify: RectifyConfig,
     /// Block-matching settings.
     pub matcher: parallax_block_matching::MatcherConfig,
     /// Hand-eye settings (the refined method is used).

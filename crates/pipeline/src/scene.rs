@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use glam::{DVec2, DVec3};
-use parallax_camera_model::{CameraModel, Chessboard, DisparityMap, FisheyeLens, Isometry3};
+use parallax_camera_model::{CameraModel, Chessboard, DisparityMap, Isometry3, LensModel};
 use parallax_hand_eye::Setup;
 use parallax_synthetic::{RenderOptions, SceneDescription};
 use rayon::prelude::*;
@@ -142,9 +142,9 @@ pub fn run_scene(name: &str, scene: &SceneDescription, out: &Path, corrupt: Opti
         .collect();
     input.setup = if truth.trajectory.eye_in_hand { Setup::EyeInHand } else { Setup::EyeToHand };
     if let Some(f) = &scene.fisheye {
-        input.lens = Lens::Fisheye(match f.rig.left.lens() {
-            FisheyeLens::KannalaBrandt(_) => parallax_planar_calibration::FisheyeModelKind::KannalaBrandt,
-            FisheyeLens::DoubleSphere(_) => parallax_planar_calibration::FisheyeModelKind::DoubleSphere,
+        input.lens = Lens::Fisheye(match f.rig.left.lens_model() {
+            LensModel::DoubleSphere => parallax_planar_calibration::FisheyeModelKind::DoubleSphere,
+            _ => parallax_planar_calibration::FisheyeModelKind::KannalaBrandt,
         });
     }
     input.matcher = parallax_block_matching::MatcherConfig {
@@ -335,7 +335,7 @@ fn score(report: &mut Report, scene: &SceneDescription, truth: &Truth, out: &Cha
     if let (Ok(cloud), Ok(m), Ok(r)) = (&out.cloud, &out.matched, &out.rectified) {
         let rect_true = match &scene.fisheye {
             None => parallax_stereo_rectify::stereo_rectify(&rig_true, &Default::default()),
-            Some(f) => parallax_stereo_rectify::fisheye_stereo_rectify(&f.rig, &input.fisheye_rectify),
+            Some(f) => parallax_stereo_rectify::stereo_rectify(&f.rig, &input.fisheye_rectify),
         };
         let errors = match rect_true {
             Ok(rt) => {

@@ -2,15 +2,13 @@
 //! the CLI commands and users' own programs all call these.
 
 use glam::{DVec2, DVec3};
-use parallax_camera_model::{
-    Camera, CameraModel, Chessboard, CornerGrid, DisparityMap, FisheyeStereoRig, Isometry3, StereoRig,
-};
+use parallax_camera_model::{Camera, CameraModel, Chessboard, CornerGrid, DisparityMap, Isometry3, StereoRig};
 use parallax_hand_eye::{HandEyeConfig, HandEyeSolution, Method, Setup};
 use parallax_planar_calibration::{
     CalibrationConfig, CalibrationResult, FisheyeStereoCalibrationResult, FisheyeStereoConfig, StereoCalibrationResult,
     StereoConfig,
 };
-use parallax_stereo_rectify::{FisheyeRectifyConfig, Rectification, RectifyConfig};
+use parallax_stereo_rectify::{Rectification, RectifyConfig};
 use parallax_triangulation::{CornerDistance, Measurement, PointCloud, TriangulationConfig};
 use rayon::prelude::*;
 
@@ -465,13 +463,13 @@ impl FisheyeRectifiedRig {
     /// Pixels of the left camera in the rectified left image.
     pub fn rectify_left<C: CameraModel>(&self, camera: &C, pixels: &[DVec2]) -> Result<Vec<DVec2>> {
         let r = &self.rectified.rectification;
-        Ok(parallax_stereo_rectify::rectify_points_fisheye(camera, r.r1, &r.p1, pixels)?)
+        Ok(parallax_stereo_rectify::rectify_points(camera, r.r1, &r.p1, pixels)?)
     }
 
     /// Pixels of the right camera in the rectified right image.
     pub fn rectify_right<C: CameraModel>(&self, camera: &C, pixels: &[DVec2]) -> Result<Vec<DVec2>> {
         let r = &self.rectified.rectification;
-        Ok(parallax_stereo_rectify::rectify_points_fisheye(camera, r.r2, &r.p2, pixels)?)
+        Ok(parallax_stereo_rectify::rectify_points(camera, r.r2, &r.p2, pixels)?)
     }
 
     /// `left camera_from_rectified left`: the rotation `R1ᵀ`.
@@ -501,11 +499,11 @@ pub fn rectified_pinhole_rig(rect: &Rectification) -> Result<StereoRig> {
 /// Rectifies a fisheye rig to a pinhole pair (`cv::fisheye::stereoRectify`) and measures the
 /// corners' `|Δv|` after rectification; refuses a collapsed valid region as [`rectify`] does.
 pub fn rectify_fisheye(
-    rig: &FisheyeStereoRig,
+    rig: &StereoRig,
     views: &StereoViews,
-    config: &FisheyeRectifyConfig,
+    config: &RectifyConfig,
 ) -> Result<FisheyeRectifiedRig> {
-    let rectification = parallax_stereo_rectify::fisheye_stereo_rectify(rig, config)?;
+    let rectification = parallax_stereo_rectify::stereo_rectify(rig, config)?;
     let area = f64::from(rectification.width) * f64::from(rectification.height);
     for (side, roi) in [("left", rectification.roi1), ("right", rectification.roi2)] {
         let valid = f64::from(roi.width) * f64::from(roi.height);
@@ -534,14 +532,14 @@ pub fn rectify_fisheye(
 /// Resamples a fisheye stereo pair into the rectified pinhole geometry (bilinear, black where
 /// no source pixel is).
 pub fn rectify_fisheye_images(
-    rig: &FisheyeStereoRig,
+    rig: &StereoRig,
     rectification: &Rectification,
     left: &image::GrayImage,
     right: &image::GrayImage,
 ) -> Result<(image::GrayImage, image::GrayImage)> {
     let (w, h) = (rectification.width, rectification.height);
-    let one = |camera: &parallax_camera_model::FisheyeCamera, r, p: &parallax_camera_model::ProjectionMatrix, img| {
-        let table = parallax_stereo_rectify::init_fisheye_undistort_rectify_map(camera, r, p.left_block(), w, h)?;
+    let one = |camera: &parallax_camera_model::Camera, r, p: &parallax_camera_model::ProjectionMatrix, img| {
+        let table = parallax_stereo_rectify::init_undistort_rectify_map(camera, r, p.left_block(), w, h)?;
         Ok::<_, PipelineError>(parallax_stereo_rectify::remap(
             img,
             &table,
@@ -557,7 +555,7 @@ pub fn rectify_fisheye_images(
 
 /// Grids of both fisheye cameras moved onto the rectified pinhole pair (same corner order).
 pub fn rectified_grids(
-    rig: &FisheyeStereoRig,
+    rig: &StereoRig,
     rect: &FisheyeRectifiedRig,
     left: &CornerGrid,
     right: &CornerGrid,
@@ -571,7 +569,7 @@ pub fn rectified_grids(
 /// Distances between adjacent corners of every stereo view of a fisheye rig, triangulated on
 /// the rectified pinhole pair (distances do not depend on the frame).
 pub fn fisheye_adjacent_distances(
-    rig: &FisheyeStereoRig,
+    rig: &StereoRig,
     rect: &FisheyeRectifiedRig,
     views: &StereoViews,
     config: &TriangulationConfig,
@@ -589,7 +587,7 @@ pub fn fisheye_adjacent_distances(
 /// (`R1ᵀ ·` rectified). A point's per-axis σ belongs to the rectified frame and is dropped
 /// (`None`) after the rotation; the distances and their σ do not depend on the frame.
 pub fn measure_fisheye(
-    rig: &FisheyeStereoRig,
+    rig: &StereoRig,
     rect: &FisheyeRectifiedRig,
     pairs: &[(DVec2, DVec2)],
     config: &TriangulationConfig,
@@ -610,7 +608,7 @@ pub fn measure_fisheye(
 /// `camera_from_board` of every found grid of the left fisheye camera: planar PnP on the
 /// corners moved onto the rectified left view, then rotated back by `R1ᵀ`.
 pub fn fisheye_board_poses(
-    rig: &FisheyeStereoRig,
+    rig: &StereoRig,
     rect: &FisheyeRectifiedRig,
     board: &Chessboard,
     grids: &[Option<CornerGrid>],

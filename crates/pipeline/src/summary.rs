@@ -24,10 +24,16 @@ fn finish(mut s: String) -> String {
 
 /// A camera's intrinsics and distortion with their standard deviations (`(fixed)` where held).
 pub fn camera(name: &str, c: &Camera, s: &IntrinsicStdDevs) -> String {
-    let (k, d) = (c.intrinsics, c.distortion);
-    let mut out = format!("{name}: {}x{}\n", c.width, c.height);
+    let k = c.intrinsics;
+    let mut out = format!("{name}: {}x{}, {} lens\n", c.width, c.height, c.lens_model());
     let _ = writeln!(out, "  fx {}  fy {}", pm(k.fx, s.fx), pm(k.fy, s.fy));
     let _ = writeln!(out, "  cx {}  cy {}", pm(k.cx, s.cx), pm(k.cy, s.cy));
+    let Some(d) = c.distortion() else {
+        let names = c.lens_model().parameter_names();
+        let values: Vec<String> = names.iter().zip(c.lens.parameters()).map(|(n, v)| format!("{n} {v:.8}")).collect();
+        let _ = writeln!(out, "  {}", values.join("  "));
+        return finish(out);
+    };
     let _ = writeln!(out, "  k1 {}  k2 {}  k3 {}", pm(d.k1, s.k1), pm(d.k2, s.k2), pm(d.k3, s.k3));
     let _ = writeln!(out, "  p1 {}  p2 {}", pm(d.p1, s.p1), pm(d.p2, s.p2));
     if d.is_rational() || s.k4.is_some() {
@@ -37,14 +43,18 @@ pub fn camera(name: &str, c: &Camera, s: &IntrinsicStdDevs) -> String {
 }
 
 /// The `key: value` lines of a calibrated camera: `{prefix}rms_px`, `fx fy cx cy` (6 decimals),
-/// `k1 k2 p1 p2 k3` (8 decimals).
+/// `lens` (`pinhole`, `kannala-brandt`, `double-sphere`), then the lens parameters (8
+/// decimals): `k1 k2 p1 p2 k3`, `k1 k2 k3 k4` or `xi alpha`.
 pub fn camera_keys(prefix: &str, rms: f64, c: &Camera) -> String {
-    let (k, d) = (c.intrinsics, c.distortion);
+    let k = c.intrinsics;
     let mut out = format!("{prefix}rms_px: {rms:.6}\n");
     for (name, v) in [("fx", k.fx), ("fy", k.fy), ("cx", k.cx), ("cy", k.cy)] {
         let _ = writeln!(out, "{prefix}{name}: {v:.6}");
     }
-    for (name, v) in [("k1", d.k1), ("k2", d.k2), ("p1", d.p1), ("p2", d.p2), ("k3", d.k3)] {
+    let _ = writeln!(out, "{prefix}lens: {}", c.lens_model());
+    let names = c.lens_model().parameter_names();
+    // Brown–Conrady: OpenCV's five (the rational terms are in the files)
+    for (name, v) in names.iter().zip(c.lens.parameters()).take(5) {
         let _ = writeln!(out, "{prefix}{name}: {v:.8}");
     }
     finish(out)

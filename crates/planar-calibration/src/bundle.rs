@@ -98,14 +98,15 @@ impl CameraModelSlots {
 
 pub(crate) fn theta_of(c: &Camera) -> [f64; N_INTR] {
     let k = &c.intrinsics;
-    let d = c.distortion.to_array();
+    // (a Brown–Conrady camera: `calibrate_camera` refuses a wide-lens guess)
+    let d = c.distortion().map_or([0.0; 8], |d| d.to_array());
     [k.fx, k.fy, k.cx, k.cy, k.skew, d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7]]
 }
 
 pub(crate) fn camera_of(t: &[f64; N_INTR], width: u32, height: u32) -> Camera {
     Camera {
         intrinsics: Intrinsics { fx: t[0], fy: t[1], cx: t[2], cy: t[3], skew: t[4] },
-        distortion: Distortion::from_array([t[5], t[6], t[7], t[8], t[9], t[10], t[11], t[12]]),
+        lens: Distortion::from_array([t[5], t[6], t[7], t[8], t[9], t[10], t[11], t[12]]).into(),
         width,
         height,
     }

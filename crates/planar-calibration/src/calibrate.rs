@@ -384,7 +384,7 @@ fn initial_estimate(
         && let Ok((k1, k2)) = radial_distortion_linear(&k, &poses, object_points, image_points)
     {
         // Keep the linear estimate only when it is plausible and lowers the error.
-        let with = Camera { distortion: Distortion::new(k1, k2, 0.0, 0.0, 0.0), ..camera };
+        let with = Camera { lens: Distortion::new(k1, k2, 0.0, 0.0, 0.0).into(), ..camera };
         if k1.abs() < 2.0
             && k2.abs() < 5.0
             && rms(&with, &poses, object_points, image_points) < rms(&camera, &poses, object_points, image_points)
@@ -464,7 +464,7 @@ pub fn distortion_fold(camera: &Camera) -> Option<DistortionFold> {
         DVec2::new(camera.width as f64 - 0.5, camera.height as f64 - 0.5),
     ];
     let rho_max = corners.iter().map(|c| k.to_normalized(*c).length()).fold(0.0, f64::max);
-    let d = Distortion { p1: 0.0, p2: 0.0, ..camera.distortion };
+    let d = Distortion { p1: 0.0, p2: 0.0, ..*camera.distortion()? };
     let g = |r: f64| d.distort(DVec2::new(r, 0.0)).x;
     let step = 1e-3;
     let mut r = 0.0;
@@ -564,6 +564,14 @@ pub fn calibrate_camera(
             needed,
             why: "a planar target fixes only 2 of the intrinsics per view (give more views, or an intrinsic guess with a fixed principal point)",
         });
+    }
+    if let Some(g) = &config.intrinsic_guess
+        && g.distortion().is_none()
+    {
+        return Err(CalibrationError::InvalidConfig(format!(
+            "the intrinsic guess has a {} lens; this calibration fits Brown–Conrady (pinhole)",
+            g.lens_model()
+        )));
     }
     let (init_camera, init_poses) = initial_estimate(object_points, image_points, width, height, config)?;
     let slots = model_slots(config, &init_camera);

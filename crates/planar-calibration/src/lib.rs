@@ -15,7 +15,7 @@
 //! * [`calibrate_dlt`]: `P` from a non-planar target, RQ into `K`, `R`, `t`.
 //! * [`solve_pnp_planar`]: the pose of a calibrated camera from a planar target.
 //! * [`calibrate_fisheye`] / [`calibrate_fisheye_stereo`]: wide-angle cameras
-//!   (`parallax_camera_model::FisheyeCamera`, Kannala–Brandt as OpenCV's `fisheye` or double
+//!   (`parallax_camera_model::Camera`, Kannala–Brandt as OpenCV's `fisheye` or double
 //!   sphere) with the same refinement, standard deviations, per-view errors and warnings
 //!   ([`FisheyeWarning`]), and an initialisation that needs no focal-length guess.
 //!

@@ -4,9 +4,7 @@
 //! shared with `cv2.fisheye.calibrate` (see `tests/opencv_fisheye_calibrate.py`).
 
 use glam::{DVec2, DVec3};
-use parallax_camera_model::{
-    Chessboard, DoubleSphere, FisheyeCamera, FisheyeLens, Intrinsics, Isometry3, KannalaBrandt,
-};
+use parallax_camera_model::{Camera, Chessboard, DoubleSphere, Intrinsics, Isometry3, KannalaBrandt, Lens};
 use parallax_planar_calibration::{
     CalibrationError, FisheyeCalibrationConfig, FisheyeCalibrationResult, FisheyeModelKind, FisheyeStereoConfig,
     FisheyeWarning, calibrate_fisheye, calibrate_fisheye_stereo,
@@ -17,10 +15,10 @@ use parallax_synthetic::{
 };
 
 /// 1280x960, θ = 90° at 640 px from the centre: a 180° horizontal field of view.
-fn kb_truth() -> FisheyeCamera {
-    FisheyeCamera::new(
+fn kb_truth() -> Camera {
+    Camera::new(
         Intrinsics::new(397.0, 396.5, 639.3, 479.6),
-        FisheyeLens::KannalaBrandt(KannalaBrandt::new(0.02, -0.005, 0.001, -0.0002).unwrap()),
+        Lens::KannalaBrandt(KannalaBrandt::new(0.02, -0.005, 0.001, -0.0002).unwrap()),
         1280,
         960,
     )
@@ -28,10 +26,10 @@ fn kb_truth() -> FisheyeCamera {
 }
 
 /// 1280x960 double sphere, θ = 90° at 640 px from the centre (180° horizontal field of view).
-fn ds_truth() -> FisheyeCamera {
-    FisheyeCamera::new(
+fn ds_truth() -> Camera {
+    Camera::new(
         Intrinsics::new(340.0, 339.5, 639.3, 479.6),
-        FisheyeLens::DoubleSphere(DoubleSphere::new(-0.2, 0.6).unwrap()),
+        Lens::DoubleSphere(DoubleSphere::new(-0.2, 0.6).unwrap()),
         1280,
         960,
     )
@@ -54,7 +52,7 @@ fn view_config(seed: u64) -> WideViewSetConfig {
 }
 
 /// The corner sets of one trial: poses, then noisy corners (σ in px) with seed `seed`.
-fn corner_sets(truth: &FisheyeCamera, seed: u64, sigma: f64) -> (Vec<Vec<DVec3>>, Vec<Vec<DVec2>>, Vec<Isometry3>) {
+fn corner_sets(truth: &Camera, seed: u64, sigma: f64) -> (Vec<Vec<DVec3>>, Vec<Vec<DVec2>>, Vec<Isometry3>) {
     let b = board();
     let poses = wide_angle_calibration_poses(truth, &b, &view_config(seed)).unwrap();
     let mut r = rng(1000 + seed);
@@ -74,13 +72,13 @@ fn config(model: FisheyeModelKind) -> FisheyeCalibrationConfig {
 }
 
 /// Normalised lens errors `(estimate − truth) / σ`.
-fn lens_z(result: &FisheyeCalibrationResult, truth: &FisheyeCamera) -> Vec<f64> {
+fn lens_z(result: &FisheyeCalibrationResult, truth: &Camera) -> Vec<f64> {
     let est = result.camera.lens().parameters();
     let tru = truth.lens().parameters();
     (0..tru.len()).map(|i| (est[i] - tru[i]) / result.std_devs.lens[i].unwrap()).collect()
 }
 
-fn focal_errors(result: &FisheyeCalibrationResult, truth: &FisheyeCamera) -> (f64, f64) {
+fn focal_errors(result: &FisheyeCalibrationResult, truth: &Camera) -> (f64, f64) {
     let (e, t) = (result.camera.intrinsics(), truth.intrinsics());
     ((e.fx / t.fx - 1.0).abs(), (e.fy / t.fy - 1.0).abs())
 }
@@ -90,8 +88,8 @@ fn focal_errors(result: &FisheyeCalibrationResult, truth: &FisheyeCamera) -> (f6
 fn exact_corners_recover_the_truth() {
     for truth in [kb_truth(), ds_truth()] {
         let model = match truth.lens() {
-            FisheyeLens::KannalaBrandt(_) => FisheyeModelKind::KannalaBrandt,
-            FisheyeLens::DoubleSphere(_) => FisheyeModelKind::DoubleSphere,
+            Lens::KannalaBrandt(_) => FisheyeModelKind::KannalaBrandt,
+            Lens::DoubleSphere(_) => FisheyeModelKind::DoubleSphere,
         };
         let (object, image, poses) = corner_sets(&truth, 3, 0.0);
         let r = calibrate_fisheye(&object, &image, 1280, 960, &config(model)).unwrap();
@@ -122,7 +120,7 @@ fn exact_corners_recover_the_truth() {
 
 /// One trial per model and seed: fx/fy within 0.1 % and each lens parameter within 4σ of the
 /// truth (the always-run version of the 100-trial test below, which checks 3σ in ≥ 95 %).
-fn trial(truth: &FisheyeCamera, model: FisheyeModelKind, seed: u64) -> Trial {
+fn trial(truth: &Camera, model: FisheyeModelKind, seed: u64) -> Trial {
     let (object, image, _) = corner_sets(truth, seed, 0.2);
     let r = calibrate_fisheye(&object, &image, truth.width(), truth.height(), &config(model)).unwrap();
     assert!(r.converged, "seed {seed}: not converged");
@@ -131,9 +129,7 @@ fn trial(truth: &FisheyeCamera, model: FisheyeModelKind, seed: u64) -> Trial {
     let fx_z = (e.fx - t.fx) / r.std_devs.fx.unwrap();
     // Double sphere: near the axis only f/(1 + ξ) is observed (pixel ≈ f/(1+ξ)·tan θ).
     let paraxial = match (r.camera.lens(), truth.lens()) {
-        (FisheyeLens::DoubleSphere(a), FisheyeLens::DoubleSphere(b)) => {
-            (e.fx / (1.0 + a.xi()) / (t.fx / (1.0 + b.xi())) - 1.0).abs()
-        }
+        (Lens::DoubleSphere(a), Lens::DoubleSphere(b)) => (e.fx / (1.0 + a.xi()) / (t.fx / (1.0 + b.xi())) - 1.0).abs(),
         _ => fx,
     };
     let fx_sigma = r.std_devs.fx.unwrap() / t.fx;
@@ -243,9 +239,9 @@ fn hundred_trials_per_model() {
 #[test]
 fn stereo_rig_of_two_fisheyes() {
     let left = kb_truth();
-    let right = FisheyeCamera::new(
+    let right = Camera::new(
         Intrinsics::new(400.0, 399.0, 641.0, 478.0),
-        FisheyeLens::KannalaBrandt(KannalaBrandt::new(0.018, -0.004, 0.0008, -0.00015).unwrap()),
+        Lens::KannalaBrandt(KannalaBrandt::new(0.018, -0.004, 0.0008, -0.00015).unwrap()),
         1280,
         960,
     )
@@ -254,7 +250,7 @@ fn stereo_rig_of_two_fisheyes() {
     let b = board();
     let poses = wide_angle_stereo_calibration_poses(&left, &right, &truth_rig, &b, &view_config(7)).unwrap();
     let mut r = rng(77);
-    let mut corners = |cam: &FisheyeCamera, rig: Isometry3| -> Vec<Vec<DVec2>> {
+    let mut corners = |cam: &Camera, rig: Isometry3| -> Vec<Vec<DVec2>> {
         poses
             .iter()
             .map(|p| {
@@ -413,9 +409,9 @@ fn export_corner_sets_for_opencv() {
 /// lens with `k3 = k4 = 0` and the principal point at the image centre is recovered exactly.
 #[test]
 fn options_hold_and_free_the_right_parameters() {
-    let truth = FisheyeCamera::new(
+    let truth = Camera::new(
         Intrinsics::new(397.0, 397.0, 639.5, 479.5),
-        FisheyeLens::KannalaBrandt(KannalaBrandt::new(0.02, -0.005, 0.0, 0.0).unwrap()),
+        Lens::KannalaBrandt(KannalaBrandt::new(0.02, -0.005, 0.0, 0.0).unwrap()),
         1280,
         960,
     )
@@ -445,9 +441,9 @@ fn options_hold_and_free_the_right_parameters() {
 /// 683 px from the centre, the image corner is 800 px away) is calibrated and reported.
 #[test]
 fn folding_lens_is_reported() {
-    let truth = FisheyeCamera::new(
+    let truth = Camera::new(
         Intrinsics::new(397.0, 397.0, 639.5, 479.5),
-        FisheyeLens::KannalaBrandt(KannalaBrandt::new(-0.05, 0.0, 0.0, 0.0).unwrap()),
+        Lens::KannalaBrandt(KannalaBrandt::new(-0.05, 0.0, 0.0, 0.0).unwrap()),
         1280,
         960,
     )
@@ -473,9 +469,9 @@ fn folding_lens_is_reported() {
 #[test]
 fn stereo_rig_of_two_double_sphere_cameras() {
     let left = ds_truth();
-    let right = FisheyeCamera::new(
+    let right = Camera::new(
         Intrinsics::new(343.0, 342.0, 641.0, 478.0),
-        FisheyeLens::DoubleSphere(DoubleSphere::new(-0.18, 0.61).unwrap()),
+        Lens::DoubleSphere(DoubleSphere::new(-0.18, 0.61).unwrap()),
         1280,
         960,
     )
@@ -484,7 +480,7 @@ fn stereo_rig_of_two_double_sphere_cameras() {
     let b = board();
     let poses = wide_angle_stereo_calibration_poses(&left, &right, &truth_rig, &b, &view_config(8)).unwrap();
     let mut r = rng(88);
-    let mut corners = |cam: &FisheyeCamera, rig: Isometry3| -> Vec<Vec<DVec2>> {
+    let mut corners = |cam: &Camera, rig: Isometry3| -> Vec<Vec<DVec2>> {
         poses
             .iter()
             .map(|p| {
@@ -507,9 +503,9 @@ fn stereo_rig_of_two_double_sphere_cameras() {
     }
     assert!((res.rig.baseline() / truth_rig.translation.length() - 1.0).abs() < 5e-3);
     for (est, tru) in [(res.rig.left, left), (res.rig.right, right)] {
-        let paraxial = |c: &FisheyeCamera| match c.lens() {
-            FisheyeLens::DoubleSphere(m) => c.intrinsics().fx / (1.0 + m.xi()),
-            FisheyeLens::KannalaBrandt(_) => unreachable!("double sphere rig"),
+        let paraxial = |c: &Camera| match c.lens() {
+            Lens::DoubleSphere(m) => c.intrinsics().fx / (1.0 + m.xi()),
+            Lens::KannalaBrandt(_) => unreachable!("double sphere rig"),
         };
         assert!((paraxial(&est) / paraxial(&tru) - 1.0).abs() < 1e-3);
     }

@@ -15,7 +15,7 @@ use rand::Rng;
 fn camera() -> Camera {
     Camera {
         intrinsics: Intrinsics::new(700.0, 700.0, 401.0, 298.0),
-        distortion: Distortion::new(-0.28, 0.11, 0.0004, -0.0003, -0.02),
+        lens: Distortion::new(-0.28, 0.11, 0.0004, -0.0003, -0.02).into(),
         width: 800,
         height: 600,
     }

@@ -28,8 +28,11 @@ pub enum ExtentMethod {
     Exact,
 }
 
-/// Options of [`stereo_rectify`] (OpenCV's `flags`, `alpha`, `newImageSize`).
+/// Options of [`stereo_rectify`]: OpenCV's `flags`, `alpha`, `newImageSize` (`stereoRectify`,
+/// Brown–Conrady rigs) and `balance`, `fov_scale` (`fisheye::stereoRectify`, rigs with a wide
+/// lens). An option of the other lens family than the rig's is refused, not ignored.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct RectifyConfig {
     /// Free scaling in `[0, 1]`: 0 zooms so only valid pixels are visible (no black border),
     /// 1 shrinks so every source pixel is kept; values between interpolate the focal length.
@@ -42,13 +45,27 @@ pub struct RectifyConfig {
     /// points at infinity have zero disparity. Without it only the coordinate across the
     /// baseline is shared (`cy` for horizontal rigs, `cx` for vertical ones).
     pub zero_disparity: bool,
-    /// How image extents are measured (OpenCV-compatible by default).
+    /// How image extents are measured (OpenCV-compatible by default; Brown–Conrady rigs).
     pub extents: ExtentMethod,
+    /// Wide lenses: in `[0, 1]`, 0 keeps only valid pixels (the focal length of the tightest
+    /// fit of the undistorted edge midpoints), 1 keeps the whole undistorted extent (OpenCV
+    /// fisheye's `balance`; default 0).
+    pub balance: f64,
+    /// Wide lenses: divides the focal length, above 1 widens the field of view (OpenCV
+    /// fisheye's `fov_scale`; default 1, must be > 0).
+    pub fov_scale: f64,
 }
 
 impl Default for RectifyConfig {
     fn default() -> Self {
-        Self { alpha: None, new_size: None, zero_disparity: true, extents: ExtentMethod::OpenCv }
+        Self {
+            alpha: None,
+            new_size: None,
+            zero_disparity: true,
+            extents: ExtentMethod::OpenCv,
+            balance: 0.0,
+            fov_scale: 1.0,
+        }
     }
 }
 
@@ -167,9 +184,35 @@ pub(crate) struct RectF {
 /// 5. `alpha` interpolates the focal length between the inscribed (`alpha = 0`) and the
 ///    circumscribed (`alpha = 1`) rectangles of both undistorted, rotated images.
 ///
+/// A rig with a wide lens (Kannala–Brandt or double sphere, either camera) is rectified to a
+/// pinhole pair by OpenCV's `fisheye::stereoRectify` rule instead (`balance`, `fov_scale`).
+///
 /// Errors on an invalid rig, a zero baseline, cameras of different image sizes, `alpha`
-/// outside `[0, 1]` or a zero new size.
+/// outside `[0, 1]`, a zero new size, or an option of the other lens family.
 pub fn stereo_rectify(rig: &StereoRig, config: &RectifyConfig) -> Result<Rectification> {
+    let wide = [&rig.left, &rig.right].iter().any(|c| c.lens_model().is_wide());
+    if wide {
+        if let Some(a) = config.alpha {
+            return Err(RectifyError::Config(format!(
+                "alpha {a} applies to Brown–Conrady rigs; this rig has a {} lens: use balance (0 = only valid \
+                 pixels, 1 = the whole image) and fov_scale",
+                wide_model(rig)
+            )));
+        }
+        if config.extents != ExtentMethod::OpenCv {
+            return Err(RectifyError::Config(
+                "the extent method applies to Brown–Conrady rigs; a wide-lens rig's extents are converged".into(),
+            ));
+        }
+        return crate::wide::fisheye_stereo_rectify(rig, config);
+    }
+    if config.balance != 0.0 || config.fov_scale != 1.0 {
+        return Err(RectifyError::Config(format!(
+            "balance {} and fov_scale {} apply to rigs with a wide lens (Kannala–Brandt, double sphere); this \
+             Brown–Conrady rig takes alpha",
+            config.balance, config.fov_scale
+        )));
+    }
     rig.left.validate().map_err(|source| RectifyError::Camera { what: "left camera", source })?;
     rig.right.validate().map_err(|source| RectifyError::Camera { what: "right camera", source })?;
     if !rig.right_from_left.is_finite() {
@@ -456,4 +499,9 @@ pub(crate) fn apply_homography(h: DMat3, p: DVec2) -> DVec2 {
     let q = h * p.extend(1.0);
     let iw = 1.0 / q.z;
     DVec2::new(q.x * iw, q.y * iw)
+}
+
+/// The wide lens model of a rig (for messages).
+fn wide_model(rig: &StereoRig) -> parallax_camera_model::LensModel {
+    [rig.left.lens_model(), rig.right.lens_model()].into_iter().find(|m| m.is_wide()).unwrap_or_default()
 }

@@ -1,11 +1,15 @@
 //! # stereo-rectify — row-aligned stereo pairs
 //!
-//! * [`stereo_rectify`]: Bouguet's calibrated rectification, formula for formula OpenCV's
-//!   `stereoRectify` (`R1`, `R2`, `P1`, `P2`, `Q`, valid-pixel rectangles, `alpha`, new image
-//!   size, `CALIB_ZERO_DISPARITY`, vertical rigs). With the default [`ExtentMethod::OpenCv`] the
-//!   matrices agree with OpenCV 5.0 to ~1e-9 (checked against OpenCV's output in the tests).
+//! * [`stereo_rectify`]: one entry point for a rig of any lenses. Brown–Conrady rigs: Bouguet's
+//!   calibrated rectification, formula for formula OpenCV's `stereoRectify` (`R1`, `R2`, `P1`,
+//!   `P2`, `Q`, valid-pixel rectangles, `alpha`, new image size, `CALIB_ZERO_DISPARITY`,
+//!   vertical rigs); with the default [`ExtentMethod::OpenCv`] the matrices agree with OpenCV
+//!   5.0 to ~1e-9 (checked against OpenCV's output in the tests). Rigs with a wide lens
+//!   (Kannala–Brandt, double sphere): OpenCV's `fisheye::stereoRectify` rule (`balance`,
+//!   `fov_scale`) to a pinhole pair.
 //! * [`init_undistort_rectify_map`], [`init_undistort_map`], [`init_homography_map`]: per-pixel
-//!   lookup tables ([`RemapTable`], `f32`, as `initUndistortRectifyMap`), built row-parallel.
+//!   lookup tables ([`RemapTable`], `f32`, as `initUndistortRectifyMap` and
+//!   `fisheye::initUndistortRectifyMap`), built row-parallel, for any lens.
 //! * [`remap`]: bilinear or nearest resampling with constant or replicated border, for any
 //!   `image` pixel with `u8` / `u16` channels (`Luma<u8>`, `Luma<u16>`, `Rgb<u8>`), rayon rows.
 //! * [`Rectifier`]: build once (rectification + both fixed-point tables; the `f32` maps on
@@ -16,12 +20,10 @@
 //! * [`stereo_rectify_uncalibrated`]: Hartley's rectification from a fundamental matrix and
 //!   matches (OpenCV's `stereoRectifyUncalibrated`).
 //!
-//! * Wide-angle rigs ([`parallax_camera_model::FisheyeCamera`], or any `CameraModel`):
-//!   [`estimate_new_camera_matrix_for_undistort_rectify`] and [`fisheye_stereo_rectify`]
-//!   (OpenCV's `fisheye::` functions, number for number where OpenCV's undistortion converges),
-//!   [`init_fisheye_undistort_rectify_map`] to a pinhole, and [`WideView`] /
-//!   [`fisheye_wide_rectify`] to an equirectangular or cylindrical view whose rows are epipolar
-//!   planes, for fields of view a pinhole cannot hold.
+//! * Wide-angle views: [`estimate_new_camera_matrix_for_undistort_rectify`] (OpenCV's
+//!   `fisheye::` function, number for number where OpenCV's undistortion converges), and
+//!   [`WideView`] / [`wide_rectify`] to an equirectangular or cylindrical view whose rows are
+//!   epipolar planes, for fields of view a pinhole cannot hold.
 //!
 //! Frames and names follow `camera-model`: the rig's `right_from_left` is OpenCV's `(R, T)`;
 //! `r1` maps the left camera frame to the rectified left frame.
@@ -56,13 +58,13 @@
 
 mod bouguet;
 mod error;
-mod fisheye;
 mod hartley;
 mod maps;
 mod opencv_compat;
 mod points;
 mod rectifier;
 mod remap;
+mod wide;
 
 // The crates whose types this crate's public API uses, re-exported so that a caller needs no
 // version match with them (`parallax_x::glam::DVec3` is the `DVec3` this crate takes).
@@ -73,14 +75,12 @@ pub use parallax_least_squares;
 
 pub use bouguet::{ExtentMethod, Rectification, RectifyConfig, Roi, stereo_rectify};
 pub use error::{RectifyError, Result};
-pub use fisheye::{
-    FisheyeRectifyConfig, WideProjection, WideRectification, WideView,
-    estimate_new_camera_matrix_for_undistort_rectify, fisheye_stereo_rectify, fisheye_wide_rectify,
-    init_fisheye_undistort_map, init_fisheye_undistort_rectify_map, init_wide_view_map, rectify_points_fisheye,
-    rectify_points_wide, rectifying_rotations,
-};
 pub use hartley::{UncalibratedRectification, stereo_rectify_uncalibrated};
 pub use maps::{RemapTable, init_homography_map, init_undistort_map, init_undistort_rectify_map};
 pub use points::rectify_points;
 pub use rectifier::Rectifier;
 pub use remap::{Border, Image, Interpolation, Sample, remap};
+pub use wide::{
+    WideProjection, WideRectification, WideView, estimate_new_camera_matrix_for_undistort_rectify, init_wide_view_map,
+    rectify_points_wide, rectifying_rotations, wide_rectify,
+};

@@ -79,9 +79,11 @@ fn check_size(width: u32, height: u32) -> Result<()> {
 /// (there is no vector conversion from unsigned integers before AVX-512).
 const MAX_SIDE: u32 = 1 << 30;
 
-/// The undistort + rectify map of one camera, as OpenCV's `initUndistortRectifyMap(K, D, R,
-/// newK, size, CV_32FC1)`: output pixel `p` ← ray `(newK · R)⁻¹ p`, distorted and projected
-/// with the camera's own intrinsics. `r` is the rectifying rotation (`R1` or `R2`; identity
+/// The undistort + rectify map of one camera of any lens, as OpenCV's
+/// `initUndistortRectifyMap(K, D, R, newK, size, CV_32FC1)` (Brown–Conrady) or
+/// `fisheye::initUndistortRectifyMap` (wide lenses): output pixel `p` ← ray `(newK · R)⁻¹ p`,
+/// through the lens and the camera's own intrinsics; pixels whose ray the lens does not image
+/// have no source (NaN). `r` is the rectifying rotation (`R1` or `R2`; identity
 /// for plain undistortion) and `new_camera_matrix` the rectified camera matrix (the left 3x3
 /// block of `P1`/`P2`, see [`crate::Rectification::left_camera_matrix`]). Computed in `f64`,
 /// stored as `f32` (≤ 3e-5 px rounding on a 640-px image); rows in parallel.
@@ -258,20 +260,12 @@ pub(crate) fn map_params(
     let ir = m.inverse();
     check_size(width, height)?;
     let k = camera.intrinsics;
-    let [k1, k2, p1, p2, k3, k4, k5, k6] = camera.distortion.to_array();
-    let rational = camera.distortion.is_rational();
+    let (dist, rational, wide) = match camera.distortion() {
+        Some(d) => (d.to_array(), d.is_rational(), None),
+        None => ([0.0; 8], false, Some(*camera)),
+    };
     let step = ir.x_axis; // d(ray)/du
-    Ok(MapRow {
-        ir,
-        step,
-        fx: k.fx,
-        fy: k.fy,
-        skew: k.skew,
-        cx: k.cx,
-        cy: k.cy,
-        dist: [k1, k2, p1, p2, k3, k4, k5, k6],
-        rational,
-    })
+    Ok(MapRow { ir, step, fx: k.fx, fy: k.fy, skew: k.skew, cx: k.cx, cy: k.cy, dist, rational, wide })
 }
 
 /// The undistort-only map of one camera (OpenCV's `initUndistortRectifyMap` with `R = I`), for
@@ -310,6 +304,9 @@ pub(crate) struct MapRow {
     cy: f64,
     dist: [f64; 8],
     rational: bool,
+    /// A wide-angle camera: its rows go through the lens model pixel by pixel (as OpenCV's
+    /// `fisheye::initUndistortRectifyMap`); `None` for Brown–Conrady (the formula below).
+    wide: Option<Camera>,
 }
 
 impl MapRow {
@@ -320,6 +317,14 @@ impl MapRow {
     /// bits (`every_instruction_set_gives_the_same_row`); the formula is camera-model's
     /// `Distortion::distort`.
     fn row(&self, v: usize, mx: &mut [f32], my: &mut [f32]) {
+        if let Some(camera) = &self.wide {
+            let base = self.ir * DVec3::new(0.0, v as f64, 1.0);
+            for (u, (ox, oy)) in mx.iter_mut().zip(my.iter_mut()).enumerate() {
+                let p = camera.project(base + self.step * u as f64).ok().filter(|p| p.is_finite());
+                (*ox, *oy) = p.map_or((f32::NAN, f32::NAN), |p| (p.x as f32, p.y as f32));
+            }
+            return;
+        }
         #[cfg(target_arch = "x86_64")]
         let isa = Some(RowIsa::detect()).filter(|&i| i != RowIsa::Baseline);
         #[cfg(not(target_arch = "x86_64"))]

@@ -12,7 +12,8 @@ pub(crate) const OPENCV_UNDISTORT_ITERATIONS: usize = 5;
 /// strong distortion: that is the point of reproducing it). Returns normalised coordinates.
 pub(crate) fn undistort_point(camera: &Camera, pixel: DVec2) -> DVec2 {
     let k = &camera.intrinsics;
-    let d = camera.distortion.to_array();
+    // (Bouguet runs on Brown–Conrady rigs only: `stereo_rectify` sends wide lenses elsewhere)
+    let d = camera.distortion().map_or([0.0; 8], |d| d.to_array());
     let (ifx, ify) = (1.0 / k.fx, 1.0 / k.fy);
     let x0 = (pixel.x - k.cx) * ifx;
     let y0 = (pixel.y - k.cy) * ify;

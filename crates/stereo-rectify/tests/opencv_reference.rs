@@ -56,6 +56,7 @@ fn config(c: &Case, extents: ExtentMethod) -> RectifyConfig {
         new_size: (c.new_size != [0, 0]).then_some((c.new_size[0], c.new_size[1])),
         zero_disparity: c.zero_disparity,
         extents,
+        ..Default::default()
     }
 }
 

@@ -114,7 +114,7 @@ pub struct RenderedView {
 /// multiply the image, the blur is applied (imageproc's Gaussian), then Gaussian noise, impulse
 /// noise and rounding to 8 bits. The true corners are [`project_corners`].
 ///
-/// Any [`CameraModel`] renders: the pinhole `Camera` and the wide-angle `FisheyeCamera` (rays
+/// Any [`CameraModel`] renders: the pinhole `Camera` and the wide-angle `Camera` (rays
 /// behind the image plane included; pixels no ray maps to show the background).
 ///
 /// Errors on an invalid camera, board, pose or option, or when a corner is outside the camera's

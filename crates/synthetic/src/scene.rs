@@ -2,7 +2,7 @@
 //! robot trajectory and the pipeline's pass/fail tolerances.
 
 use glam::DVec3;
-use parallax_camera_model::{Camera, Chessboard, Distortion, FisheyeStereoRig, Intrinsics, Isometry3, StereoRig};
+use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3, StereoRig};
 use serde::{Deserialize, Serialize};
 
 use crate::{
@@ -16,7 +16,7 @@ use crate::{
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FisheyeScene {
     /// The rig.
-    pub rig: FisheyeStereoRig,
+    pub rig: StereoRig,
     /// Generator of the stereo session's left `camera_from_board` poses.
     pub views: WideViewSetConfig,
 }
@@ -163,13 +163,13 @@ impl SceneDescription {
     pub fn builtin() -> Self {
         let camera = Camera {
             intrinsics: Intrinsics::new(600.0, 600.0, 322.0, 238.0),
-            distortion: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0),
+            lens: Distortion::new(-0.12, 0.05, 0.0005, -0.0003, 0.0).into(),
             width: 640,
             height: 480,
         };
         let right = Camera {
             intrinsics: Intrinsics::new(603.0, 602.0, 317.0, 242.0),
-            distortion: Distortion::new(-0.1, 0.04, -0.0004, 0.0002, 0.0),
+            lens: Distortion::new(-0.1, 0.04, -0.0004, 0.0002, 0.0).into(),
             width: 640,
             height: 480,
         };
@@ -241,9 +241,9 @@ impl SceneDescription {
     pub fn builtin_hard() -> Self {
         let mut s = Self::builtin();
         s.name = "hard".into();
-        s.camera.distortion = Distortion::new(-0.3, 0.12, 0.001, -0.001, -0.02);
+        s.camera.lens = Distortion::new(-0.3, 0.12, 0.001, -0.001, -0.02).into();
         s.rig.left = s.camera;
-        s.rig.right.distortion = Distortion::new(-0.28, 0.1, -0.0008, 0.0006, -0.015);
+        s.rig.right.lens = Distortion::new(-0.28, 0.1, -0.0008, 0.0006, -0.015).into();
         s.views.max_tilt_deg = 60.0;
         s.stereo_views.max_tilt_deg = 60.0;
         s.render = RenderOptions {
@@ -298,7 +298,7 @@ impl SceneDescription {
     /// stage meets them (measured: focal 0.003 %, rectified |Δv| 0.007 px, target distances
     /// 0.09 mm, hand-eye 0.20° / 3.1 mm, base frame 4.5 mm).
     pub fn builtin_fisheye() -> Self {
-        use parallax_camera_model::{FisheyeCamera, FisheyeLens, KannalaBrandt};
+        use parallax_camera_model::{Camera, KannalaBrandt, Lens};
         let mut s = Self::builtin();
         s.name = "fisheye".into();
         s.trajectory.min_distance = 250.0;
@@ -306,9 +306,9 @@ impl SceneDescription {
         s.trajectory.base_distance = 350.0;
         let camera = |k: Intrinsics, c: [f64; 4]| {
             let lens = KannalaBrandt::new(c[0], c[1], c[2], c[3]).expect("finite coefficients");
-            FisheyeCamera::new(k, FisheyeLens::KannalaBrandt(lens), 640, 480).expect("a valid camera")
+            Camera::new(k, Lens::KannalaBrandt(lens), 640, 480).expect("a valid camera")
         };
-        let rig = FisheyeStereoRig {
+        let rig = StereoRig {
             left: camera(Intrinsics::new(230.0, 229.5, 321.5, 238.5), [0.021, -0.0043, 0.0011, -0.00017]),
             right: camera(Intrinsics::new(231.0, 230.0, 318.0, 241.0), [0.019, -0.004, 0.0009, -0.00015]),
             right_from_left: s.rig.right_from_left,

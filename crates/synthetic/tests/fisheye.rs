@@ -3,25 +3,25 @@
 
 use glam::{DQuat, DVec2, DVec3};
 use parallax_camera_model::{
-    CameraModel, Chessboard, DoubleSphere, FisheyeCamera, FisheyeLens, Intrinsics, Isometry3, KannalaBrandt,
+    Camera, CameraModel, Chessboard, DoubleSphere, Intrinsics, Isometry3, KannalaBrandt, Lens,
 };
 use parallax_synthetic::*;
 
 /// 1024x768, horizontal field of view ≈ 190° (θ = 95° lands 503 px from the centre).
-fn kb190() -> FisheyeCamera {
-    FisheyeCamera::new(
+fn kb190() -> Camera {
+    Camera::new(
         Intrinsics::new(290.0, 290.0, 511.5, 383.5),
-        FisheyeLens::KannalaBrandt(KannalaBrandt::new(0.021, -0.0043, 0.0011, -0.00017).unwrap()),
+        Lens::KannalaBrandt(KannalaBrandt::new(0.021, -0.0043, 0.0011, -0.00017).unwrap()),
         1024,
         768,
     )
     .unwrap()
 }
 
-fn ds() -> FisheyeCamera {
-    FisheyeCamera::new(
+fn ds() -> Camera {
+    Camera::new(
         Intrinsics::new(330.0, 330.0, 511.5, 383.5),
-        FisheyeLens::DoubleSphere(DoubleSphere::new(-0.15, 0.6).unwrap()),
+        Lens::DoubleSphere(DoubleSphere::new(-0.15, 0.6).unwrap()),
         1024,
         768,
     )
@@ -171,9 +171,9 @@ fn room_renders_through_the_lens() {
         texture_scale: 80.0,
         seed: 3,
     };
-    let camera = FisheyeCamera::new(
+    let camera = Camera::new(
         Intrinsics::new(150.0, 150.0, 255.5, 191.5),
-        FisheyeLens::KannalaBrandt(KannalaBrandt::new(0.021, -0.0043, 0.0011, -0.00017).unwrap()),
+        Lens::KannalaBrandt(KannalaBrandt::new(0.021, -0.0043, 0.0011, -0.00017).unwrap()),
         512,
         384,
     )

@@ -1,13 +1,15 @@
-//! Wide-angle and fisheye lens models: Kannala–Brandt (OpenCV's `cv::fisheye`, Kalibr's
-//! `pinhole-equi`) and the double sphere model (Usenko, Demmel, Cremers 2018; Kalibr's `ds`),
-//! with analytic Jacobians, unprojection with a stated tolerance and explicit valid regions.
+//! The lens models of a [`crate::Camera`]: Brown–Conrady ([`Distortion`], OpenCV's
+//! `calibrateCamera`), Kannala–Brandt (OpenCV's `cv::fisheye`, Kalibr's `pinhole-equi`) and the
+//! double sphere model (Usenko, Demmel, Cremers 2018; Kalibr's `ds`), each with analytic
+//! Jacobians, unprojection with a stated tolerance and an explicit valid region. [`Lens`] is
+//! the one type the stages match on; [`LensModel`] names a model without its parameters.
 
 use std::f64::consts::PI;
 
-use glam::{DMat3, DVec2, DVec3};
+use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
-use crate::{CameraModel, CameraModelError, Intrinsics, Isometry3, ProjectionJacobians, Result};
+use crate::{CameraModelError, Distortion, Result};
 
 /// Convergence tolerance of the Kannala–Brandt unprojection: the distorted angle of the
 /// returned ray matches the pixel's to within this many radians (normalised image units; at
@@ -272,27 +274,141 @@ impl DoubleSphere {
     }
 }
 
-/// The lens of a [`FisheyeCamera`].
+/// A model of a camera's lens: what maps a camera-frame direction to normalised image
+/// coordinates (before `K`). One camera type ([`crate::Camera`]) carries any of them.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub enum FisheyeLens {
+pub enum Lens {
+    /// Brown–Conrady (OpenCV's `calibrateCamera`: `k1 k2 p1 p2 k3`, rational `k4 k5 k6`), for
+    /// pinhole-like lenses; it images only points in front of the camera (`z > 0`).
+    BrownConrady(Distortion),
     /// Kannala–Brandt / OpenCV `fisheye` (4 parameters `k1..k4`).
     KannalaBrandt(KannalaBrandt),
     /// Double sphere (2 parameters `ξ, α`).
     DoubleSphere(DoubleSphere),
 }
 
-impl FisheyeLens {
-    /// Number of lens parameters: 4 (KB) or 2 (DS).
-    pub fn num_parameters(&self) -> usize {
+impl Default for Lens {
+    /// A distortion-free pinhole.
+    fn default() -> Self {
+        Self::BrownConrady(Distortion::default())
+    }
+}
+
+impl From<Distortion> for Lens {
+    fn from(d: Distortion) -> Self {
+        Self::BrownConrady(d)
+    }
+}
+
+impl From<KannalaBrandt> for Lens {
+    fn from(m: KannalaBrandt) -> Self {
+        Self::KannalaBrandt(m)
+    }
+}
+
+impl From<DoubleSphere> for Lens {
+    fn from(m: DoubleSphere) -> Self {
+        Self::DoubleSphere(m)
+    }
+}
+
+/// The name of a lens model, without its parameters: what a user chooses to calibrate
+/// (`--lens pinhole|kannala-brandt|double-sphere`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+pub enum LensModel {
+    /// Pinhole with Brown–Conrady distortion (OpenCV's `calibrateCamera`).
+    #[default]
+    BrownConrady,
+    /// Kannala–Brandt (OpenCV's `cv::fisheye`).
+    KannalaBrandt,
+    /// Double sphere (Kalibr's `ds`).
+    DoubleSphere,
+}
+
+impl LensModel {
+    /// Every model, in the order of [`Self::NAMES`].
+    pub const ALL: [LensModel; 3] = [Self::BrownConrady, Self::KannalaBrandt, Self::DoubleSphere];
+    /// The command-line names: `pinhole`, `kannala-brandt`, `double-sphere`.
+    pub const NAMES: [&'static str; 3] = ["pinhole", "kannala-brandt", "double-sphere"];
+
+    /// The command-line name ([`Self::NAMES`]).
+    pub fn name(self) -> &'static str {
+        Self::NAMES[self as usize]
+    }
+
+    /// Number of lens parameters: 8 (`k1 k2 p1 p2 k3 k4 k5 k6`), 4 (`k1..k4`) or 2 (`ξ, α`).
+    pub fn num_parameters(self) -> usize {
         match self {
-            Self::KannalaBrandt(_) => 4,
-            Self::DoubleSphere(_) => 2,
+            Self::BrownConrady => 8,
+            Self::KannalaBrandt => 4,
+            Self::DoubleSphere => 2,
         }
     }
 
-    /// The parameters in the model's order: `(k1, k2, k3, k4)` or `(ξ, α)`.
+    /// The names of the lens parameters in the model's order.
+    pub fn parameter_names(self) -> &'static [&'static str] {
+        match self {
+            Self::BrownConrady => &["k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"],
+            Self::KannalaBrandt => &["k1", "k2", "k3", "k4"],
+            Self::DoubleSphere => &["xi", "alpha"],
+        }
+    }
+
+    /// The lens of this model with its neutral parameters: no distortion, the equidistant
+    /// Kannala–Brandt lens (`θ_d = θ`), or the double sphere `ξ = 0, α = ½` (stereographic).
+    pub fn neutral(self) -> Lens {
+        match self {
+            Self::BrownConrady => Lens::BrownConrady(Distortion::default()),
+            Self::KannalaBrandt => Lens::KannalaBrandt(KannalaBrandt::equidistant()),
+            Self::DoubleSphere => Lens::DoubleSphere(DoubleSphere { xi: 0.0, alpha: 0.5 }),
+        }
+    }
+
+    /// True for the wide-angle models (Kannala–Brandt, double sphere), which image directions
+    /// at and beyond 90° from the optical axis.
+    pub fn is_wide(self) -> bool {
+        self != Self::BrownConrady
+    }
+}
+
+impl std::fmt::Display for LensModel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for LensModel {
+    type Err = CameraModelError;
+    fn from_str(s: &str) -> Result<Self> {
+        Self::NAMES.iter().position(|n| *n == s).map(|i| Self::ALL[i]).ok_or_else(|| {
+            CameraModelError::InvalidLens(format!(
+                "unknown lens model `{s}`: expected one of {}",
+                Self::NAMES.join(", ")
+            ))
+        })
+    }
+}
+
+impl Lens {
+    /// The model of this lens.
+    pub fn model(&self) -> LensModel {
+        match self {
+            Self::BrownConrady(_) => LensModel::BrownConrady,
+            Self::KannalaBrandt(_) => LensModel::KannalaBrandt,
+            Self::DoubleSphere(_) => LensModel::DoubleSphere,
+        }
+    }
+
+    /// Number of lens parameters: 8 (BC), 4 (KB) or 2 (DS).
+    pub fn num_parameters(&self) -> usize {
+        self.model().num_parameters()
+    }
+
+    /// The parameters in the model's order: `(k1, k2, p1, p2, k3, k4, k5, k6)`,
+    /// `(k1, k2, k3, k4)` or `(ξ, α)`.
     pub fn parameters(&self) -> Vec<f64> {
         match self {
+            Self::BrownConrady(d) => d.to_array().to_vec(),
             Self::KannalaBrandt(m) => m.k.to_vec(),
             Self::DoubleSphere(m) => vec![m.xi, m.alpha],
         }
@@ -308,24 +424,50 @@ impl FisheyeLens {
             )));
         }
         Ok(match self {
+            Self::BrownConrady(_) => {
+                let d = Distortion::from_array(std::array::from_fn(|i| p[i]));
+                d.validate()?;
+                Self::BrownConrady(d)
+            }
             Self::KannalaBrandt(_) => Self::KannalaBrandt(KannalaBrandt::new(p[0], p[1], p[2], p[3])?),
             Self::DoubleSphere(_) => Self::DoubleSphere(DoubleSphere::new(p[0], p[1])?),
         })
     }
 
-    /// Largest angle from the optical axis that is imaged (exclusive).
+    /// The Brown–Conrady coefficients, `None` for the wide-angle models.
+    pub fn distortion(&self) -> Option<&Distortion> {
+        match self {
+            Self::BrownConrady(d) => Some(d),
+            _ => None,
+        }
+    }
+
+    /// Checks the parameters (the wide-angle models hold theirs by construction).
+    pub fn validate(&self) -> Result<()> {
+        match self {
+            Self::BrownConrady(d) => d.validate(),
+            _ => Ok(()),
+        }
+    }
+
+    /// Largest angle from the optical axis that is imaged (exclusive): π/2 for Brown–Conrady.
     pub fn max_theta(&self) -> f64 {
         match self {
+            Self::BrownConrady(_) => std::f64::consts::FRAC_PI_2,
             Self::KannalaBrandt(m) => m.max_theta(),
             Self::DoubleSphere(m) => m.max_theta(),
         }
     }
 
-    /// Normalised image point of a camera-frame direction, its 2x3 Jacobian with respect to the
-    /// direction and its 2xN Jacobian with respect to the lens parameters.
+    /// Normalised image point of a camera-frame point, its 2x3 Jacobian with respect to the
+    /// point and its Jacobian with respect to the lens parameters (model order, first
+    /// [`Self::num_parameters`] columns).
     pub fn project_normalized(&self, p: DVec3) -> Result<NormalizedProjection> {
         if !p.is_finite() {
             return Err(CameraModelError::NonFinite { what: "point" });
+        }
+        if let Self::BrownConrady(d) = self {
+            return Ok(bc_project(d, p)?);
         }
         let norm = p.length();
         if norm == 0.0 {
@@ -335,17 +477,25 @@ impl FisheyeLens {
             });
         }
         match self {
+            Self::BrownConrady(_) => unreachable!("handled above"),
             Self::KannalaBrandt(m) => kb_project(m, p, norm),
             Self::DoubleSphere(m) => ds_project(m, p, norm),
         }
     }
 
-    /// The unit ray of a normalised image point (`K⁻¹` already applied).
+    /// A ray of a normalised image point (`K⁻¹` already applied): `(x, y, 1)` with the
+    /// undistorted coordinates for Brown–Conrady (its error pixel is reported in normalised
+    /// units), a unit ray for the wide-angle models.
     pub fn unproject_normalized(&self, m: DVec2) -> Result<DVec3> {
         if !m.is_finite() {
             return Err(CameraModelError::NonFinite { what: "pixel" });
         }
         match self {
+            Self::BrownConrady(d) => {
+                crate::projection::undistort(d, m).map(|n| n.extend(1.0)).map_err(|(iterations, residual)| {
+                    CameraModelError::UndistortionDidNotConverge { u: m.x, v: m.y, iterations, residual }
+                })
+            }
             Self::KannalaBrandt(kb) => {
                 let theta_d = m.length();
                 let theta = kb.undistort_theta(theta_d)?;
@@ -362,7 +512,21 @@ impl FisheyeLens {
 
 /// A normalised image point, its 2x3 Jacobian with respect to the camera-frame point and its
 /// Jacobian with respect to the lens parameters (first `num_parameters` columns used).
-pub type NormalizedProjection = (DVec2, [[f64; 3]; 2], [[f64; 4]; 2]);
+pub type NormalizedProjection = (DVec2, [[f64; 3]; 2], [[f64; 8]; 2]);
+
+/// Brown–Conrady: `n = (x/z, y/z)`, then OpenCV's distortion; points with `z ≤ 0` are refused.
+fn bc_project(d: &Distortion, p: DVec3) -> Result<NormalizedProjection> {
+    if p.z <= 0.0 {
+        return Err(CameraModelError::PointBehindCamera { z: p.z });
+    }
+    let iz = 1.0 / p.z;
+    let n = DVec2::new(p.x * iz, p.y * iz);
+    let (nd, jd) = d.distort_with_jacobian(n);
+    // ∂n/∂p = [[1/z, 0, −x/z²], [0, 1/z, −y/z²]]
+    let jp = [[iz, 0.0, -n.x * iz], [0.0, iz, -n.y * iz]];
+    let dm = std::array::from_fn(|r| std::array::from_fn(|c| jd[r][0] * jp[0][c] + jd[r][1] * jp[1][c]));
+    Ok((nd, dm, d.jacobian_coefficients(n)))
+}
 
 fn outside_fov(theta: f64, max: f64) -> CameraModelError {
     CameraModelError::OutsideValidRegion {
@@ -386,7 +550,7 @@ fn kb_project(m: &KannalaBrandt, p: DVec3, norm: f64) -> Result<NormalizedProjec
     if rho <= 1e-30 * norm {
         // On the axis (z > 0 here, as θ < π): the limits s → 1/z, ∂m/∂(x, y) → I/z.
         let iz = 1.0 / z;
-        return Ok((DVec2::new(x * iz, y * iz), [[iz, 0.0, -x * iz * iz], [0.0, iz, -y * iz * iz]], [[0.0; 4]; 2]));
+        return Ok((DVec2::new(x * iz, y * iz), [[iz, 0.0, -x * iz * iz], [0.0, iz, -y * iz * iz]], [[0.0; 8]; 2]));
     }
     let s = theta_d / rho;
     let r2 = norm * norm;
@@ -397,7 +561,10 @@ fn kb_project(m: &KannalaBrandt, p: DVec3, norm: f64) -> Result<NormalizedProjec
     let (ux, uy) = (x / rho, y / rho);
     let t2 = theta * theta;
     let pw = [theta * t2, theta * t2 * t2, theta * t2 * t2 * t2, theta * t2 * t2 * t2 * t2];
-    let dl = [[ux * pw[0], ux * pw[1], ux * pw[2], ux * pw[3]], [uy * pw[0], uy * pw[1], uy * pw[2], uy * pw[3]]];
+    let dl = [
+        [ux * pw[0], ux * pw[1], ux * pw[2], ux * pw[3], 0.0, 0.0, 0.0, 0.0],
+        [uy * pw[0], uy * pw[1], uy * pw[2], uy * pw[3], 0.0, 0.0, 0.0, 0.0],
+    ];
     Ok((DVec2::new(s * x, s * y), d, dl))
 }
 
@@ -428,8 +595,8 @@ fn ds_project(m: &DoubleSphere, p: DVec3, d1: f64) -> Result<NormalizedProjectio
     let dden_dxi = alpha * k * d1 / d2 + (1.0 - alpha) * d1;
     let dden_dalpha = d2 - k;
     let dl = [
-        [-mx * dden_dxi * inv, -mx * dden_dalpha * inv, 0.0, 0.0],
-        [-my * dden_dxi * inv, -my * dden_dalpha * inv, 0.0, 0.0],
+        [-mx * dden_dxi * inv, -mx * dden_dalpha * inv, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [-my * dden_dxi * inv, -my * dden_dalpha * inv, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
     ];
     Ok((DVec2::new(mx, my), d, dl))
 }
@@ -464,233 +631,4 @@ fn ds_unproject(m: &DoubleSphere, n: DVec2) -> Result<DVec3> {
         });
     }
     Ok(ray / len)
-}
-
-/// A wide-angle camera: pinhole intrinsics `K` (OpenCV fisheye's `K`, with `skew = K[0][1]`,
-/// i.e. OpenCV's `alpha · fx`), a [`FisheyeLens`] and the image size. Fields are private and
-/// checked by [`FisheyeCamera::new`] (and on deserialisation).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(try_from = "FisheyeCameraParameters", into = "FisheyeCameraParameters")]
-pub struct FisheyeCamera {
-    intrinsics: Intrinsics,
-    lens: FisheyeLens,
-    width: u32,
-    height: u32,
-}
-
-/// The serialised form of [`FisheyeCamera`] (checked on deserialisation).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct FisheyeCameraParameters {
-    /// Pinhole intrinsics.
-    pub intrinsics: Intrinsics,
-    /// Lens model.
-    pub lens: FisheyeLens,
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
-}
-
-impl TryFrom<FisheyeCameraParameters> for FisheyeCamera {
-    type Error = CameraModelError;
-    fn try_from(p: FisheyeCameraParameters) -> Result<Self> {
-        Self::new(p.intrinsics, p.lens, p.width, p.height)
-    }
-}
-
-impl From<FisheyeCamera> for FisheyeCameraParameters {
-    fn from(c: FisheyeCamera) -> Self {
-        Self { intrinsics: c.intrinsics, lens: c.lens, width: c.width, height: c.height }
-    }
-}
-
-impl FisheyeCamera {
-    /// A checked camera: finite intrinsics with positive focal lengths, non-zero image size.
-    pub fn new(intrinsics: Intrinsics, lens: FisheyeLens, width: u32, height: u32) -> Result<Self> {
-        intrinsics.validate()?;
-        if width == 0 || height == 0 {
-            return Err(CameraModelError::InvalidImageSize { width, height });
-        }
-        Ok(Self { intrinsics, lens, width, height })
-    }
-
-    /// A Kannala–Brandt camera from OpenCV fisheye's `K` (3x3) and `D` (4 values).
-    pub fn from_opencv(k: DMat3, d: &[f64], width: u32, height: u32) -> Result<Self> {
-        Self::new(
-            Intrinsics::from_matrix(k)?,
-            FisheyeLens::KannalaBrandt(KannalaBrandt::from_opencv(d)?),
-            width,
-            height,
-        )
-    }
-
-    /// The pinhole part.
-    pub fn intrinsics(&self) -> Intrinsics {
-        self.intrinsics
-    }
-
-    /// The lens model.
-    pub fn lens(&self) -> FisheyeLens {
-        self.lens
-    }
-
-    /// Image width in pixels.
-    pub fn width(&self) -> u32 {
-        self.width
-    }
-
-    /// Image height in pixels.
-    pub fn height(&self) -> u32 {
-        self.height
-    }
-
-    /// Projects a camera-frame point (any direction within the lens's field of view, also
-    /// behind the image plane) to a pixel. Errors at the optical centre, on non-finite input and
-    /// outside the valid region ([`FisheyeLens::max_theta`]).
-    pub fn project(&self, point_camera: DVec3) -> Result<DVec2> {
-        let (m, _, _) = self.lens.project_normalized(point_camera)?;
-        Ok(self.intrinsics.to_pixel(m))
-    }
-
-    /// Projects a point of an object frame seen through `camera_from_object`.
-    pub fn project_from(&self, camera_from_object: &Isometry3, point_object: DVec3) -> Result<DVec2> {
-        self.project(camera_from_object.transform_point(point_object))
-    }
-
-    /// Projects with every analytic Jacobian (see [`CameraModel::project_with_jacobians`]);
-    /// `d_distortion` holds `(k1, k2, k3, k4)` or `(ξ, α)` in its first columns.
-    pub fn project_with_jacobians(
-        &self,
-        camera_from_object: &Isometry3,
-        point_object: DVec3,
-    ) -> Result<ProjectionJacobians> {
-        let pc = camera_from_object.transform_point(point_object);
-        let (m, dm, dl) = self.lens.project_normalized(pc)?;
-        let k = &self.intrinsics;
-        let pixel = k.to_pixel(m);
-        let jk = [[k.fx, k.skew], [0.0, k.fy]];
-        let mut d_pc = [[0.0; 3]; 2];
-        for r in 0..2 {
-            for c in 0..3 {
-                d_pc[r][c] = jk[r][0] * dm[0][c] + jk[r][1] * dm[1][c];
-            }
-        }
-        // the same chain rule to the point and the pose as the pinhole model
-        let (d_point, d_pose) = crate::projection::point_and_pose_jacobians(&d_pc, camera_from_object, pc);
-        let d_intrinsics = [[m.x, 0.0, 1.0, 0.0, m.y], [0.0, m.y, 0.0, 1.0, 0.0]];
-        let mut d_distortion = [[0.0; 8]; 2];
-        for r in 0..2 {
-            for c in 0..4 {
-                d_distortion[r][c] = jk[r][0] * dl[0][c] + jk[r][1] * dl[1][c];
-            }
-        }
-        Ok(ProjectionJacobians { pixel, point_camera: pc, d_point, d_pose, d_intrinsics, d_distortion })
-    }
-
-    /// The unit ray imaged at `pixel` (it may point behind the image plane, `z < 0`). Errors
-    /// where no ray of the valid region maps to the pixel; the Kannala–Brandt inversion stops
-    /// at [`FISHEYE_UNPROJECT_TOLERANCE`].
-    pub fn unproject(&self, pixel: DVec2) -> Result<DVec3> {
-        if !pixel.is_finite() {
-            return Err(CameraModelError::NonFinite { what: "pixel" });
-        }
-        self.lens.unproject_normalized(self.intrinsics.to_normalized(pixel)).map_err(|e| match e {
-            CameraModelError::UndistortionDidNotConverge { iterations, residual, .. } => {
-                CameraModelError::UndistortionDidNotConverge { u: pixel.x, v: pixel.y, iterations, residual }
-            }
-            CameraModelError::OutsideValidRegion { what, detail } => {
-                CameraModelError::OutsideValidRegion { what, detail: format!("({}, {}): {detail}", pixel.x, pixel.y) }
-            }
-            other => other,
-        })
-    }
-
-    /// Largest angle from the optical axis that is imaged (exclusive), radians.
-    pub fn max_field_angle(&self) -> f64 {
-        self.lens.max_theta()
-    }
-
-    /// True when the pixel lies inside the image (half a pixel of border on each side).
-    pub fn contains(&self, pixel: DVec2) -> bool {
-        pixel.x >= -0.5 && pixel.y >= -0.5 && pixel.x <= self.width as f64 - 0.5 && pixel.y <= self.height as f64 - 0.5
-    }
-
-    /// The same lens and size with other intrinsics (checked).
-    pub fn with_intrinsics(&self, intrinsics: Intrinsics) -> Result<Self> {
-        Self::new(intrinsics, self.lens, self.width, self.height)
-    }
-
-    /// The same intrinsics and size with another lens.
-    pub fn with_lens(&self, lens: FisheyeLens) -> Self {
-        Self { lens, ..*self }
-    }
-}
-
-impl CameraModel for FisheyeCamera {
-    fn intrinsics(&self) -> Intrinsics {
-        self.intrinsics
-    }
-    fn width(&self) -> u32 {
-        self.width
-    }
-    fn height(&self) -> u32 {
-        self.height
-    }
-    fn validate(&self) -> Result<()> {
-        Ok(())
-    }
-    fn project(&self, point_camera: DVec3) -> Result<DVec2> {
-        FisheyeCamera::project(self, point_camera)
-    }
-    fn project_with_jacobians(
-        &self,
-        camera_from_object: &Isometry3,
-        point_object: DVec3,
-    ) -> Result<ProjectionJacobians> {
-        FisheyeCamera::project_with_jacobians(self, camera_from_object, point_object)
-    }
-    fn unproject_ray(&self, pixel: DVec2) -> Result<DVec3> {
-        FisheyeCamera::unproject(self, pixel)
-    }
-    fn max_field_angle(&self) -> f64 {
-        self.lens.max_theta()
-    }
-    fn num_lens_parameters(&self) -> usize {
-        self.lens.num_parameters()
-    }
-    fn contains(&self, pixel: DVec2) -> bool {
-        FisheyeCamera::contains(self, pixel)
-    }
-}
-
-/// Two wide-angle cameras and the pose of the right one relative to the left one (the
-/// fisheye counterpart of [`crate::StereoRig`]).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct FisheyeStereoRig {
-    /// The left (reference) camera.
-    pub left: FisheyeCamera,
-    /// The right camera.
-    pub right: FisheyeCamera,
-    /// Maps points from the left camera frame to the right camera frame (OpenCV's `R`, `T`).
-    pub right_from_left: Isometry3,
-}
-
-impl FisheyeStereoRig {
-    /// A rig with a finite `right_from_left` (the cameras are valid by construction).
-    pub fn new(left: FisheyeCamera, right: FisheyeCamera, right_from_left: Isometry3) -> Result<Self> {
-        if !right_from_left.is_finite() {
-            return Err(CameraModelError::NonFinite { what: "right_from_left" });
-        }
-        Ok(Self { left, right, right_from_left })
-    }
-
-    /// Distance between the optical centres.
-    pub fn baseline(&self) -> f64 {
-        self.right_from_left.translation.length()
-    }
-
-    /// Essential matrix `E = [t]× R` (`r_rᵀ E r_l = 0` for the rays of a match).
-    pub fn essential(&self) -> DMat3 {
-        crate::skew_symmetric(self.right_from_left.translation) * self.right_from_left.rotation_matrix()
-    }
 }

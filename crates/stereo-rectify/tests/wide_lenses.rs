@@ -3,11 +3,11 @@
 //! shared rows, triangulation through `Q` and through the wide views.
 
 use glam::{DMat3, DVec2, DVec3};
-use parallax_camera_model::{FisheyeCamera, FisheyeLens, FisheyeStereoRig, Intrinsics, Isometry3, KannalaBrandt};
+use parallax_camera_model::{Camera, Intrinsics, Isometry3, KannalaBrandt, Lens, StereoRig};
 use parallax_stereo_rectify::{
-    FisheyeRectifyConfig, RectifyError, WideProjection, WideView, estimate_new_camera_matrix_for_undistort_rectify,
-    fisheye_stereo_rectify, fisheye_wide_rectify, init_fisheye_undistort_rectify_map, rectify_points_fisheye,
-    rectify_points_wide, rectifying_rotations,
+    RectifyConfig, RectifyError, WideProjection, WideView, estimate_new_camera_matrix_for_undistort_rectify,
+    init_undistort_rectify_map, rectify_points, rectify_points_wide, rectifying_rotations, stereo_rectify,
+    wide_rectify,
 };
 
 type NewK = (f64, f64, [u32; 2], [[f64; 3]; 3]);
@@ -19,18 +19,18 @@ fn reference() -> (Vec<NewK>, Vec<Stereo>, Vec<MapAt>) {
     (a.to_vec(), b.to_vec(), c.to_vec())
 }
 
-fn camera(fx: f64, fy: f64, cx: f64, cy: f64, k: [f64; 4]) -> FisheyeCamera {
-    FisheyeCamera::new(
+fn camera(fx: f64, fy: f64, cx: f64, cy: f64, k: [f64; 4]) -> Camera {
+    Camera::new(
         Intrinsics::new(fx, fy, cx, cy),
-        FisheyeLens::KannalaBrandt(KannalaBrandt::new(k[0], k[1], k[2], k[3]).unwrap()),
+        Lens::KannalaBrandt(KannalaBrandt::new(k[0], k[1], k[2], k[3]).unwrap()),
         1024,
         768,
     )
     .unwrap()
 }
 
-fn rig() -> FisheyeStereoRig {
-    FisheyeStereoRig::new(
+fn rig() -> StereoRig {
+    StereoRig::new(
         camera(330.0, 328.0, 515.0, 380.0, [0.03, -0.01, 0.002, -0.0003]),
         camera(335.0, 334.0, 508.0, 388.0, [0.025, -0.008, 0.0015, -0.0002]),
         Isometry3::from_rvec_tvec(DVec3::new(0.01, -0.03, 0.02), DVec3::new(-60.0, 1.5, 0.8)),
@@ -53,12 +53,8 @@ fn new_camera_matrix_matches_opencv() {
     let (cases, _, _) = reference();
     let cam = rig().left;
     for (balance, fov_scale, ns, expected) in cases {
-        let cfg = FisheyeRectifyConfig {
-            balance,
-            fov_scale,
-            new_size: (ns[0] > 0).then_some((ns[0], ns[1])),
-            zero_disparity: true,
-        };
+        let cfg =
+            RectifyConfig { balance, fov_scale, new_size: (ns[0] > 0).then_some((ns[0], ns[1])), ..Default::default() };
         let k = estimate_new_camera_matrix_for_undistort_rectify(&cam, DMat3::IDENTITY, &cfg).unwrap();
         let e = mat3(expected);
         for c in 0..3 {
@@ -77,8 +73,9 @@ fn stereo_rectify_and_map_match_opencv() {
     let (_, stereo, maps) = reference();
     let rig = rig();
     for (zd, balance, fov_scale, r1, r2, p1, p2, q) in stereo {
-        let cfg = FisheyeRectifyConfig { balance, fov_scale, new_size: Some((1024, 768)), zero_disparity: zd };
-        let rect = fisheye_stereo_rectify(&rig, &cfg).unwrap();
+        let cfg =
+            RectifyConfig { balance, fov_scale, new_size: Some((1024, 768)), zero_disparity: zd, ..Default::default() };
+        let rect = stereo_rectify(&rig, &cfg).unwrap();
         for (got, exp) in [(rect.r1, mat3(r1)), (rect.r2, mat3(r2))] {
             assert!((got - exp).abs().to_cols_array().iter().all(|d| *d < 1e-12), "{got} vs {exp}");
         }
@@ -95,8 +92,7 @@ fn stereo_rectify_and_map_match_opencv() {
             }
         }
         if zd && balance == 0.0 {
-            let map =
-                init_fisheye_undistort_rectify_map(&rig.left, rect.r1, rect.left_camera_matrix(), 1024, 768).unwrap();
+            let map = init_undistort_rectify_map(&rig.left, rect.r1, rect.left_camera_matrix(), 1024, 768).unwrap();
             for ([u, v], [mx, my]) in &maps {
                 let (x, y) = map.source(*u, *v).unwrap();
                 assert!(
@@ -121,7 +117,7 @@ fn stereo_rectify_and_map_match_opencv() {
 #[test]
 fn rows_align_and_disparity_triangulates() {
     let rig = rig();
-    let rect = fisheye_stereo_rectify(&rig, &FisheyeRectifyConfig { balance: 0.5, ..Default::default() }).unwrap();
+    let rect = stereo_rectify(&rig, &RectifyConfig { balance: 0.5, ..Default::default() }).unwrap();
     let (r1, r2, t) = rectifying_rotations(&rig.right_from_left).unwrap();
     assert!(r1 == rect.r1 && r2 == rect.r2);
     let k1 = rect.left_camera_matrix();
@@ -129,7 +125,7 @@ fn rows_align_and_disparity_triangulates() {
     for x in [DVec3::new(40.0, -30.0, 500.0), DVec3::new(-300.0, 120.0, 400.0), DVec3::new(10.0, 5.0, 2000.0)] {
         let pl = rig.left.project(x).unwrap();
         let pr = rig.right.project(rig.right_from_left.transform_point(x)).unwrap();
-        let to_rect = |cam: &FisheyeCamera, r: DMat3, k: DMat3, p: DVec2| {
+        let to_rect = |cam: &Camera, r: DMat3, k: DMat3, p: DVec2| {
             let q = k * (r * cam.unproject(p).unwrap());
             DVec2::new(q.x / q.z, q.y / q.z)
         };
@@ -137,8 +133,8 @@ fn rows_align_and_disparity_triangulates() {
         assert!((l.y - r.y).abs() < 1e-9, "rows {} vs {}", l.y, r.y);
         let p = rect.reproject(l, l.x - r.x).unwrap();
         assert!((p - r1 * x).length() < 1e-9 * x.length(), "{p} vs {}", r1 * x);
-        let lp = rectify_points_fisheye(&rig.left, r1, &rect.p1, &[pl]).unwrap()[0];
-        let rp = rectify_points_fisheye(&rig.right, r2, &rect.p2, &[pr]).unwrap()[0];
+        let lp = rectify_points(&rig.left, r1, &rect.p1, &[pl]).unwrap()[0];
+        let rp = rectify_points(&rig.right, r2, &rect.p2, &[pr]).unwrap()[0];
         assert!((lp - l).length() < 1e-9 && (rp - r).length() < 1e-9);
     }
     for projection in [WideProjection::Equirectangular, WideProjection::Cylindrical] {
@@ -167,14 +163,12 @@ fn rows_align_and_disparity_triangulates() {
 #[test]
 fn wide_views_hold_what_a_pinhole_cannot() {
     let wide = camera(290.0, 290.0, 511.5, 383.5, [0.021, -0.0043, 0.0011, -0.00017]);
-    let err =
-        estimate_new_camera_matrix_for_undistort_rectify(&wide, DMat3::IDENTITY, &FisheyeRectifyConfig::default())
-            .unwrap_err();
+    let err = estimate_new_camera_matrix_for_undistort_rectify(&wide, DMat3::IDENTITY, &RectifyConfig::default())
+        .unwrap_err();
     assert!(matches!(err, RectifyError::Degenerate(ref m) if m.contains("WideView")), "{err}");
-    let rig =
-        FisheyeStereoRig::new(wide, wide, Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(-80.0, 0.0, 0.0))).unwrap();
+    let rig = StereoRig::new(wide, wide, Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(-80.0, 0.0, 0.0))).unwrap();
     let view = WideView::with_field_of_view(WideProjection::Equirectangular, 180.0, 180.0, 721, 721).unwrap();
-    let w = fisheye_wide_rectify(&rig, &view).unwrap();
+    let w = wide_rectify(&rig, &view).unwrap();
     assert!((w.baseline - 80.0).abs() < 1e-12);
     // Output column 10 looks ~87.5° to the left of the normal to the baseline: a ray with z ≈ 0.04.
     let (x, y) = w.left_map.source(10, 360).unwrap();
@@ -186,16 +180,45 @@ fn wide_views_hold_what_a_pinhole_cannot() {
     assert!(w.left_map.source(360, 0).unwrap().0.is_finite());
     // Swapped cameras and bad configurations are errors.
     let swapped =
-        FisheyeStereoRig::new(wide, wide, Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(80.0, 0.0, 0.0))).unwrap();
-    assert!(matches!(fisheye_wide_rectify(&swapped, &view), Err(RectifyError::Config(_))));
+        StereoRig::new(wide, wide, Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(80.0, 0.0, 0.0))).unwrap();
+    assert!(matches!(wide_rectify(&swapped, &view), Err(RectifyError::Config(_))));
     assert!(WideView::with_field_of_view(WideProjection::Cylindrical, 185.0, 90.0, 100, 100).is_err());
     assert!(WideView::new(WideProjection::Equirectangular, -1.0, 0.0, 0.0, 10, 10).is_err());
-    let bad = FisheyeRectifyConfig { balance: 1.5, ..Default::default() };
-    assert!(matches!(fisheye_stereo_rectify(&rig, &bad), Err(RectifyError::Config(_))));
+    let bad = RectifyConfig { balance: 1.5, ..Default::default() };
+    assert!(matches!(stereo_rectify(&rig, &bad), Err(RectifyError::Config(_))));
     // A pixel no ray maps to is named in the error.
     let far = DVec2::new(5000.0, 5000.0);
     let err = rectify_points_wide(&wide, w.r1, &view, &[DVec2::new(500.0, 300.0), far]).unwrap_err();
     assert!(matches!(err, RectifyError::Point { index: 1, .. }), "{err}");
-    let zero = FisheyeStereoRig::new(wide, wide, Isometry3::IDENTITY).unwrap();
-    assert!(matches!(fisheye_wide_rectify(&zero, &view), Err(RectifyError::ZeroBaseline(_))));
+    let zero = StereoRig::new(wide, wide, Isometry3::IDENTITY).unwrap();
+    assert!(matches!(wide_rectify(&zero, &view), Err(RectifyError::ZeroBaseline(_))));
+}
+
+/// One `Rectifier` for any lens: on a Kannala–Brandt rig its maps are the ones of
+/// `init_undistort_rectify_map` (checked against OpenCV's fisheye map above), and an option of
+/// the other lens family is refused naming it, for both families.
+#[test]
+fn one_rectifier_for_every_lens() {
+    let rig = rig();
+    let config = RectifyConfig { balance: 0.3, ..Default::default() };
+    let rectifier = parallax_stereo_rectify::Rectifier::new(&rig, &config).unwrap();
+    let rect = *rectifier.rectification();
+    assert_eq!(rect, stereo_rectify(&rig, &config).unwrap());
+    let expected = init_undistort_rectify_map(&rig.right, rect.r2, rect.right_camera_matrix(), 1024, 768).unwrap();
+    let got = rectifier.right_map();
+    let mut sources = 0;
+    for (v, u) in (0..768).step_by(7).flat_map(|v| (0..1024).step_by(5).map(move |u| (v, u))) {
+        let (a, b) = (got.source(u, v), expected.source(u, v));
+        assert_eq!(a, b, "({u}, {v})");
+        sources += usize::from(a.is_some());
+    }
+    assert!(sources > 10_000, "{sources} pixels with a source");
+    let alpha = RectifyConfig { alpha: Some(0.0), ..Default::default() };
+    let e = stereo_rectify(&rig, &alpha).unwrap_err().to_string();
+    assert!(e.contains("alpha") && e.contains("kannala-brandt") && e.contains("balance"), "{e}");
+    let pinhole = |c: &Camera| Camera::new(c.intrinsics, parallax_camera_model::Distortion::default(), 1024, 768);
+    let bc = StereoRig::new(pinhole(&rig.left).unwrap(), pinhole(&rig.right).unwrap(), rig.right_from_left).unwrap();
+    let e = stereo_rectify(&bc, &config).unwrap_err().to_string();
+    assert!(e.contains("balance") && e.contains("Brown–Conrady"), "{e}");
+    assert!(stereo_rectify(&bc, &alpha).is_ok());
 }

@@ -1,12 +1,12 @@
-//! Wide-angle models: OpenCV agreement, closed-form special cases, analytic Jacobians against
-//! central differences, round trips over the valid field of view, and refusals.
+//! The lens models of one camera type: OpenCV agreement, closed-form special cases, analytic
+//! Jacobians against central differences, round trips over the valid field of view, refusals,
+//! and the two file forms of a camera.
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use glam::{DVec2, DVec3};
 use parallax_camera_model::{
-    Camera, CameraModel, CameraModelError, Distortion, DoubleSphere, FisheyeCamera, FisheyeLens, Intrinsics, Isometry3,
-    KannalaBrandt,
+    Camera, CameraModel, CameraModelError, Distortion, DoubleSphere, Intrinsics, Isometry3, KannalaBrandt, Lens,
 };
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
@@ -15,17 +15,17 @@ fn runner(cases: u32) -> TestRunner {
     TestRunner::new_with_rng(Config { cases, ..Config::default() }, TestRng::from_seed(RngAlgorithm::ChaCha, &[21; 32]))
 }
 
-fn kb(k: [f64; 4]) -> FisheyeLens {
-    FisheyeLens::KannalaBrandt(KannalaBrandt::new(k[0], k[1], k[2], k[3]).unwrap())
+fn kb(k: [f64; 4]) -> Lens {
+    Lens::KannalaBrandt(KannalaBrandt::new(k[0], k[1], k[2], k[3]).unwrap())
 }
 
-fn ds(xi: f64, alpha: f64) -> FisheyeLens {
-    FisheyeLens::DoubleSphere(DoubleSphere::new(xi, alpha).unwrap())
+fn ds(xi: f64, alpha: f64) -> Lens {
+    Lens::DoubleSphere(DoubleSphere::new(xi, alpha).unwrap())
 }
 
 /// A 1024x768 camera whose horizontal field of view is about 190°.
-fn kb_camera() -> FisheyeCamera {
-    FisheyeCamera::new(
+fn kb_camera() -> Camera {
+    Camera::new(
         Intrinsics { fx: 290.0, fy: 289.0, cx: 511.5, cy: 383.25, skew: 0.0 },
         kb([0.021, -0.0043, 0.0011, -0.00017]),
         1024,
@@ -34,14 +34,9 @@ fn kb_camera() -> FisheyeCamera {
     .unwrap()
 }
 
-fn ds_camera() -> FisheyeCamera {
-    FisheyeCamera::new(
-        Intrinsics { fx: 350.0, fy: 348.0, cx: 511.5, cy: 383.25, skew: 0.0 },
-        ds(-0.18, 0.59),
-        1024,
-        768,
-    )
-    .unwrap()
+fn ds_camera() -> Camera {
+    Camera::new(Intrinsics { fx: 350.0, fy: 348.0, cx: 511.5, cy: 383.25, skew: 0.0 }, ds(-0.18, 0.59), 1024, 768)
+        .unwrap()
 }
 
 fn direction(theta: f64, phi: f64) -> DVec3 {
@@ -59,7 +54,7 @@ fn agrees_with_opencv_fisheye() {
         DVec3::new(0.0, 309.0, 0.0),
         DVec3::new(512.5, 383.25, 1.0),
     );
-    let camera = FisheyeCamera::from_opencv(k, &[0.021, -0.0043, 0.0011, -0.00017], 1024, 768).unwrap();
+    let camera = Camera::from_opencv_fisheye(k, &[0.021, -0.0043, 0.0011, -0.00017], 1024, 768).unwrap();
     let pose = Isometry3::from_rvec_tvec(DVec3::new(0.25, -0.35, 0.1), DVec3::new(-40.0, -30.0, 120.0));
     let obj = [
         DVec3::new(0.0, 0.0, 0.0),
@@ -97,7 +92,7 @@ fn agrees_with_opencv_fisheye() {
 #[test]
 fn special_cases_match_closed_forms() {
     let k = Intrinsics::new(250.0, 250.0, 400.0, 300.0);
-    let cam = |lens| FisheyeCamera::new(k, lens, 800, 600).unwrap();
+    let cam = |lens| Camera::new(k, lens, 800, 600).unwrap();
     for &(theta, phi) in &[(0.3, 0.4), (1.2, -2.0), (1.7, 2.5), (2.9, 1.0)] {
         let d = direction(theta, phi) * 3.7;
         let p = cam(kb([0.0; 4])).project(d).unwrap();
@@ -182,7 +177,11 @@ fn jacobians_match_central_differences() {
                 let shift = |s: f64| {
                     let mut p = p0.clone();
                     p[c] += s;
-                    camera.with_lens(lens.with_parameters(&p).unwrap()).project_from(&pose, point_object).unwrap()
+                    camera
+                        .with_lens(lens.with_parameters(&p).unwrap())
+                        .unwrap()
+                        .project_from(&pose, point_object)
+                        .unwrap()
                 };
                 let fd = (shift(h) - shift(-h)) / (2.0 * h);
                 check(j.d_distortion[0][c], fd.x, "d_lens");
@@ -212,7 +211,7 @@ fn round_trips_over_the_valid_field_of_view() {
         .run(&strategy, |((f, k1, k2, k3, k4), (xi, alpha), s, phi)| {
             let k = Intrinsics { fx: f, fy: 0.998 * f, cx: 640.0, cy: 480.0, skew: 0.0 };
             for lens in [kb([k1, k2, k3, k4]), ds(xi, alpha)] {
-                let camera = FisheyeCamera::new(k, lens, 1280, 960).unwrap();
+                let camera = Camera::new(k, lens, 1280, 960).unwrap();
                 let max = camera.max_field_angle();
                 let d = direction(0.999 * max * s, phi);
                 let pixel = camera.project(d).unwrap();
@@ -238,13 +237,8 @@ fn valid_regions_and_refusals() {
     // dθ_d/dθ = 1 − 0.15 θ² = 0 at θ = √(1/0.15).
     let t = (1.0f64 / 0.15).sqrt().min(PI);
     assert!((folding.max_theta() - t).abs() < 1e-12, "{} vs {t}", folding.max_theta());
-    let cam = FisheyeCamera::new(
-        Intrinsics::new(300.0, 300.0, 500.0, 500.0),
-        FisheyeLens::KannalaBrandt(folding),
-        1000,
-        1000,
-    )
-    .unwrap();
+    let cam =
+        Camera::new(Intrinsics::new(300.0, 300.0, 500.0, 500.0), Lens::KannalaBrandt(folding), 1000, 1000).unwrap();
     assert!(matches!(cam.project(direction(t + 1e-6, 0.2)), Err(CameraModelError::OutsideValidRegion { .. })));
     assert!(cam.project(direction(t - 1e-3, 0.2)).is_ok());
     let limit = folding.distort_theta(t);
@@ -276,8 +270,8 @@ fn valid_regions_and_refusals() {
     assert!(matches!(DoubleSphere::new(0.0, -0.1), Err(CameraModelError::InvalidLens(_))));
     assert!(matches!(KannalaBrandt::new(f64::INFINITY, 0.0, 0.0, 0.0), Err(CameraModelError::InvalidLens(_))));
     assert!(matches!(KannalaBrandt::from_opencv(&[0.1, 0.2, 0.3]), Err(CameraModelError::SizeMismatch(_))));
-    assert!(FisheyeCamera::new(Intrinsics::new(-1.0, 1.0, 0.0, 0.0), kb([0.0; 4]), 10, 10).is_err());
-    assert!(FisheyeCamera::new(Intrinsics::new(1.0, 1.0, 0.0, 0.0), kb([0.0; 4]), 0, 10).is_err());
+    assert!(Camera::new(Intrinsics::new(-1.0, 1.0, 0.0, 0.0), kb([0.0; 4]), 10, 10).is_err());
+    assert!(Camera::new(Intrinsics::new(1.0, 1.0, 0.0, 0.0), kb([0.0; 4]), 0, 10).is_err());
 }
 
 /// A 190° lens images a point 95° off axis (behind the image plane) inside the image, and
@@ -298,12 +292,12 @@ fn images_points_behind_the_image_plane() {
 fn serde_round_trip_and_refusal() {
     for camera in [kb_camera(), ds_camera()] {
         let text = ron::to_string(&camera).unwrap();
-        let back: FisheyeCamera = ron::from_str(&text).unwrap();
+        let back: Camera = ron::from_str(&text).unwrap();
         assert_eq!(back, camera);
     }
     let text = ron::to_string(&ds_camera()).unwrap().replace("alpha:0.59", "alpha:1.5");
     assert!(text.contains("alpha:1.5"), "{text}");
-    assert!(ron::from_str::<FisheyeCamera>(&text).is_err());
+    assert!(ron::from_str::<Camera>(&text).is_err());
 }
 
 /// The trait: the pinhole `Camera` behaves through `CameraModel` exactly as through its own
@@ -328,4 +322,40 @@ fn pinhole_camera_through_the_trait() {
     assert!(CameraModel::is_valid_direction(&kb_camera(), DVec3::new(0.0, 1.0, 0.0)));
     assert_eq!(CameraModel::num_lens_parameters(&camera), 8);
     assert_eq!(CameraModel::num_lens_parameters(&ds_camera()), 2);
+}
+
+/// A Brown–Conrady camera is written as before lenses were a choice (`distortion: (…)`, the
+/// form every existing file holds: the text below is a pinhole camera as the release before
+/// wrote it), a wide one with `lens: KannalaBrandt(…)` / `DoubleSphere(…)` (the form wide
+/// cameras were written in); both read back to the same camera, and a camera with both or
+/// neither is refused.
+#[test]
+fn files_keep_their_forms() {
+    let pinhole = Camera::new(
+        Intrinsics::new(800.0, 801.0, 320.5, 240.25),
+        Distortion::new(-0.25, 0.125, 0.001, -0.002, 0.0625),
+        640,
+        480,
+    )
+    .unwrap();
+    let old = "(intrinsics:(fx:800.0,fy:801.0,cx:320.5,cy:240.25,skew:0.0),distortion:(k1:-0.25,k2:0.125,p1:0.001,\
+               p2:-0.002,k3:0.0625,k4:0.0,k5:0.0,k6:0.0),width:640,height:480)";
+    assert_eq!(ron::to_string(&pinhole).unwrap(), old);
+    assert_eq!(ron::from_str::<Camera>(old).unwrap(), pinhole);
+    let wide_old = "(intrinsics:(fx:290.0,fy:289.0,cx:511.5,cy:383.25,skew:0.0),lens:KannalaBrandt((k1:0.021,\
+                    k2:-0.0043,k3:0.0011,k4:-0.00017)),width:1024,height:768)";
+    let wide = kb_camera();
+    assert_eq!(ron::to_string(&wide).unwrap(), wide_old);
+    assert_eq!(ron::from_str::<Camera>(wide_old).unwrap(), wide);
+    let ds = ds_camera();
+    assert_eq!(ron::from_str::<Camera>(&ron::to_string(&ds).unwrap()).unwrap(), ds);
+    // A Brown–Conrady lens written in the `lens` form is read too.
+    let as_lens = old.replace("distortion:(", "lens:BrownConrady((").replace(",width", "),width");
+    assert_eq!(ron::from_str::<Camera>(&as_lens).unwrap(), pinhole);
+    let both = old.replace(",width", ",lens:KannalaBrandt((k1:0.0,k2:0.0,k3:0.0,k4:0.0)),width");
+    assert!(ron::from_str::<Camera>(&both).unwrap_err().to_string().contains("once"));
+    let neither = "(intrinsics:(fx:800.0,fy:801.0,cx:320.5,cy:240.25,skew:0.0),width:640,height:480)";
+    assert!(ron::from_str::<Camera>(neither).unwrap_err().to_string().contains("`lens`"));
+    // Read cameras are checked: a zero focal length is refused.
+    assert!(ron::from_str::<Camera>(&old.replace("fx:800.0", "fx:0.0")).is_err());
 }

@@ -1,51 +1,30 @@
-//! Undistortion and rectification of wide-angle cameras ([`FisheyeCamera`], or any
-//! [`CameraModel`]): to a pinhole with a chosen balance / field of view, as OpenCV's
+//! Rectification of rigs with wide-angle lenses (a [`parallax_camera_model::Camera`] with a
+//! Kannala–Brandt or double sphere lens, or any [`CameraModel`]): to a pinhole with a chosen
+//! balance / field of view, as OpenCV's
 //! `fisheye::estimateNewCameraMatrixForUndistortRectify` and `fisheye::stereoRectify`, and to
 //! wide projections that hold more than a pinhole can ([`WideView`]: equirectangular and
 //! cylindrical, with the poles on the baseline so epipolar lines stay rows).
 
 use glam::{DMat3, DVec2, DVec3};
-use parallax_camera_model::{CameraModel, FisheyeCamera, FisheyeStereoRig, Isometry3, ProjectionMatrix};
+use parallax_camera_model::{CameraModel, Isometry3, ProjectionMatrix, StereoRig};
 use serde::{Deserialize, Serialize};
 
-use crate::{Rectification, RectifyError, RemapTable, Result, Roi};
+use crate::{Rectification, RectifyConfig, RectifyError, RemapTable, Result, Roi};
 
-/// Options of [`fisheye_stereo_rectify`] and [`estimate_new_camera_matrix_for_undistort_rectify`]
-/// (OpenCV's `balance`, `fov_scale`, `newImageSize`, `CALIB_ZERO_DISPARITY`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct FisheyeRectifyConfig {
-    /// In `[0, 1]`: 0 keeps only valid pixels (the focal length of the tightest fit of the
-    /// undistorted edge midpoints), 1 keeps the whole undistorted extent (the loosest fit).
-    pub balance: f64,
-    /// Divides the focal length: above 1 widens the field of view (must be > 0).
-    pub fov_scale: f64,
-    /// Size `(width, height)` of the output images; `None` keeps the input size.
-    pub new_size: Option<(u32, u32)>,
-    /// Both principal points made equal (OpenCV's `CALIB_ZERO_DISPARITY`); otherwise only `cy`.
-    pub zero_disparity: bool,
-}
-
-impl Default for FisheyeRectifyConfig {
-    fn default() -> Self {
-        Self { balance: 0.0, fov_scale: 1.0, new_size: None, zero_disparity: true }
+/// Checks the wide-lens options of `config` (`balance`, `fov_scale`, `new_size`).
+fn check(config: &RectifyConfig) -> Result<()> {
+    if !(config.balance.is_finite() && (0.0..=1.0).contains(&config.balance)) {
+        return Err(RectifyError::Config(format!("balance must be in [0, 1], got {}", config.balance)));
     }
-}
-
-impl FisheyeRectifyConfig {
-    fn check(&self) -> Result<()> {
-        if !(self.balance.is_finite() && (0.0..=1.0).contains(&self.balance)) {
-            return Err(RectifyError::Config(format!("balance must be in [0, 1], got {}", self.balance)));
-        }
-        if !(self.fov_scale.is_finite() && self.fov_scale > 0.0) {
-            return Err(RectifyError::Config(format!("fov_scale must be positive, got {}", self.fov_scale)));
-        }
-        if let Some((w, h)) = self.new_size
-            && (w == 0 || h == 0)
-        {
-            return Err(RectifyError::Config(format!("new_size must be non-zero, got {w}x{h}")));
-        }
-        Ok(())
+    if !(config.fov_scale.is_finite() && config.fov_scale > 0.0) {
+        return Err(RectifyError::Config(format!("fov_scale must be positive, got {}", config.fov_scale)));
     }
+    if let Some((w, h)) = config.new_size
+        && (w == 0 || h == 0)
+    {
+        return Err(RectifyError::Config(format!("new_size must be non-zero, got {w}x{h}")));
+    }
+    Ok(())
 }
 
 /// Normalised coordinates of `pixel` after undistortion and the rotation `r`
@@ -80,9 +59,9 @@ fn rotated_normalized<C: CameraModel>(camera: &C, r: DMat3, pixel: DVec2) -> Res
 pub fn estimate_new_camera_matrix_for_undistort_rectify<C: CameraModel>(
     camera: &C,
     r: DMat3,
-    config: &FisheyeRectifyConfig,
+    config: &RectifyConfig,
 ) -> Result<DMat3> {
-    config.check()?;
+    check(config)?;
     camera.validate().map_err(|source| RectifyError::Camera { what: "fisheye camera", source })?;
     if !r.is_finite() {
         return Err(RectifyError::NonFinite("rotation"));
@@ -136,14 +115,15 @@ pub fn estimate_new_camera_matrix_for_undistort_rectify<C: CameraModel>(
     Ok(m)
 }
 
-/// Bouguet-style rectification of a wide-angle rig, formula for formula OpenCV's
+/// The wide-lens rule of [`crate::stereo_rectify`] (a rig with a Kannala–Brandt or double
+/// sphere camera): Bouguet-style rectification, formula for formula OpenCV's
 /// `cv::fisheye::stereoRectify` (half rotations, the baseline turned onto `x`, each camera's
 /// new matrix from [`estimate_new_camera_matrix_for_undistort_rectify`], the common focal length
 /// the smaller of the two `fy`, principal points averaged). Returns the pinhole rectification
 /// (`R1, R2, P1, P2, Q` as OpenCV, `vertical = false` as OpenCV's fisheye version; `scale` 1)
 /// with the valid-pixel rectangles measured from 64 samples per image edge.
-pub fn fisheye_stereo_rectify(rig: &FisheyeStereoRig, config: &FisheyeRectifyConfig) -> Result<Rectification> {
-    config.check()?;
+pub(crate) fn fisheye_stereo_rectify(rig: &StereoRig, config: &RectifyConfig) -> Result<Rectification> {
+    check(config)?;
     if (rig.left.width(), rig.left.height()) != (rig.right.width(), rig.right.height()) {
         return Err(RectifyError::SizeMismatch(format!(
             "left camera is {}x{}, right camera {}x{}; rectification needs one image size",
@@ -254,30 +234,6 @@ fn valid_rect<C: CameraModel>(camera: &C, r: DMat3, k: DMat3, width: u32, height
         return Roi::default();
     }
     Roi { x: x0 as u32, y: y0 as u32, width: (x1 - x0) as u32 + 1, height: (y1 - y0) as u32 + 1 }
-}
-
-/// The undistort + rectify map of a wide-angle (or any) camera to a pinhole view, as OpenCV's
-/// `cv::fisheye::initUndistortRectifyMap(K, D, R, P, size, CV_32FC1)`: output pixel `p` ← the
-/// ray `Rᵀ P⁻¹ p` projected through the camera model. Pixels whose ray lies outside the model's
-/// valid region have no source (NaN). Rows in parallel; `f64` math stored as `f32`.
-pub fn init_fisheye_undistort_rectify_map<C: CameraModel + Sync>(
-    camera: &C,
-    r: DMat3,
-    new_camera_matrix: DMat3,
-    width: u32,
-    height: u32,
-) -> Result<RemapTable> {
-    camera.validate().map_err(|source| RectifyError::Camera { what: "camera of the map", source })?;
-    if !(r.is_finite() && new_camera_matrix.is_finite()) {
-        return Err(RectifyError::NonFinite("rotation or new camera matrix"));
-    }
-    let m = new_camera_matrix * r;
-    let det = m.determinant();
-    if !det.is_finite() || det.abs() < 1e-300 {
-        return Err(RectifyError::Degenerate("new camera matrix · R is singular".into()));
-    }
-    let inv = m.inverse();
-    RemapTable::from_fn(width, height, |u, v| camera.project(inv * DVec3::new(u as f64, v as f64, 1.0)).ok())
 }
 
 /// A projection of the rectified frame for views wider than a pinhole can hold. Both put the
@@ -479,7 +435,7 @@ pub struct WideRectification {
 /// and both maps ([`init_wide_view_map`], built in parallel). The right camera must lie on the
 /// rectified `+x` side of the left one, i.e. OpenCV's usual `T_x < 0` (then disparities `u_l − u_r` are positive);
 /// a rig with `T_x > 0` is an error naming the fix (swap the cameras).
-pub fn fisheye_wide_rectify(rig: &FisheyeStereoRig, view: &WideView) -> Result<WideRectification> {
+pub fn wide_rectify(rig: &StereoRig, view: &WideView) -> Result<WideRectification> {
     let (r1, r2, t) = rectifying_rotations(&rig.right_from_left)?;
     if t.x >= 0.0 {
         return Err(RectifyError::Config(format!(
@@ -489,38 +445,6 @@ pub fn fisheye_wide_rectify(rig: &FisheyeStereoRig, view: &WideView) -> Result<W
     }
     let (l, r) = rayon::join(|| init_wide_view_map(&rig.left, r1, view), || init_wide_view_map(&rig.right, r2, view));
     Ok(WideRectification { view: *view, r1, r2, baseline: -t.x, left_map: l?, right_map: r? })
-}
-
-/// A convenience for tests and callers holding an OpenCV-style fisheye camera: the
-/// undistort-only map of `camera` to the pinhole `new_camera_matrix` (`R = I`).
-pub fn init_fisheye_undistort_map(
-    camera: &FisheyeCamera,
-    new_camera_matrix: DMat3,
-    width: u32,
-    height: u32,
-) -> Result<RemapTable> {
-    init_fisheye_undistort_rectify_map(camera, DMat3::IDENTITY, new_camera_matrix, width, height)
-}
-
-/// Rectifies pixels of a wide-angle (or any) camera onto a pinhole rectification: unprojection
-/// through the model (converged), rotation by `r` (`R1` or `R2`), projection with the left 3x3
-/// block of `p` (as [`crate::rectify_points`]: the baseline column is not applied, so the two
-/// pixels of a scene point share their row). Errors name the first pixel without a ray or whose
-/// ray turns behind the rectified camera.
-pub fn rectify_points_fisheye<C: CameraModel>(
-    camera: &C,
-    r: DMat3,
-    p: &ProjectionMatrix,
-    pixels: &[DVec2],
-) -> Result<Vec<DVec2>> {
-    let kr = p.left_block() * r;
-    if !kr.is_finite() {
-        return Err(RectifyError::NonFinite("rotation or projection matrix"));
-    }
-    map_points(camera, pixels, |ray| {
-        let h = kr * ray;
-        (h.z > 0.0).then(|| DVec2::new(h.x / h.z, h.y / h.z))
-    })
 }
 
 /// Rectifies pixels of a wide-angle (or any) camera onto a [`WideView`] of its rectified frame
