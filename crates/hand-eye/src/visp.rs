@@ -449,7 +449,7 @@ mod tests {
         assert!(gap > 0.1 && gap < 20.0, "{gap}");
         // The undistorted model on request.
         let plain = parse_camera_xml(TWO_MODELS, "cam.xml", None, Some(VispProjection::WithoutDistortion)).unwrap();
-        assert_eq!(plain.camera(640, 480).unwrap().distortion, Distortion::default());
+        assert_eq!(plain.camera(640, 480).unwrap().distortion().copied().unwrap(), Distortion::default());
         assert_eq!(plain.px, 600.5);
     }
 

@@ -11,7 +11,7 @@ use parallax_interop::{
     Calibration, FisheyeMonoCalibration, FisheyeStereoCalibration, Format, Side, detect, parse, read, render,
     rig_from_ros_pair,
 };
-use parallax_stereo_rectify::{FisheyeRectifyConfig, fisheye_stereo_rectify};
+use parallax_stereo_rectify::{RectifyConfig, stereo_rectify};
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name)
@@ -175,7 +175,7 @@ fn opencv_written_fisheye_files() {
     let e = pose_error(&s.rig.right_from_left, &right_from_left());
     assert!(e < 1e-15, "R, T off by {e:e}");
     let cv = s.rectification.expect("R1 R2 P1 P2 Q");
-    let ours = fisheye_stereo_rectify(&s.rig, &FisheyeRectifyConfig::default()).unwrap();
+    let ours = stereo_rectify(&s.rig, &RectifyConfig::default()).unwrap();
     let d_r = max_abs(&ours.r1.to_cols_array(), &cv.r1.to_cols_array());
     let d_p: f64 = (0..3).map(|r| max_abs(&ours.p2.rows[r], &cv.p2.rows[r])).fold(0.0, f64::max);
     println!("cv2.fisheye.stereoRectify vs ours: R1 {d_r:.3e}, P2 {d_p:.3e}");
@@ -189,7 +189,7 @@ fn opencv_written_fisheye_files() {
 fn four_coefficients_without_a_marker_are_pinhole() {
     let (c, _) = read(&[data("cv2_pinhole_d4.yml")]).unwrap();
     let Calibration::Mono(m) = c else { panic!("{}", c.kind()) };
-    assert_eq!(m.camera.distortion.to_array(), [-0.12, 0.05, 5e-4, -3e-4, 0.0, 0.0, 0.0, 0.0]);
+    assert_eq!(m.camera.distortion().unwrap().to_array(), [-0.12, 0.05, 5e-4, -3e-4, 0.0, 0.0, 0.0, 0.0]);
     // `fisheye_model: 0` says the same; `1` with 5 coefficients is refused.
     let k = "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 300., 0., 320., 0., 300., 240., 0., 0., 1. ]\n";
     let file = |marker: &str, d: &str| {

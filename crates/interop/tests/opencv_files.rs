@@ -25,7 +25,7 @@ fn params(s: &StereoCalibration) -> Vec<f64> {
     for c in [s.rig.left, s.rig.right] {
         let k = c.intrinsics;
         v.extend([k.fx, k.fy, k.cx, k.cy, k.skew]);
-        v.extend(c.distortion.to_array());
+        v.extend(c.lens.parameters());
     }
     v.extend(s.rig.right_from_left.rotation_matrix().to_cols_array());
     v.extend(s.rig.right_from_left.translation.to_array());
@@ -146,7 +146,7 @@ fn ros_camera_info_parses_as_yaml_with_its_fields_and_round_trips() {
         let data =
             |k: &str| -> Vec<f64> { v[k]["data"].as_sequence().unwrap().iter().map(|x| x.as_f64().unwrap()).collect() };
         assert_eq!(data("camera_matrix"), parallax_interop::rows3(&cam.intrinsics.matrix()).concat());
-        assert_eq!(data("distortion_coefficients"), cam.distortion.to_array()[..5].to_vec());
+        assert_eq!(data("distortion_coefficients"), cam.distortion().unwrap().to_array()[..5].to_vec());
         assert_eq!(data("rectification_matrix"), parallax_interop::rows3(&r).concat());
         assert_eq!(data("projection_matrix"), p.rows.concat());
         assert_eq!(v["projection_matrix"]["rows"].as_u64(), Some(3));
@@ -183,8 +183,10 @@ fn kalibr_camchain_round_trips_and_refuses_what_it_cannot_hold() {
     // Our calibration has k3 (not in radtan): refused, with the flag to use.
     let err = render(&Calibration::Stereo(ours.clone()), Format::Kalibr, Path::new("c.yaml")).unwrap_err();
     assert!(err.to_string().contains("--fix-k3"), "{err}");
-    ours.rig.left.distortion.k3 = 0.0;
-    ours.rig.right.distortion.k3 = 0.0;
+    for c in [&mut ours.rig.left, &mut ours.rig.right] {
+        let d = parallax_interop::parallax_camera_model::Distortion { k3: 0.0, ..*c.distortion().unwrap() };
+        c.lens = d.into();
+    }
     ours.rectification = None;
     ours.rms_px = None;
     ours.per_view_rms_px.clear();

@@ -49,7 +49,7 @@ fn observe(
 }
 
 fn k_error(c: &Camera, t: &Camera) -> [f64; 3] {
-    [c.distortion.k1 - t.distortion.k1, c.distortion.k2 - t.distortion.k2, c.distortion.k3 - t.distortion.k3]
+    [c.distortion().copied().unwrap().k1 - t.distortion().copied().unwrap().k1, c.distortion().copied().unwrap().k2 - t.distortion().copied().unwrap().k2, c.distortion().copied().unwrap().k3 - t.distortion().copied().unwrap().k3]
 }
 
 #[test]

@@ -39,7 +39,7 @@ const NAMES: [&str; 9] = ["fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"];
 fn run_trials(cfg: &CalibrationConfig, trials: u64) -> TrialStats {
     let truth = truth_camera();
     let t = truth.intrinsics;
-    let td = truth.distortion;
+    let td = truth.distortion().copied().unwrap();
     let true_params = [t.fx, t.fy, t.cx, t.cy, td.k1, td.k2, td.p1, td.p2, td.k3];
     let mut st = TrialStats {
         inside: [0; 9],
@@ -56,7 +56,7 @@ fn run_trials(cfg: &CalibrationConfig, trials: u64) -> TrialStats {
         let (_, object, image) = noisy_views(&truth, &board(), 20, 0.1, 1000 + seed);
         let r = calibrate_camera(&object, &image, 640, 480, cfg).unwrap();
         let k = r.camera.intrinsics;
-        let d = r.camera.distortion;
+        let d = r.camera.distortion().copied().unwrap();
         let ef = (k.fx / t.fx - 1.0).abs().max((k.fy / t.fy - 1.0).abs());
         let ec = (k.cx - t.cx).abs().max((k.cy - t.cy).abs());
         st.worst_f = st.worst_f.max(ef);

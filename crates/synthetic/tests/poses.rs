@@ -21,7 +21,7 @@ fn board() -> Chessboard {
 /// Pinhole + Brown–Conrady written out independently of camera-model.
 fn reference_projection(c: &Camera, p: DVec3) -> DVec2 {
     let (x, y) = (p.x / p.z, p.y / p.z);
-    let d = c.distortion;
+    let d = c.distortion().copied().unwrap();
     let r2 = x * x + y * y;
     let radial = 1.0 + d.k1 * r2 + d.k2 * r2 * r2 + d.k3 * r2 * r2 * r2;
     let xd = x * radial + 2.0 * d.p1 * x * y + d.p2 * (r2 + 2.0 * x * x);
