@@ -7,7 +7,7 @@ use glam::{DVec2, DVec3};
 use image::Luma;
 use parallax_block_matching::{BlockMatcher, MatcherConfig, evaluate};
 use parallax_camera_model::{Camera, DisparityMap, Intrinsics, Isometry3, KannalaBrandt, Lens, StereoRig};
-use parallax_stereo_rectify::{Border, Interpolation, WideProjection, WideView, wide_rectify, remap};
+use parallax_stereo_rectify::{Border, Interpolation, WideProjection, WideView, remap, wide_rectify};
 use parallax_synthetic::{TexturedRoom, render_room};
 
 /// Two ~190° Kannala–Brandt cameras 120 mm apart inside a 4 x 3 x 5 m textured room, rectified

@@ -40,10 +40,18 @@ pub struct Args {
     /// (rectification.yml), ros (rectification_left.yaml, rectification_right.yaml).
     #[arg(long, default_value = "ron")]
     format: String,
-    /// Free scaling: 0 = only valid pixels, 1 = keep every source pixel; a negative value
-    /// selects OpenCV's default (no scaling).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    alpha: f64,
+    /// Free scaling of a pinhole (Brown–Conrady) rig: 0 = only valid pixels (the default), 1 =
+    /// keep every source pixel; a negative value selects OpenCV's default (no scaling).
+    #[arg(long, allow_negative_numbers = true)]
+    alpha: Option<f64>,
+    /// A rig with a wide lens (kannala-brandt, double-sphere): OpenCV fisheye's balance, 0 =
+    /// only valid pixels (the default), 1 = the whole undistorted extent.
+    #[arg(long)]
+    balance: Option<f64>,
+    /// A rig with a wide lens: OpenCV fisheye's fov_scale, above 1 widens the field of view
+    /// (default 1).
+    #[arg(long)]
+    fov_scale: Option<f64>,
     /// Keep only the coordinate across the baseline common (OpenCV without CALIB_ZERO_DISPARITY).
     #[arg(long)]
     no_zero_disparity: bool,
@@ -97,13 +105,36 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             rig.left.height
         );
     }
-    anyhow::ensure!(args.alpha <= 1.0, "--alpha must be at most 1, got {}", args.alpha);
     anyhow::ensure!(args.line_spacing > 0, "--line-spacing must be positive");
-    let config = RectifyConfig {
-        alpha: (args.alpha >= 0.0).then_some(args.alpha),
-        zero_disparity: !args.no_zero_disparity,
-        extents: if args.exact_extents { ExtentMethod::Exact } else { ExtentMethod::OpenCv },
-        ..parallax_interop::default_rectify_config()
+    let wide = [rig.left.lens_model(), rig.right.lens_model()].into_iter().find(|m| m.is_wide());
+    let config = match wide {
+        None => {
+            for (flag, given) in [("--balance", args.balance.is_some()), ("--fov-scale", args.fov_scale.is_some())] {
+                anyhow::ensure!(!given, "{flag} applies to rigs with a wide lens; this pinhole rig takes --alpha");
+            }
+            let alpha = args.alpha.unwrap_or(0.0);
+            anyhow::ensure!(alpha <= 1.0, "--alpha must be at most 1, got {alpha}");
+            RectifyConfig {
+                alpha: (alpha >= 0.0).then_some(alpha),
+                zero_disparity: !args.no_zero_disparity,
+                extents: if args.exact_extents { ExtentMethod::Exact } else { ExtentMethod::OpenCv },
+                ..parallax_interop::default_rectify_config()
+            }
+        }
+        Some(lens) => {
+            anyhow::ensure!(
+                args.alpha.is_none() && !args.exact_extents,
+                "--alpha and --exact-extents apply to pinhole rigs; this rig has a {lens} lens: use --balance (0 = only \
+                 valid pixels, 1 = the whole image) and --fov-scale"
+            );
+            RectifyConfig {
+                alpha: None,
+                zero_disparity: !args.no_zero_disparity,
+                balance: args.balance.unwrap_or(0.0),
+                fov_scale: args.fov_scale.unwrap_or(1.0),
+                ..Default::default()
+            }
+        }
     };
     let t0 = Instant::now();
     let rectifier = Rectifier::new(&rig, &config).context("rectifying the rig")?;
@@ -119,12 +150,26 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     pair.add_to(&mut files, &args.out)?;
     files.add_png(args.out.join("side_by_side.png"), &side_by_side(&l, &r, rect.vertical, args.line_spacing))?;
     let calibration = StereoCalibration { rectification: Some(RectificationMatrices::from(&rect)), ..stereo };
-    let native = RectifiedRecord::of(&calibration, &rect);
-    let written = files.add_result(&rect_path, format, &native, Some(&Calibration::Stereo(calibration)))?;
+    let written = match Calibration::stereo_of(calibration.clone()) {
+        c @ Calibration::FisheyeStereo(_) => {
+            let Calibration::FisheyeStereo(f) = &c else { unreachable!("matched above") };
+            files.add_result(&rect_path, format, &parallax_interop::FisheyeStereoRecord::of(f), Some(&c))?
+        }
+        c => files.add_result(&rect_path, format, &RectifiedRecord::of(&calibration, &rect), Some(&c))?,
+    };
     files.commit()?;
 
     println!("rectify: {} rig", if rect.vertical { "vertical" } else { "horizontal" });
-    println!("  alpha {:?}, zero disparity {}, extents {:?}", config.alpha, config.zero_disparity, config.extents);
+    match wide {
+        None => println!(
+            "  alpha {:?}, zero disparity {}, extents {:?}",
+            config.alpha, config.zero_disparity, config.extents
+        ),
+        Some(lens) => println!(
+            "  {lens} lenses to a pinhole pair: balance {}, fov_scale {}, zero disparity {}",
+            config.balance, config.fov_scale, config.zero_disparity
+        ),
+    }
     println!(
         "  maps {:.2} ms, remap pair {:.2} ms (first run, includes thread start-up)",
         t_maps.as_secs_f64() * 1e3,

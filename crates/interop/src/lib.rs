@@ -337,11 +337,13 @@ pub fn rectify_default(rig: &parallax_camera_model::StereoRig) -> Result<Rectifi
 /// has no pinhole rectification: that is an error (rectify it with a chosen `fov_scale` and
 /// write the result).
 pub fn fisheye_rectify_default(rig: &parallax_camera_model::StereoRig) -> Result<RectificationMatrices> {
-    let r = parallax_stereo_rectify::stereo_rectify(rig, &parallax_stereo_rectify::RectifyConfig::default()).map_err(|e| {
-        InteropError::Unsupported(format!(
-            "rectifying the fisheye rig to a pinhole pair (ROS camera_info needs R and P): {e}; rectify it with \
+    let r = parallax_stereo_rectify::stereo_rectify(rig, &parallax_stereo_rectify::RectifyConfig::default()).map_err(
+        |e| {
+            InteropError::Unsupported(format!(
+                "rectifying the fisheye rig to a pinhole pair (ROS camera_info needs R and P): {e}; rectify it with \
                  a field of view that fits (fov_scale) and write the calibration with that rectification"
-        ))
-    })?;
+            ))
+        },
+    )?;
     Ok(RectificationMatrices::from(&r))
 }

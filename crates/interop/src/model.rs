@@ -105,6 +105,23 @@ pub fn lens_model_name(lens: &Lens) -> &'static str {
     }
 }
 
+impl Calibration {
+    /// The calibration kind that holds `s` in files: [`Self::Stereo`] for Brown–Conrady rigs,
+    /// [`Self::FisheyeStereo`] when a camera has a wide lens.
+    pub fn stereo_of(s: StereoCalibration) -> Self {
+        if s.rig.left.lens_model().is_wide() || s.rig.right.lens_model().is_wide() {
+            Self::FisheyeStereo(FisheyeStereoCalibration {
+                rig: s.rig,
+                rectification: s.rectification,
+                rms_px: s.rms_px,
+                per_view_rms_px: s.per_view_rms_px,
+            })
+        } else {
+            Self::Stereo(s)
+        }
+    }
+}
+
 /// A hand-eye calibration result.
 #[derive(Debug, Clone, PartialEq)]
 pub struct HandEyeCalibration {
@@ -193,17 +210,17 @@ impl Calibration {
     }
 
     /// The stereo calibration, or an error naming what the file holds instead.
+    /// A rig of any lenses: the stereo calibration, or a fisheye one (its cameras carry their
+    /// lenses; write it back as [`Calibration::FisheyeStereo`], see [`Self::stereo_of`]).
     pub fn into_stereo(self, what: &str) -> Result<StereoCalibration> {
         match self {
             Self::Stereo(s) => Ok(s),
-            Self::FisheyeStereo(s) => Err(content(
-                what,
-                format!(
-                    "holds a fisheye stereo calibration ({} lenses): this input takes a pinhole (Brown–Conrady) \
-                     rig",
-                    lens_model_name(&s.rig.left.lens())
-                ),
-            )),
+            Self::FisheyeStereo(s) => Ok(StereoCalibration {
+                rig: s.rig,
+                rectification: s.rectification,
+                rms_px: s.rms_px,
+                per_view_rms_px: s.per_view_rms_px,
+            }),
             other => Err(content(
                 what,
                 format!(
@@ -224,15 +241,9 @@ impl Calibration {
             (Self::HandEye(_), _) => {
                 Err(content(what, "holds a hand-eye transform, not camera intrinsics: give a calibrate result"))
             }
-            (Self::FisheyeMono(_) | Self::FisheyeStereo(_), _) => Err(content(
-                what,
-                format!(
-                    "holds a {} ({} lens): this input takes a pinhole (Brown–Conrady) camera; the fisheye \
-                     lens cannot be expressed as k1 k2 p1 p2 k3 without changing the images",
-                    self.kind(),
-                    self.lens_model().unwrap_or_default()
-                ),
-            )),
+            (Self::FisheyeMono(m), _) => Ok(m.camera),
+            (Self::FisheyeStereo(s), Side::Left) => Ok(s.rig.left),
+            (Self::FisheyeStereo(s), Side::Right) => Ok(s.rig.right),
         }
     }
 }

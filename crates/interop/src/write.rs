@@ -428,6 +428,19 @@ pub fn record_string(c: &Calibration, format: Format) -> Result<String> {
 /// The files (path, text) that hold `c` in `format` at `path`: one file, except ROS for a
 /// stereo rig (one `camera_info` per camera: `<stem>_left.yaml`, `<stem>_right.yaml`).
 pub fn render(c: &Calibration, format: Format, path: &Path) -> Result<Vec<(PathBuf, String)>> {
+    // A wide lens's parameters are no Brown–Conrady coefficients: the pinhole records would
+    // write them under OpenCV's `D` without a word. Wide cameras are written as the fisheye kinds.
+    let wide = match c {
+        Calibration::Mono(m) => m.camera.lens_model().is_wide(),
+        Calibration::Stereo(s) => s.rig.left.lens_model().is_wide() || s.rig.right.lens_model().is_wide(),
+        _ => false,
+    };
+    if wide {
+        return Err(InteropError::Unsupported(format!(
+            "{}: a camera with a wide lens is written as a fisheye calibration, not a pinhole one",
+            path.display()
+        )));
+    }
     let one = |text: String| Ok(vec![(path.to_path_buf(), text)]);
     match format {
         Format::Ron | Format::Json => one(record_string(c, format)?),

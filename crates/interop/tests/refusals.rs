@@ -20,7 +20,10 @@ fn a_valid_file_is_read_and_each_mistake_is_named() {
     let d = "-0.1, 0.05, 0., 0., 0.";
     let (c, _) = parse(&mono(k, d, ""), "f.yml").unwrap();
     let cam = c.camera(Default::default(), "f").unwrap();
-    assert_eq!((cam.intrinsics.fx, cam.intrinsics.cx, cam.distortion().unwrap().k1, cam.width), (600.0, 320.0, -0.1, 640));
+    assert_eq!(
+        (cam.intrinsics.fx, cam.intrinsics.cx, cam.distortion().unwrap().k1, cam.width),
+        (600.0, 320.0, -0.1, 640)
+    );
 
     refused(&mono("600., 0., 320., 0., 600., 240., 0., 0.", d, ""), "rows 3 x cols 3 = 9 but data has 8");
     refused(&mono("600., 0., 320., 0., 600., 240., 1e-3, 0., 1.", d, ""), "upper triangular");

@@ -498,11 +498,7 @@ pub fn rectified_pinhole_rig(rect: &Rectification) -> Result<StereoRig> {
 
 /// Rectifies a fisheye rig to a pinhole pair (`cv::fisheye::stereoRectify`) and measures the
 /// corners' `|Δv|` after rectification; refuses a collapsed valid region as [`rectify`] does.
-pub fn rectify_fisheye(
-    rig: &StereoRig,
-    views: &StereoViews,
-    config: &RectifyConfig,
-) -> Result<FisheyeRectifiedRig> {
+pub fn rectify_fisheye(rig: &StereoRig, views: &StereoViews, config: &RectifyConfig) -> Result<FisheyeRectifiedRig> {
     let rectification = parallax_stereo_rectify::stereo_rectify(rig, config)?;
     let area = f64::from(rectification.width) * f64::from(rectification.height);
     for (side, roi) in [("left", rectification.roi1), ("right", rectification.roi2)] {

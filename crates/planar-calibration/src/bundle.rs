@@ -381,7 +381,11 @@ mod tests {
         let n = b.num_params();
         let mut x = vec![0.0; n];
         x[..N_INTR].copy_from_slice(&theta_of(&cam));
-        x[N_INTR..N_INTR + 3].copy_from_slice(&[cam.intrinsics.fx, cam.intrinsics.cx, cam.distortion().copied().unwrap().k1]);
+        x[N_INTR..N_INTR + 3].copy_from_slice(&[
+            cam.intrinsics.fx,
+            cam.intrinsics.cx,
+            cam.distortion().copied().unwrap().k1,
+        ]);
         let ro = b.rig_offset.unwrap();
         store_pose(
             &Isometry3::from_rvec_tvec(DVec3::new(0.01, -0.02, 0.03), DVec3::new(-100.0, 2.0, 1.0)),

@@ -66,7 +66,11 @@ fn zhang_published_camera_is_reproduced_exactly_from_exact_data() {
     assert!((k.fx - 832.5).abs() < 1e-6 && (k.fy - 832.53).abs() < 1e-6, "{k:?}");
     assert!((k.cx - 303.959).abs() < 1e-6 && (k.cy - 206.585).abs() < 1e-6);
     assert!((k.skew - 0.2045).abs() < 1e-6);
-    assert!((d.k1 - t.distortion().copied().unwrap().k1).abs() < 1e-9 && (d.k2 - t.distortion().copied().unwrap().k2).abs() < 1e-8, "{d:?}");
+    assert!(
+        (d.k1 - t.distortion().copied().unwrap().k1).abs() < 1e-9
+            && (d.k2 - t.distortion().copied().unwrap().k2).abs() < 1e-8,
+        "{d:?}"
+    );
     assert!(r.rms_px < 1e-8);
 }
 
@@ -164,7 +168,11 @@ fn non_monotonic_distortion_is_flagged() {
         .collect();
     let cfg = CalibrationConfig { zero_tangential: true, fix_k3: true, fix_k2: true, ..Default::default() };
     let r = calibrate_camera(&object, &image, 640, 480, &cfg).unwrap();
-    assert!((r.camera.distortion().copied().unwrap().k1 + 0.45).abs() < 1e-6, "{:?}", r.camera.distortion().copied().unwrap());
+    assert!(
+        (r.camera.distortion().copied().unwrap().k1 + 0.45).abs() < 1e-6,
+        "{:?}",
+        r.camera.distortion().copied().unwrap()
+    );
     assert!(
         r.warnings.iter().any(|w| matches!(w, CalibrationWarning::NonMonotonicDistortion { .. })),
         "{:?}",

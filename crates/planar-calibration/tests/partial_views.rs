@@ -49,7 +49,11 @@ fn observe(
 }
 
 fn k_error(c: &Camera, t: &Camera) -> [f64; 3] {
-    [c.distortion().copied().unwrap().k1 - t.distortion().copied().unwrap().k1, c.distortion().copied().unwrap().k2 - t.distortion().copied().unwrap().k2, c.distortion().copied().unwrap().k3 - t.distortion().copied().unwrap().k3]
+    [
+        c.distortion().copied().unwrap().k1 - t.distortion().copied().unwrap().k1,
+        c.distortion().copied().unwrap().k2 - t.distortion().copied().unwrap().k2,
+        c.distortion().copied().unwrap().k3 - t.distortion().copied().unwrap().k3,
+    ]
 }
 
 #[test]
