@@ -265,8 +265,8 @@ impl Camera {
         Ok(camera)
     }
 
-    /// A Kannala–Brandt camera from OpenCV fisheye's `K` (3x3) and `D` (4 values).
-    pub fn from_opencv_fisheye(k: DMat3, d: &[f64], width: u32, height: u32) -> Result<Self> {
+    /// A Kannala–Brandt camera from `cv::fisheye`'s `K` (3x3) and `D` (4 values).
+    pub fn from_opencv_kannala_brandt(k: DMat3, d: &[f64], width: u32, height: u32) -> Result<Self> {
         Self::new(Intrinsics::from_matrix(k)?, KannalaBrandt::from_opencv(d)?, width, height)
     }
 

@@ -467,7 +467,7 @@ impl Lens {
             return Err(CameraModelError::NonFinite { what: "point" });
         }
         if let Self::BrownConrady(d) = self {
-            return Ok(bc_project(d, p)?);
+            return bc_project(d, p);
         }
         let norm = p.length();
         if norm == 0.0 {

@@ -54,7 +54,7 @@ fn agrees_with_opencv_fisheye() {
         DVec3::new(0.0, 309.0, 0.0),
         DVec3::new(512.5, 383.25, 1.0),
     );
-    let camera = Camera::from_opencv_fisheye(k, &[0.021, -0.0043, 0.0011, -0.00017], 1024, 768).unwrap();
+    let camera = Camera::from_opencv_kannala_brandt(k, &[0.021, -0.0043, 0.0011, -0.00017], 1024, 768).unwrap();
     let pose = Isometry3::from_rvec_tvec(DVec3::new(0.25, -0.35, 0.1), DVec3::new(-40.0, -30.0, 120.0));
     let obj = [
         DVec3::new(0.0, 0.0, 0.0),

@@ -73,7 +73,7 @@ fn fisheye_camera(k: DMat3, d: &[f64], width: u32, height: u32, key: &str, what:
             ),
         ));
     }
-    Camera::from_opencv_fisheye(k, d, width, height).map_err(model(what))
+    Camera::from_opencv_kannala_brandt(k, d, width, height).map_err(model(what))
 }
 
 /// A pinhole or (with a marker) Kannala–Brandt camera from `K`, `D` and a size.
