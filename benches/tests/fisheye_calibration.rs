@@ -2,9 +2,10 @@
 //! detected (`corner-detection`) and calibrated without a focal guess (`planar-calibration`),
 //! against the rendering's exact corners and camera.
 
+use parallax_camera_model::LensModel;
 use parallax_camera_model::{Camera, Chessboard, Intrinsics, KannalaBrandt, Lens};
 use parallax_corner_detection::{ChessboardConfig, find_chessboard};
-use parallax_planar_calibration::{FisheyeCalibrationConfig, calibrate_fisheye};
+use parallax_planar_calibration::{CalibrationConfig, calibrate_camera};
 use parallax_synthetic::{RenderOptions, WideViewSetConfig, render_chessboard, wide_angle_calibration_poses};
 use rayon::prelude::*;
 
@@ -53,7 +54,14 @@ fn rendered_fisheye_views_detect_and_calibrate() {
     let detection_rms = (sq / n.max(1) as f64).sqrt();
     let object = vec![board.object_points(); found.len()];
     let image: Vec<_> = found.iter().map(|(d, _)| d.clone()).collect();
-    let result = calibrate_fisheye(&object, &image, 800, 600, &FisheyeCalibrationConfig::default()).unwrap();
+    let result = calibrate_camera(
+        &object,
+        &image,
+        800,
+        600,
+        &CalibrationConfig { lens: LensModel::KannalaBrandt, ..Default::default() },
+    )
+    .unwrap();
     let (k, t) = (result.camera.intrinsics(), truth.intrinsics());
     println!(
         "fisheye render → detect → calibrate: {} of 10 views found, detected-corner RMS {:.4} px, calibration RMS {:.4} px, \

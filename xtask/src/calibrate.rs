@@ -11,9 +11,7 @@ use parallax_composition::records::{MonoOutput, StereoOutput, mono_calibration, 
 use parallax_composition::session::{self, ImageView};
 use parallax_composition::summary;
 use parallax_interop::Calibration;
-use parallax_planar_calibration::{
-    CalibrationConfig, FisheyeCalibrationConfig, FisheyeModelKind, FisheyeStereoConfig, StereoConfig,
-};
+use parallax_planar_calibration::{CalibrationConfig, StereoConfig};
 
 /// Arguments of `cargo xtask calibrate`.
 #[derive(clap::Args)]
@@ -117,23 +115,10 @@ fn refuse_foreign_flags(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The wide-lens configuration of one camera (`cv::fisheye::calibrate`'s model with
-/// CALIB_FIX_SKEW, plus the flags given).
-fn wide_config(args: &Args) -> FisheyeCalibrationConfig {
-    FisheyeCalibrationConfig {
-        model: match lens(args) {
-            LensModel::DoubleSphere => FisheyeModelKind::DoubleSphere,
-            _ => FisheyeModelKind::KannalaBrandt,
-        },
-        fix_principal_point: args.fix_principal_point,
-        fix_aspect_ratio: args.fix_aspect_ratio,
-        fix_lens: [args.fix_k1, args.fix_k2, args.fix_k3, args.fix_k4],
-        ..Default::default()
-    }
-}
-
 fn config(args: &Args) -> CalibrationConfig {
     CalibrationConfig {
+        lens: lens(args),
+        fix_k4: args.fix_k4,
         zero_tangential: args.zero_tangential,
         fix_k1: args.fix_k1,
         fix_k2: args.fix_k2,
@@ -247,18 +232,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         (None, None) => anyhow::bail!("give --images or --corners"),
     };
     session::require_found(&left, &target)?;
-    let wide = lens(&args).is_wide();
     match right {
-        None if wide => run_wide_mono(&args, format, &target, &left, t0),
         None => run_mono(&args, format, &target, &left, t0),
         Some(right) => {
             anyhow::ensure!(right.len() == left.len(), "{} left images but {} right images", left.len(), right.len());
             session::require_found(&right, &target)?;
-            if wide {
-                run_wide_stereo(&args, format, &target, &left, &right, t0)
-            } else {
-                run_stereo(&args, format, &target, &left, &right, t0)
-            }
+            run_stereo(&args, format, &target, &left, &right, t0)
         }
     }
 }
@@ -396,120 +375,5 @@ fn run_stereo(
     println!("rotation_deg: {:.6}", r.rig.right_from_left.angle().to_degrees());
     println!("rectified_mean_abs_dv_px: {:.6}", c.mean_abs_dv);
     println!("adjacent_corner_distance_rms: {:.6}", c.distance_rms);
-    Ok(ExitCode::SUCCESS)
-}
-
-/// The chessboard of a wide-lens session (checked in `run`).
-fn chessboard(target: &TargetDescription) -> anyhow::Result<parallax_camera_model::Chessboard> {
-    match target {
-        TargetDescription::Chessboard(b) => Ok(*b),
-        t => anyhow::bail!("a wide-lens calibration takes a chessboard, not {t}"),
-    }
-}
-
-/// `--lens kannala-brandt|double-sphere`, one camera: `cv::fisheye::calibrate`'s model (no
-/// focal-length guess needed).
-fn run_wide_mono(
-    args: &Args,
-    format: Option<parallax_interop::Format>,
-    target: &TargetDescription,
-    views: &[ImageView],
-    t0: Instant,
-) -> anyhow::Result<ExitCode> {
-    let board = chessboard(target)?;
-    let found: Vec<&ImageView> = views.iter().filter(|v| v.found()).collect();
-    println!("board found in {}/{} images ({:.0} ms)", found.len(), views.len(), t0.elapsed().as_secs_f64() * 1e3);
-    let size = session::common_size(&found)?;
-    let grids = session::points_of(&found).0;
-    let t1 = Instant::now();
-    let r =
-        parallax_planar_calibration::calibrate_fisheye_chessboard(&board, &grids, size.0, size.1, &wide_config(args))
-            .map_err(|e| too_few_views_hint(e.into()))?;
-    println!(
-        "calibrated {} views in {:.1} ms, {} iterations",
-        found.len(),
-        t1.elapsed().as_secs_f64() * 1e3,
-        r.iterations
-    );
-    println!("RMS {:.4} px (σ per coordinate {:.4} px, dof {})", r.rms_px, r.sigma_px, r.dof);
-    for (f, e) in found.iter().zip(&r.per_view_rms_px) {
-        println!("  {:<40} {e:.4} px", f.file_name());
-    }
-    for w in &r.warnings {
-        println!("warning: {w}");
-    }
-    let m = parallax_interop::FisheyeMonoCalibration {
-        camera: r.camera,
-        rms_px: Some(r.rms_px),
-        per_view_rms_px: r.per_view_rms_px.clone(),
-    };
-    let calibration = Calibration::FisheyeMono(m.clone());
-    write_out!(args, format, target, &calibration, |_b| parallax_interop::FisheyeMonoRecord::of(&m));
-    println!("{}", summary::camera_keys("", r.rms_px, &r.camera));
-    Ok(ExitCode::SUCCESS)
-}
-
-/// `--lens kannala-brandt|double-sphere`, stereo: `cv::fisheye::stereoCalibrate`'s model (each
-/// camera's own calibration, then one joint refinement of both cameras, the rig and the poses).
-fn run_wide_stereo(
-    args: &Args,
-    format: Option<parallax_interop::Format>,
-    target: &TargetDescription,
-    left: &[ImageView],
-    right: &[ImageView],
-    t0: Instant,
-) -> anyhow::Result<ExitCode> {
-    let board = chessboard(target)?;
-    let pairs = session::stereo_pairs(left, right);
-    println!(
-        "board found in both images of {}/{} pairs ({:.0} ms)",
-        pairs.len(),
-        left.len(),
-        t0.elapsed().as_secs_f64() * 1e3
-    );
-    let lf: Vec<_> = pairs.iter().map(|p| p.0).collect();
-    let rf: Vec<_> = pairs.iter().map(|p| p.1).collect();
-    let (lsize, rsize) = (session::common_size(&lf)?, session::common_size(&rf)?);
-    let views = parallax_composition::StereoViews {
-        index: (0..lf.len()).collect(),
-        left: session::points_of(&lf).0,
-        right: session::points_of(&rf).0,
-    };
-    let mono = wide_config(args);
-    let cfg = FisheyeStereoConfig {
-        fix_intrinsics: args.fix_intrinsics,
-        left: mono.clone(),
-        right: mono,
-        ..Default::default()
-    };
-    let checks = parallax_composition::StereoChecks { allow_swapped: args.allow_swapped, ..Default::default() };
-    let t1 = Instant::now();
-    let r = parallax_composition::stages::calibrate_fisheye_stereo(&board, &views, lsize, rsize, &cfg, &checks)
-        .map_err(too_few_views_hint)?;
-    println!(
-        "stereo calibration of {} pairs in {:.1} ms, {} iterations",
-        lf.len(),
-        t1.elapsed().as_secs_f64() * 1e3,
-        r.iterations
-    );
-    for (p, [a, b]) in pairs.iter().zip(&r.per_view_rms_px) {
-        println!("  {:<30} left {a:.4} px  right {b:.4} px", p.0.file_name());
-    }
-    for w in &r.warnings {
-        println!("warning: {w}");
-    }
-    let s = parallax_interop::FisheyeStereoCalibration {
-        rig: r.rig,
-        rectification: None,
-        rms_px: Some(r.rms_px),
-        per_view_rms_px: r.per_view_rms_px.clone(),
-    };
-    let calibration = Calibration::FisheyeStereo(s.clone());
-    write_out!(args, format, target, &calibration, |_b| parallax_interop::FisheyeStereoRecord::of(&s));
-    println!("{}", summary::camera_keys("left_", r.left_rms_px, &r.rig.left));
-    println!("{}", summary::camera_keys("right_", r.right_rms_px, &r.rig.right));
-    println!("stereo_rms_px: {:.6}", r.rms_px);
-    println!("baseline: {:.6}", r.rig.baseline());
-    println!("rotation_deg: {:.6}", r.rig.right_from_left.angle().to_degrees());
     Ok(ExitCode::SUCCESS)
 }

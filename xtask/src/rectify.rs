@@ -150,13 +150,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     pair.add_to(&mut files, &args.out)?;
     files.add_png(args.out.join("side_by_side.png"), &side_by_side(&l, &r, rect.vertical, args.line_spacing))?;
     let calibration = StereoCalibration { rectification: Some(RectificationMatrices::from(&rect)), ..stereo };
-    let written = match Calibration::stereo_of(calibration.clone()) {
-        c @ Calibration::FisheyeStereo(_) => {
-            let Calibration::FisheyeStereo(f) = &c else { unreachable!("matched above") };
-            files.add_result(&rect_path, format, &parallax_interop::FisheyeStereoRecord::of(f), Some(&c))?
-        }
-        c => files.add_result(&rect_path, format, &RectifiedRecord::of(&calibration, &rect), Some(&c))?,
-    };
+    let native = RectifiedRecord::of(&calibration, &rect);
+    let written = files.add_result(&rect_path, format, &native, Some(&Calibration::Stereo(calibration)))?;
     files.commit()?;
 
     println!("rectify: {} rig", if rect.vertical { "vertical" } else { "horizontal" });

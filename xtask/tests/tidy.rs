@@ -282,15 +282,13 @@ mod toml_lite {
     }
 }
 
-/// One camera vocabulary (issue 45): every lens is a variant of `camera_model::Lens` and a
-/// camera of any lens is one `Camera`, so no public item is a wide-lens twin of another. The
-/// wide-lens items not yet merged are counted here and may only go down (39 when the ratchet
-/// was set, 29 after the camera, rig and rectification types became one): a new
-/// `pub … Fisheye…` item fails this test.
+/// One camera vocabulary: every lens is a variant of `camera_model::Lens` and a camera of any
+/// lens is one `Camera`, so no public item is a wide-lens twin of another (`FisheyeCamera` beside
+/// `Camera`, `calibrate_fisheye` beside `calibrate_camera`, …): a new `pub … Fisheye…` item fails
+/// this test. (OpenCV's `cv::fisheye` is named in docs and private helpers, not in the API.)
 #[test]
-fn no_new_fisheye_twins() {
-    const REMAINING: usize = 29;
-    let mut found = Vec::new();
+fn no_fisheye_twins() {
+    let mut names = Vec::new();
     for (dir, _) in members() {
         let src = dir.join("src");
         if !src.is_dir() {
@@ -298,25 +296,24 @@ fn no_new_fisheye_twins() {
         }
         for f in rust_files(&src) {
             for (n, line) in read(&f).lines().enumerate() {
-                let t = line.trim_start();
-                let Some(rest) = t.strip_prefix("pub ") else { continue };
+                let Some(rest) = line.trim_start().strip_prefix("pub ") else { continue };
                 let Some(rest) =
                     ["struct ", "enum ", "fn ", "type ", "trait "].iter().find_map(|k| rest.strip_prefix(k))
                 else {
                     continue;
                 };
                 let name: String = rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
-                if name.to_ascii_lowercase().contains("fisheye") {
-                    found.push(format!("{}:{}: {name}", f.display(), n + 1));
-                }
+                names.push((format!("{}:{}", f.display(), n + 1), name));
             }
         }
     }
-    assert!(found.len() >= 10, "the scan found only {} items: is it broken?", found.len());
-    assert!(
-        found.len() <= REMAINING,
-        "{} public wide-lens twins (at most {REMAINING}): make the lens a variant of what exists:\n{}",
-        found.len(),
-        found.join("\n")
-    );
+    for expected in ["Camera", "Lens", "calibrate_camera", "stereo_rectify"] {
+        assert!(names.iter().any(|(_, n)| n == expected), "the scan did not find `pub … {expected}`: is it broken?");
+    }
+    let twins: Vec<String> = names
+        .iter()
+        .filter(|(_, n)| n.to_ascii_lowercase().contains("fisheye"))
+        .map(|(at, n)| format!("{at}: {n}"))
+        .collect();
+    assert!(twins.is_empty(), "public wide-lens twins: make the lens a variant of what exists:\n{}", twins.join("\n"));
 }

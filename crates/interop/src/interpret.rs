@@ -10,8 +10,7 @@ use serde_json::{Map, Value};
 
 use crate::error::{Result, content, model};
 use crate::model::{
-    Calibration, FisheyeMonoCalibration, FisheyeStereoCalibration, HandEyeCalibration, MonoCalibration,
-    RectificationMatrices, StereoCalibration, lens_model_name, mat3,
+    Calibration, HandEyeCalibration, MonoCalibration, RectificationMatrices, StereoCalibration, lens_model_name, mat3,
 };
 
 /// A camera of either family, as read from a file.
@@ -363,12 +362,7 @@ fn opencv_stereo(o: &Map<String, Value>, what: &str) -> Result<Calibration> {
                      matrix; the file mixes a pinhole and a fisheye calibration",
                 ));
             }
-            return Ok(Calibration::FisheyeStereo(FisheyeStereoCalibration {
-                rig,
-                rectification,
-                rms_px,
-                per_view_rms_px,
-            }));
+            return Ok(Calibration::Stereo(StereoCalibration { rig, rectification, rms_px, per_view_rms_px }));
         }
         (Cam::Pinhole(l), Cam::Pinhole(r)) => (l, r),
         _ => unreachable!("both sides use the node's one marker"),
@@ -415,7 +409,7 @@ fn opencv_mono(o: &Map<String, Value>, what: &str) -> Result<Calibration> {
     let (rms_px, per_view_rms_px) = (rms_of(o), per_view_mono(o, what)?);
     Ok(match camera_marked(fisheye, k, &d, w, h, "distortion_coefficients", what)? {
         Cam::Pinhole(camera) => Calibration::Mono(MonoCalibration { camera, rms_px, per_view_rms_px }),
-        Cam::Fisheye(camera) => Calibration::FisheyeMono(FisheyeMonoCalibration { camera, rms_px, per_view_rms_px }),
+        Cam::Fisheye(camera) => Calibration::Mono(MonoCalibration { camera, rms_px, per_view_rms_px }),
     })
 }
 
@@ -504,7 +498,7 @@ fn kalibr(o: &Map<String, Value>, what: &str) -> Result<Calibration> {
                 Calibration::Mono(MonoCalibration { camera, rms_px: None, per_view_rms_px: Vec::new() })
             }
             Cam::Fisheye(camera) => {
-                Calibration::FisheyeMono(FisheyeMonoCalibration { camera, rms_px: None, per_view_rms_px: Vec::new() })
+                Calibration::Mono(MonoCalibration { camera, rms_px: None, per_view_rms_px: Vec::new() })
             }
         });
     }
@@ -532,7 +526,7 @@ fn kalibr(o: &Map<String, Value>, what: &str) -> Result<Calibration> {
         (Cam::Fisheye(l), Cam::Fisheye(rc)) => {
             let right_from_left = Isometry3::from_rotation_translation(r, tv).map_err(model(what))?;
             let rig = StereoRig::new(l, rc, right_from_left).map_err(model(what))?;
-            Ok(Calibration::FisheyeStereo(FisheyeStereoCalibration {
+            Ok(Calibration::Stereo(StereoCalibration {
                 rig,
                 rectification: None,
                 rms_px: None,
@@ -675,7 +669,7 @@ fn stereo_at(o: &Map<String, Value>, what: &str) -> Result<Option<Calibration>> 
         let rig = native_fisheye_rig(r, what)?;
         check_lens_model(o, &[&rig.left, &rig.right], what)?;
         check_pose_record(o, "right_from_left", &rig.right_from_left, what)?;
-        return Ok(Some(Calibration::FisheyeStereo(FisheyeStereoCalibration {
+        return Ok(Some(Calibration::Stereo(StereoCalibration {
             rig,
             rectification: native_rectification(o, what)?,
             rms_px: o.get("rms_px").and_then(Value::as_f64),
@@ -692,8 +686,9 @@ fn stereo_at(o: &Map<String, Value>, what: &str) -> Result<Option<Calibration>> 
         if let Some(Value::Object(m)) = o.get("opencv")
             && m.contains_key("M1")
         {
-            let Calibration::Stereo(cv) = opencv_stereo(m, what)? else {
-                return Err(content(what, "`rig` is a pinhole rig but the `opencv` matrices are marked fisheye"));
+            let cv = match opencv_stereo(m, what)? {
+                Calibration::Stereo(cv) if !cv.rig.left.lens_model().is_wide() => cv,
+                _ => return Err(content(what, "`rig` is a pinhole rig but the `opencv` matrices are marked fisheye")),
             };
             let diff = rig_difference(&rig, &cv.rig);
             if diff > 1e-9 {
@@ -713,7 +708,7 @@ fn stereo_at(o: &Map<String, Value>, what: &str) -> Result<Option<Calibration>> 
     }
     if is_rig_shape(o) && rig_is_fisheye(o) {
         let rig = native_fisheye_rig(o, what)?;
-        return Ok(Some(Calibration::FisheyeStereo(FisheyeStereoCalibration {
+        return Ok(Some(Calibration::Stereo(StereoCalibration {
             rig,
             rectification: None,
             rms_px: None,
@@ -735,7 +730,7 @@ fn stereo_at(o: &Map<String, Value>, what: &str) -> Result<Option<Calibration>> 
     }
     if o.contains_key("cam0") && o.contains_key("cam1") {
         return match kalibr(o, what)? {
-            c @ (Calibration::Stereo(_) | Calibration::FisheyeStereo(_)) => Ok(Some(c)),
+            c @ Calibration::Stereo(_) => Ok(Some(c)),
             _ => Ok(None),
         };
     }
@@ -752,7 +747,7 @@ fn mono_at(o: &Map<String, Value>, what: &str) -> Result<Option<Calibration>> {
             && m.contains_key("camera_matrix")
         {
             let same = match opencv_mono(m, what)? {
-                Calibration::FisheyeMono(cv) => {
+                Calibration::Mono(cv) if cv.camera.lens_model().is_wide() => {
                     let p = |c: &Camera| {
                         let k = c.intrinsics();
                         let mut v = vec![k.fx, k.fy, k.cx, k.cy, k.skew];
@@ -772,7 +767,7 @@ fn mono_at(o: &Map<String, Value>, what: &str) -> Result<Option<Calibration>> {
             }
         }
         let rms_px = o.get("rms_px").and_then(Value::as_f64);
-        return Ok(Some(Calibration::FisheyeMono(FisheyeMonoCalibration {
+        return Ok(Some(Calibration::Mono(MonoCalibration {
             camera,
             rms_px,
             per_view_rms_px: per_view_mono(o, what)?,
@@ -786,8 +781,14 @@ fn mono_at(o: &Map<String, Value>, what: &str) -> Result<Option<Calibration>> {
         if let Some(Value::Object(m)) = o.get("opencv")
             && m.contains_key("camera_matrix")
         {
-            let Calibration::Mono(cv) = opencv_mono(m, what)? else {
-                return Err(content(what, "`camera` is a pinhole camera but the `opencv` matrices are marked fisheye"));
+            let cv = match opencv_mono(m, what)? {
+                Calibration::Mono(cv) if !cv.camera.lens_model().is_wide() => cv,
+                _ => {
+                    return Err(content(
+                        what,
+                        "`camera` is a pinhole camera but the `opencv` matrices are marked fisheye",
+                    ));
+                }
             };
             let same = StereoRig { left: camera, right: camera, right_from_left: Isometry3::IDENTITY };
             let other = StereoRig { left: cv.camera, right: cv.camera, right_from_left: Isometry3::IDENTITY };
@@ -808,11 +809,7 @@ fn mono_at(o: &Map<String, Value>, what: &str) -> Result<Option<Calibration>> {
     }
     if is_fisheye_camera_shape(o) {
         let camera = native_fisheye(o, what)?;
-        return Ok(Some(Calibration::FisheyeMono(FisheyeMonoCalibration {
-            camera,
-            rms_px: None,
-            per_view_rms_px: Vec::new(),
-        })));
+        return Ok(Some(Calibration::Mono(MonoCalibration { camera, rms_px: None, per_view_rms_px: Vec::new() })));
     }
     if is_camera_shape(o) {
         let camera: Camera = from_native(&Value::Object(o.clone()), "camera", what)?;
@@ -824,7 +821,7 @@ fn mono_at(o: &Map<String, Value>, what: &str) -> Result<Option<Calibration>> {
     }
     if o.contains_key("cam0") {
         return match kalibr(o, what)? {
-            c @ (Calibration::Mono(_) | Calibration::FisheyeMono(_)) => Ok(Some(c)),
+            c @ Calibration::Mono(_) => Ok(Some(c)),
             _ => Ok(None),
         };
     }
@@ -941,15 +938,21 @@ pub fn rig_from_ros_pair(left: &Value, right: &Value, what: &str) -> Result<Cali
         q: q_from(&p1, &p2),
     });
     match (lc, rc) {
-        (Calibration::Mono(l), Calibration::Mono(rc)) => Ok(Calibration::Stereo(StereoCalibration {
-            rig: rig(l.camera, rc.camera, r, translation, what)?,
-            rectification,
-            rms_px: None,
-            per_view_rms_px: Vec::new(),
-        })),
-        (Calibration::FisheyeMono(l), Calibration::FisheyeMono(rc)) => {
+        (Calibration::Mono(l), Calibration::Mono(rc))
+            if !l.camera.lens_model().is_wide() && !rc.camera.lens_model().is_wide() =>
+        {
+            Ok(Calibration::Stereo(StereoCalibration {
+                rig: rig(l.camera, rc.camera, r, translation, what)?,
+                rectification,
+                rms_px: None,
+                per_view_rms_px: Vec::new(),
+            }))
+        }
+        (Calibration::Mono(l), Calibration::Mono(rc))
+            if l.camera.lens_model().is_wide() && rc.camera.lens_model().is_wide() =>
+        {
             let right_from_left = Isometry3::from_rotation_translation(r, translation).map_err(model(what))?;
-            Ok(Calibration::FisheyeStereo(FisheyeStereoCalibration {
+            Ok(Calibration::Stereo(StereoCalibration {
                 rig: StereoRig::new(l.camera, rc.camera, right_from_left).map_err(model(what))?,
                 rectification,
                 rms_px: None,

@@ -1,8 +1,8 @@
 //! Calibration files that other tools read and write.
 //!
-//! One model ([`Calibration`]: a mono camera, a stereo rig with its rectification, a hand-eye
-//! transform, or a wide-angle camera or rig — Kannala–Brandt or double sphere) and six formats,
-//! each read and written:
+//! One model ([`Calibration`]: a mono camera, a stereo rig with its rectification, or a hand-eye
+//! transform; the cameras of any lens — Brown–Conrady, Kannala–Brandt or double sphere) and six
+//! formats, each read and written:
 //!
 //! | [`Format`] | files | holds |
 //! |---|---|---|
@@ -19,29 +19,29 @@
 //! `extrinsics.yml` given together); hand-eye `R_cam2gripper`/`t_cam2gripper` (eye-to-hand
 //! `R_cam2base`/`t_cam2base`), the names of `calibrateHandEye`'s outputs.
 //!
-//! **Wide-angle lenses** ([`FisheyeMonoCalibration`], [`FisheyeStereoCalibration`]) carry their
-//! model in every format that has one, and are refused by the formats that have none:
+//! **Wide-angle lenses** (a [`MonoCalibration`] or [`StereoCalibration`] whose cameras have a
+//! Kannala–Brandt or double sphere lens) carry their model in every format that has one, and are
+//! refused by the formats that have none:
 //!
 //! | lens | OpenCV YAML / XML | ROS `camera_info` | Kalibr camchain | RON / JSON |
 //! |---|---|---|---|---|
-//! | Kannala–Brandt (`cv::fisheye`) | `fisheye_model: 1` (OpenCV's `camera_calibration.cpp`), `camera_matrix`, `distortion_coefficients` 4x1 = `k1 k2 k3 k4`; stereo `M1 D1 M2 D2 R T E` (+ `R1 R2 P1 P2 Q`) | `distortion_model: equidistant`, `D` 1x4 (ROS's `camera_calibration`) | `camera_model: pinhole`, `distortion_model: equidistant`, intrinsics `[fu fv pu pv]`, coefficients `[k1 k2 k3 k4]` | [`FisheyeMonoRecord`] / [`FisheyeStereoRecord`]: the camera, `lens_model: kannala_brandt` and the `cv::fisheye` matrices |
+//! | Kannala–Brandt (`cv::fisheye`) | `fisheye_model: 1` (OpenCV's `camera_calibration.cpp`), `camera_matrix`, `distortion_coefficients` 4x1 = `k1 k2 k3 k4`; stereo `M1 D1 M2 D2 R T E` (+ `R1 R2 P1 P2 Q`) | `distortion_model: equidistant`, `D` 1x4 (ROS's `camera_calibration`) | `camera_model: pinhole`, `distortion_model: equidistant`, intrinsics `[fu fv pu pv]`, coefficients `[k1 k2 k3 k4]` | [`MonoRecord`] / [`StereoRecord`]: the camera, `lens_model: kannala_brandt` and the `cv::fisheye` matrices |
 //! | double sphere | refused (no such model) | refused | `camera_model: ds`, intrinsics `[xi alpha fu fv pu pv]`, `distortion_model: none` | the same records, `lens_model: double_sphere` |
 //!
 //! Reading never guesses the lens: an OpenCV or ROS file is fisheye only when marked
 //! (`fisheye_model: 1`, or `distortion_model: equidistant` / `fisheye`) and then needs exactly 4
 //! coefficients; a 4-value `D` without a marker is OpenCV's pinhole `k1 k2 p1 p2`. Kalibr's
-//! `eucm` and `omni` have no parallax model and are refused. A fisheye calibration given where a
-//! pinhole one is needed ([`Calibration::camera`], [`Calibration::into_stereo`]) is refused
-//! with the lens named. A fisheye rig written as ROS without a rectification gets
-//! [`fisheye_rectify_default`]'s.
+//! `eucm` and `omni` have no parallax model and are refused. OpenCV and ROS mark a whole rig with
+//! one lens family: a rig of a Brown–Conrady and a wide lens is written as RON, JSON or Kalibr
+//! only. A rig written as ROS without a rectification gets [`rectify_default`]'s.
 //!
 //! ```
-//! use parallax_interop::{Calibration, FisheyeMonoCalibration, Format, parse, render};
+//! use parallax_interop::{Calibration, Format, MonoCalibration, parse, render};
 //! use parallax_interop::parallax_camera_model::{DoubleSphere, Camera, Lens, Intrinsics};
 //!
 //! let ds = Lens::DoubleSphere(DoubleSphere::new(-0.2, 0.6).unwrap());
 //! let camera = Camera::new(Intrinsics::new(250.0, 250.0, 319.5, 239.5), ds, 640, 480).unwrap();
-//! let mono = Calibration::FisheyeMono(FisheyeMonoCalibration { camera, rms_px: None, per_view_rms_px: vec![] });
+//! let mono = Calibration::Mono(MonoCalibration { camera, rms_px: None, per_view_rms_px: vec![] });
 //! let kalibr = &render(&mono, Format::Kalibr, "camchain.yaml".as_ref()).unwrap()[0].1;
 //! assert!(kalibr.contains("camera_model: ds"));
 //! let (back, format) = parse(kalibr, "camchain.yaml").unwrap();
@@ -107,10 +107,10 @@ pub use parallax_camera_model;
 pub use error::{InteropError, Result};
 pub use interpret::{interpret, rig_from_ros_pair};
 pub use model::{
-    Calibration, FisheyeMatrices, FisheyeMonoCalibration, FisheyeMonoRecord, FisheyeStereoCalibration,
-    FisheyeStereoRecord, HandEyeCalibration, HandEyeRecord, MonoCalibration, MonoMatrices, MonoRecord, PoseRecord,
-    RectificationMatrices, RectificationRows, RectifiedRecord, Rows3, Side, StereoCalibration, StereoMatrices,
-    StereoRecord, distortion_vector, lens_model_name, mat3, rows3, setup_from_name, setup_name,
+    Calibration, HandEyeCalibration, HandEyeRecord, KannalaBrandtMatrices, MonoCalibration, MonoMatrices, MonoRecord,
+    OpenCvCamera, PoseRecord, RectificationMatrices, RectificationRows, RectifiedRecord, Rows3, Side,
+    StereoCalibration, StereoMatrices, StereoRecord, distortion_vector, lens_model_name, mat3, rows3, setup_from_name,
+    setup_name,
 };
 pub use target::{parse_target, read_target};
 pub use write::{native_string, opencv_entries, record_string, render, ros_pair_paths};
@@ -324,19 +324,18 @@ pub fn default_rectify_config() -> parallax_stereo_rectify::RectifyConfig {
     }
 }
 
-/// `R1 R2 P1 P2 Q` of `rig` with [`default_rectify_config`].
-pub fn rectify_default(rig: &parallax_camera_model::StereoRig) -> Result<RectificationMatrices> {
-    let r = parallax_stereo_rectify::stereo_rectify(rig, &default_rectify_config())
-        .map_err(|e| InteropError::Unsupported(format!("rectifying the rig: {e}")))?;
-    Ok(RectificationMatrices::from(&r))
-}
-
-/// `R1 R2 P1 P2 Q` of a fisheye rig, written into ROS files when none is given:
+/// `R1 R2 P1 P2 Q` of `rig`, written into files that need them when none are given: with
+/// [`default_rectify_config`] for a Brown–Conrady rig; for a rig with a wide lens
 /// `cv::fisheye::stereoRectify` with OpenCV's defaults (`balance = 0`, `fov_scale = 1`, the input
-/// size, `CALIB_ZERO_DISPARITY`). A rig whose image edges lie 90° or more from the rectified axis
-/// has no pinhole rectification: that is an error (rectify it with a chosen `fov_scale` and
+/// size, `CALIB_ZERO_DISPARITY`). A wide rig whose image edges lie 90° or more from the rectified
+/// axis has no pinhole rectification: that is an error (rectify it with a chosen `fov_scale` and
 /// write the result).
-pub fn fisheye_rectify_default(rig: &parallax_camera_model::StereoRig) -> Result<RectificationMatrices> {
+pub fn rectify_default(rig: &parallax_camera_model::StereoRig) -> Result<RectificationMatrices> {
+    if !(rig.left.lens_model().is_wide() || rig.right.lens_model().is_wide()) {
+        let r = parallax_stereo_rectify::stereo_rectify(rig, &default_rectify_config())
+            .map_err(|e| InteropError::Unsupported(format!("rectifying the rig: {e}")))?;
+        return Ok(RectificationMatrices::from(&r));
+    }
     let r = parallax_stereo_rectify::stereo_rectify(rig, &parallax_stereo_rectify::RectifyConfig::default()).map_err(
         |e| {
             InteropError::Unsupported(format!(

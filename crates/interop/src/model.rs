@@ -1,7 +1,7 @@
 //! What a calibration file holds, and the row-major records the native (RON / JSON) files use.
 
 use glam::{DMat3, DVec3};
-use parallax_camera_model::{Camera, Isometry3, Lens, ProjectionMatrix, StereoRig};
+use parallax_camera_model::{Camera, Isometry3, Lens, LensModel, ProjectionMatrix, StereoRig};
 use parallax_hand_eye::{PoseConventions, Setup};
 use parallax_stereo_rectify::Rectification;
 use serde::{Deserialize, Serialize};
@@ -25,10 +25,10 @@ pub fn mat3(rows: &Rows3) -> DMat3 {
     )
 }
 
-/// A mono camera calibration.
+/// A mono camera calibration (any lens).
 #[derive(Debug, Clone, PartialEq)]
 pub struct MonoCalibration {
-    /// The camera (intrinsics, distortion, image size).
+    /// The camera (intrinsics, lens, image size).
     pub camera: Camera,
     /// RMS reprojection error over all corners, pixels (OpenCV's `avg_reprojection_error`).
     pub rms_px: Option<f64>,
@@ -57,37 +57,13 @@ impl From<&Rectification> for RectificationMatrices {
     }
 }
 
-/// A stereo calibration: the rig, optionally its rectification and the fit's errors.
+/// A stereo calibration (any lenses): the rig, optionally its rectification and the fit's errors.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StereoCalibration {
     /// Both cameras and `right_from_left` (OpenCV's `R`, `T`).
     pub rig: StereoRig,
-    /// `R1 R2 P1 P2 Q`, when the file holds them.
-    pub rectification: Option<RectificationMatrices>,
-    /// RMS reprojection error over both cameras, pixels.
-    pub rms_px: Option<f64>,
-    /// Per view `[left, right]` RMS, pixels.
-    pub per_view_rms_px: Vec<[f64; 2]>,
-}
-
-/// A wide-angle camera calibration (Kannala–Brandt or double sphere).
-#[derive(Debug, Clone, PartialEq)]
-pub struct FisheyeMonoCalibration {
-    /// The camera (intrinsics, lens, image size).
-    pub camera: Camera,
-    /// RMS reprojection error over all corners, pixels.
-    pub rms_px: Option<f64>,
-    /// RMS reprojection error per view, pixels.
-    pub per_view_rms_px: Vec<f64>,
-}
-
-/// A stereo rig of two wide-angle cameras, optionally with its pinhole rectification.
-#[derive(Debug, Clone, PartialEq)]
-pub struct FisheyeStereoCalibration {
-    /// Both cameras and `right_from_left`.
-    pub rig: StereoRig,
-    /// `R1 R2 P1 P2 Q` of the rectification to a pinhole pair (`cv::fisheye::stereoRectify`),
-    /// when the file holds them.
+    /// `R1 R2 P1 P2 Q` (for a wide-lens rig, of its rectification to a pinhole pair,
+    /// `cv::fisheye::stereoRectify`), when the file holds them.
     pub rectification: Option<RectificationMatrices>,
     /// RMS reprojection error over both cameras, pixels.
     pub rms_px: Option<f64>,
@@ -102,23 +78,6 @@ pub fn lens_model_name(lens: &Lens) -> &'static str {
         Lens::BrownConrady(_) => "brown_conrady",
         Lens::KannalaBrandt(_) => "kannala_brandt",
         Lens::DoubleSphere(_) => "double_sphere",
-    }
-}
-
-impl Calibration {
-    /// The calibration kind that holds `s` in files: [`Self::Stereo`] for Brown–Conrady rigs,
-    /// [`Self::FisheyeStereo`] when a camera has a wide lens.
-    pub fn stereo_of(s: StereoCalibration) -> Self {
-        if s.rig.left.lens_model().is_wide() || s.rig.right.lens_model().is_wide() {
-            Self::FisheyeStereo(FisheyeStereoCalibration {
-                rig: s.rig,
-                rectification: s.rectification,
-                rms_px: s.rms_px,
-                per_view_rms_px: s.per_view_rms_px,
-            })
-        } else {
-            Self::Stereo(s)
-        }
     }
 }
 
@@ -148,16 +107,12 @@ impl HandEyeCalibration {
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 pub enum Calibration {
-    /// One camera.
+    /// One camera (any lens).
     Mono(MonoCalibration),
-    /// A stereo rig.
+    /// A stereo rig (any lenses).
     Stereo(StereoCalibration),
     /// A hand-eye transform.
     HandEye(HandEyeCalibration),
-    /// One wide-angle camera.
-    FisheyeMono(FisheyeMonoCalibration),
-    /// A stereo rig of wide-angle cameras.
-    FisheyeStereo(FisheyeStereoCalibration),
 }
 
 /// Which camera of a stereo calibration to take where one camera is needed.
@@ -171,56 +126,29 @@ pub enum Side {
 }
 
 impl Calibration {
-    /// `"mono camera"`, `"stereo rig"` or `"hand-eye transform"` (for messages).
+    /// `"mono camera calibration"`, `"stereo calibration"` or `"hand-eye transform"` (for
+    /// messages).
     pub fn kind(&self) -> &'static str {
         match self {
             Self::Mono(_) => "mono camera calibration",
             Self::Stereo(_) => "stereo calibration",
             Self::HandEye(_) => "hand-eye transform",
-            Self::FisheyeMono(_) => "fisheye camera calibration",
-            Self::FisheyeStereo(_) => "fisheye stereo calibration",
         }
     }
 
-    /// The lens model of a fisheye calibration (`None` for the pinhole ones and hand-eye).
-    pub fn lens_model(&self) -> Option<&'static str> {
+    /// The lens model of the (left) camera; `None` for hand-eye.
+    pub fn lens_model(&self) -> Option<LensModel> {
         match self {
-            Self::FisheyeMono(m) => Some(lens_model_name(&m.camera.lens())),
-            Self::FisheyeStereo(s) => Some(lens_model_name(&s.rig.left.lens())),
-            _ => None,
-        }
-    }
-
-    /// The fisheye stereo calibration, or an error naming what the file holds instead.
-    pub fn into_fisheye_stereo(self, what: &str) -> Result<FisheyeStereoCalibration> {
-        match self {
-            Self::FisheyeStereo(s) => Ok(s),
-            other => Err(content(what, format!("holds a {}, not a stereo rig of fisheye cameras", other.kind()))),
-        }
-    }
-
-    /// One fisheye camera: the mono calibration's, or the chosen side of a fisheye rig.
-    pub fn fisheye_camera(&self, side: Side, what: &str) -> Result<Camera> {
-        match (self, side) {
-            (Self::FisheyeMono(m), _) => Ok(m.camera),
-            (Self::FisheyeStereo(s), Side::Left) => Ok(s.rig.left),
-            (Self::FisheyeStereo(s), Side::Right) => Ok(s.rig.right),
-            (other, _) => Err(content(what, format!("holds a {}, not a fisheye camera", other.kind()))),
+            Self::Mono(m) => Some(m.camera.lens_model()),
+            Self::Stereo(s) => Some(s.rig.left.lens_model()),
+            Self::HandEye(_) => None,
         }
     }
 
     /// The stereo calibration, or an error naming what the file holds instead.
-    /// A rig of any lenses: the stereo calibration, or a fisheye one (its cameras carry their
-    /// lenses; write it back as [`Calibration::FisheyeStereo`], see [`Self::stereo_of`]).
     pub fn into_stereo(self, what: &str) -> Result<StereoCalibration> {
         match self {
             Self::Stereo(s) => Ok(s),
-            Self::FisheyeStereo(s) => Ok(StereoCalibration {
-                rig: s.rig,
-                rectification: s.rectification,
-                rms_px: s.rms_px,
-                per_view_rms_px: s.per_view_rms_px,
-            }),
             other => Err(content(
                 what,
                 format!(
@@ -241,9 +169,6 @@ impl Calibration {
             (Self::HandEye(_), _) => {
                 Err(content(what, "holds a hand-eye transform, not camera intrinsics: give a calibrate result"))
             }
-            (Self::FisheyeMono(m), _) => Ok(m.camera),
-            (Self::FisheyeStereo(s), Side::Left) => Ok(s.rig.left),
-            (Self::FisheyeStereo(s), Side::Right) => Ok(s.rig.right),
         }
     }
 }
@@ -376,14 +301,40 @@ impl StereoMatrices {
     }
 }
 
+/// The OpenCV matrices of a camera in a native record: `calibrateCamera`'s (`K`, `D` of 5 or 8
+/// Brown–Conrady coefficients), or `cv::fisheye`'s for Kannala–Brandt (`None` for a lens OpenCV
+/// has no model of: double sphere).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum OpenCvCamera {
+    /// `camera_matrix`, `distortion_coefficients` (Brown–Conrady).
+    CalibrateCamera(MonoMatrices),
+    /// `cv::fisheye`'s `K` and `D` with the marker `fisheye_model: 1`, or `None`.
+    Fisheye(Option<KannalaBrandtMatrices>),
+}
+
+impl OpenCvCamera {
+    /// The matrices of `camera`, by its lens.
+    pub fn of(camera: &Camera) -> Self {
+        match camera.lens_model() {
+            LensModel::BrownConrady => Self::CalibrateCamera(MonoMatrices::of(camera)),
+            _ => Self::Fisheye(KannalaBrandtMatrices::of(camera)),
+        }
+    }
+}
+
 /// The native (RON / JSON) record of a mono calibration: the camera in the project's own form
-/// (what is read back) and its OpenCV-named matrices, row-major (checked against it on reading).
+/// (what is read back), for a wide lens the model's name, and its OpenCV-named matrices,
+/// row-major (checked against it on reading).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MonoRecord {
     /// The camera.
     pub camera: Camera,
+    /// A wide lens's model, `kannala_brandt` or `double_sphere` (absent for Brown–Conrady).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lens_model: Option<&'static str>,
     /// The same camera as OpenCV's matrices.
-    pub opencv: MonoMatrices,
+    pub opencv: OpenCvCamera,
     /// RMS reprojection error, pixels.
     pub rms_px: Option<f64>,
     /// Per-view RMS, pixels.
@@ -393,26 +344,45 @@ pub struct MonoRecord {
 impl MonoRecord {
     /// The record of `m`.
     pub fn of(m: &MonoCalibration) -> Self {
+        let wide = m.camera.lens_model().is_wide();
         Self {
             camera: m.camera,
-            opencv: MonoMatrices::of(&m.camera),
+            lens_model: wide.then(|| lens_model_name(&m.camera.lens())),
+            opencv: OpenCvCamera::of(&m.camera),
             rms_px: m.rms_px,
             per_view_rms_px: m.per_view_rms_px.clone(),
         }
     }
 }
 
+/// Writes a field that is present (`Some`) as its value (RON's `Some(…)` would change the
+/// file's form); absent fields are skipped.
+fn present<T: Serialize, S: serde::Serializer>(v: &Option<T>, s: S) -> std::result::Result<S::Ok, S::Error> {
+    match v {
+        Some(v) => v.serialize(s),
+        None => s.serialize_none(),
+    }
+}
+
 /// The native record of a stereo calibration: the rig in the project's own form (what is read
-/// back; rotation as a quaternion), `right_from_left` in every convention, and the OpenCV-named
-/// matrices, row-major (checked against the rig on reading).
+/// back; rotation as a quaternion), for wide lenses the model's name, `right_from_left` in every
+/// convention, and for Brown–Conrady rigs the OpenCV-named matrices, row-major (checked against
+/// the rig on reading), for wide rigs `R1 R2 P1 P2 Q` of the pinhole rectification when known.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StereoRecord {
     /// The rig.
     pub rig: StereoRig,
+    /// A wide-lens rig's model, `kannala_brandt` or `double_sphere` (absent for Brown–Conrady).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lens_model: Option<&'static str>,
     /// `right_from_left` as translation, quaternion, matrix, rotation vector and tf line.
     pub right_from_left: PoseRecord,
-    /// The rig and rectification under OpenCV's names.
-    pub opencv: StereoMatrices,
+    /// A Brown–Conrady rig and its rectification under OpenCV's names.
+    #[serde(skip_serializing_if = "Option::is_none", serialize_with = "present")]
+    pub opencv: Option<StereoMatrices>,
+    /// A wide-lens rig: `R1 R2 P1 P2 Q` of its rectification to a pinhole pair, when known.
+    #[serde(skip_serializing_if = "Option::is_none", serialize_with = "present")]
+    pub rectification: Option<Option<RectificationRows>>,
     /// RMS reprojection error over both cameras, pixels.
     pub rms_px: Option<f64>,
     /// Per view `[left, right]` RMS, pixels.
@@ -422,10 +392,13 @@ pub struct StereoRecord {
 impl StereoRecord {
     /// The record of `s`.
     pub fn of(s: &StereoCalibration) -> Self {
+        let wide = s.rig.left.lens_model().is_wide() || s.rig.right.lens_model().is_wide();
         Self {
             rig: s.rig,
+            lens_model: wide.then(|| lens_model_name(&s.rig.left.lens())),
             right_from_left: PoseRecord::of(&s.rig.right_from_left),
-            opencv: StereoMatrices::of(s),
+            opencv: (!wide).then(|| StereoMatrices::of(s)),
+            rectification: wide.then(|| s.rectification.as_ref().map(RectificationRows::from)),
             rms_px: s.rms_px,
             per_view_rms_px: s.per_view_rms_px.clone(),
         }
@@ -525,7 +498,7 @@ impl RectifiedRecord {
 /// `K` and `D = [k1 k2 k3 k4]`, with the marker `fisheye_model: 1` of OpenCV's calibration
 /// sample (`camera_calibration.cpp`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct FisheyeMatrices {
+pub struct KannalaBrandtMatrices {
     /// `1`: `distortion_coefficients` are `cv::fisheye`'s `k1 k2 k3 k4`.
     pub fisheye_model: u8,
     /// `K`, 3x3.
@@ -538,8 +511,8 @@ pub struct FisheyeMatrices {
     pub image_height: u32,
 }
 
-impl FisheyeMatrices {
-    /// The matrices of `camera`, or `None` for a lens OpenCV has no model of (double sphere).
+impl KannalaBrandtMatrices {
+    /// The matrices of `camera`, or `None` for a lens `cv::fisheye` has no model of.
     pub fn of(camera: &Camera) -> Option<Self> {
         let Lens::KannalaBrandt(kb) = camera.lens() else { return None };
         Some(Self {
@@ -550,55 +523,6 @@ impl FisheyeMatrices {
             image_height: camera.height(),
         })
     }
-}
-
-/// The native record of a fisheye calibration: the camera in the project's own form (what is
-/// read back), the lens model's name, and for Kannala–Brandt the `cv::fisheye` matrices
-/// (checked against the camera on reading).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct FisheyeMonoRecord {
-    /// The camera.
-    pub camera: Camera,
-    /// `kannala_brandt` or `double_sphere`.
-    pub lens_model: &'static str,
-    /// `K` and `D` as `cv::fisheye` (Kannala–Brandt only).
-    pub opencv: Option<FisheyeMatrices>,
-    /// RMS reprojection error, pixels.
-    pub rms_px: Option<f64>,
-    /// Per-view RMS, pixels.
-    pub per_view_rms_px: Vec<f64>,
-}
-
-impl FisheyeMonoRecord {
-    /// The record of `m`.
-    pub fn of(m: &FisheyeMonoCalibration) -> Self {
-        Self {
-            camera: m.camera,
-            lens_model: lens_model_name(&m.camera.lens()),
-            opencv: FisheyeMatrices::of(&m.camera),
-            rms_px: m.rms_px,
-            per_view_rms_px: m.per_view_rms_px.clone(),
-        }
-    }
-}
-
-/// The native record of a fisheye stereo calibration: the rig in the project's own form (what
-/// is read back), the lens model's name, `right_from_left` in every convention and the
-/// rectification matrices (row-major) when known.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct FisheyeStereoRecord {
-    /// The rig.
-    pub rig: StereoRig,
-    /// `kannala_brandt` or `double_sphere` (both cameras).
-    pub lens_model: &'static str,
-    /// `right_from_left` as translation, quaternion, matrix, rotation vector and tf line.
-    pub right_from_left: PoseRecord,
-    /// `R1 R2 P1 P2 Q` of the rectification to a pinhole pair, when known.
-    pub rectification: Option<RectificationRows>,
-    /// RMS reprojection error over both cameras, pixels.
-    pub rms_px: Option<f64>,
-    /// Per view `[left, right]` RMS, pixels.
-    pub per_view_rms_px: Vec<[f64; 2]>,
 }
 
 /// `R1 R2 P1 P2 Q`, row-major, under OpenCV's names.
@@ -620,19 +544,5 @@ pub struct RectificationRows {
 impl From<&RectificationMatrices> for RectificationRows {
     fn from(r: &RectificationMatrices) -> Self {
         Self { R1: rows3(&r.r1), R2: rows3(&r.r2), P1: r.p1.rows, P2: r.p2.rows, Q: r.q }
-    }
-}
-
-impl FisheyeStereoRecord {
-    /// The record of `s`.
-    pub fn of(s: &FisheyeStereoCalibration) -> Self {
-        Self {
-            rig: s.rig,
-            lens_model: lens_model_name(&s.rig.left.lens()),
-            right_from_left: PoseRecord::of(&s.rig.right_from_left),
-            rectification: s.rectification.as_ref().map(RectificationRows::from),
-            rms_px: s.rms_px,
-            per_view_rms_px: s.per_view_rms_px.clone(),
-        }
     }
 }

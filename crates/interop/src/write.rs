@@ -7,8 +7,7 @@ use serde::Serialize;
 
 use crate::error::{InteropError, Result};
 use crate::model::{
-    Calibration, FisheyeMonoCalibration, FisheyeMonoRecord, FisheyeStereoCalibration, FisheyeStereoRecord,
-    HandEyeRecord, MonoCalibration, MonoRecord, RectificationMatrices, StereoCalibration, StereoRecord,
+    Calibration, HandEyeRecord, MonoCalibration, MonoRecord, RectificationMatrices, StereoCalibration, StereoRecord,
     distortion_vector, rows3,
 };
 use crate::opencv::Entry;
@@ -97,7 +96,7 @@ fn fisheye_kd(c: &Camera, format: &str) -> Result<(Entry, [f64; 4])> {
 
 /// OpenCV's calibration sample (`camera_calibration.cpp`) with its fisheye option: the marker
 /// `fisheye_model: 1`, `camera_matrix`, `distortion_coefficients` 4x1 (`k1 k2 k3 k4`).
-fn entries_fisheye_mono(m: &FisheyeMonoCalibration) -> Result<Vec<(String, Entry)>> {
+fn entries_fisheye_mono(m: &MonoCalibration) -> Result<Vec<(String, Entry)>> {
     let c = &m.camera;
     let (k, d) = fisheye_kd(c, "OpenCV")?;
     let mut e = vec![
@@ -119,7 +118,7 @@ fn entries_fisheye_mono(m: &FisheyeMonoCalibration) -> Result<Vec<(String, Entry
 /// `stereo_calib.cpp`'s keys for a `cv::fisheye::stereoCalibrate` result, with the marker
 /// `fisheye_model: 1`: `M1 D1 M2 D2` (`D` 1x4), `R T E` and `cv::fisheye::stereoRectify`'s
 /// `R1 R2 P1 P2 Q` when known. No `F`: pixels of a fisheye image are not related by one.
-fn entries_fisheye_stereo(s: &FisheyeStereoCalibration) -> Result<Vec<(String, Entry)>> {
+fn entries_fisheye_stereo(s: &StereoCalibration) -> Result<Vec<(String, Entry)>> {
     let rig = &s.rig;
     let (m1, d1) = fisheye_kd(&rig.left, "OpenCV")?;
     let (m2, d2) = fisheye_kd(&rig.right, "OpenCV")?;
@@ -163,16 +162,29 @@ fn rectification_entries(r: &RectificationMatrices) -> [(String, Entry); 5] {
     ]
 }
 
+/// Refuses a rig whose two lenses are of different families (Brown–Conrady and a wide lens):
+/// the OpenCV and ROS files mark the whole file (or pair) with one model.
+fn one_family(s: &StereoCalibration, format: &str) -> Result<bool> {
+    let (l, r) = (s.rig.left.lens_model(), s.rig.right.lens_model());
+    if l.is_wide() != r.is_wide() {
+        return Err(InteropError::Unsupported(format!(
+            "{format} marks both cameras of a rig with one lens family, and this rig has a {l} and a {r} lens: \
+             write it as ron, json or kalibr"
+        )));
+    }
+    Ok(l.is_wide())
+}
+
 /// OpenCV FileStorage entries of `c` (the key names of OpenCV's calibration samples; a
 /// Kannala–Brandt camera marked `fisheye_model: 1` as `camera_calibration.cpp` does). A
 /// double-sphere camera is refused: OpenCV has no such model.
 pub fn opencv_entries(c: &Calibration) -> Result<Vec<(String, Entry)>> {
     Ok(match c {
+        Calibration::Mono(m) if m.camera.lens_model().is_wide() => entries_fisheye_mono(m)?,
         Calibration::Mono(m) => entries_mono(m),
+        Calibration::Stereo(s) if one_family(s, "OpenCV")? => entries_fisheye_stereo(s)?,
         Calibration::Stereo(s) => entries_stereo(s),
         Calibration::HandEye(h) => entries_hand_eye(h),
-        Calibration::FisheyeMono(m) => entries_fisheye_mono(m)?,
-        Calibration::FisheyeStereo(s) => entries_fisheye_stereo(s)?,
     })
 }
 
@@ -212,15 +224,10 @@ struct RosLens {
 }
 
 impl RosLens {
-    fn pinhole(c: &Camera) -> Self {
-        let d = distortion_vector(c);
-        let model = if d.len() == 8 { "rational_polynomial" } else { "plumb_bob" };
-        Self { width: c.width, height: c.height, k: c.intrinsics.matrix(), model, d }
-    }
-
-    /// ROS's `equidistant` model (what `camera_calibration` writes for a fisheye: OpenCV's
-    /// `cv::fisheye`, `D = [k1 k2 k3 k4]`).
-    fn fisheye(c: &Camera) -> Result<Self> {
+    /// ROS's `plumb_bob` / `rational_polynomial` for Brown–Conrady, `equidistant` for
+    /// Kannala–Brandt (what `camera_calibration` writes for a fisheye: OpenCV's `cv::fisheye`,
+    /// `D = [k1 k2 k3 k4]`); a double sphere is refused.
+    fn of(c: &Camera) -> Result<Self> {
         match c.lens() {
             Lens::KannalaBrandt(kb) => Ok(Self {
                 width: c.width(),
@@ -230,7 +237,11 @@ impl RosLens {
                 d: kb.coefficients().to_vec(),
             }),
             Lens::DoubleSphere(_) => Err(no_double_sphere("ROS camera_info")),
-            Lens::BrownConrady(_) => Ok(Self::pinhole(c)),
+            Lens::BrownConrady(_) => {
+                let d = distortion_vector(c);
+                let model = if d.len() == 8 { "rational_polynomial" } else { "plumb_bob" };
+                Ok(Self { width: c.width, height: c.height, k: c.intrinsics.matrix(), model, d })
+            }
         }
     }
 }
@@ -272,20 +283,13 @@ fn ros_pair(path: &Path, left: RosLens, right: RosLens, r: &RectificationMatrice
 
 fn ros(c: &Calibration, path: &Path) -> Result<Vec<(PathBuf, String)>> {
     match c {
-        Calibration::Mono(m) => ros_mono(path, RosLens::pinhole(&m.camera)),
-        Calibration::FisheyeMono(m) => ros_mono(path, RosLens::fisheye(&m.camera)?),
+        Calibration::Mono(m) => ros_mono(path, RosLens::of(&m.camera)?),
         Calibration::Stereo(s) => {
+            one_family(s, "ROS camera_info")?;
+            let (left, right) = (RosLens::of(&s.rig.left)?, RosLens::of(&s.rig.right)?);
             let r = match s.rectification {
                 Some(r) => r,
                 None => rectify_default(&s.rig)?,
-            };
-            ros_pair(path, RosLens::pinhole(&s.rig.left), RosLens::pinhole(&s.rig.right), &r)
-        }
-        Calibration::FisheyeStereo(s) => {
-            let (left, right) = (RosLens::fisheye(&s.rig.left)?, RosLens::fisheye(&s.rig.right)?);
-            let r = match s.rectification {
-                Some(r) => r,
-                None => crate::fisheye_rectify_default(&s.rig)?,
             };
             ros_pair(path, left, right, &r)
         }
@@ -380,13 +384,6 @@ fn kalibr(c: &Calibration) -> Result<String> {
             chain.insert("cam0", kalibr_camera(&s.rig.left, "cam0", None)?);
             chain.insert("cam1", kalibr_camera(&s.rig.right, "cam1", Some(&s.rig.right_from_left))?);
         }
-        Calibration::FisheyeMono(m) => {
-            chain.insert("cam0", kalibr_fisheye(&m.camera, "cam0", None)?);
-        }
-        Calibration::FisheyeStereo(s) => {
-            chain.insert("cam0", kalibr_fisheye(&s.rig.left, "cam0", None)?);
-            chain.insert("cam1", kalibr_fisheye(&s.rig.right, "cam1", Some(&s.rig.right_from_left))?);
-        }
         Calibration::HandEye(_) => {
             return Err(InteropError::Unsupported(
                 "a Kalibr camchain holds cameras, not a hand-eye transform: write it as ron, json or opencv".into(),
@@ -420,27 +417,12 @@ pub fn record_string(c: &Calibration, format: Format) -> Result<String> {
         Calibration::Mono(m) => native_string(&MonoRecord::of(m), format),
         Calibration::Stereo(s) => native_string(&StereoRecord::of(s), format),
         Calibration::HandEye(h) => native_string(&HandEyeRecord::of(h), format),
-        Calibration::FisheyeMono(m) => native_string(&FisheyeMonoRecord::of(m), format),
-        Calibration::FisheyeStereo(s) => native_string(&FisheyeStereoRecord::of(s), format),
     }
 }
 
 /// The files (path, text) that hold `c` in `format` at `path`: one file, except ROS for a
 /// stereo rig (one `camera_info` per camera: `<stem>_left.yaml`, `<stem>_right.yaml`).
 pub fn render(c: &Calibration, format: Format, path: &Path) -> Result<Vec<(PathBuf, String)>> {
-    // A wide lens's parameters are no Brown–Conrady coefficients: the pinhole records would
-    // write them under OpenCV's `D` without a word. Wide cameras are written as the fisheye kinds.
-    let wide = match c {
-        Calibration::Mono(m) => m.camera.lens_model().is_wide(),
-        Calibration::Stereo(s) => s.rig.left.lens_model().is_wide() || s.rig.right.lens_model().is_wide(),
-        _ => false,
-    };
-    if wide {
-        return Err(InteropError::Unsupported(format!(
-            "{}: a camera with a wide lens is written as a fisheye calibration, not a pinhole one",
-            path.display()
-        )));
-    }
     let one = |text: String| Ok(vec![(path.to_path_buf(), text)]);
     match format {
         Format::Ron | Format::Json => one(record_string(c, format)?),

@@ -8,8 +8,7 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 use parallax_camera_model::{Camera, DoubleSphere, Intrinsics, Isometry3, KannalaBrandt, Lens, StereoRig};
 use parallax_interop::{
-    Calibration, FisheyeMonoCalibration, FisheyeStereoCalibration, Format, Side, detect, parse, read, render,
-    rig_from_ros_pair,
+    Calibration, Format, MonoCalibration, Side, StereoCalibration, detect, parse, read, render, rig_from_ros_pair,
 };
 use parallax_stereo_rectify::{RectifyConfig, stereo_rectify};
 
@@ -45,11 +44,11 @@ fn right_from_left() -> Isometry3 {
 }
 
 fn mono(camera: Camera) -> Calibration {
-    Calibration::FisheyeMono(FisheyeMonoCalibration { camera, rms_px: Some(0.21), per_view_rms_px: vec![0.2, 0.22] })
+    Calibration::Mono(MonoCalibration { camera, rms_px: Some(0.21), per_view_rms_px: vec![0.2, 0.22] })
 }
 
 fn stereo(left: Camera, right: Camera) -> Calibration {
-    Calibration::FisheyeStereo(FisheyeStereoCalibration {
+    Calibration::Stereo(StereoCalibration {
         rig: StereoRig::new(left, right, right_from_left()).unwrap(),
         rectification: None,
         rms_px: Some(0.3),
@@ -114,7 +113,7 @@ fn every_format_round_trips_or_refuses_every_model() {
             assert_eq!(detected, format, "{name}");
             assert_eq!(back.lens_model(), c.lens_model(), "{name} as {format:?}");
             match (&c, &back) {
-                (Calibration::FisheyeMono(a), Calibration::FisheyeMono(b)) => {
+                (Calibration::Mono(a), Calibration::Mono(b)) => {
                     // Every format holds the numbers exactly (17 significant digits).
                     assert_eq!(params(&a.camera), params(&b.camera), "{name} as {format:?}");
                     if !matches!(format, Format::Ros | Format::Kalibr) {
@@ -122,7 +121,7 @@ fn every_format_round_trips_or_refuses_every_model() {
                         assert_eq!(a.per_view_rms_px, b.per_view_rms_px);
                     }
                 }
-                (Calibration::FisheyeStereo(a), Calibration::FisheyeStereo(b)) => {
+                (Calibration::Stereo(a), Calibration::Stereo(b)) => {
                     assert_eq!(params(&a.rig.left), params(&b.rig.left), "{name} as {format:?}");
                     assert_eq!(params(&a.rig.right), params(&b.rig.right), "{name} as {format:?}");
                     let e = pose_error(&a.rig.right_from_left, &b.rig.right_from_left);
@@ -137,17 +136,31 @@ fn every_format_round_trips_or_refuses_every_model() {
     }
 }
 
-/// A fisheye calibration is not handed to a pinhole input (and the reverse), with the reason.
+/// One calibration kind for every lens: a fisheye calibration hands its cameras on with their
+/// lens, a pinhole file reads as a Brown–Conrady camera, and a rig of a pinhole and a wide lens
+/// is refused by the formats that mark a whole rig with one family (OpenCV, ROS), naming both.
 #[test]
 fn fisheye_and_pinhole_are_not_confused() {
     let c = stereo(kb(310.5, [0.0; 4]), kb(310.5, [0.0; 4]));
-    let err = c.camera(Side::Left, "f").unwrap_err().to_string();
-    assert!(err.contains("pinhole") && err.contains("kannala_brandt"), "{err}");
-    let err = c.clone().into_stereo("f").unwrap_err().to_string();
-    assert!(err.contains("fisheye stereo calibration") && err.contains("pinhole"), "{err}");
-    assert_eq!(c.fisheye_camera(Side::Right, "f").unwrap(), kb(310.5, [0.0; 4]));
+    assert_eq!(c.camera(Side::Left, "f").unwrap(), kb(310.5, [0.0; 4]));
+    assert_eq!(c.clone().into_stereo("f").unwrap().rig.right, kb(310.5, [0.0; 4]));
     let (pinhole, _) = read(&[data("cv2_mono.yml")]).unwrap();
-    assert!(pinhole.fisheye_camera(Side::Left, "p").unwrap_err().to_string().contains("not a fisheye camera"));
+    assert_eq!(pinhole.lens_model(), Some(parallax_camera_model::LensModel::BrownConrady));
+    let plain = Camera::new(
+        Intrinsics::new(600.0, 600.0, 319.5, 239.5),
+        parallax_camera_model::Distortion::default(),
+        640,
+        480,
+    )
+    .unwrap();
+    let mixed = stereo(plain, kb(310.5, [0.0; 4]));
+    for format in [Format::OpenCvYaml, Format::Ros] {
+        let err = render(&mixed, format, Path::new("x.yml")).unwrap_err().to_string();
+        assert!(err.contains("brown-conrady") || err.contains("pinhole"), "{err}");
+        assert!(err.contains("kannala-brandt"), "{err}");
+    }
+    let (back, _) = parse(&render(&mixed, Format::Json, Path::new("x.json")).unwrap()[0].1, "x.json").unwrap();
+    assert_eq!(back.into_stereo("x").unwrap().rig, mixed.into_stereo("x").unwrap().rig);
 }
 
 /// `cv2.FileStorage` files in the layout of OpenCV's calibration sample with its fisheye option
@@ -165,12 +178,12 @@ fn opencv_written_fisheye_files() {
     for name in ["cv2_fisheye_mono.yml", "cv2_fisheye_mono.xml"] {
         let (c, formats) = read(&[data(name)]).unwrap();
         assert_eq!(formats[0], if name.ends_with("xml") { Format::OpenCvXml } else { Format::OpenCvYaml });
-        let Calibration::FisheyeMono(m) = c else { panic!("{name}: {}", c.kind()) };
+        let Calibration::Mono(m) = c else { panic!("{name}: {}", c.kind()) };
         assert_eq!(params(&m.camera), params(&truth_l), "{name}");
         assert_eq!(m.rms_px, Some(0.2125));
     }
     let (c, _) = read(&[data("cv2_fisheye_stereo.yml")]).unwrap();
-    let Calibration::FisheyeStereo(s) = c else { panic!("{}", c.kind()) };
+    let Calibration::Stereo(s) = c else { panic!("{}", c.kind()) };
     assert_eq!(params(&s.rig.left), params(&truth_l));
     let e = pose_error(&s.rig.right_from_left, &right_from_left());
     assert!(e < 1e-15, "R, T off by {e:e}");
@@ -201,7 +214,7 @@ fn four_coefficients_without_a_marker_are_pinhole() {
     let (c, _) = parse(&file("fisheye_model: 0\n", "0.1, 0.01, 0.001, 0.0001"), "f0").unwrap();
     assert!(matches!(c, Calibration::Mono(_)), "{}", c.kind());
     let (c, _) = parse(&file("fisheye_model: 1\n", "0.1, 0.01, 0.001, 0.0001"), "f1").unwrap();
-    let Calibration::FisheyeMono(m) = c else { panic!("{}", c.kind()) };
+    let Calibration::Mono(m) = c else { panic!("{}", c.kind()) };
     assert_eq!(m.camera.lens().parameters(), vec![0.1, 0.01, 0.001, 0.0001]);
     let err = parse(&file("fisheye_model: 1\n", "0.1, 0.01, 0.001, 0.0001, 0.0"), "f5").unwrap_err().to_string();
     assert!(err.contains("exactly 4 coefficients") && err.contains("has 5"), "{err}");
@@ -215,14 +228,14 @@ fn four_coefficients_without_a_marker_are_pinhole() {
 fn ros_equidistant_pair() {
     let (c, formats) = read(&[data("ros_equidistant_left.yaml"), data("ros_equidistant_right.yaml")]).unwrap();
     assert_eq!(formats, vec![Format::Ros, Format::Ros]);
-    let Calibration::FisheyeStereo(s) = c else { panic!("{}", c.kind()) };
+    let Calibration::Stereo(s) = c else { panic!("{}", c.kind()) };
     let e = pose_error(&s.rig.right_from_left, &right_from_left());
     println!("ROS pair: right_from_left off by {e:.3e}");
     assert!(e < 1e-12, "{e:e}");
     assert_eq!(s.rig.right.lens().parameters(), vec![0.019, -0.0048, 0.0009, -0.00019]);
     // One file alone is a mono fisheye camera.
     let (c, _) = read(&[data("ros_equidistant_right.yaml")]).unwrap();
-    assert!(matches!(c, Calibration::FisheyeMono(_)), "{}", c.kind());
+    assert!(matches!(c, Calibration::Mono(_)), "{}", c.kind());
     // A left equidistant and a right plumb_bob file are not one rig.
     let left = std::fs::read_to_string(data("ros_equidistant_left.yaml")).unwrap();
     let right = std::fs::read_to_string(data("ros_equidistant_right.yaml"))
@@ -243,14 +256,14 @@ fn ros_equidistant_pair() {
 #[test]
 fn kalibr_camchains() {
     let (c, _) = read(&[data("kalibr_equi_stereo.yaml")]).unwrap();
-    let Calibration::FisheyeStereo(k) = c else { panic!("{}", c.kind()) };
-    let Calibration::FisheyeStereo(cv) = read(&[data("cv2_fisheye_stereo.yml")]).unwrap().0 else { panic!() };
+    let Calibration::Stereo(k) = c else { panic!("{}", c.kind()) };
+    let Calibration::Stereo(cv) = read(&[data("cv2_fisheye_stereo.yml")]).unwrap().0 else { panic!() };
     assert_eq!(params(&k.rig.left), params(&cv.rig.left));
     assert_eq!(params(&k.rig.right), params(&cv.rig.right));
     assert!(pose_error(&k.rig.right_from_left, &cv.rig.right_from_left) < 1e-15);
 
     let (c, _) = read(&[data("kalibr_ds_stereo.yaml")]).unwrap();
-    let Calibration::FisheyeStereo(d) = c else { panic!("{}", c.kind()) };
+    let Calibration::Stereo(d) = c else { panic!("{}", c.kind()) };
     assert_eq!(params(&d.rig.left), params(&ds(250.5, -0.2, 0.6)));
     assert_eq!(params(&d.rig.right), params(&ds(249.75, -0.19, 0.61)));
 

@@ -3,9 +3,10 @@
 //! both build a [`ChainInput`] and call [`run_chain`]; truth scoring and self-consistency checks
 //! are layers on top of the [`ChainOutput`].
 //!
-//! With [`Lens::Fisheye`] the rig is calibrated with a wide-angle model, rectified to a pinhole
-//! pair (`cv::fisheye::stereoRectify`), and triangulation, measurement and the board poses of
-//! hand-eye work on corners moved onto the rectified pair ([`FisheyeRectifiedRig`]).
+//! The lens of each camera is [`ChainInput::stereo`]'s (`left.lens`, `right.lens`). A rig with
+//! a wide lens is rectified to a pinhole pair (`cv::fisheye::stereoRectify`), and triangulation,
+//! measurement and the board poses of hand-eye work on corners moved onto the rectified pair
+//! ([`RectifiedRig::pinhole`]).
 //!
 //! A stage that fails does not stop the chain: its output is a [`StageFailure`] and every stage
 //! that does not depend on it still runs.
@@ -15,25 +16,11 @@ use std::fmt;
 use glam::{DVec2, DVec3};
 use parallax_camera_model::{Chessboard, CornerGrid, DisparityMap, Isometry3};
 use parallax_hand_eye::{HandEyeConfig, HandEyeSolution, Method, Setup};
-use parallax_planar_calibration::{
-    FisheyeModelKind, FisheyeStereoCalibrationResult, FisheyeStereoConfig, StereoCalibrationResult, StereoConfig,
-};
+use parallax_planar_calibration::{StereoCalibrationResult, StereoConfig};
 use parallax_stereo_rectify::RectifyConfig;
 use parallax_triangulation::{CornerDistance, Measurement, PointCloud, TriangulationConfig};
 
-use crate::stages::{self, FisheyeRectifiedRig, RectifiedRig, StereoViews};
-
-/// The lens family the chain calibrates.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Lens {
-    /// Pinhole with Brown–Conrady distortion ([`ChainInput::stereo`]).
-    #[default]
-    Pinhole,
-    /// A wide-angle lens of this model ([`ChainInput::fisheye_stereo`]'s cameras are set to
-    /// it): rectified to a pinhole pair ([`ChainInput::fisheye_rectify`]), and every later stage
-    /// works on the rectified pair ([`FisheyeRectifiedRig`]).
-    Fisheye(FisheyeModelKind),
-}
+use crate::stages::{self, RectifiedRig, StereoViews};
 
 /// Why a stage has no result.
 #[derive(Debug, Clone, PartialEq)]
@@ -109,19 +96,13 @@ pub struct ChainInput {
     pub setup: Setup,
     /// Chessboard detector settings.
     pub detector: parallax_corner_detection::ChessboardConfig,
-    /// Stereo calibration settings.
+    /// Stereo calibration settings (the lens of each camera in `left.lens`, `right.lens`).
     pub stereo: StereoConfig,
     /// Plausibility limits of the stereo calibration.
     pub stereo_checks: stages::StereoChecks,
-    /// Rectification settings.
+    /// Rectification settings (`alpha` for Brown–Conrady rigs, `balance` and `fov_scale` for
+    /// rigs with a wide lens).
     pub rectify: RectifyConfig,
-    /// The lens family to calibrate.
-    pub lens: Lens,
-    /// Fisheye stereo calibration settings (with [`Lens::Fisheye`]; its model replaces the
-    /// cameras' `model`).
-    pub fisheye_stereo: FisheyeStereoConfig,
-    /// Rectification of a fisheye rig to a pinhole pair (`balance`, `fov_scale`).
-    pub fisheye_rectify: RectifyConfig,
     /// Block-matching settings.
     pub matcher: parallax_block_matching::MatcherConfig,
     /// Hand-eye settings (the refined method is used).
@@ -141,9 +122,6 @@ impl ChainInput {
             stereo: Default::default(),
             stereo_checks: Default::default(),
             rectify: Default::default(),
-            lens: Lens::Pinhole,
-            fisheye_stereo: Default::default(),
-            fisheye_rectify: Default::default(),
             matcher: Default::default(),
             hand_eye: Default::default(),
         }
@@ -192,14 +170,10 @@ pub struct ChainOutput {
     pub detections: Vec<[Option<CornerGrid>; 2]>,
     /// The views with the board in both images.
     pub views: StereoViews,
-    /// Stereo calibration (`NotRequested` with a fisheye lens).
+    /// Stereo calibration.
     pub calibration: StageResult<StereoCalibrationResult>,
-    /// Fisheye stereo calibration (`NotRequested` with a pinhole lens).
-    pub fisheye_calibration: StageResult<FisheyeStereoCalibrationResult>,
-    /// Rectification and corner `|Δv|` (of either lens family).
+    /// Rectification and corner `|Δv|` (with the rectified pinhole rig for a wide lens).
     pub rectified: StageResult<RectifiedRig>,
-    /// A fisheye rig's rectification with the rectified pair's pinhole rig.
-    pub fisheye_rectified: StageResult<FisheyeRectifiedRig>,
     /// The first kept calibration view, rectified (for reports).
     pub rectified_view: StageResult<(image::GrayImage, image::GrayImage)>,
     /// Block matching.
@@ -242,20 +216,9 @@ fn detect_pairs<'a>(
     pairs.par_iter().map(|(l, r)| Ok([find(l)?, r.map(find).transpose()?.flatten()])).collect()
 }
 
-/// The calibrated rig of either lens family.
-#[derive(Clone, Copy)]
-enum Calibrated<'a> {
-    Pinhole(&'a StereoCalibrationResult),
-    Fisheye(&'a FisheyeStereoCalibrationResult),
-}
-
-impl Calibrated<'_> {
-    fn sigma_px(&self) -> f64 {
-        match self {
-            Self::Pinhole(c) => c.sigma_px,
-            Self::Fisheye(c) => c.sigma_px,
-        }
-    }
+/// True when a camera of the rig has a wide lens: its later stages work on the rectified pair.
+fn is_wide(rig: &parallax_camera_model::StereoRig) -> bool {
+    rig.left.lens_model().is_wide() || rig.right.lens_model().is_wide()
 }
 
 /// Runs every stage. Only a detector error (an unusable image) is returned as an error; every
@@ -267,46 +230,20 @@ pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
     let views = StereoViews::from_detections(&detections);
 
     progress(2, "calibrating both cameras and the rig");
-    let sizes = input.calibration.first().map(|[l, r]| (l.dimensions(), r.dimensions()));
-    let (calibration, fisheye_calibration) = match (input.lens, sizes) {
-        (_, None) => (failed("no calibration images"), failed("no calibration images")),
-        (Lens::Pinhole, Some((ls, rs))) => (
-            stages::calibrate_stereo(board, &views, ls, rs, &input.stereo, &input.stereo_checks).or_else(failed),
-            Err(StageFailure::NotRequested),
-        ),
-        (Lens::Fisheye(model), Some((ls, rs))) => {
-            let mut cfg = input.fisheye_stereo.clone();
-            cfg.left.model = model;
-            cfg.right.model = model;
-            (
-                Err(StageFailure::NotRequested),
-                stages::calibrate_fisheye_stereo(board, &views, ls, rs, &cfg, &input.stereo_checks).or_else(failed),
-            )
+    let calibration = match input.calibration.first().map(|[l, r]| (l.dimensions(), r.dimensions())) {
+        None => failed("no calibration images"),
+        Some((ls, rs)) => {
+            stages::calibrate_stereo(board, &views, ls, rs, &input.stereo, &input.stereo_checks).or_else(failed)
         }
     };
-    let calib: StageResult<Calibrated> = match input.lens {
-        Lens::Pinhole => need(&calibration, "calibration").map(Calibrated::Pinhole),
-        Lens::Fisheye(_) => need(&fisheye_calibration, "calibration").map(Calibrated::Fisheye),
-    };
+    let calib = need(&calibration, "calibration");
 
     progress(3, "rectifying");
-    let fisheye_rectified = match &calib {
-        Ok(Calibrated::Fisheye(c)) => stages::rectify_fisheye(&c.rig, &views, &input.fisheye_rectify).or_else(failed),
-        Ok(Calibrated::Pinhole(_)) => Err(StageFailure::NotRequested),
-        Err(e) => Err(e.clone()),
-    };
-    let rectified = match &calib {
-        Ok(Calibrated::Pinhole(c)) => stages::rectify(&c.rig, &views, &input.rectify).or_else(failed),
-        Ok(Calibrated::Fisheye(_)) => fisheye_rectified.as_ref().map(|f| f.rectified.clone()).map_err(Clone::clone),
-        Err(e) => Err(e.clone()),
-    };
+    let rectified = calib.clone().and_then(|c| stages::rectify(&c.rig, &views, &input.rectify).or_else(failed));
     let rectify_pair = |l: &image::GrayImage, r: &image::GrayImage| {
-        let c = calib.as_ref().map_err(Clone::clone)?;
+        let c = calib.clone()?;
         let rect = need(&rectified, "rectification")?;
-        match c {
-            Calibrated::Pinhole(c) => stages::rectify_images(&c.rig, &rect.rectification, l, r).or_else(failed),
-            Calibrated::Fisheye(c) => stages::rectify_fisheye_images(&c.rig, &rect.rectification, l, r).or_else(failed),
-        }
+        stages::rectify_images(&c.rig, &rect.rectification, l, r).or_else(failed)
     };
     let rectified_view = need(&rectified, "rectification").and_then(|_| {
         let i = *views.index.first().ok_or(StageFailure::Skipped { needs: "corners" })?;
@@ -331,26 +268,19 @@ pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
         let rect = need(&rectified, "rectification")?;
         stages::point_cloud(&m.disparity, rect.rectification.q, Some(&m.left)).or_else(failed)
     });
-    let adjacent = calib.as_ref().map_err(Clone::clone).and_then(|c| {
-        let cfg = TriangulationConfig { pixel_sigma: c.sigma_px(), ..Default::default() };
-        match c {
-            Calibrated::Pinhole(c) => stages::adjacent_distances(&c.rig, &views, &cfg).or_else(failed),
-            Calibrated::Fisheye(c) => {
-                let rect = need(&fisheye_rectified, "rectification")?;
-                stages::fisheye_adjacent_distances(&c.rig, rect, &views, &cfg).or_else(failed)
-            }
-        }
+    let adjacent = calib.clone().and_then(|c| {
+        let cfg = TriangulationConfig { pixel_sigma: c.sigma_px, ..Default::default() };
+        let rect = if is_wide(&c.rig) { Some(need(&rectified, "rectification")?) } else { None };
+        stages::adjacent_distances(&c.rig, rect, &views, &cfg).or_else(failed)
     });
 
     progress(6, "hand-eye");
     let station_detections = detect_pairs(input.stations.iter().map(|s| (&s.left, s.right.as_ref())), input)?;
     let station_left: Vec<Option<CornerGrid>> = station_detections.iter().map(|d| d[0].clone()).collect();
-    let station_poses = calib.as_ref().map_err(Clone::clone).and_then(|c| match c {
-        Calibrated::Pinhole(c) => stages::board_poses(&c.rig.left, board, &station_left).or_else(failed),
-        Calibrated::Fisheye(c) => {
-            let rect = need(&fisheye_rectified, "rectification")?;
-            stages::fisheye_board_poses(&c.rig, rect, board, &station_left).or_else(failed)
-        }
+    let station_poses = calib.clone().and_then(|c| {
+        // (a wide lens's poses come from its rectified view: they need the rectification)
+        let rect = if is_wide(&c.rig) { Some(need(&rectified, "rectification")?) } else { None };
+        stages::board_poses(&c.rig.left, rect, board, &station_left).or_else(failed)
     });
     let hand_eye = if input.stations.iter().all(|s| s.robot.is_none()) {
         Err(StageFailure::NotRequested)
@@ -371,7 +301,7 @@ pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
     let measurement = if input.stations.iter().all(|s| s.right.is_none()) {
         Err(StageFailure::NotRequested)
     } else {
-        calib.as_ref().map_err(Clone::clone).and_then(|c| {
+        calib.clone().and_then(|c| {
             let station = station_detections
                 .iter()
                 .position(|d| d[0].is_some() && d[1].is_some())
@@ -381,14 +311,9 @@ pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
             };
             let targets = measurement_targets(board);
             let pairs: Vec<(DVec2, DVec2)> = targets.iter().map(|&(c, r)| (gl.at(c, r), gr.at(c, r))).collect();
-            let cfg = TriangulationConfig { pixel_sigma: c.sigma_px(), ..Default::default() };
-            let measurement = match c {
-                Calibrated::Pinhole(c) => stages::measure(&c.rig, &pairs, &cfg).or_else(failed)?,
-                Calibrated::Fisheye(c) => {
-                    let rect = need(&fisheye_rectified, "rectification")?;
-                    stages::measure_fisheye(&c.rig, rect, &pairs, &cfg).or_else(failed)?
-                }
-            };
+            let cfg = TriangulationConfig { pixel_sigma: c.sigma_px, ..Default::default() };
+            let rect = if is_wide(&c.rig) { Some(need(&rectified, "rectification")?) } else { None };
+            let measurement = stages::measure(&c.rig, rect, &pairs, &cfg).or_else(failed)?;
             Ok(StationMeasurement { station, targets, measurement })
         })
     };
@@ -407,9 +332,7 @@ pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
         detections,
         views,
         calibration,
-        fisheye_calibration,
         rectified,
-        fisheye_rectified,
         rectified_view,
         matched,
         cloud,

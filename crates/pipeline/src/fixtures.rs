@@ -130,7 +130,7 @@ pub fn fixture_files(plan: &FixturePlan) -> Result<Vec<(PathBuf, Vec<u8>)>> {
     let easy = SceneDescription::builtin();
     let hard = SceneDescription::builtin_hard();
     let eye_to_hand = SceneDescription::builtin_eye_to_hand();
-    let fisheye = SceneDescription::builtin_fisheye();
+    let fisheye = SceneDescription::builtin_wide();
     for scene in [&easy, &hard, &eye_to_hand, &fisheye] {
         put(&format!("scenes/{}.ron", scene.name), scene.to_ron().as_bytes().to_vec());
     }

@@ -4,12 +4,12 @@
 use std::path::Path;
 
 use glam::{DVec2, DVec3};
-use parallax_camera_model::{CameraModel, Chessboard, DisparityMap, Isometry3, LensModel};
+use parallax_camera_model::{CameraModel, Chessboard, DisparityMap, Isometry3};
 use parallax_hand_eye::Setup;
 use parallax_synthetic::{RenderOptions, SceneDescription};
 use rayon::prelude::*;
 
-use crate::chain::{ChainInput, ChainOutput, Lens, MatchPair, StageResult, Station, run_chain};
+use crate::chain::{ChainInput, ChainOutput, MatchPair, StageResult, Station, run_chain};
 use crate::report::Report;
 use crate::stats::{median, rms};
 use crate::{Result, artifacts};
@@ -42,7 +42,7 @@ fn render_stereo_view<C: CameraModel + Sync>(
     Ok([l, r])
 }
 
-/// Renders every pose through the scene's rig: the fisheye rig when the scene has one.
+/// Renders every pose through the scene's rig (any lens).
 fn render_views(
     scene: &SceneDescription,
     poses: &[Isometry3],
@@ -53,22 +53,13 @@ fn render_views(
         .enumerate()
         .map(|(i, p)| {
             let seed = scene.render.seed.wrapping_add(seed_offset + i as u64);
-            match &scene.fisheye {
-                Some(f) => render_stereo_view(
-                    (&f.rig.left, &f.rig.right, &f.rig.right_from_left),
-                    &scene.board,
-                    p,
-                    &scene.render,
-                    seed,
-                ),
-                None => render_stereo_view(
-                    (&scene.rig.left, &scene.rig.right, &scene.rig.right_from_left),
-                    &scene.board,
-                    p,
-                    &scene.render,
-                    seed,
-                ),
-            }
+            render_stereo_view(
+                (&scene.rig.left, &scene.rig.right, &scene.rig.right_from_left),
+                &scene.board,
+                p,
+                &scene.render,
+                seed,
+            )
         })
         .collect()
 }
@@ -92,10 +83,7 @@ pub fn run_scene(name: &str, scene: &SceneDescription, out: &Path, corrupt: Opti
     })?;
 
     eprintln!("[0/8] rendering the calibration session, the stereo scene and the robot stations…");
-    let session_poses = match scene.fisheye_stereo_poses() {
-        Some(poses) => poses?,
-        None => scene.stereo_poses()?,
-    };
+    let session_poses = scene.stereo_poses()?;
     let session = render_views(scene, &session_poses, 1000)?;
     let stereo_scene = parallax_synthetic::render_stereo_scene(&scene.stereo_scene)?;
     let traj_cfg = parallax_synthetic::TrajectoryConfig { rot_noise_rad: 0.0, trans_noise: 0.0, ..scene.trajectory };
@@ -141,12 +129,9 @@ pub fn run_scene(name: &str, scene: &SceneDescription, out: &Path, corrupt: Opti
         .map(|([l, r], p)| Station { robot: Some(*p), left: l.image, right: Some(r.image) })
         .collect();
     input.setup = if truth.trajectory.eye_in_hand { Setup::EyeInHand } else { Setup::EyeToHand };
-    if let Some(f) = &scene.fisheye {
-        input.lens = Lens::Fisheye(match f.rig.left.lens_model() {
-            LensModel::DoubleSphere => parallax_planar_calibration::FisheyeModelKind::DoubleSphere,
-            _ => parallax_planar_calibration::FisheyeModelKind::KannalaBrandt,
-        });
-    }
+    // The lens models the scene was rendered through are the ones calibrated.
+    input.stereo.left.lens = scene.rig.left.lens_model();
+    input.stereo.right.lens = scene.rig.right.lens_model();
     input.matcher = parallax_block_matching::MatcherConfig {
         num_disparities: (scene.stereo_scene.max_disparity.ceil() as usize + 16) & !15,
         ..Default::default()
@@ -225,30 +210,12 @@ fn score(report: &mut Report, scene: &SceneDescription, truth: &Truth, out: &Cha
         ("baseline vector error", tol.baseline_error, unit, true),
         ("rig rotation error", tol.rig_rotation_deg, "deg", true),
     ];
-    match &scene.fisheye {
-        None => missing(report, "calibration", &out.calibration, &calibration_figures),
-        Some(_) => missing(report, "calibration", &out.fisheye_calibration, &calibration_figures),
-    }
+    missing(report, "calibration", &out.calibration, &calibration_figures);
     // (fx, fy, cx, cy) of left and right, estimated and true; the rig's pose and baseline σ.
-    let estimated = match (&scene.fisheye, &out.calibration, &out.fisheye_calibration) {
-        (None, Ok(c), _) => Some((
-            [c.rig.left.intrinsics, c.rig.right.intrinsics],
-            c.rig.right_from_left,
-            c.rms_px,
-            c.rig_std_devs.baseline,
-        )),
-        (Some(_), _, Ok(c)) => Some((
-            [c.rig.left.intrinsics(), c.rig.right.intrinsics()],
-            c.rig.right_from_left,
-            c.rms_px,
-            c.rig_std_devs.baseline,
-        )),
-        _ => None,
-    };
-    let (true_k, true_pose) = match &scene.fisheye {
-        None => ([rig_true.left.intrinsics, rig_true.right.intrinsics], rig_true.right_from_left),
-        Some(f) => ([f.rig.left.intrinsics(), f.rig.right.intrinsics()], f.rig.right_from_left),
-    };
+    let estimated = out.calibration.as_ref().ok().map(|c| {
+        ([c.rig.left.intrinsics, c.rig.right.intrinsics], c.rig.right_from_left, c.rms_px, c.rig_std_devs.baseline)
+    });
+    let (true_k, true_pose) = ([rig_true.left.intrinsics, rig_true.right.intrinsics], rig_true.right_from_left);
     if let Some((k, pose, rms_px, baseline_sigma)) = estimated {
         let focal_err =
             [(k[0].fx, true_k[0].fx), (k[0].fy, true_k[0].fy), (k[1].fx, true_k[1].fx), (k[1].fy, true_k[1].fy)]
@@ -279,8 +246,8 @@ fn score(report: &mut Report, scene: &SceneDescription, truth: &Truth, out: &Cha
             ),
         );
     }
-    if let (Some(f), Ok(c)) = (&scene.fisheye, &out.fisheye_calibration) {
-        for (side, est, tru) in [("left", &c.rig.left, &f.rig.left), ("right", &c.rig.right, &f.rig.right)] {
+    if let Some(c) = out.calibration.as_ref().ok().filter(|c| c.rig.left.lens_model().is_wide()) {
+        for (side, est, tru) in [("left", &c.rig.left, &rig_true.left), ("right", &c.rig.right, &rig_true.right)] {
             report.note(
                 "calibration",
                 format!(
@@ -333,10 +300,7 @@ fn score(report: &mut Report, scene: &SceneDescription, truth: &Truth, out: &Cha
     let depth_figure = "median relative depth error of the cloud";
     missing(report, "triangulation", &out.cloud, &[(depth_figure, tol.cloud_depth_error_pct, "%", true)]);
     if let (Ok(cloud), Ok(m), Ok(r)) = (&out.cloud, &out.matched, &out.rectified) {
-        let rect_true = match &scene.fisheye {
-            None => parallax_stereo_rectify::stereo_rectify(&rig_true, &Default::default()),
-            Some(f) => parallax_stereo_rectify::stereo_rectify(&f.rig, &input.fisheye_rectify),
-        };
+        let rect_true = parallax_stereo_rectify::stereo_rectify(&rig_true, &input.rectify);
         let errors = match rect_true {
             Ok(rt) => {
                 relative_depth_errors(&m.disparity, &truth.stereo_disparity, &truth.visible, r.rectification.q, rt.q)

@@ -394,7 +394,7 @@ pub fn chessboard_corner_checks(
     let views = crate::StereoViews { index: (0..left.len()).collect(), left, right };
     let rectified = crate::rectify(rig, &views, &Default::default())?;
     let tri = TriangulationConfig { pixel_sigma: sigma_px, ..Default::default() };
-    let distances: Vec<CornerDistance> = crate::adjacent_distances(rig, &views, &tri)?;
+    let distances: Vec<CornerDistance> = crate::adjacent_distances(rig, Some(&rectified), &views, &tri)?;
     let rms = parallax_triangulation::distance_rms(&distances, board.square_size).unwrap_or(f64::NAN);
     Ok(StereoCornerChecks::new(rectified.rectification, rectified.abs_dv, distances.len(), rms))
 }

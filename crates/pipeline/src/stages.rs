@@ -4,10 +4,7 @@
 use glam::{DVec2, DVec3};
 use parallax_camera_model::{Camera, CameraModel, Chessboard, CornerGrid, DisparityMap, Isometry3, StereoRig};
 use parallax_hand_eye::{HandEyeConfig, HandEyeSolution, Method, Setup};
-use parallax_planar_calibration::{
-    CalibrationConfig, CalibrationResult, FisheyeStereoCalibrationResult, FisheyeStereoConfig, StereoCalibrationResult,
-    StereoConfig,
-};
+use parallax_planar_calibration::{CalibrationConfig, CalibrationResult, StereoCalibrationResult, StereoConfig};
 use parallax_stereo_rectify::{Rectification, RectifyConfig};
 use parallax_triangulation::{CornerDistance, Measurement, PointCloud, TriangulationConfig};
 use rayon::prelude::*;
@@ -139,18 +136,43 @@ pub fn calibrate_stereo(
 }
 
 /// A rectified rig and how well the detected corners line up after rectification.
+///
+/// For a rig with a wide lens (Kannala–Brandt, double sphere) it also holds the rectified pair
+/// as a distortion-free pinhole rig ([`rectified_pinhole_rig`]): triangulation, measurement and
+/// the board poses of such a rig work on corners moved onto the rectified pair
+/// ([`adjacent_distances`], [`measure`], [`board_poses`]), and their points are turned back into
+/// the left camera frame by `R1ᵀ`.
 #[derive(Debug, Clone)]
 pub struct RectifiedRig {
     /// `R1, R2, P1, P2, Q` and the valid regions.
     pub rectification: Rectification,
     /// `|v_left − v_right|` of every corner of the stereo views after rectification, pixels.
     pub abs_dv: Vec<f64>,
+    /// The rectified pair as a pinhole rig, for a rig with a wide lens (`None` otherwise).
+    pub pinhole: Option<StereoRig>,
 }
 
 impl RectifiedRig {
     /// Mean `|Δv|` of the corners (NaN without corners).
     pub fn mean_abs_dv(&self) -> f64 {
         crate::stats::mean(&self.abs_dv)
+    }
+
+    /// Pixels of the left camera in the rectified left image.
+    pub fn rectify_left<C: CameraModel>(&self, camera: &C, pixels: &[DVec2]) -> Result<Vec<DVec2>> {
+        let r = &self.rectification;
+        Ok(parallax_stereo_rectify::rectify_points(camera, r.r1, &r.p1, pixels)?)
+    }
+
+    /// Pixels of the right camera in the rectified right image.
+    pub fn rectify_right<C: CameraModel>(&self, camera: &C, pixels: &[DVec2]) -> Result<Vec<DVec2>> {
+        let r = &self.rectification;
+        Ok(parallax_stereo_rectify::rectify_points(camera, r.r2, &r.p2, pixels)?)
+    }
+
+    /// `left camera_from_rectified left`: the rotation `R1ᵀ`.
+    pub fn left_from_rectified(&self) -> Result<Isometry3> {
+        Ok(Isometry3::from_rotation_translation(self.rectification.r1.transpose(), DVec3::ZERO)?)
     }
 }
 
@@ -175,9 +197,10 @@ pub fn rectified_abs_dv(
 /// it the maps have collapsed (an absurd distortion, or a calibration from mismatched pairs).
 pub const MIN_VALID_RECTIFIED_FRACTION: f64 = 0.05;
 
-/// Rectifies the rig (Bouguet) and measures the corners' `|Δv|` after rectification. Refuses a
-/// rectification whose valid region is empty or under [`MIN_VALID_RECTIFIED_FRACTION`] of the
-/// image (the images would be mostly black).
+/// Rectifies the rig (Bouguet; OpenCV's `fisheye::stereoRectify` rule to a pinhole pair for a
+/// wide lens) and measures the corners' `|Δv|` after rectification. Refuses a rectification
+/// whose valid region is empty or under [`MIN_VALID_RECTIFIED_FRACTION`] of the image (the
+/// images would be mostly black).
 pub fn rectify(rig: &StereoRig, views: &StereoViews, config: &RectifyConfig) -> Result<RectifiedRig> {
     let rectification = parallax_stereo_rectify::stereo_rectify(rig, config)?;
     let area = f64::from(rectification.width) * f64::from(rectification.height);
@@ -194,7 +217,9 @@ pub fn rectify(rig: &StereoRig, views: &StereoViews, config: &RectifyConfig) -> 
         }
     }
     let abs_dv = rectified_abs_dv(rig, &rectification, &views.left, &views.right)?;
-    Ok(RectifiedRig { rectification, abs_dv })
+    let wide = rig.left.lens_model().is_wide() || rig.right.lens_model().is_wide();
+    let pinhole = wide.then(|| rectified_pinhole_rig(&rectification)).transpose()?;
+    Ok(RectifiedRig { rectification, abs_dv, pinhole })
 }
 
 /// Resamples a stereo pair into the rectified geometry (bilinear, black outside the image).
@@ -231,36 +256,78 @@ pub fn point_cloud(disparity: &DisparityMap, q: [[f64; 4]; 4], left: Option<&ima
 }
 
 /// Distances between horizontally and vertically adjacent corners of every stereo view,
-/// triangulated with the rig (their true value is the square size).
+/// triangulated with the rig (their true value is the square size); with a wide-lens rig's
+/// rectification on its rectified pinhole pair (distances do not depend on the frame).
 pub fn adjacent_distances(
     rig: &StereoRig,
+    rect: Option<&RectifiedRig>,
     views: &StereoViews,
     config: &TriangulationConfig,
 ) -> Result<Vec<CornerDistance>> {
     let mut out = Vec::new();
     for (l, r) in views.left.iter().zip(&views.right) {
-        out.extend(parallax_triangulation::adjacent_corner_distances(rig, l, r, config)?);
+        out.extend(match rect.and_then(|r| Some((r, r.pinhole.as_ref()?))) {
+            None => parallax_triangulation::adjacent_corner_distances(rig, l, r, config)?,
+            Some((rect, pinhole)) => {
+                let (lr, rr) = rectified_grids(rig, rect, l, r)?;
+                parallax_triangulation::adjacent_corner_distances(pinhole, &lr, &rr, config)?
+            }
+        });
     }
     Ok(out)
 }
 
-/// Triangulates matched pixel pairs and measures every distance between them, with σ.
-pub fn measure(rig: &StereoRig, pairs: &[(DVec2, DVec2)], config: &TriangulationConfig) -> Result<Measurement> {
-    Ok(parallax_triangulation::measure_stereo(rig, pairs, config)?)
+/// Triangulates matched pixel pairs and measures every distance between them, with σ. With a
+/// wide-lens rig's rectification the pairs are triangulated on its rectified pinhole pair and
+/// the points returned in the left camera frame (`R1ᵀ ·` rectified); a point's per-axis σ
+/// belongs to the rectified frame and is dropped (`None`) after the rotation; the distances and
+/// their σ do not depend on the frame.
+pub fn measure(
+    rig: &StereoRig,
+    rect: Option<&RectifiedRig>,
+    pairs: &[(DVec2, DVec2)],
+    config: &TriangulationConfig,
+) -> Result<Measurement> {
+    let Some((rect, pinhole)) = rect.and_then(|r| Some((r, r.pinhole.as_ref()?))) else {
+        return Ok(parallax_triangulation::measure_stereo(rig, pairs, config)?);
+    };
+    let (l, r): (Vec<DVec2>, Vec<DVec2>) = pairs.iter().copied().unzip();
+    let (lr, rr) = (rect.rectify_left(&rig.left, &l)?, rect.rectify_right(&rig.right, &r)?);
+    let rect_pairs: Vec<(DVec2, DVec2)> = lr.into_iter().zip(rr).collect();
+    let mut m = parallax_triangulation::measure_stereo(pinhole, &rect_pairs, config)?;
+    let left_from_rect = rect.left_from_rectified()?;
+    for (p, (a, b)) in m.points.iter_mut().zip(pairs) {
+        p.point = left_from_rect.transform_point(p.point);
+        p.std_dev = None;
+        (p.left, p.right) = (*a, *b);
+    }
+    Ok(m)
 }
 
 /// `camera_from_board` of every found grid by planar PnP with a calibrated camera (`None`
-/// where the board was not found).
+/// where the board was not found). With a wide-lens rig's rectification (`camera` its left
+/// camera) the PnP runs on the corners moved onto the rectified left view, and the pose is
+/// rotated back by `R1ᵀ`.
 pub fn board_poses(
     camera: &Camera,
+    rect: Option<&RectifiedRig>,
     board: &Chessboard,
     grids: &[Option<CornerGrid>],
 ) -> Result<Vec<Option<Isometry3>>> {
+    let wide = rect.and_then(|r| Some((r, r.pinhole.as_ref()?)));
     grids
         .iter()
-        .map(|g| match g {
-            Some(g) => Ok(Some(parallax_planar_calibration::solve_pnp_planar(camera, board, &g.corners)?.0)),
-            None => Ok(None),
+        .map(|g| {
+            let Some(g) = g else { return Ok(None) };
+            Ok(Some(match wide {
+                None => parallax_planar_calibration::solve_pnp_planar(camera, board, &g.corners)?.0,
+                Some((rect, pinhole)) => {
+                    let corners = rect.rectify_left(camera, &g.corners)?;
+                    let (rect_from_board, _) =
+                        parallax_planar_calibration::solve_pnp_planar(&pinhole.left, board, &corners)?;
+                    rect.left_from_rectified()? * rect_from_board
+                }
+            }))
         })
         .collect()
 }
@@ -400,85 +467,9 @@ pub fn target_pose(
     Ok(parallax_planar_calibration::solve_pnp_planar_points(camera, &object, observation.points())?)
 }
 
-/// Plausibility checks of a fisheye stereo calibration: the same limits as [`check_stereo`]
-/// (RMS far above corner noise, right camera to the left of the left one).
-pub fn check_fisheye_stereo(result: &FisheyeStereoCalibrationResult, checks: &StereoChecks) -> Result<()> {
-    let t = result.rig.right_from_left.translation;
-    if result.rms_px.is_nan() || result.rms_px > checks.max_rms_px {
-        return Err(PipelineError::Input(format!(
-            "fisheye stereo RMS reprojection error {:.2} px is far above the corner noise (limit {} px): are the left \
-             and right images paired in the same order, the board size and the lens model right?",
-            result.rms_px, checks.max_rms_px
-        )));
-    }
-    if !checks.allow_swapped && t.x > 0.0 && t.x.abs() > t.y.abs().max(t.z.abs()) {
-        return Err(PipelineError::Input(format!(
-            "the right camera is to the left of the left camera (right_from_left t = [{:.3}, {:.3}, {:.3}]): the left \
-             and right images are probably swapped; swap them (or allow a swapped rig: `allow_swapped`)",
-            t.x, t.y, t.z
-        )));
-    }
-    Ok(())
-}
-
-/// Stereo calibration of two wide-angle cameras (the lens model in `config.left` /
-/// `config.right`) from the views with the board in both images, refused when it fails the
-/// plausibility `checks`.
-pub fn calibrate_fisheye_stereo(
-    board: &Chessboard,
-    views: &StereoViews,
-    left_size: (u32, u32),
-    right_size: (u32, u32),
-    config: &FisheyeStereoConfig,
-    checks: &StereoChecks,
-) -> Result<FisheyeStereoCalibrationResult> {
-    let object = vec![board.object_points(); views.len()];
-    let corners = |grids: &[CornerGrid]| grids.iter().map(|g| g.corners.clone()).collect::<Vec<_>>();
-    let result = parallax_planar_calibration::calibrate_fisheye_stereo(
-        &object,
-        &corners(&views.left),
-        &corners(&views.right),
-        left_size,
-        right_size,
-        config,
-    )?;
-    check_fisheye_stereo(&result, checks)?;
-    Ok(result)
-}
-
-/// A fisheye rig rectified to a pinhole pair: the rectification, the corners' `|Δv|`, and the
-/// rectified pair as a distortion-free pinhole rig (`K` = the left block of `P1` and `P2`,
-/// `right_from_left` = the baseline `(Tx, 0, 0)`, `Tx = P2[0][3] / P2[0][0]`). Every stage
-/// after rectification (triangulation, measurement, board poses) works on rectified pixels
-/// with this rig; its frame is the rectified left frame, `R1 · left camera frame`.
-#[derive(Debug, Clone)]
-pub struct FisheyeRectifiedRig {
-    /// `R1, R2, P1, P2, Q`, the valid regions and the corners' `|Δv|`.
-    pub rectified: RectifiedRig,
-    /// The rectified pair as a pinhole rig without distortion.
-    pub pinhole: StereoRig,
-}
-
-impl FisheyeRectifiedRig {
-    /// Pixels of the left camera in the rectified left image.
-    pub fn rectify_left<C: CameraModel>(&self, camera: &C, pixels: &[DVec2]) -> Result<Vec<DVec2>> {
-        let r = &self.rectified.rectification;
-        Ok(parallax_stereo_rectify::rectify_points(camera, r.r1, &r.p1, pixels)?)
-    }
-
-    /// Pixels of the right camera in the rectified right image.
-    pub fn rectify_right<C: CameraModel>(&self, camera: &C, pixels: &[DVec2]) -> Result<Vec<DVec2>> {
-        let r = &self.rectified.rectification;
-        Ok(parallax_stereo_rectify::rectify_points(camera, r.r2, &r.p2, pixels)?)
-    }
-
-    /// `left camera_from_rectified left`: the rotation `R1ᵀ`.
-    pub fn left_from_rectified(&self) -> Result<Isometry3> {
-        Ok(Isometry3::from_rotation_translation(self.rectified.rectification.r1.transpose(), DVec3::ZERO)?)
-    }
-}
-
-/// The pinhole rig of a rectified pair (see [`FisheyeRectifiedRig`]).
+/// The pinhole rig of a rectified pair: `K` = the left block of `P1` and `P2`, no distortion,
+/// `right_from_left` = the baseline `(Tx, 0, 0)`, `Tx = P2[0][3] / P2[0][0]`; its frame is the
+/// rectified left frame, `R1 · left camera frame`.
 pub fn rectified_pinhole_rig(rect: &Rectification) -> Result<StereoRig> {
     let camera = |p: &parallax_camera_model::ProjectionMatrix| -> Result<Camera> {
         Ok(Camera::new(
@@ -496,63 +487,10 @@ pub fn rectified_pinhole_rig(rect: &Rectification) -> Result<StereoRig> {
     Ok(StereoRig::new(camera(&rect.p1)?, camera(&rect.p2)?, right_from_left)?)
 }
 
-/// Rectifies a fisheye rig to a pinhole pair (`cv::fisheye::stereoRectify`) and measures the
-/// corners' `|Δv|` after rectification; refuses a collapsed valid region as [`rectify`] does.
-pub fn rectify_fisheye(rig: &StereoRig, views: &StereoViews, config: &RectifyConfig) -> Result<FisheyeRectifiedRig> {
-    let rectification = parallax_stereo_rectify::stereo_rectify(rig, config)?;
-    let area = f64::from(rectification.width) * f64::from(rectification.height);
-    for (side, roi) in [("left", rectification.roi1), ("right", rectification.roi2)] {
-        let valid = f64::from(roi.width) * f64::from(roi.height);
-        if valid < MIN_VALID_RECTIFIED_FRACTION * area {
-            return Err(PipelineError::Input(format!(
-                "the rectified {side} image has a valid region of {}x{} px ({:.1} % of the image): the fisheye \
-                 calibration is implausible",
-                roi.width,
-                roi.height,
-                100.0 * valid / area.max(1.0)
-            )));
-        }
-    }
-    let pinhole = rectified_pinhole_rig(&rectification)?;
-    let mut out = FisheyeRectifiedRig { rectified: RectifiedRig { rectification, abs_dv: Vec::new() }, pinhole };
-    let mut abs_dv = Vec::new();
-    for (l, r) in views.left.iter().zip(&views.right) {
-        let lp = out.rectify_left(&rig.left, &l.corners)?;
-        let rp = out.rectify_right(&rig.right, &r.corners)?;
-        abs_dv.extend(lp.iter().zip(&rp).map(|(a, b)| (a.y - b.y).abs()));
-    }
-    out.rectified.abs_dv = abs_dv;
-    Ok(out)
-}
-
-/// Resamples a fisheye stereo pair into the rectified pinhole geometry (bilinear, black where
-/// no source pixel is).
-pub fn rectify_fisheye_images(
-    rig: &StereoRig,
-    rectification: &Rectification,
-    left: &image::GrayImage,
-    right: &image::GrayImage,
-) -> Result<(image::GrayImage, image::GrayImage)> {
-    let (w, h) = (rectification.width, rectification.height);
-    let one = |camera: &parallax_camera_model::Camera, r, p: &parallax_camera_model::ProjectionMatrix, img| {
-        let table = parallax_stereo_rectify::init_undistort_rectify_map(camera, r, p.left_block(), w, h)?;
-        Ok::<_, PipelineError>(parallax_stereo_rectify::remap(
-            img,
-            &table,
-            parallax_stereo_rectify::Interpolation::Bilinear,
-            parallax_stereo_rectify::Border::Constant(image::Luma([0u8])),
-        )?)
-    };
-    Ok((
-        one(&rig.left, rectification.r1, &rectification.p1, left)?,
-        one(&rig.right, rectification.r2, &rectification.p2, right)?,
-    ))
-}
-
-/// Grids of both fisheye cameras moved onto the rectified pinhole pair (same corner order).
+/// Grids of both cameras moved onto the rectified pair (same corner order).
 pub fn rectified_grids(
     rig: &StereoRig,
-    rect: &FisheyeRectifiedRig,
+    rect: &RectifiedRig,
     left: &CornerGrid,
     right: &CornerGrid,
 ) -> Result<(CornerGrid, CornerGrid)> {
@@ -560,66 +498,4 @@ pub fn rectified_grids(
         CornerGrid::new(left.cols, left.rows, rect.rectify_left(&rig.left, &left.corners)?)?,
         CornerGrid::new(right.cols, right.rows, rect.rectify_right(&rig.right, &right.corners)?)?,
     ))
-}
-
-/// Distances between adjacent corners of every stereo view of a fisheye rig, triangulated on
-/// the rectified pinhole pair (distances do not depend on the frame).
-pub fn fisheye_adjacent_distances(
-    rig: &StereoRig,
-    rect: &FisheyeRectifiedRig,
-    views: &StereoViews,
-    config: &TriangulationConfig,
-) -> Result<Vec<CornerDistance>> {
-    let mut out = Vec::new();
-    for (l, r) in views.left.iter().zip(&views.right) {
-        let (lr, rr) = rectified_grids(rig, rect, l, r)?;
-        out.extend(parallax_triangulation::adjacent_corner_distances(&rect.pinhole, &lr, &rr, config)?);
-    }
-    Ok(out)
-}
-
-/// Triangulates matched fisheye pixel pairs on the rectified pinhole pair and measures every
-/// distance between them (with σ); the points are returned in the left camera frame
-/// (`R1ᵀ ·` rectified). A point's per-axis σ belongs to the rectified frame and is dropped
-/// (`None`) after the rotation; the distances and their σ do not depend on the frame.
-pub fn measure_fisheye(
-    rig: &StereoRig,
-    rect: &FisheyeRectifiedRig,
-    pairs: &[(DVec2, DVec2)],
-    config: &TriangulationConfig,
-) -> Result<Measurement> {
-    let (l, r): (Vec<DVec2>, Vec<DVec2>) = pairs.iter().copied().unzip();
-    let (lr, rr) = (rect.rectify_left(&rig.left, &l)?, rect.rectify_right(&rig.right, &r)?);
-    let rect_pairs: Vec<(DVec2, DVec2)> = lr.into_iter().zip(rr).collect();
-    let mut m = parallax_triangulation::measure_stereo(&rect.pinhole, &rect_pairs, config)?;
-    let left_from_rect = rect.left_from_rectified()?;
-    for (p, (a, b)) in m.points.iter_mut().zip(pairs) {
-        p.point = left_from_rect.transform_point(p.point);
-        p.std_dev = None;
-        (p.left, p.right) = (*a, *b);
-    }
-    Ok(m)
-}
-
-/// `camera_from_board` of every found grid of the left fisheye camera: planar PnP on the
-/// corners moved onto the rectified left view, then rotated back by `R1ᵀ`.
-pub fn fisheye_board_poses(
-    rig: &StereoRig,
-    rect: &FisheyeRectifiedRig,
-    board: &Chessboard,
-    grids: &[Option<CornerGrid>],
-) -> Result<Vec<Option<Isometry3>>> {
-    let left_from_rect = rect.left_from_rectified()?;
-    grids
-        .iter()
-        .map(|g| match g {
-            Some(g) => {
-                let corners = rect.rectify_left(&rig.left, &g.corners)?;
-                let (rect_from_board, _) =
-                    parallax_planar_calibration::solve_pnp_planar(&rect.pinhole.left, board, &corners)?;
-                Ok(Some(left_from_rect * rect_from_board))
-            }
-            None => Ok(None),
-        })
-        .collect()
 }

@@ -5,7 +5,7 @@
 
 use std::fmt::Write;
 
-use parallax_camera_model::Camera;
+use parallax_camera_model::{Camera, LensModel};
 use parallax_hand_eye::{HandEyeSolution, Method};
 use parallax_planar_calibration::{IntrinsicStdDevs, StereoCalibrationResult};
 use parallax_triangulation::Measurement;
@@ -25,7 +25,10 @@ fn finish(mut s: String) -> String {
 /// A camera's intrinsics and distortion with their standard deviations (`(fixed)` where held).
 pub fn camera(name: &str, c: &Camera, s: &IntrinsicStdDevs) -> String {
     let k = c.intrinsics;
-    let mut out = format!("{name}: {}x{}, {} lens\n", c.width, c.height, c.lens_model());
+    let mut out = match c.lens_model() {
+        LensModel::BrownConrady => format!("{name}: {}x{}\n", c.width, c.height),
+        wide => format!("{name}: {}x{}, {wide} lens\n", c.width, c.height),
+    };
     let _ = writeln!(out, "  fx {}  fy {}", pm(k.fx, s.fx), pm(k.fy, s.fy));
     let _ = writeln!(out, "  cx {}  cy {}", pm(k.cx, s.cx), pm(k.cy, s.cy));
     let Some(d) = c.distortion() else {
@@ -374,7 +377,7 @@ mod tests {
         let pix = |p: DVec3| -> (DVec2, DVec2) {
             (rig.left.project(p).unwrap(), rig.right.project(rig.right_from_left.transform_point(p)).unwrap())
         };
-        let m = crate::measure(&rig, &[pix(a), pix(b)], &Default::default()).unwrap();
+        let m = crate::measure(&rig, None, &[pix(a), pix(b)], &Default::default()).unwrap();
         let table = measurement_table(&m);
         assert_eq!(table.lines().count(), 2 + 2 + 2, "{table}");
         let keys = measurement_keys(&m);

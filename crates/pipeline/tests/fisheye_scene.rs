@@ -17,7 +17,8 @@ fn scene() -> SceneDescription {
 #[test]
 fn fisheye_scene_passes_every_stage() {
     let scene = scene();
-    assert!(scene.fisheye.is_some());
+    assert_eq!(scene.rig.left.lens_model(), parallax_camera_model::LensModel::KannalaBrandt);
+    assert!(scene.wide_views.is_some());
     let dir = std::env::temp_dir().join(format!("parallax-fisheye-scene-{}", std::process::id()));
     let report = run_scene("fisheye", &scene, &dir, None).unwrap();
     println!("{}", report.table());

@@ -2,7 +2,7 @@
 //! OpenCV-like options, uncertainty and diagnostics.
 
 use glam::{DMat3, DVec2, DVec3};
-use parallax_camera_model::{Camera, Chessboard, CornerGrid, Distortion, Intrinsics, Isometry3};
+use parallax_camera_model::{Camera, Chessboard, CornerGrid, Distortion, Intrinsics, Isometry3, LensModel};
 use parallax_least_squares::{LmConfig, LmReport, levenberg_marquardt};
 use serde::{Deserialize, Serialize};
 
@@ -13,11 +13,17 @@ use crate::zhang::{
 };
 use crate::{CalibrationError, Result};
 
-/// Options of [`calibrate_camera`], named after OpenCV's `calibrateCamera` flags. The default
-/// is OpenCV's default: estimate `fx, fy, cx, cy, k1, k2, p1, p2, k3`, no skew, no rational terms.
+/// Options of [`calibrate_camera`], named after OpenCV's `calibrateCamera` and
+/// `fisheye::calibrate` flags. The default is OpenCV's default: a pinhole (Brown–Conrady) lens,
+/// estimate `fx, fy, cx, cy, k1, k2, p1, p2, k3`, no skew, no rational terms. With a wide lens
+/// (`lens: KannalaBrandt` or `DoubleSphere`) it is `fisheye::calibrate`'s model with
+/// `CALIB_FIX_SKEW`: `fx, fy, cx, cy` and every lens parameter estimated. A flag that does not
+/// apply to the lens is refused ([`CalibrationConfig::check`]), not ignored.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct CalibrationConfig {
+    /// The lens model to fit.
+    pub lens: LensModel,
     /// Hold `cx, cy` (`CALIB_FIX_PRINCIPAL_POINT`): at the guess if one is given, else at the
     /// image centre `((w−1)/2, (h−1)/2)`.
     pub fix_principal_point: bool,
@@ -32,6 +38,12 @@ pub struct CalibrationConfig {
     pub fix_k2: bool,
     /// Hold `k3` (at the guess, else 0): with `zero_tangential` this is the "k1, k2 only" model.
     pub fix_k3: bool,
+    /// Hold `k4` (at the guess, else 0): Kannala–Brandt (`cv::fisheye`'s `CALIB_FIX_K4`).
+    pub fix_k4: bool,
+    /// Hold `ξ` (at the guess, else 0): double sphere.
+    pub fix_xi: bool,
+    /// Hold `α` (at the guess, else ½): double sphere.
+    pub fix_alpha: bool,
     /// Also estimate the rational terms `k4, k5, k6` (`CALIB_RATIONAL_MODEL`).
     pub rational_model: bool,
     /// Estimate the skew `K[0][1]` (OpenCV never does; Zhang's model does).
@@ -47,22 +59,29 @@ pub struct CalibrationConfig {
     /// Views whose board normals all lie within this angle (degrees) of each other are
     /// reported as too similar.
     pub min_view_spread_deg: f64,
+    /// Wide lenses: warn when the observed corners reach less than this fraction of the field
+    /// angle at the midpoints of the image edges (the model extrapolates beyond). Default 0.8.
+    pub min_field_coverage: f64,
 }
 
 impl Default for CalibrationConfig {
     fn default() -> Self {
         Self {
+            lens: LensModel::BrownConrady,
             fix_principal_point: false,
             fix_aspect_ratio: false,
             zero_tangential: false,
             fix_k1: false,
             fix_k2: false,
             fix_k3: false,
+            fix_k4: false,
+            fix_xi: false,
+            fix_alpha: false,
             rational_model: false,
             estimate_skew: false,
             intrinsic_guess: None,
             lm: LmConfig {
-                max_iterations: 100,
+                max_iterations: 200,
                 gradient_tolerance: 1e-10,
                 step_tolerance: 1e-12,
                 cost_tolerance: 1e-12,
@@ -70,7 +89,51 @@ impl Default for CalibrationConfig {
             },
             outlier_view_factor: 2.0,
             min_view_spread_deg: 10.0,
+            min_field_coverage: 0.8,
         }
+    }
+}
+
+impl CalibrationConfig {
+    /// Refuses a flag that does not apply to [`Self::lens`] (naming the flag and the lens), an
+    /// intrinsic guess of another lens model, and a `min_field_coverage` outside `[0, 1]`.
+    pub fn check(&self) -> Result<()> {
+        use LensModel::{BrownConrady, DoubleSphere, KannalaBrandt};
+        let flags: [(&str, bool, &[LensModel]); 8] = [
+            ("zero_tangential", self.zero_tangential, &[BrownConrady]),
+            ("rational_model", self.rational_model, &[BrownConrady]),
+            ("fix_k1", self.fix_k1, &[BrownConrady, KannalaBrandt]),
+            ("fix_k2", self.fix_k2, &[BrownConrady, KannalaBrandt]),
+            ("fix_k3", self.fix_k3, &[BrownConrady, KannalaBrandt]),
+            ("fix_k4", self.fix_k4, &[KannalaBrandt]),
+            ("fix_xi", self.fix_xi, &[DoubleSphere]),
+            ("fix_alpha", self.fix_alpha, &[DoubleSphere]),
+        ];
+        for (flag, on, lenses) in flags {
+            if on && !lenses.contains(&self.lens) {
+                return Err(CalibrationError::InvalidConfig(format!(
+                    "{flag} does not apply to a {} lens (it is a flag of {})",
+                    self.lens,
+                    lenses.iter().map(|l| l.name()).collect::<Vec<_>>().join(" and ")
+                )));
+            }
+        }
+        if let Some(g) = &self.intrinsic_guess
+            && g.lens_model() != self.lens
+        {
+            return Err(CalibrationError::InvalidConfig(format!(
+                "the intrinsic guess has a {} lens but the configuration asks for {}",
+                g.lens_model(),
+                self.lens
+            )));
+        }
+        if !(self.min_field_coverage.is_finite() && (0.0..=1.0).contains(&self.min_field_coverage)) {
+            return Err(CalibrationError::InvalidConfig(format!(
+                "min_field_coverage must be in [0, 1], got {}",
+                self.min_field_coverage
+            )));
+        }
+        Ok(())
     }
 }
 
@@ -92,9 +155,25 @@ pub struct IntrinsicStdDevs {
     pub k4: Option<f64>,
     pub k5: Option<f64>,
     pub k6: Option<f64>,
+    /// Double sphere's `ξ` (absent for the other lenses).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub xi: Option<f64>,
+    /// Double sphere's `α` (absent for the other lenses).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alpha: Option<f64>,
 }
 
 impl IntrinsicStdDevs {
+    /// 1σ of the lens parameters of `model`, in its order (`k1 k2 p1 p2 k3 k4 k5 k6`,
+    /// `k1 k2 k3 k4` or `ξ α`).
+    pub fn lens(&self, model: LensModel) -> Vec<Option<f64>> {
+        match model {
+            LensModel::BrownConrady => self.to_array()[5..].to_vec(),
+            LensModel::KannalaBrandt => vec![self.k1, self.k2, self.k3, self.k4],
+            LensModel::DoubleSphere => vec![self.xi, self.alpha],
+        }
+    }
+
     /// In the order `(fx, fy, cx, cy, skew, k1, k2, p1, p2, k3, k4, k5, k6)`.
     pub fn to_array(&self) -> [Option<f64>; 13] {
         [
@@ -118,6 +197,8 @@ impl IntrinsicStdDevs {
             k4: a[10],
             k5: a[11],
             k6: a[12],
+            xi: None,
+            alpha: None,
         }
     }
 }
@@ -185,6 +266,28 @@ pub enum CalibrationWarning {
         /// Iterations performed.
         iterations: usize,
     },
+    /// The Kannala–Brandt polynomial folds back (`dθ_d/dθ = 0`) inside the image: pixels beyond
+    /// that radius have no ray; the fitted polynomial is extrapolating.
+    LensFoldsInsideImage {
+        /// Camera index (0 mono / left, 1 right).
+        camera: usize,
+        /// The fold angle, degrees.
+        max_field_deg: f64,
+        /// Its distance from the principal point, pixels (along x).
+        radius_px: f64,
+        /// Distance from the principal point to the farthest image corner, pixels (along x).
+        image_radius_px: f64,
+    },
+    /// A wide lens's corners reach a much smaller field angle than the image shows: the lens
+    /// model is extrapolated in the periphery (put the board near the image border too).
+    ExtrapolatedPeriphery {
+        /// Camera index.
+        camera: usize,
+        /// Largest field angle of an observed corner, degrees.
+        observed_deg: f64,
+        /// Largest field angle of the midpoints of the image edges, degrees.
+        image_deg: f64,
+    },
 }
 
 impl std::fmt::Display for CalibrationWarning {
@@ -207,6 +310,16 @@ impl std::fmt::Display for CalibrationWarning {
                 "the board orientations differ by at most {max_angle_deg:.1}° (< {threshold_deg}°): tilt the board more"
             ),
             Self::NotConverged { iterations } => write!(f, "refinement did not converge in {iterations} iterations"),
+            Self::LensFoldsInsideImage { camera, max_field_deg, radius_px, image_radius_px } => write!(
+                f,
+                "camera {camera}: the lens polynomial folds back at {max_field_deg:.1}° ({radius_px:.0} px from the \
+                 principal point), inside the image (corner at {image_radius_px:.0} px)"
+            ),
+            Self::ExtrapolatedPeriphery { camera, observed_deg, image_deg } => write!(
+                f,
+                "camera {camera}: the corners reach {observed_deg:.1}° off axis but the image shows {image_deg:.1}°; \
+                 the periphery is extrapolated (show the board near the image border)"
+            ),
         }
     }
 }
@@ -540,8 +653,9 @@ pub(crate) fn recommended_views(cfg: &CalibrationConfig) -> usize {
     }
 }
 
-/// Calibrates one camera from views of a planar target (Zhang's method + maximum-likelihood
-/// refinement). `object_points[v]` are the target points of view `v` (on the plane `z = 0`,
+/// Calibrates one camera of any lens from views of a planar target: Zhang's method +
+/// maximum-likelihood refinement for Brown–Conrady; for the wide lenses an initialisation that
+/// needs no focal-length guess (see the `wide` module) and the same refinement. `object_points[v]` are the target points of view `v` (on the plane `z = 0`,
 /// board units), `image_points[v]` their observed pixels in the same order.
 ///
 /// Errors: fewer than 2 views, fewer than 4 points in a view, mismatched sizes, non-finite
@@ -553,6 +667,10 @@ pub fn calibrate_camera(
     height: u32,
     config: &CalibrationConfig,
 ) -> Result<CalibrationResult> {
+    config.check()?;
+    if config.lens.is_wide() {
+        return crate::wide::calibrate_wide(object_points, image_points, width, height, config);
+    }
     validate_views(object_points, image_points, "calibration")?;
     if width == 0 || height == 0 {
         return Err(CalibrationError::InvalidConfig(format!("image size {width}x{height}")));
@@ -564,14 +682,6 @@ pub fn calibrate_camera(
             needed,
             why: "a planar target fixes only 2 of the intrinsics per view (give more views, or an intrinsic guess with a fixed principal point)",
         });
-    }
-    if let Some(g) = &config.intrinsic_guess
-        && g.distortion().is_none()
-    {
-        return Err(CalibrationError::InvalidConfig(format!(
-            "the intrinsic guess has a {} lens; this calibration fits Brown–Conrady (pinhole)",
-            g.lens_model()
-        )));
     }
     let (init_camera, init_poses) = initial_estimate(object_points, image_points, width, height, config)?;
     let slots = model_slots(config, &init_camera);

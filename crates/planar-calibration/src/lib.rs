@@ -3,10 +3,12 @@
 //! * [`estimate_homography`]: plane ↔ image homography, normalised DLT + geometric refinement.
 //! * Zhang's closed form: [`intrinsics_from_homographies`] (`V b = 0`, with or without skew),
 //!   [`pose_from_homography`] (`K⁻¹H` + nearest rotation), [`radial_distortion_linear`].
-//! * [`calibrate_camera`] / [`calibrate_chessboard`]: closed form, then Levenberg–Marquardt
-//!   over intrinsics, distortion and every view pose (analytic Jacobians; `JᵀJ` accumulated
-//!   block by block), with OpenCV's options ([`CalibrationConfig`]), per-view and per-corner
-//!   residuals, the standard deviation of every estimated parameter and warnings
+//! * [`calibrate_camera`] / [`calibrate_chessboard`]: one camera of any lens
+//!   ([`CalibrationConfig::lens`]: Brown–Conrady, Kannala–Brandt as OpenCV's `fisheye`, double
+//!   sphere): a closed-form start (Zhang; for the wide lenses one that needs no focal-length
+//!   guess), then Levenberg–Marquardt over intrinsics, lens parameters and every view pose
+//!   (analytic Jacobians; `JᵀJ` accumulated block by block), with OpenCV's options, per-view and
+//!   per-corner residuals, the standard deviation of every estimated parameter and warnings
 //!   ([`CalibrationWarning`]).
 //! * [`calibrate_stereo`]: both cameras + `right_from_left` jointly, `E`, `F`, rig std devs.
 //! * [`calibrate_target`] / [`calibrate_stereo_target`]: the same from identified points of any
@@ -14,12 +16,9 @@
 //!   views, stereo pairs matched by id.
 //! * [`calibrate_dlt`]: `P` from a non-planar target, RQ into `K`, `R`, `t`.
 //! * [`solve_pnp_planar`]: the pose of a calibrated camera from a planar target.
-//! * [`calibrate_fisheye`] / [`calibrate_fisheye_stereo`]: wide-angle cameras
-//!   (`parallax_camera_model::Camera`, Kannala–Brandt as OpenCV's `fisheye` or double
-//!   sphere) with the same refinement, standard deviations, per-view errors and warnings
-//!   ([`FisheyeWarning`]), and an initialisation that needs no focal-length guess.
 //!
-//! Conventions are OpenCV's (see `camera-model`): distortion `(k1, k2, p1, p2, k3[, k4..k6])`,
+//! Conventions are OpenCV's (see `camera-model`): distortion `(k1, k2, p1, p2, k3[, k4..k6])`
+//! or the wide lens's parameters in its order,
 //! RMS = `sqrt(Σ‖e‖²/N)` over corners, poses `camera_from_board` in board units.
 //!
 //! ```
@@ -52,11 +51,11 @@ mod bundle;
 mod calibrate;
 mod dlt;
 mod error;
-mod fisheye;
 mod homography;
 mod partial;
 mod pnp;
 mod stereo;
+mod wide;
 mod zhang;
 
 // The crates whose types this crate's public API uses, re-exported so that a caller needs no
@@ -71,11 +70,6 @@ pub use calibrate::{
 };
 pub use dlt::{DltCalibration, calibrate_dlt, rq_decomposition};
 pub use error::{CalibrationError, Result};
-pub use fisheye::{
-    FisheyeCalibrationConfig, FisheyeCalibrationResult, FisheyeModelKind, FisheyeStdDevs,
-    FisheyeStereoCalibrationResult, FisheyeStereoConfig, FisheyeWarning, calibrate_fisheye,
-    calibrate_fisheye_chessboard, calibrate_fisheye_stereo,
-};
 pub use homography::{Homography, estimate_homography, homography_dlt};
 pub use partial::{calibrate_stereo_target, calibrate_target, common_points, object_points_for};
 pub use pnp::{solve_pnp_planar, solve_pnp_planar_points};

@@ -220,6 +220,10 @@ pub(crate) fn refine_stereo<S: CameraSlots + Clone>(
 
 /// Calibrates a stereo rig from views of a planar target seen by both cameras:
 /// `object_points[v]` (plane `z = 0`), `left_points[v]` and `right_points[v]` in the same order.
+/// Each camera is calibrated alone with its flags (or held at its guess with `fix_intrinsics`),
+/// `right_from_left` starts at the element-wise median of the per-view relative poses, then one
+/// joint refinement of both cameras, the rig and the left view poses (OpenCV's
+/// `stereoCalibrate`, or `fisheye::stereoCalibrate` when both lenses are wide).
 pub fn calibrate_stereo(
     object_points: &[Vec<DVec3>],
     left_points: &[Vec<DVec2>],
@@ -228,6 +232,28 @@ pub fn calibrate_stereo(
     right_size: (u32, u32),
     config: &StereoConfig,
 ) -> Result<StereoCalibrationResult> {
+    config.left.check()?;
+    config.right.check()?;
+    match (config.left.lens.is_wide(), config.right.lens.is_wide()) {
+        (true, true) => {
+            return crate::wide::calibrate_wide_stereo(
+                object_points,
+                left_points,
+                right_points,
+                left_size,
+                right_size,
+                config,
+            );
+        }
+        (false, false) => {}
+        _ => {
+            return Err(CalibrationError::InvalidConfig(format!(
+                "a rig of a {} and a {} lens: both cameras of a stereo calibration take the same lens family \
+                 (Brown–Conrady, or the wide lenses) for now",
+                config.left.lens, config.right.lens
+            )));
+        }
+    }
     validate_views(object_points, left_points, "left camera")?;
     validate_views(object_points, right_points, "right camera")?;
     let (lcam, lposes) =

@@ -34,7 +34,6 @@
 //! ```
 
 mod error;
-mod fisheye;
 mod noise;
 mod render;
 mod scene;
@@ -42,6 +41,7 @@ mod stereo;
 mod targets;
 mod trajectory;
 mod views;
+mod wide;
 
 // The crates whose types this crate's public API uses, re-exported so that a caller needs no
 // version match with them (`parallax_x::glam::DVec3` is the `DVec3` this crate takes).
@@ -51,13 +51,13 @@ pub use parallax_camera_model;
 pub use parallax_least_squares;
 
 pub use error::SyntheticError;
-pub use fisheye::{
-    TexturedRoom, WideViewSetConfig, render_room, wide_angle_calibration_poses, wide_angle_stereo_calibration_poses,
-};
 pub use noise::{add_pixel_noise, perturb_pose, rng};
 pub use render::{RenderOptions, RenderedView, render_chessboard};
-pub use scene::{FisheyeScene, SceneDescription, Tolerances};
+pub use scene::{SceneDescription, Tolerances};
 pub use stereo::{StereoScene, StereoSceneConfig, render_stereo_scene};
 pub use targets::{Occluder, TargetView, render_aprilgrid, render_charuco, render_circle_grid, render_marker};
 pub use trajectory::{HandEyeTruth, Trajectory, TrajectoryConfig, hand_eye_trajectory};
 pub use views::{ViewSetConfig, calibration_poses, project_corners, stereo_calibration_poses};
+pub use wide::{
+    TexturedRoom, WideViewSetConfig, render_room, wide_angle_calibration_poses, wide_angle_stereo_calibration_poses,
+};

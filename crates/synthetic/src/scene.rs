@@ -10,17 +10,6 @@ use crate::{
     calibration_poses, render_chessboard, stereo_calibration_poses, wide_angle_stereo_calibration_poses,
 };
 
-/// A wide-angle stereo rig of a scene: the cameras (Kannala–Brandt or double sphere, the model
-/// the pipeline calibrates with) and the generator of the stereo session's views, spread over
-/// the whole field of view.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct FisheyeScene {
-    /// The rig.
-    pub rig: StereoRig,
-    /// Generator of the stereo session's left `camera_from_board` poses.
-    pub views: WideViewSetConfig,
-}
-
 /// Pass/fail bars of `cargo xtask pipeline`, one per stage. Lengths are in the scene's unit
 /// ([`SceneDescription::unit`], millimetres in the built-in scenes).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -114,7 +103,13 @@ impl Tolerances {
 /// true disparity, the robot trajectory, and the tolerances the pipeline checks.
 ///
 /// All lengths (board squares, distances, baseline, trajectory) are in [`Self::unit`].
+///
+/// The rig may have any lens: with a wide one (Kannala–Brandt, double sphere) the stereo session
+/// is generated over the whole field of view ([`Self::wide_views`]) and the pipeline rectifies
+/// the rig to a pinhole pair. Files of the earlier form, with the wide rig under
+/// `fisheye: Some((rig: …, views: …))`, are read as that rig and generator.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(from = "SceneFile")]
 pub struct SceneDescription {
     /// Short name (used for output folders).
     pub name: String,
@@ -146,11 +141,69 @@ pub struct SceneDescription {
     /// Pass/fail bars of the pipeline.
     #[serde(default)]
     pub tolerances: Tolerances,
-    /// A wide-angle rig: when set, the stereo session and the robot stations are rendered
-    /// through it (not `rig`, whose cameras then serve no stage) and the pipeline calibrates
-    /// with its lens model, rectifies to a pinhole pair and measures there.
+    /// Generator of the stereo session of a rig with a wide lens (the board anywhere in the
+    /// field of view, [`crate::wide_angle_stereo_calibration_poses`]); `None` with a
+    /// Brown–Conrady rig, whose session comes from `stereo_views`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub fisheye: Option<FisheyeScene>,
+    pub wide_views: Option<WideViewSetConfig>,
+}
+
+/// A scene as files hold it: today's form, or the earlier one with the wide rig under
+/// `fisheye` (its `rig` then served no stage).
+#[derive(Deserialize)]
+struct SceneFile {
+    name: String,
+    unit: String,
+    camera: Camera,
+    rig: StereoRig,
+    board: Chessboard,
+    views: ViewSetConfig,
+    #[serde(default)]
+    mono_poses: Option<Vec<Isometry3>>,
+    stereo_views: ViewSetConfig,
+    #[serde(default)]
+    stereo_poses: Option<Vec<Isometry3>>,
+    render: RenderOptions,
+    stereo_scene: StereoSceneConfig,
+    trajectory: TrajectoryConfig,
+    #[serde(default)]
+    tolerances: Tolerances,
+    #[serde(default)]
+    wide_views: Option<WideViewSetConfig>,
+    #[serde(default)]
+    fisheye: Option<WideRigFile>,
+}
+
+/// The earlier form's wide rig and its generator.
+#[derive(Deserialize)]
+struct WideRigFile {
+    rig: StereoRig,
+    views: WideViewSetConfig,
+}
+
+impl From<SceneFile> for SceneDescription {
+    fn from(f: SceneFile) -> Self {
+        let (rig, wide_views) = match f.fisheye {
+            Some(w) => (w.rig, Some(w.views)),
+            None => (f.rig, f.wide_views),
+        };
+        Self {
+            name: f.name,
+            unit: f.unit,
+            camera: f.camera,
+            rig,
+            board: f.board,
+            views: f.views,
+            mono_poses: f.mono_poses,
+            stereo_views: f.stereo_views,
+            stereo_poses: f.stereo_poses,
+            render: f.render,
+            stereo_scene: f.stereo_scene,
+            trajectory: f.trajectory,
+            tolerances: f.tolerances,
+            wide_views,
+        }
+    }
 }
 
 impl SceneDescription {
@@ -231,7 +284,7 @@ impl SceneDescription {
                 handeye_trans: 8.0,
                 base_point_error: 12.0,
             },
-            fisheye: None,
+            wide_views: None,
         }
     }
 
@@ -297,7 +350,7 @@ impl SceneDescription {
     /// at 250–380 mm (the board keeps squares of ~10 px). The pinhole scene's tolerances: every
     /// stage meets them (measured: focal 0.003 %, rectified |Δv| 0.007 px, target distances
     /// 0.09 mm, hand-eye 0.20° / 3.1 mm, base frame 4.5 mm).
-    pub fn builtin_fisheye() -> Self {
+    pub fn builtin_wide() -> Self {
         use parallax_camera_model::{Camera, KannalaBrandt, Lens};
         let mut s = Self::builtin();
         s.name = "fisheye".into();
@@ -321,7 +374,8 @@ impl SceneDescription {
             seed: 6,
             ..Default::default()
         };
-        s.fisheye = Some(FisheyeScene { rig, views });
+        s.rig = rig;
+        s.wide_views = Some(views);
         s
     }
 
@@ -340,10 +394,9 @@ impl SceneDescription {
             v.min_distance *= factor;
             v.max_distance *= factor;
         }
-        if let Some(f) = &mut s.fisheye {
-            f.rig.right_from_left = scale_pose(&f.rig.right_from_left);
-            f.views.min_distance *= factor;
-            f.views.max_distance *= factor;
+        if let Some(v) = &mut s.wide_views {
+            v.min_distance *= factor;
+            v.max_distance *= factor;
         }
         for poses in [&mut s.mono_poses, &mut s.stereo_poses].into_iter().flatten() {
             poses.iter_mut().for_each(|p| *p = scale_pose(p));
@@ -376,8 +429,8 @@ impl SceneDescription {
         s.render.seed = mix(3);
         s.stereo_scene.seed = mix(4);
         s.trajectory.seed = mix(5);
-        if let Some(f) = &mut s.fisheye {
-            f.views.seed = mix(6);
+        if let Some(v) = &mut s.wide_views {
+            v.seed = mix(6);
         }
         s
     }
@@ -451,11 +504,8 @@ impl SceneDescription {
         self.stereo_scene.validate()?;
         self.trajectory.validate()?;
         self.tolerances.validate()?;
-        if let Some(f) = &self.fisheye {
-            if !f.rig.right_from_left.is_finite() {
-                return Err(SyntheticError::config("fisheye.rig.right_from_left", "pose is not finite"));
-            }
-            f.views.validate()?;
+        if let Some(v) = &self.wide_views {
+            v.validate()?;
         }
         for (field, poses) in [("mono_poses", &self.mono_poses), ("stereo_poses", &self.stereo_poses)] {
             if let Some(p) = poses {
@@ -498,29 +548,20 @@ impl SceneDescription {
         }
     }
 
-    /// The stereo session's left `camera_from_board` poses (explicit or generated).
+    /// The stereo session's left `camera_from_board` poses: explicit, or generated by
+    /// `wide_views` over the whole field of view of both cameras, else by `stereo_views`.
     pub fn stereo_poses(&self) -> Result<Vec<Isometry3>, SyntheticError> {
-        match &self.stereo_poses {
-            Some(p) => Ok(p.clone()),
-            None => stereo_calibration_poses(&self.rig, &self.board, &self.stereo_views),
-        }
-    }
-
-    /// The left `camera_from_board` poses of the wide-angle stereo session (explicit
-    /// `stereo_poses`, or generated over the field of view of both fisheye cameras); `None`
-    /// without a fisheye rig.
-    pub fn fisheye_stereo_poses(&self) -> Option<Result<Vec<Isometry3>, SyntheticError>> {
-        let f = self.fisheye.as_ref()?;
-        Some(match &self.stereo_poses {
-            Some(p) => Ok(p.clone()),
-            None => wide_angle_stereo_calibration_poses(
-                &f.rig.left,
-                &f.rig.right,
-                &f.rig.right_from_left,
+        match (&self.stereo_poses, &self.wide_views) {
+            (Some(p), _) => Ok(p.clone()),
+            (None, Some(v)) => wide_angle_stereo_calibration_poses(
+                &self.rig.left,
+                &self.rig.right,
+                &self.rig.right_from_left,
                 &self.board,
-                &f.views,
+                v,
             ),
-        })
+            (None, None) => stereo_calibration_poses(&self.rig, &self.board, &self.stereo_views),
+        }
     }
 
     /// Renders the mono session; view `i` uses noise seed `render.seed + i`.

@@ -200,7 +200,7 @@ fn generate(
 }
 
 /// Points along the border rectangle `border` squares outside the inner corners.
-fn border_samples(board: &Chessboard, border: f64) -> Vec<DVec3> {
+pub(crate) fn border_samples(board: &Chessboard, border: f64) -> Vec<DVec3> {
     let s = board.square_size;
     let (x0, y0) = (-border * s, -border * s);
     let (x1, y1) = ((board.cols - 1) as f64 * s + border * s, (board.rows - 1) as f64 * s + border * s);

@@ -80,3 +80,20 @@ fn bad_scene_descriptions_are_errors() {
     s.tolerances.point_error = f64::NAN;
     assert!(s.validate().unwrap_err().to_string().contains("point_error"));
 }
+
+/// A scene file of the earlier form (the wide rig under `fisheye: Some((rig, views))`, beside a
+/// pinhole `rig` that served no stage: `tests/data/fisheye-scene-before-lens-unification.ron`,
+/// the committed `fixtures/scenes/fisheye.ron` as it was) reads as today's built-in wide scene:
+/// the wide rig is the scene's rig and its generator the stereo session's, so the same views are
+/// rendered; today's form round-trips.
+#[test]
+fn the_earlier_wide_scene_form_still_reads() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/fisheye-scene-before-lens-unification.ron");
+    let old = SceneDescription::from_ron(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let now = SceneDescription::builtin_wide();
+    assert_eq!(old, now);
+    assert!(old.rig.left.lens_model().is_wide() && old.wide_views.is_some());
+    assert_eq!(old.stereo_poses().unwrap(), now.stereo_poses().unwrap());
+    assert_eq!(SceneDescription::from_ron(&now.to_ron()).unwrap(), now);
+    assert!(now.to_ron().contains("wide_views: Some(") && !now.to_ron().contains("fisheye:"));
+}

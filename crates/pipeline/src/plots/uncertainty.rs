@@ -16,14 +16,15 @@
 //! (`k × 6`) and `P = Σ_{v,w} Σ_{v,w}` (`6 × 6`): each pixel costs a few small products.
 
 use glam::{DVec2, DVec3};
-use parallax_camera_model::{Camera, Chessboard, CornerGrid, Isometry3};
+use parallax_camera_model::{Camera, Chessboard, CornerGrid, Isometry3, LensModel};
 use parallax_planar_calibration::CalibrationConfig;
 
 use crate::{PipelineError, Result};
 
-/// The free intrinsic parameters of a calibration: slot in `(fx, fy, cx, cy, skew, k1, k2, p1,
-/// p2, k3, k4, k5, k6)`, its parameter index and the factor tying it to that parameter
-/// (`fx = a·fy` under a fixed aspect ratio).
+/// The free intrinsic parameters of a calibration: slot in `(fx, fy, cx, cy, skew, l0, …, l7)`
+/// (`l` the lens parameters in the model's order: `k1 k2 p1 p2 k3 k4 k5 k6`, `k1..k4` or `ξ α`),
+/// its parameter index and the factor tying it to that parameter (`fx = a·fy` under a fixed
+/// aspect ratio).
 pub fn free_intrinsics(config: &CalibrationConfig, camera: &Camera) -> Vec<(usize, usize, f64)> {
     let mut out = vec![(1, 0, 1.0)];
     let mut n = 1;
@@ -42,6 +43,19 @@ pub fn free_intrinsics(config: &CalibrationConfig, camera: &Camera) -> Vec<(usiz
     }
     if config.estimate_skew {
         free(&mut out, 4);
+    }
+    let wide: &[bool] = match config.lens {
+        LensModel::BrownConrady => &[],
+        LensModel::KannalaBrandt => &[config.fix_k1, config.fix_k2, config.fix_k3, config.fix_k4],
+        LensModel::DoubleSphere => &[config.fix_xi, config.fix_alpha],
+    };
+    if config.lens.is_wide() {
+        for (i, hold) in wide.iter().enumerate() {
+            if !hold {
+                free(&mut out, 5 + i);
+            }
+        }
+        return out;
     }
     for (slot, hold) in [(5, config.fix_k1), (6, config.fix_k2), (9, config.fix_k3)] {
         if !hold {
@@ -82,7 +96,7 @@ pub struct ProjectionUncertainty {
 fn full_row(j: &parallax_camera_model::ProjectionJacobians, r: usize) -> [f64; 13] {
     let mut a = [0.0; 13];
     a[..5].copy_from_slice(&j.d_intrinsics[r]);
-    // `d_distortion` is `(k1, k2, p1, p2, k3, k4, k5, k6)`, the order of slots 5..13.
+    // `d_distortion` holds the lens parameters in the model's order, the order of slots 5..13.
     a[5..].copy_from_slice(&j.d_distortion[r]);
     a
 }

@@ -1,5 +1,5 @@
-//! Calibration of wide-angle cameras ([`Camera`]: Kannala–Brandt or double sphere),
-//! mono and stereo, from planar targets: an initialisation that needs no focal-length guess,
+//! The wide-lens part of [`crate::calibrate_camera`] and [`crate::calibrate_stereo`] (a
+//! [`Camera`] with a Kannala–Brandt or double sphere lens), mono and stereo, from planar targets: an initialisation that needs no focal-length guess,
 //! then the same maximum-likelihood refinement as the pinhole path (Levenberg–Marquardt over
 //! intrinsics, lens parameters and every view pose, block-accumulated normal equations,
 //! covariance `σ² (JᵀJ)⁻¹`), standard deviations, per-view errors and warnings.
@@ -14,247 +14,24 @@
 //! calibration of the same corners (grid over `ξ, α`, focal scale in closed form), falling back
 //! to the neutral scan if that fails.
 
+use crate::bundle::{Bundle, CameraSlots, Slot, ViewObs, store_pose};
+use crate::calibrate::{
+    CalibrationConfig, CalibrationResult, CalibrationWarning, IntrinsicStdDevs, MonoSolution, mono_solution,
+    outlier_views, validate_views, view_spread_deg,
+};
+use crate::stereo::{StereoCalibrationResult, StereoConfig, StereoSolution, median_rig, refine_stereo};
+use crate::{CalibrationError, Result};
 use glam::{DMat3, DVec2, DVec3};
 use parallax_camera_model::{
-    Camera, CameraModelError, Chessboard, CornerGrid, DoubleSphere, Intrinsics, Isometry3, KannalaBrandt, Lens,
-    StereoRig,
+    Camera, CameraModelError, DoubleSphere, Intrinsics, Isometry3, Lens, LensModel, StereoRig,
 };
 use parallax_least_squares::{
     EvaluationError, LmConfig, LmReport, Problem, levenberg_marquardt, nearest_rotation, null_vector,
 };
-use serde::{Deserialize, Serialize};
-
-use crate::bundle::{Bundle, CameraSlots, Slot, ViewObs, store_pose};
-use crate::calibrate::{
-    CalibrationWarning, MonoSolution, PoseStdDevs, board_views, mono_solution, outlier_views, validate_views,
-    view_spread_deg,
-};
-use crate::stereo::{RigStdDevs, StereoSolution, median_rig, refine_stereo};
-use crate::{CalibrationError, Result};
 
 /// Length of the full per-camera parameter vector `(fx, fy, cx, cy, skew, l0, l1, l2, l3)`
 /// (`l` = lens parameters in the model's order; double sphere uses `l0 = ξ`, `l1 = α`).
 const N_FULL: usize = 9;
-
-/// Which wide-angle model to calibrate.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-pub enum FisheyeModelKind {
-    /// Kannala–Brandt / OpenCV `fisheye` (`k1..k4`).
-    #[default]
-    KannalaBrandt,
-    /// Double sphere (`ξ, α`).
-    DoubleSphere,
-}
-
-/// Options of [`calibrate_fisheye`]. The default is OpenCV `fisheye::calibrate`'s model with
-/// `CALIB_FIX_SKEW`: `fx, fy, cx, cy, k1..k4` estimated, no skew.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct FisheyeCalibrationConfig {
-    /// The lens model.
-    pub model: FisheyeModelKind,
-    /// Hold `cx, cy` (at the guess, else the image centre `((w−1)/2, (h−1)/2)`).
-    pub fix_principal_point: bool,
-    /// Estimate only `fy`, with `fx = a·fy`, `a` from the guess (else 1).
-    pub fix_aspect_ratio: bool,
-    /// Estimate the skew `K[0][1]` (OpenCV fisheye's `alpha · fx`; held at 0 by default).
-    pub estimate_skew: bool,
-    /// Hold lens parameter `i` (model order: `k1..k4`, or `ξ, α`) at the guess, else at the
-    /// neutral value (0 for `k1..k4` and `ξ`, ½ for `α`), as OpenCV's `CALIB_FIX_K1..K4`.
-    pub fix_lens: [bool; 4],
-    /// Start from this camera (`CALIB_USE_INTRINSIC_GUESS`); its lens must be of `model` and
-    /// its image size the views'.
-    pub intrinsic_guess: Option<Camera>,
-    /// Levenberg–Marquardt settings of the refinement.
-    pub lm: LmConfig,
-    /// A view is an outlier when its RMS exceeds this multiple of the median view RMS (and the
-    /// median plus 4 robust standard deviations).
-    pub outlier_view_factor: f64,
-    /// Views whose board normals all lie within this angle (degrees) are reported as similar.
-    pub min_view_spread_deg: f64,
-    /// Warn when the observed corners reach less than this fraction of the field angle at the
-    /// midpoints of the image edges (the model extrapolates beyond). Default 0.8.
-    pub min_field_coverage: f64,
-}
-
-impl Default for FisheyeCalibrationConfig {
-    fn default() -> Self {
-        Self {
-            model: FisheyeModelKind::KannalaBrandt,
-            fix_principal_point: false,
-            fix_aspect_ratio: false,
-            estimate_skew: false,
-            fix_lens: [false; 4],
-            intrinsic_guess: None,
-            lm: LmConfig {
-                max_iterations: 200,
-                gradient_tolerance: 1e-10,
-                step_tolerance: 1e-12,
-                cost_tolerance: 1e-12,
-                ..LmConfig::default()
-            },
-            outlier_view_factor: 2.0,
-            min_view_spread_deg: 10.0,
-            min_field_coverage: 0.8,
-        }
-    }
-}
-
-/// 1σ of every parameter of a wide-angle camera; `None` for parameters held fixed.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct FisheyeStdDevs {
-    /// 1σ of `fx`.
-    pub fx: Option<f64>,
-    /// 1σ of `fy`.
-    pub fy: Option<f64>,
-    /// 1σ of `cx`.
-    pub cx: Option<f64>,
-    /// 1σ of `cy`.
-    pub cy: Option<f64>,
-    /// 1σ of the skew.
-    pub skew: Option<f64>,
-    /// 1σ of the lens parameters in the model's order (`k1..k4`, or `ξ, α, −, −`).
-    pub lens: [Option<f64>; 4],
-}
-
-/// Something the user should know about a wide-angle calibration that nevertheless succeeded.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum FisheyeWarning {
-    /// A warning shared with the pinhole path (outlier view, too few views, similar views,
-    /// not converged).
-    Calibration(CalibrationWarning),
-    /// The Kannala–Brandt polynomial folds back (`dθ_d/dθ = 0`) inside the image: pixels beyond
-    /// that radius have no ray; the fitted polynomial is extrapolating.
-    LensFoldsInsideImage {
-        /// Camera index (0 mono / left, 1 right).
-        camera: usize,
-        /// The fold angle, degrees.
-        max_field_deg: f64,
-        /// Its distance from the principal point, pixels (along x).
-        radius_px: f64,
-        /// Distance from the principal point to the farthest image corner, pixels (along x).
-        image_radius_px: f64,
-    },
-    /// The corners reach a much smaller field angle than the image shows: the lens model is
-    /// extrapolated in the periphery (put the board near the image border too).
-    ExtrapolatedPeriphery {
-        /// Camera index.
-        camera: usize,
-        /// Largest field angle of an observed corner, degrees.
-        observed_deg: f64,
-        /// Largest field angle of the midpoints of the image edges, degrees.
-        image_deg: f64,
-    },
-}
-
-impl std::fmt::Display for FisheyeWarning {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::Calibration(w) => w.fmt(f),
-            Self::LensFoldsInsideImage { camera, max_field_deg, radius_px, image_radius_px } => write!(
-                f,
-                "camera {camera}: the lens polynomial folds back at {max_field_deg:.1}° ({radius_px:.0} px from the \
-                 principal point), inside the image (corner at {image_radius_px:.0} px)"
-            ),
-            Self::ExtrapolatedPeriphery { camera, observed_deg, image_deg } => write!(
-                f,
-                "camera {camera}: the corners reach {observed_deg:.1}° off axis but the image shows {image_deg:.1}°; \
-                 the periphery is extrapolated (show the board near the image border)"
-            ),
-        }
-    }
-}
-
-/// The result of [`calibrate_fisheye`].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct FisheyeCalibrationResult {
-    /// The calibrated camera.
-    pub camera: Camera,
-    /// Per-view `camera_from_board` (board units).
-    pub camera_from_board: Vec<Isometry3>,
-    /// RMS reprojection error over all corners, `sqrt(Σ‖e‖² / N)`, pixels.
-    pub rms_px: f64,
-    /// The same per view.
-    pub per_view_rms_px: Vec<f64>,
-    /// Per view, per corner: observed − projected, pixels.
-    pub residuals_px: Vec<Vec<DVec2>>,
-    /// 1σ of the camera parameters.
-    pub std_devs: FisheyeStdDevs,
-    /// 1σ of every view pose.
-    pub pose_std_devs: Vec<PoseStdDevs>,
-    /// Estimated corner noise per coordinate `sqrt(‖r‖² / (m − n))`, pixels.
-    pub sigma_px: f64,
-    /// Degrees of freedom (residuals − parameters).
-    pub dof: usize,
-    /// Estimated parameters (camera + 6 per view).
-    pub num_parameters: usize,
-    /// LM iterations.
-    pub iterations: usize,
-    /// Whether LM converged.
-    pub converged: bool,
-    /// Diagnostics.
-    pub warnings: Vec<FisheyeWarning>,
-}
-
-/// Options of [`calibrate_fisheye_stereo`].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct FisheyeStereoConfig {
-    /// Hold both cameras (at their `intrinsic_guess`, else their mono calibrations).
-    pub fix_intrinsics: bool,
-    /// Model, flags and guess of the left camera.
-    pub left: FisheyeCalibrationConfig,
-    /// Model, flags and guess of the right camera.
-    pub right: FisheyeCalibrationConfig,
-    /// Levenberg–Marquardt settings of the joint refinement.
-    pub lm: LmConfig,
-}
-
-impl Default for FisheyeStereoConfig {
-    fn default() -> Self {
-        let left = FisheyeCalibrationConfig::default();
-        Self { fix_intrinsics: false, lm: left.lm, right: left.clone(), left }
-    }
-}
-
-/// The result of [`calibrate_fisheye_stereo`].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct FisheyeStereoCalibrationResult {
-    /// Both cameras and `right_from_left`.
-    pub rig: StereoRig,
-    /// Per-view left `camera_from_board`.
-    pub camera_from_board: Vec<Isometry3>,
-    /// RMS over all corners of both cameras, pixels.
-    pub rms_px: f64,
-    /// RMS over the left camera's corners, pixels.
-    pub left_rms_px: f64,
-    /// RMS over the right camera's corners, pixels.
-    pub right_rms_px: f64,
-    /// Per view `[left, right]` RMS, pixels.
-    pub per_view_rms_px: Vec<[f64; 2]>,
-    /// Per view `[left, right]`, per corner: observed − projected, pixels.
-    pub residuals_px: Vec<[Vec<DVec2>; 2]>,
-    /// 1σ of the left camera (`None` = held).
-    pub left_std_devs: FisheyeStdDevs,
-    /// 1σ of the right camera.
-    pub right_std_devs: FisheyeStdDevs,
-    /// 1σ of the rig.
-    pub rig_std_devs: RigStdDevs,
-    /// Essential matrix `E = [t]× R` (`r_rᵀ E r_l = 0` for the rays of a match).
-    pub essential: DMat3,
-    /// Estimated corner noise per coordinate, pixels.
-    pub sigma_px: f64,
-    /// Degrees of freedom.
-    pub dof: usize,
-    /// Estimated parameters.
-    pub num_parameters: usize,
-    /// LM iterations of the joint refinement.
-    pub iterations: usize,
-    /// Whether the joint refinement converged.
-    pub converged: bool,
-    /// Diagnostics (camera 0 = left, 1 = right).
-    pub warnings: Vec<FisheyeWarning>,
-}
 
 /// The parametrisation of one camera.
 #[derive(Debug, Clone)]
@@ -273,7 +50,7 @@ fn full_of(c: &Camera) -> [f64; N_FULL] {
 }
 
 impl Slots {
-    fn new(cfg: &FisheyeCalibrationConfig, init: &Camera, all_fixed: bool) -> Self {
+    fn new(cfg: &CalibrationConfig, init: &Camera, all_fixed: bool) -> Self {
         let theta = full_of(init);
         let mut slots: [Slot; N_FULL] = std::array::from_fn(|i| Slot::Fixed(theta[i]));
         if all_fixed {
@@ -297,8 +74,9 @@ impl Slots {
         if cfg.estimate_skew {
             free(&mut slots, 4);
         }
+        let fix_lens = fix_lens(cfg);
         for i in 0..init.lens().num_parameters() {
-            if !cfg.fix_lens[i] {
+            if !fix_lens[i] {
                 free(&mut slots, 5 + i);
             }
         }
@@ -335,14 +113,18 @@ impl Slots {
         out
     }
 
-    fn std_devs(&self, offset: usize, cov: Option<&faer::Mat<f64>>) -> FisheyeStdDevs {
+    fn std_devs(&self, offset: usize, cov: Option<&faer::Mat<f64>>) -> IntrinsicStdDevs {
         let a: [Option<f64>; N_FULL] = std::array::from_fn(|i| match self.slots[i] {
             Slot::Fixed(_) => None,
             Slot::Free { index, scale } => {
                 Some(cov.map_or(f64::NAN, |c| scale.abs() * c[(offset + index, offset + index)].max(0.0).sqrt()))
             }
         });
-        FisheyeStdDevs { fx: a[0], fy: a[1], cx: a[2], cy: a[3], skew: a[4], lens: [a[5], a[6], a[7], a[8]] }
+        let k = IntrinsicStdDevs { fx: a[0], fy: a[1], cx: a[2], cy: a[3], skew: a[4], ..Default::default() };
+        match self.template.lens_model() {
+            LensModel::DoubleSphere => IntrinsicStdDevs { xi: a[5], alpha: a[6], ..k },
+            _ => IntrinsicStdDevs { k1: a[5], k2: a[6], k3: a[7], k4: a[8], ..k },
+        }
     }
 }
 
@@ -412,20 +194,11 @@ pub(crate) fn pose_from_rays(plane: &[DVec2], rays: &[DVec3]) -> Result<Isometry
     Ok(Isometry3::from_rotation_translation(r, tr)?)
 }
 
-fn neutral_lens(model: FisheyeModelKind) -> Lens {
-    match model {
-        FisheyeModelKind::KannalaBrandt => Lens::KannalaBrandt(KannalaBrandt::equidistant()),
-        FisheyeModelKind::DoubleSphere => {
-            Lens::DoubleSphere(DoubleSphere::new(0.0, 0.5).expect("ξ = 0, α = ½ is in the domain"))
-        }
-    }
-}
-
-fn lens_kind(lens: &Lens) -> Option<FisheyeModelKind> {
-    match lens {
-        Lens::BrownConrady(_) => None,
-        Lens::KannalaBrandt(_) => Some(FisheyeModelKind::KannalaBrandt),
-        Lens::DoubleSphere(_) => Some(FisheyeModelKind::DoubleSphere),
+/// The held lens parameters of `cfg`, in the lens model's order (`k1..k4`, or `ξ, α`).
+fn fix_lens(cfg: &CalibrationConfig) -> [bool; 4] {
+    match cfg.lens {
+        LensModel::DoubleSphere => [cfg.fix_xi, cfg.fix_alpha, false, false],
+        _ => [cfg.fix_k1, cfg.fix_k2, cfg.fix_k3, cfg.fix_k4],
     }
 }
 
@@ -462,7 +235,7 @@ fn initial_estimates(
     image: &[Vec<DVec2>],
     width: u32,
     height: u32,
-    cfg: &FisheyeCalibrationConfig,
+    cfg: &CalibrationConfig,
 ) -> Result<Vec<(Camera, Vec<Isometry3>)>> {
     if let Some(guess) = &cfg.intrinsic_guess {
         if (guess.width(), guess.height()) != (width, height) {
@@ -472,13 +245,6 @@ fn initial_estimates(
                 guess.height()
             )));
         }
-        if lens_kind(&guess.lens()) != Some(cfg.model) {
-            return Err(CalibrationError::InvalidConfig(format!(
-                "intrinsic guess has a {} lens but the configuration asks for {:?}",
-                guess.lens_model(),
-                cfg.model
-            )));
-        }
         let poses = poses_for(guess, object, image).ok_or_else(|| {
             CalibrationError::EstimationFailed(
                 "a corner lies outside the intrinsic guess's valid region (its ray cannot be found)".into(),
@@ -486,14 +252,19 @@ fn initial_estimates(
         })?;
         return Ok(vec![(*guess, poses)]);
     }
-    if cfg.model == FisheyeModelKind::DoubleSphere {
-        let kb_cfg = FisheyeCalibrationConfig {
-            model: FisheyeModelKind::KannalaBrandt,
-            fix_lens: [false; 4],
+    if cfg.lens == LensModel::DoubleSphere {
+        let kb_cfg = CalibrationConfig {
+            lens: LensModel::KannalaBrandt,
+            fix_k1: false,
+            fix_k2: false,
+            fix_k3: false,
+            fix_k4: false,
+            fix_xi: false,
+            fix_alpha: false,
             estimate_skew: false,
             ..cfg.clone()
         };
-        if let Ok(kb) = calibrate_fisheye(object, image, width, height, &kb_cfg) {
+        if let Ok(kb) = calibrate_wide(object, image, width, height, &kb_cfg) {
             let starts = double_sphere_from_kannala_brandt(&kb.camera, &kb.camera_from_board, object);
             if !starts.is_empty() {
                 return Ok(starts.into_iter().map(|c| (c, kb.camera_from_board.clone())).collect());
@@ -501,7 +272,7 @@ fn initial_estimates(
         }
     }
     let centre = (0.5 * (width as f64 - 1.0), 0.5 * (height as f64 - 1.0));
-    let lens = neutral_lens(cfg.model);
+    let lens = cfg.lens.neutral();
     let size = width.max(height) as f64;
     let penalty = size * size;
     let eval = |f: f64| -> (f64, Option<(Camera, Vec<Isometry3>)>) {
@@ -524,7 +295,7 @@ fn initial_estimates(
              image size and the corner coordinates",
             grid[0],
             grid[SCAN - 1],
-            cfg.model
+            cfg.lens
         )));
     }
     // Golden-section search on ln f between the neighbours of the best grid value.
@@ -628,21 +399,6 @@ fn check_size(width: u32, height: u32) -> Result<()> {
     Ok(())
 }
 
-fn check_config(cfg: &FisheyeCalibrationConfig) -> Result<()> {
-    if !(cfg.min_field_coverage.is_finite() && (0.0..=1.0).contains(&cfg.min_field_coverage)) {
-        return Err(CalibrationError::InvalidConfig(format!(
-            "min_field_coverage must be in [0, 1], got {}",
-            cfg.min_field_coverage
-        )));
-    }
-    if cfg.model == FisheyeModelKind::DoubleSphere && (cfg.fix_lens[2] || cfg.fix_lens[3]) {
-        return Err(CalibrationError::InvalidConfig(
-            "the double sphere model has 2 lens parameters (ξ, α): fix_lens[2] and fix_lens[3] do not exist".into(),
-        ));
-    }
-    Ok(())
-}
-
 /// Largest field angle (degrees) of the midpoints of the four image edges that unproject
 /// (the image's horizontal or vertical half field of view; the image corners, rarely covered
 /// by a board, are left out).
@@ -656,12 +412,12 @@ fn image_field_deg(camera: &Camera) -> f64 {
 }
 
 fn lens_warnings(
-    warnings: &mut Vec<FisheyeWarning>,
+    warnings: &mut Vec<CalibrationWarning>,
     camera: &Camera,
     index: usize,
     poses: &[Isometry3],
     object: &[Vec<DVec3>],
-    cfg: &FisheyeCalibrationConfig,
+    cfg: &CalibrationConfig,
 ) {
     let k = camera.intrinsics();
     let corners = [
@@ -676,7 +432,7 @@ fn lens_warnings(
     {
         let fold = kb.distort_theta(kb.max_theta());
         if fold < rho_max {
-            warnings.push(FisheyeWarning::LensFoldsInsideImage {
+            warnings.push(CalibrationWarning::LensFoldsInsideImage {
                 camera: index,
                 max_field_deg: kb.max_theta().to_degrees(),
                 radius_px: fold * k.fx,
@@ -692,7 +448,7 @@ fn lens_warnings(
         .fold(0.0, f64::max);
     let image = image_field_deg(camera);
     if observed < cfg.min_field_coverage * image {
-        warnings.push(FisheyeWarning::ExtrapolatedPeriphery {
+        warnings.push(CalibrationWarning::ExtrapolatedPeriphery {
             camera: index,
             observed_deg: observed,
             image_deg: image,
@@ -701,62 +457,37 @@ fn lens_warnings(
 }
 
 fn common_warnings(
-    warnings: &mut Vec<FisheyeWarning>,
+    warnings: &mut Vec<CalibrationWarning>,
     poses: &[Isometry3],
-    cfg: &FisheyeCalibrationConfig,
+    cfg: &CalibrationConfig,
     report: &LmReport,
 ) {
     let recommended = if cfg.fix_principal_point { 2 } else { 3 };
     if poses.len() < recommended {
-        warnings.push(FisheyeWarning::Calibration(CalibrationWarning::TooFewViews { views: poses.len(), recommended }));
+        warnings.push(CalibrationWarning::TooFewViews { views: poses.len(), recommended });
     }
     let spread = view_spread_deg(poses);
     if cfg.intrinsic_guess.is_none() && spread < cfg.min_view_spread_deg {
-        warnings.push(FisheyeWarning::Calibration(CalibrationWarning::SimilarViews {
-            max_angle_deg: spread,
-            threshold_deg: cfg.min_view_spread_deg,
-        }));
+        warnings
+            .push(CalibrationWarning::SimilarViews { max_angle_deg: spread, threshold_deg: cfg.min_view_spread_deg });
     }
     if !report.stop_reason.converged() {
-        warnings.push(FisheyeWarning::Calibration(CalibrationWarning::NotConverged { iterations: report.iterations }));
+        warnings.push(CalibrationWarning::NotConverged { iterations: report.iterations });
     }
 }
 
-/// Calibrates one wide-angle camera from views of a planar target: `object_points[v]` on the
-/// plane `z = 0` (board units), `image_points[v]` the observed pixels in the same order. The
-/// model is `config.model`; no focal-length guess is needed (see the module docs).
-///
-/// Errors: fewer than 2 views (or 1 with a guess and a fixed principal point), fewer than 4
-/// points in a view, mismatched sizes, non-finite values, non-planar targets, parallel views,
-/// an inconsistent configuration, or no focal length that explains the corners.
-///
-/// ```
-/// use parallax_camera_model::{Chessboard, Camera, Lens, Intrinsics, KannalaBrandt};
-/// use parallax_planar_calibration::{calibrate_fisheye, FisheyeCalibrationConfig};
-/// use parallax_synthetic::{project_corners, wide_angle_calibration_poses, WideViewSetConfig};
-///
-/// // A 190° lens; no focal-length guess is given to the calibration.
-/// let lens = Lens::KannalaBrandt(KannalaBrandt::new(0.021, -0.0043, 0.0011, -0.00017)?);
-/// let truth = Camera::new(Intrinsics::new(290.0, 289.0, 511.5, 383.5), lens, 1024, 768)?;
-/// let board = Chessboard::new(9, 6, 25.0)?;
-/// let poses = wide_angle_calibration_poses(&truth, &board, &WideViewSetConfig { views: 8, ..Default::default() })?;
-/// let image: Vec<_> = poses.iter().map(|p| project_corners(&truth, &board, p)).collect::<Result<_, _>>()?;
-/// let object = vec![board.object_points(); poses.len()];
-/// let result = calibrate_fisheye(&object, &image, 1024, 768, &FisheyeCalibrationConfig::default())?;
-/// assert!(result.rms_px < 1e-6);
-/// assert!((result.camera.intrinsics().fx - 290.0).abs() < 1e-5);
-/// # Ok::<(), Box<dyn std::error::Error>>(())
-/// ```
-pub fn calibrate_fisheye(
+/// [`crate::calibrate_camera`] for a wide lens: `object_points[v]` on the plane `z = 0`
+/// (board units), `image_points[v]` the observed pixels in the same order; no focal-length
+/// guess is needed (see the module docs). The configuration is checked by the caller.
+pub(crate) fn calibrate_wide(
     object_points: &[Vec<DVec3>],
     image_points: &[Vec<DVec2>],
     width: u32,
     height: u32,
-    config: &FisheyeCalibrationConfig,
-) -> Result<FisheyeCalibrationResult> {
-    validate_views(object_points, image_points, "fisheye calibration")?;
+    config: &CalibrationConfig,
+) -> Result<CalibrationResult> {
+    validate_views(object_points, image_points, "calibration")?;
     check_size(width, height)?;
-    check_config(config)?;
     let needed = if config.intrinsic_guess.is_some() && config.fix_principal_point { 1 } else { 2 };
     if object_points.len() < needed {
         return Err(CalibrationError::TooFewViews {
@@ -781,7 +512,7 @@ pub fn calibrate_fisheye(
         let n = bundle.num_params();
         if bundle.num_residuals <= n {
             return Err(CalibrationError::TooFewPoints {
-                what: "fisheye calibration (all views)".into(),
+                what: "calibration (all views)".into(),
                 got: bundle.num_residuals / 2,
                 needed: n / 2 + 1,
             });
@@ -814,13 +545,10 @@ pub fn calibrate_fisheye(
         .camera(&report.params[..slots.num_free])
         .map_err(|e| CalibrationError::EstimationFailed(format!("refined camera is invalid: {e}")))?;
     let std_devs = slots.std_devs(0, report.covariance.as_ref());
-    let mut warnings: Vec<FisheyeWarning> = outlier_views(&per_view_rms_px, config.outlier_view_factor, 0)
-        .into_iter()
-        .map(FisheyeWarning::Calibration)
-        .collect();
+    let mut warnings: Vec<CalibrationWarning> = outlier_views(&per_view_rms_px, config.outlier_view_factor, 0);
     common_warnings(&mut warnings, &poses, config, &report);
     lens_warnings(&mut warnings, &camera, 0, &poses, object_points, config);
-    Ok(FisheyeCalibrationResult {
+    Ok(CalibrationResult {
         camera,
         camera_from_board: poses,
         rms_px,
@@ -837,36 +565,21 @@ pub fn calibrate_fisheye(
     })
 }
 
-/// [`calibrate_fisheye`] for chessboard corner grids (OpenCV order).
-pub fn calibrate_fisheye_chessboard(
-    board: &Chessboard,
-    grids: &[CornerGrid],
-    width: u32,
-    height: u32,
-    config: &FisheyeCalibrationConfig,
-) -> Result<FisheyeCalibrationResult> {
-    let object = board_views(board, grids, "fisheye calibration")?;
-    let image: Vec<Vec<DVec2>> = grids.iter().map(|g| g.corners.clone()).collect();
-    calibrate_fisheye(&object, &image, width, height, config)
-}
-
-/// Calibrates a rig of two wide-angle cameras from views of a planar target seen by both:
-/// each camera alone ([`calibrate_fisheye`], or held at its guess with `fix_intrinsics`), the
+/// [`crate::calibrate_stereo`] for two wide lenses: each camera alone ([`calibrate_wide`], or
+/// held at its guess with `fix_intrinsics`), the
 /// element-wise median of the per-view relative poses, then one joint refinement of both
 /// cameras, `right_from_left` and the left view poses.
-pub fn calibrate_fisheye_stereo(
+pub(crate) fn calibrate_wide_stereo(
     object_points: &[Vec<DVec3>],
     left_points: &[Vec<DVec2>],
     right_points: &[Vec<DVec2>],
     left_size: (u32, u32),
     right_size: (u32, u32),
-    config: &FisheyeStereoConfig,
-) -> Result<FisheyeStereoCalibrationResult> {
+    config: &StereoConfig,
+) -> Result<StereoCalibrationResult> {
     validate_views(object_points, left_points, "left camera")?;
     validate_views(object_points, right_points, "right camera")?;
-    check_config(&config.left)?;
-    check_config(&config.right)?;
-    let mono = |points: &[Vec<DVec2>], size: (u32, u32), cfg: &FisheyeCalibrationConfig, which: &str| {
+    let mono = |points: &[Vec<DVec2>], size: (u32, u32), cfg: &CalibrationConfig, which: &str| {
         if config.fix_intrinsics
             && let Some(guess) = &cfg.intrinsic_guess
         {
@@ -875,7 +588,7 @@ pub fn calibrate_fisheye_stereo(
             })?;
             return Ok((*guess, poses));
         }
-        let r = calibrate_fisheye(object_points, points, size.0, size.1, cfg)?;
+        let r = calibrate_wide(object_points, points, size.0, size.1, cfg)?;
         Ok::<_, CalibrationError>((r.camera, r.camera_from_board))
     };
     let (lcam, lposes) = mono(left_points, left_size, &config.left, "left")?;
@@ -894,13 +607,12 @@ pub fn calibrate_fisheye_stereo(
     )?;
     let StereoSolution { cameras: cams, right_from_left, poses, residuals_px, per_view_rms_px, .. } = sol;
     let rig = StereoRig::new(cams[0], cams[1], right_from_left)?;
-    let mut warnings: Vec<FisheyeWarning> = Vec::new();
+    let mut warnings: Vec<CalibrationWarning> = Vec::new();
     for (camera, cfg) in [(0, &config.left), (1, &config.right)] {
         let rms: Vec<f64> = per_view_rms_px.iter().map(|r| r[camera]).collect();
-        warnings
-            .extend(outlier_views(&rms, cfg.outlier_view_factor, camera).into_iter().map(FisheyeWarning::Calibration));
+        warnings.extend(outlier_views(&rms, cfg.outlier_view_factor, camera));
     }
-    let guessless = FisheyeCalibrationConfig {
+    let guessless = CalibrationConfig {
         intrinsic_guess: if config.fix_intrinsics { Some(cams[0]) } else { config.left.intrinsic_guess },
         ..config.left.clone()
     };
@@ -908,8 +620,9 @@ pub fn calibrate_fisheye_stereo(
     let right_poses: Vec<Isometry3> = poses.iter().map(|p| right_from_left * *p).collect();
     lens_warnings(&mut warnings, &cams[0], 0, &poses, object_points, &config.left);
     lens_warnings(&mut warnings, &cams[1], 1, &right_poses, object_points, &config.right);
-    Ok(FisheyeStereoCalibrationResult {
+    Ok(StereoCalibrationResult {
         essential: rig.essential(),
+        fundamental: rig.fundamental(),
         rig,
         camera_from_board: poses,
         rms_px: sol.rms_px[0],
@@ -932,6 +645,7 @@ pub fn calibrate_fisheye_stereo(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use parallax_camera_model::KannalaBrandt;
 
     /// The analytic Jacobian of the stereo fisheye bundle (through `retract`) matches central
     /// differences, and the block-accumulated normal equations equal `JᵀJ`, `Jᵀr`.
@@ -954,7 +668,7 @@ mod tests {
         let object: Vec<DVec3> =
             (0..12).map(|i| DVec3::new((i % 4) as f64 * 30.0, (i / 4) as f64 * 30.0, 0.0)).collect();
         let image: Vec<DVec2> = (0..12).map(|i| DVec2::new(300.0 + i as f64, 200.0 - i as f64)).collect();
-        let cfg = FisheyeCalibrationConfig { estimate_skew: true, ..Default::default() };
+        let cfg = CalibrationConfig { lens: LensModel::KannalaBrandt, estimate_skew: true, ..Default::default() };
         let views = vec![
             ViewObs { object: &object, image: [Some(&image), Some(&image)] },
             ViewObs { object: &object, image: [Some(&image), Some(&image)] },

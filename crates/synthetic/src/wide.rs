@@ -121,7 +121,7 @@ fn generate<C: CameraModel>(
     let reference = cameras[0].0;
     let s = board.square_size;
     let centre = DVec3::new((board.cols - 1) as f64 * s * 0.5, (board.rows - 1) as f64 * s * 0.5, 0.0);
-    let samples = border(board, cfg.border_squares);
+    let samples = crate::views::border_samples(board, cfg.border_squares);
     let mut points = board.object_points();
     points.extend(samples);
     let cos_max = if cfg.max_field_angle_deg >= 180.0 { -2.0 } else { cfg.max_field_angle_deg.to_radians().cos() };
@@ -193,23 +193,6 @@ fn visible<C: CameraModel>(
         }
         camera.unproject_ray(px).is_ok_and(|r| (r.normalize() - pc.normalize()).length() < 1e-9)
     })
-}
-
-/// Points along the border rectangle `border` squares outside the inner corners.
-fn border(board: &Chessboard, border: f64) -> Vec<DVec3> {
-    let s = board.square_size;
-    let (x0, y0) = (-border * s, -border * s);
-    let (x1, y1) = ((board.cols - 1) as f64 * s + border * s, (board.rows - 1) as f64 * s + border * s);
-    let n = 16;
-    let mut out = Vec::with_capacity(4 * n);
-    for k in 0..n {
-        let t = k as f64 / n as f64;
-        out.push(DVec3::new(x0 + t * (x1 - x0), y0, 0.0));
-        out.push(DVec3::new(x1, y0 + t * (y1 - y0), 0.0));
-        out.push(DVec3::new(x1 - t * (x1 - x0), y1, 0.0));
-        out.push(DVec3::new(x0, y1 - t * (y1 - y0), 0.0));
-    }
-    out
 }
 
 /// A closed, textured box room (axis-aligned in its own frame): every ray from a point inside
