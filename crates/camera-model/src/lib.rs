@@ -45,12 +45,12 @@ mod target;
 mod targets;
 mod transform;
 
-pub use camera::{Camera, Distortion, Intrinsics};
+pub use camera::{Camera, Intrinsics};
 pub use disparity::DisparityMap;
 pub use error::CameraModelError;
 pub use lens::{
-    DoubleSphere, DoubleSphereParameters, FISHEYE_UNPROJECT_MAX_ITERATIONS, FISHEYE_UNPROJECT_TOLERANCE, KannalaBrandt,
-    KannalaBrandtCoefficients, Lens, LensModel, NormalizedProjection,
+    Distortion, DoubleSphere, DoubleSphereParameters, FISHEYE_UNPROJECT_MAX_ITERATIONS, FISHEYE_UNPROJECT_TOLERANCE,
+    KannalaBrandt, KannalaBrandtCoefficients, Lens, LensModel, NormalizedProjection,
 };
 pub use model::CameraModel;
 pub use projection::{ProjectionJacobians, UNDISTORT_MAX_ITERATIONS, UNDISTORT_TOLERANCE};

@@ -6,8 +6,7 @@
 
 use parallax_hand_eye::{HandEyeSolution, Method};
 use parallax_interop::{
-    HandEyeCalibration, HandEyeRecord, MonoCalibration, MonoRecord, PoseRecord, RectificationMatrices,
-    StereoCalibration, StereoRecord,
+    HandEyeCalibration, HandEyeRecord, MonoCalibration, MonoRecord, PoseRecord, StereoCalibration, StereoRecord,
 };
 use parallax_planar_calibration::{
     CalibrationResult, CalibrationWarning, IntrinsicStdDevs, RigStdDevs, StereoCalibrationResult,
@@ -104,12 +103,17 @@ pub struct StereoOutput<'a, B> {
 
 /// The stereo calibration of `r` as the interop model, with the rectification `rectify`
 /// computes by default (so that `disparity --calib` on this file and on `rectify`'s output
-/// agree).
+/// agree). A rig with a wide lens that no pinhole pair can hold (image edges 90° or more from
+/// the rectified axis) is written without one: `rectify` says why.
 pub fn stereo_calibration(r: &StereoCalibrationResult) -> Result<StereoCalibration> {
-    let rect = parallax_stereo_rectify::stereo_rectify(&r.rig, &parallax_interop::default_rectify_config())?;
+    let rectification = match parallax_interop::rectify_default(&r.rig) {
+        Ok(rect) => Some(rect),
+        Err(_) if r.rig.left.lens_model().is_wide() || r.rig.right.lens_model().is_wide() => None,
+        Err(e) => return Err(e.into()),
+    };
     Ok(StereoCalibration {
         rig: r.rig,
-        rectification: Some(RectificationMatrices::from(&rect)),
+        rectification,
         rms_px: Some(r.rms_px),
         per_view_rms_px: r.per_view_rms_px.clone(),
     })

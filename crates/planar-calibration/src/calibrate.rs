@@ -38,8 +38,13 @@ pub struct CalibrationConfig {
     pub fix_k2: bool,
     /// Hold `k3` (at the guess, else 0): with `zero_tangential` this is the "k1, k2 only" model.
     pub fix_k3: bool,
-    /// Hold `k4` (at the guess, else 0): Kannala–Brandt (`cv::fisheye`'s `CALIB_FIX_K4`).
+    /// Hold `k4` (at the guess, else 0): Kannala–Brandt (`cv::fisheye`'s `CALIB_FIX_K4`), or
+    /// Brown–Conrady's rational `k4` (`CALIB_FIX_K4`; without `rational_model` it is held anyway).
     pub fix_k4: bool,
+    /// Hold Brown–Conrady's rational `k5` (`CALIB_FIX_K5`).
+    pub fix_k5: bool,
+    /// Hold Brown–Conrady's rational `k6` (`CALIB_FIX_K6`).
+    pub fix_k6: bool,
     /// Hold `ξ` (at the guess, else 0): double sphere.
     pub fix_xi: bool,
     /// Hold `α` (at the guess, else ½): double sphere.
@@ -75,6 +80,8 @@ impl Default for CalibrationConfig {
             fix_k2: false,
             fix_k3: false,
             fix_k4: false,
+            fix_k5: false,
+            fix_k6: false,
             fix_xi: false,
             fix_alpha: false,
             rational_model: false,
@@ -99,13 +106,15 @@ impl CalibrationConfig {
     /// intrinsic guess of another lens model, and a `min_field_coverage` outside `[0, 1]`.
     pub fn check(&self) -> Result<()> {
         use LensModel::{BrownConrady, DoubleSphere, KannalaBrandt};
-        let flags: [(&str, bool, &[LensModel]); 8] = [
+        let flags: [(&str, bool, &[LensModel]); 10] = [
             ("zero_tangential", self.zero_tangential, &[BrownConrady]),
             ("rational_model", self.rational_model, &[BrownConrady]),
             ("fix_k1", self.fix_k1, &[BrownConrady, KannalaBrandt]),
             ("fix_k2", self.fix_k2, &[BrownConrady, KannalaBrandt]),
             ("fix_k3", self.fix_k3, &[BrownConrady, KannalaBrandt]),
-            ("fix_k4", self.fix_k4, &[KannalaBrandt]),
+            ("fix_k4", self.fix_k4, &[BrownConrady, KannalaBrandt]),
+            ("fix_k5", self.fix_k5, &[BrownConrady]),
+            ("fix_k6", self.fix_k6, &[BrownConrady]),
             ("fix_xi", self.fix_xi, &[DoubleSphere]),
             ("fix_alpha", self.fix_alpha, &[DoubleSphere]),
         ];
@@ -425,8 +434,8 @@ pub(crate) fn model_slots(cfg: &CalibrationConfig, init: &Camera) -> CameraModel
     for i in [7, 8] {
         if cfg.zero_tangential { fixed(&mut slots, i) } else { free(&mut slots, i) }
     }
-    for i in [10, 11, 12] {
-        if cfg.rational_model { free(&mut slots, i) } else { fixed(&mut slots, i) }
+    for (i, hold) in [(10, cfg.fix_k4), (11, cfg.fix_k5), (12, cfg.fix_k6)] {
+        if cfg.rational_model && !hold { free(&mut slots, i) } else { fixed(&mut slots, i) }
     }
     CameraModelSlots { slots, num_free: n, width: init.width, height: init.height }
 }

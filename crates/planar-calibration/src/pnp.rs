@@ -31,6 +31,9 @@ pub(crate) fn initial_pose(camera: &Camera, object: &[DVec3], image: &[DVec2], w
 pub fn solve_pnp_planar_points(camera: &Camera, object: &[DVec3], image: &[DVec2]) -> Result<(Isometry3, f64)> {
     camera.validate()?;
     crate::calibrate::validate_views(&[object.to_vec()], &[image.to_vec()], "pose")?;
+    if camera.lens_model().is_wide() {
+        return crate::wide::solve_pnp_wide(camera, object, image);
+    }
     let init = initial_pose(camera, object, image, "pose")?;
     let theta = theta_of(camera);
     let slots = CameraModelSlots {

@@ -14,7 +14,7 @@
 //! calibration of the same corners (grid over `ξ, α`, focal scale in closed form), falling back
 //! to the neutral scan if that fails.
 
-use crate::bundle::{Bundle, CameraSlots, Slot, ViewObs, store_pose};
+use crate::bundle::{Bundle, CameraSlots, Slot, ViewObs, pose_at, store_pose};
 use crate::calibrate::{
     CalibrationConfig, CalibrationResult, CalibrationWarning, IntrinsicStdDevs, MonoSolution, mono_solution,
     outlier_views, validate_views, view_spread_deg,
@@ -200,6 +200,33 @@ fn fix_lens(cfg: &CalibrationConfig) -> [bool; 4] {
         LensModel::DoubleSphere => [cfg.fix_xi, cfg.fix_alpha, false, false],
         _ => [cfg.fix_k1, cfg.fix_k2, cfg.fix_k3, cfg.fix_k4],
     }
+}
+
+/// [`crate::solve_pnp_planar_points`] for a wide lens: the pose from the plane ↔ ray DLT of the
+/// unprojected corners ([`pose_from_rays`], valid beyond 90° from the axis), refined by
+/// Levenberg–Marquardt on the reprojection error with the camera held; returns the pose and the
+/// RMS error in pixels.
+pub(crate) fn solve_pnp_wide(camera: &Camera, object: &[DVec3], image: &[DVec2]) -> Result<(Isometry3, f64)> {
+    let rays = image
+        .iter()
+        .enumerate()
+        .map(|(i, q)| {
+            camera.unproject(*q).map_err(|e| {
+                CalibrationError::EstimationFailed(format!("pose: corner {i} at ({}, {}) has no ray: {e}", q.x, q.y))
+            })
+        })
+        .collect::<Result<Vec<DVec3>>>()?;
+    let plane: Vec<DVec2> = object.iter().map(|p| p.truncate()).collect();
+    let init = pose_from_rays(&plane, &rays)?;
+    let held = CalibrationConfig { lens: camera.lens_model(), ..CalibrationConfig::default() };
+    let bundle =
+        Bundle::new(vec![Slots::new(&held, camera, true)], false, vec![ViewObs { object, image: [Some(image), None] }]);
+    let mut x0 = vec![0.0; 6];
+    store_pose(&init, &mut x0);
+    let cfg = LmConfig { max_iterations: 50, covariance: false, cost_tolerance: 1e-14, ..LmConfig::default() };
+    let report = levenberg_marquardt(&bundle, &x0, &cfg)?;
+    let residuals = bundle.residuals_by_view(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
+    Ok((pose_at(&report.params), crate::calibrate::rms_of(&residuals[0][0])))
 }
 
 /// Poses of every view for a given camera (rays from unprojecting the corners), or `None`

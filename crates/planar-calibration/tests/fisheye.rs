@@ -536,3 +536,23 @@ fn a_bad_view_is_reported() {
     );
     assert_eq!(r.residuals_px[7].len(), 140);
 }
+
+/// The pose of a board seen through a wide lens (`solve_pnp_planar`, as hand-eye's board poses
+/// use it): exact corners anywhere in the field, beside the camera too, give the true pose to
+/// 1e-9 for both wide models (the pinhole start of the Brown–Conrady path would be wrong there).
+#[test]
+fn board_pose_through_a_wide_lens() {
+    let b = board();
+    for truth in [kb_truth(), ds_truth()] {
+        let (_, image, poses) = corner_sets(&truth, 4, 0.0);
+        let mut beyond_90 = 0;
+        for (corners, pose) in image.iter().zip(&poses) {
+            let (est, rms) = parallax_planar_calibration::solve_pnp_planar(&truth, &b, corners).unwrap();
+            let (angle, _) = est.distance(pose);
+            assert!(rms < 1e-9 && angle < 1e-9, "{:?}: rms {rms:e}, angle {angle:e}", truth.lens_model());
+            assert!((est.translation - pose.translation).length() < 1e-9 * pose.translation.length());
+            beyond_90 += usize::from(b.object_points().iter().any(|p| pose.transform_point(*p).z < 0.0));
+        }
+        assert!(beyond_90 > 0, "no view reaches behind the image plane: the test would not cover it");
+    }
+}

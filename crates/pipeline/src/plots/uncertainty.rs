@@ -66,8 +66,8 @@ pub fn free_intrinsics(config: &CalibrationConfig, camera: &Camera) -> Vec<(usiz
         free(&mut out, 7);
         free(&mut out, 8);
     }
-    if config.rational_model {
-        for slot in [10, 11, 12] {
+    for (slot, hold) in [(10, config.fix_k4), (11, config.fix_k5), (12, config.fix_k6)] {
+        if config.rational_model && !hold {
             free(&mut out, slot);
         }
     }
