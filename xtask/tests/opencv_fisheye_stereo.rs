@@ -188,3 +188,74 @@ fn flags_of_another_lens_are_refused() {
         assert!(!out.status.success() && err.contains(flag) && err.contains(lens), "{lens} {flag}: {err}");
     }
 }
+
+/// `--lens double-sphere` on the same OpenCV-made left corners: the keys name the lens and its
+/// `xi:` / `alpha:`, the fit is as good as the Kannala–Brandt one (the session was made through a
+/// Kannala–Brandt lens: RMS within 5 % of OpenCV's mono RMS), and the paraxial focal length
+/// `fx / (1 + ξ)`, the one a double sphere fixes near the axis, is OpenCV's `fx` to 1 %.
+#[test]
+fn double_sphere_from_the_command_line() {
+    let dir = Temp::new("opencv-fisheye", "ds");
+    let left = data().join("left.json");
+    let out = run(
+        &dir,
+        &[
+            "calibrate",
+            "--lens",
+            "double-sphere",
+            "--board",
+            "9x6",
+            "--square",
+            "25",
+            "--corners",
+            left.to_str().unwrap(),
+        ],
+    );
+    assert!(out.lines().any(|l| l == "lens: double-sphere"), "{out}");
+    let reference: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(data().join("reference.json")).unwrap()).unwrap();
+    let cv_rms = num(&reference, &["mono_left", "rms"]);
+    let rms = key(&out, "rms_px");
+    assert!(rms < 1.05 * cv_rms, "double sphere RMS {rms} against OpenCV's Kannala–Brandt {cv_rms}");
+    let paraxial = key(&out, "fx") / (1.0 + key(&out, "xi"));
+    let cv_fx = num(&reference, &["mono_left", "K", "0", "0"]);
+    assert!((paraxial / cv_fx - 1.0).abs() < 0.01, "paraxial focal {paraxial} against OpenCV's fx {cv_fx}");
+    assert!((0.0..=1.0).contains(&key(&out, "alpha")));
+}
+
+/// Mono: `calibrate --lens kannala-brandt` on the left corners reproduces `cv2.fisheye.calibrate`
+/// (same flags, same points) to 1e-4 relative in K and D, and the RMS.
+#[test]
+fn kannala_brandt_mono_reproduces_opencv() {
+    let dir = Temp::new("opencv-fisheye", "mono");
+    let left = data().join("left.json");
+    let json = dir.join("mono.json");
+    run(
+        &dir,
+        &[
+            "calibrate",
+            "--lens",
+            "kannala-brandt",
+            "--board",
+            "9x6",
+            "--square",
+            "25",
+            "--corners",
+            left.to_str().unwrap(),
+            "--out",
+            json.to_str().unwrap(),
+        ],
+    );
+    let reference: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(data().join("reference.json")).unwrap()).unwrap();
+    let cv = &reference["mono_left"];
+    let file: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let camera = &file["calibration"]["camera"];
+    for (name, r, c) in [("fx", 0, 0), ("fy", 1, 1), ("cx", 0, 2), ("cy", 1, 2)] {
+        close(name, num(camera, &["intrinsics", name]), num(cv, &["K", &r.to_string(), &c.to_string()]), 1e-4);
+    }
+    for (i, name) in ["k1", "k2", "k3", "k4"].iter().enumerate() {
+        close(name, num(camera, &["lens", "KannalaBrandt", name]), num(cv, &["D", &i.to_string()]), 1e-4);
+    }
+    close("RMS", num(&file["calibration"], &["rms_px"]), num(cv, &["rms"]), 1e-4);
+}
