@@ -694,6 +694,27 @@ pub fn calibrate_camera(
     }
     let (init_camera, init_poses) = initial_estimate(object_points, image_points, width, height, config)?;
     let slots = model_slots(config, &init_camera);
+    let (bundle, report) = refine_mono(&slots, (&init_camera, &init_poses), object_points, image_points, &config.lm)?;
+    let n = parallax_least_squares::Problem::num_params(&bundle);
+    let solution = mono_solution(&bundle, &report, config.intrinsic_guess.is_none() && !config.fix_principal_point)?;
+    let camera = slots.camera(&report.params[..slots.num_free]);
+    camera.validate().map_err(|e| CalibrationError::EstimationFailed(format!("refined camera is invalid: {e}")))?;
+    let std_devs = intrinsic_std_devs(&slots, 0, report.covariance.as_ref());
+    let mut warnings = outlier_views(&solution.per_view_rms_px, config.outlier_view_factor, 0);
+    diagnostics(&mut warnings, &camera, 0, &solution.poses, config, &report);
+    Ok(solution.into_result(camera, std_devs, n, &report, warnings))
+}
+
+/// One mono refinement of any camera model from a start (camera and view poses): the bundle of
+/// `slots` over the views, Levenberg–Marquardt with covariance. Refuses views with no more
+/// residuals than parameters.
+pub(crate) fn refine_mono<'a, S: CameraSlots + Clone>(
+    slots: &S,
+    (camera, poses): (&S::Camera, &[Isometry3]),
+    object_points: &'a [Vec<DVec3>],
+    image_points: &'a [Vec<DVec2>],
+    lm: &LmConfig,
+) -> Result<(Bundle<'a, S>, LmReport)> {
     let views: Vec<ViewObs> = object_points
         .iter()
         .zip(image_points)
@@ -709,34 +730,13 @@ pub fn calibrate_camera(
         });
     }
     let mut x0 = vec![0.0; n];
-    x0[..slots.num_free].copy_from_slice(&slots.free_values(&init_camera));
-    for (v, p) in init_poses.iter().enumerate() {
+    x0[..slots.num_free()].copy_from_slice(&slots.free_values(camera));
+    for (v, p) in poses.iter().enumerate() {
         let o = bundle.view_offset(v);
         store_pose(p, &mut x0[o..o + 6]);
     }
-    let report = levenberg_marquardt(&bundle, &x0, &LmConfig { covariance: true, ..config.lm })?;
-    let MonoSolution { poses, residuals_px, per_view_rms_px, rms_px, pose_std_devs } =
-        mono_solution(&bundle, &report, config.intrinsic_guess.is_none() && !config.fix_principal_point)?;
-    let camera = slots.camera(&report.params[..slots.num_free]);
-    camera.validate().map_err(|e| CalibrationError::EstimationFailed(format!("refined camera is invalid: {e}")))?;
-    let std_devs = intrinsic_std_devs(&slots, 0, report.covariance.as_ref());
-    let mut warnings = outlier_views(&per_view_rms_px, config.outlier_view_factor, 0);
-    diagnostics(&mut warnings, &camera, 0, &poses, config, &report);
-    Ok(CalibrationResult {
-        camera,
-        camera_from_board: poses,
-        rms_px,
-        per_view_rms_px,
-        residuals_px,
-        std_devs,
-        pose_std_devs,
-        sigma_px: report.sigma2.sqrt(),
-        dof: report.dof,
-        num_parameters: n,
-        iterations: report.iterations,
-        converged: report.stop_reason.converged(),
-        warnings,
-    })
+    let report = levenberg_marquardt(&bundle, &x0, &LmConfig { covariance: true, ..*lm })?;
+    Ok((bundle, report))
 }
 
 /// What a mono calibration reports of its bundle's solution, for any camera model.
@@ -748,6 +748,35 @@ pub(crate) struct MonoSolution {
     pub per_view_rms_px: Vec<f64>,
     pub rms_px: f64,
     pub pose_std_devs: Vec<PoseStdDevs>,
+}
+
+impl MonoSolution {
+    /// The result of any lens: the camera, the solution's figures, the camera's 1σ and the
+    /// warnings the caller found.
+    pub(crate) fn into_result(
+        self,
+        camera: Camera,
+        std_devs: IntrinsicStdDevs,
+        num_parameters: usize,
+        report: &LmReport,
+        warnings: Vec<CalibrationWarning>,
+    ) -> CalibrationResult {
+        CalibrationResult {
+            camera,
+            camera_from_board: self.poses,
+            rms_px: self.rms_px,
+            per_view_rms_px: self.per_view_rms_px,
+            residuals_px: self.residuals_px,
+            std_devs,
+            pose_std_devs: self.pose_std_devs,
+            sigma_px: report.sigma2.sqrt(),
+            dof: report.dof,
+            num_parameters,
+            iterations: report.iterations,
+            converged: report.stop_reason.converged(),
+            warnings,
+        }
+    }
 }
 
 /// The poses, residuals and pose 1σ of a mono `bundle` at `report`'s solution; with

@@ -124,7 +124,7 @@ pub fn median_rig(left: &[Isometry3], right: &[Isometry3]) -> Result<Isometry3> 
 }
 
 /// The joint refinement of a stereo calibration and what every result reports of it.
-pub(crate) struct StereoSolution<C> {
+pub(crate) struct StereoSolution<C = Camera> {
     pub cameras: [C; 2],
     pub right_from_left: Isometry3,
     /// Left camera from board, per view.
@@ -141,19 +141,63 @@ pub(crate) struct StereoSolution<C> {
     pub right_offset: usize,
 }
 
+impl StereoSolution {
+    /// The outlier views of both cameras, with each camera's factor.
+    pub(crate) fn outlier_views(&self, configs: [&CalibrationConfig; 2]) -> Vec<CalibrationWarning> {
+        (0..2)
+            .flat_map(|camera| {
+                let rms: Vec<f64> = self.per_view_rms_px.iter().map(|r| r[camera]).collect();
+                outlier_views(&rms, configs[camera].outlier_view_factor, camera)
+            })
+            .collect()
+    }
+
+    /// The result of any lens: the rig, `E`, `F`, the fit's figures, the cameras' 1σ and the
+    /// warnings the caller found.
+    pub(crate) fn into_result(
+        self,
+        std_devs: [IntrinsicStdDevs; 2],
+        warnings: Vec<CalibrationWarning>,
+    ) -> Result<StereoCalibrationResult> {
+        let rig = StereoRig::new(self.cameras[0], self.cameras[1], self.right_from_left)?;
+        let [left_std_devs, right_std_devs] = std_devs;
+        let report = &self.report;
+        Ok(StereoCalibrationResult {
+            essential: rig.essential(),
+            fundamental: rig.fundamental(),
+            rig,
+            camera_from_board: self.poses,
+            rms_px: self.rms_px[0],
+            left_rms_px: self.rms_px[1],
+            right_rms_px: self.rms_px[2],
+            per_view_rms_px: self.per_view_rms_px,
+            residuals_px: self.residuals_px,
+            left_std_devs,
+            right_std_devs,
+            rig_std_devs: self.rig_std_devs,
+            sigma_px: report.sigma2.sqrt(),
+            dof: report.dof,
+            num_parameters: self.num_parameters,
+            iterations: report.iterations,
+            converged: report.stop_reason.converged(),
+            warnings,
+        })
+    }
+}
+
 /// Refines both cameras (parametrised by `slots`, starting at `cameras`), `right_from_left`
 /// (from `rig0`) and the left view poses (from `left_poses`) together, for any camera model;
 /// `views`: the object points, left and right pixels per view.
 pub(crate) fn refine_stereo<S: CameraSlots + Clone>(
     slots: [&S; 2],
-    cameras: [&S::Camera; 2],
-    rig0: &Isometry3,
-    left_poses: &[Isometry3],
+    [(left, left_poses), (right, right_poses)]: [(&S::Camera, &[Isometry3]); 2],
     object_points: &[Vec<DVec3>],
     [left_points, right_points]: [&[Vec<DVec2>]; 2],
     lm: &LmConfig,
 ) -> Result<StereoSolution<S::Camera>> {
     let [ls, rs] = slots;
+    let cameras = [left, right];
+    let rig0 = &median_rig(left_poses, right_poses)?;
     let views: Vec<ViewObs> = object_points
         .iter()
         .zip(left_points.iter().zip(right_points))
@@ -260,7 +304,6 @@ pub fn calibrate_stereo(
         camera_and_poses(object_points, left_points, left_size, &config.left, config.fix_intrinsics, "left")?;
     let (rcam, rposes) =
         camera_and_poses(object_points, right_points, right_size, &config.right, config.fix_intrinsics, "right")?;
-    let rig0 = median_rig(&lposes, &rposes)?;
     let slots_of = |cfg: &CalibrationConfig, cam: &Camera| -> CameraModelSlots {
         if config.fix_intrinsics {
             let theta = theta_of(cam);
@@ -276,48 +319,16 @@ pub fn calibrate_stereo(
     };
     let ls = slots_of(&config.left, &lcam);
     let rs = slots_of(&config.right, &rcam);
-    let sol = refine_stereo(
-        [&ls, &rs],
-        [&lcam, &rcam],
-        &rig0,
-        &lposes,
-        object_points,
-        [left_points, right_points],
-        &config.lm,
-    )?;
-    let StereoSolution { cameras: [left, right], right_from_left, poses, residuals_px, per_view_rms_px, .. } = sol;
-    let rig = StereoRig::new(left, right, right_from_left)?;
+    let starts = [(&lcam, lposes.as_slice()), (&rcam, rposes.as_slice())];
+    let sol = refine_stereo([&ls, &rs], starts, object_points, [left_points, right_points], &config.lm)?;
+    let [left, right] = sol.cameras;
     let (report, cov) = (&sol.report, sol.report.covariance.as_ref());
-    let mut warnings =
-        outlier_views(&per_view_rms_px.iter().map(|r| r[0]).collect::<Vec<_>>(), config.left.outlier_view_factor, 0);
-    warnings.extend(outlier_views(
-        &per_view_rms_px.iter().map(|r| r[1]).collect::<Vec<_>>(),
-        config.right.outlier_view_factor,
-        1,
-    ));
+    let mut warnings = sol.outlier_views([&config.left, &config.right]);
     let fixed_cfg = CalibrationConfig { intrinsic_guess: config.fix_intrinsics.then_some(left), ..config.left.clone() };
-    diagnostics(&mut warnings, &left, 0, &poses, &fixed_cfg, report);
-    diagnostics(&mut warnings, &right, 1, &poses, &config.right, report);
-    Ok(StereoCalibrationResult {
-        essential: rig.essential(),
-        fundamental: rig.fundamental(),
-        rig,
-        camera_from_board: poses,
-        rms_px: sol.rms_px[0],
-        left_rms_px: sol.rms_px[1],
-        right_rms_px: sol.rms_px[2],
-        per_view_rms_px,
-        residuals_px,
-        left_std_devs: intrinsic_std_devs(&ls, 0, cov),
-        right_std_devs: intrinsic_std_devs(&rs, sol.right_offset, cov),
-        rig_std_devs: sol.rig_std_devs,
-        sigma_px: report.sigma2.sqrt(),
-        dof: report.dof,
-        num_parameters: sol.num_parameters,
-        iterations: report.iterations,
-        converged: report.stop_reason.converged(),
-        warnings,
-    })
+    diagnostics(&mut warnings, &left, 0, &sol.poses, &fixed_cfg, report);
+    diagnostics(&mut warnings, &right, 1, &sol.poses, &config.right, report);
+    let std_devs = [intrinsic_std_devs(&ls, 0, cov), intrinsic_std_devs(&rs, sol.right_offset, cov)];
+    sol.into_result(std_devs, warnings)
 }
 
 /// [`calibrate_stereo`] for chessboard corner grids seen by both cameras (pairs in order).

@@ -14,20 +14,19 @@
 //! calibration of the same corners (grid over `ξ, α`, focal scale in closed form), falling back
 //! to the neutral scan if that fails.
 
-use crate::bundle::{Bundle, CameraSlots, Slot, ViewObs, pose_at, store_pose};
-use crate::calibrate::{
-    CalibrationConfig, CalibrationResult, CalibrationWarning, IntrinsicStdDevs, MonoSolution, mono_solution,
-    outlier_views, validate_views, view_spread_deg,
-};
-use crate::stereo::{StereoCalibrationResult, StereoConfig, StereoSolution, median_rig, refine_stereo};
-use crate::{CalibrationError, Result};
 use glam::{DMat3, DVec2, DVec3};
-use parallax_camera_model::{
-    Camera, CameraModelError, DoubleSphere, Intrinsics, Isometry3, Lens, LensModel, StereoRig,
-};
+use parallax_camera_model::{Camera, CameraModelError, DoubleSphere, Intrinsics, Isometry3, Lens, LensModel};
 use parallax_least_squares::{
     EvaluationError, LmConfig, LmReport, Problem, levenberg_marquardt, nearest_rotation, null_vector,
 };
+
+use crate::bundle::{Bundle, CameraSlots, Slot, ViewObs, pose_at, store_pose};
+use crate::calibrate::{
+    CalibrationConfig, CalibrationResult, CalibrationWarning, IntrinsicStdDevs, mono_solution, outlier_views,
+    refine_mono, validate_views, view_spread_deg,
+};
+use crate::stereo::{StereoCalibrationResult, StereoConfig, refine_stereo};
+use crate::{CalibrationError, Result};
 
 /// Length of the full per-camera parameter vector `(fx, fy, cx, cy, skew, l0, l1, l2, l3)`
 /// (`l` = lens parameters in the model's order; double sphere uses `l0 = ξ`, `l1 = α`).
@@ -524,72 +523,37 @@ pub(crate) fn calibrate_wide(
         });
     }
     let starts = initial_estimates(object_points, image_points, width, height, config)?;
-    let views = || -> Vec<ViewObs> {
-        object_points
-            .iter()
-            .zip(image_points)
-            .map(|(o, i)| ViewObs { object: o, image: [Some(i.as_slice()), None] })
-            .collect()
-    };
-    let mut best: Option<(Slots, LmReport)> = None;
+    // (the refinement runs from each start and keeps the lowest cost; a start that fails is
+    // passed over while another succeeds)
+    let mut best: Option<(Slots, Bundle<Slots>, LmReport)> = None;
     let mut last_error = None;
     for (init_camera, init_poses) in &starts {
         let slots = Slots::new(config, init_camera, false);
-        let bundle = Bundle::new(vec![slots.clone()], false, views());
-        let n = bundle.num_params();
-        if bundle.num_residuals <= n {
-            return Err(CalibrationError::TooFewPoints {
-                what: "calibration (all views)".into(),
-                got: bundle.num_residuals / 2,
-                needed: n / 2 + 1,
-            });
-        }
-        let mut x0 = vec![0.0; n];
-        x0[..slots.num_free].copy_from_slice(&slots.free_values(init_camera));
-        for (v, p) in init_poses.iter().enumerate() {
-            let o = bundle.view_offset(v);
-            store_pose(p, &mut x0[o..o + 6]);
-        }
-        match levenberg_marquardt(&bundle, &x0, &LmConfig { covariance: true, ..config.lm }) {
-            Ok(report) => {
-                if best.as_ref().is_none_or(|(_, b)| report.cost < b.cost) {
-                    best = Some((slots, report));
+        match refine_mono(&slots, (init_camera, init_poses), object_points, image_points, &config.lm) {
+            Ok((bundle, report)) => {
+                if best.as_ref().is_none_or(|(_, _, b)| report.cost < b.cost) {
+                    best = Some((slots, bundle, report));
                 }
             }
+            Err(e @ CalibrationError::TooFewPoints { .. }) => return Err(e),
             Err(e) => last_error = Some(e),
         }
     }
-    let (slots, report) = match (best, last_error) {
+    let (slots, bundle, report) = match (best, last_error) {
         (Some(b), _) => b,
-        (None, Some(e)) => return Err(e.into()),
+        (None, Some(e)) => return Err(e),
         (None, None) => return Err(CalibrationError::EstimationFailed("no initial estimate".into())),
     };
-    let bundle = Bundle::new(vec![slots.clone()], false, views());
     let n = bundle.num_params();
-    let MonoSolution { poses, residuals_px, per_view_rms_px, rms_px, pose_std_devs } =
-        mono_solution(&bundle, &report, config.intrinsic_guess.is_none() && !config.fix_principal_point)?;
+    let solution = mono_solution(&bundle, &report, config.intrinsic_guess.is_none() && !config.fix_principal_point)?;
     let camera = slots
         .camera(&report.params[..slots.num_free])
         .map_err(|e| CalibrationError::EstimationFailed(format!("refined camera is invalid: {e}")))?;
     let std_devs = slots.std_devs(0, report.covariance.as_ref());
-    let mut warnings: Vec<CalibrationWarning> = outlier_views(&per_view_rms_px, config.outlier_view_factor, 0);
-    common_warnings(&mut warnings, &poses, config, &report);
-    lens_warnings(&mut warnings, &camera, 0, &poses, object_points, config);
-    Ok(CalibrationResult {
-        camera,
-        camera_from_board: poses,
-        rms_px,
-        per_view_rms_px,
-        residuals_px,
-        std_devs,
-        pose_std_devs,
-        sigma_px: report.sigma2.sqrt(),
-        dof: report.dof,
-        num_parameters: n,
-        iterations: report.iterations,
-        converged: report.stop_reason.converged(),
-        warnings,
-    })
+    let mut warnings = outlier_views(&solution.per_view_rms_px, config.outlier_view_factor, 0);
+    common_warnings(&mut warnings, &solution.poses, config, &report);
+    lens_warnings(&mut warnings, &camera, 0, &solution.poses, object_points, config);
+    Ok(solution.into_result(camera, std_devs, n, &report, warnings))
 }
 
 /// [`crate::calibrate_stereo`] for two wide lenses: each camera alone ([`calibrate_wide`], or
@@ -620,53 +584,23 @@ pub(crate) fn calibrate_wide_stereo(
     };
     let (lcam, lposes) = mono(left_points, left_size, &config.left, "left")?;
     let (rcam, rposes) = mono(right_points, right_size, &config.right, "right")?;
-    let rig0 = median_rig(&lposes, &rposes)?;
     let ls = Slots::new(&config.left, &lcam, config.fix_intrinsics);
     let rs = Slots::new(&config.right, &rcam, config.fix_intrinsics);
-    let sol = refine_stereo(
-        [&ls, &rs],
-        [&lcam, &rcam],
-        &rig0,
-        &lposes,
-        object_points,
-        [left_points, right_points],
-        &config.lm,
-    )?;
-    let StereoSolution { cameras: cams, right_from_left, poses, residuals_px, per_view_rms_px, .. } = sol;
-    let rig = StereoRig::new(cams[0], cams[1], right_from_left)?;
-    let mut warnings: Vec<CalibrationWarning> = Vec::new();
-    for (camera, cfg) in [(0, &config.left), (1, &config.right)] {
-        let rms: Vec<f64> = per_view_rms_px.iter().map(|r| r[camera]).collect();
-        warnings.extend(outlier_views(&rms, cfg.outlier_view_factor, camera));
-    }
+    let starts = [(&lcam, lposes.as_slice()), (&rcam, rposes.as_slice())];
+    let sol = refine_stereo([&ls, &rs], starts, object_points, [left_points, right_points], &config.lm)?;
+    let cams = sol.cameras;
+    let mut warnings = sol.outlier_views([&config.left, &config.right]);
     let guessless = CalibrationConfig {
         intrinsic_guess: if config.fix_intrinsics { Some(cams[0]) } else { config.left.intrinsic_guess },
         ..config.left.clone()
     };
-    common_warnings(&mut warnings, &poses, &guessless, &sol.report);
-    let right_poses: Vec<Isometry3> = poses.iter().map(|p| right_from_left * *p).collect();
-    lens_warnings(&mut warnings, &cams[0], 0, &poses, object_points, &config.left);
+    common_warnings(&mut warnings, &sol.poses, &guessless, &sol.report);
+    let right_poses: Vec<Isometry3> = sol.poses.iter().map(|p| sol.right_from_left * *p).collect();
+    lens_warnings(&mut warnings, &cams[0], 0, &sol.poses, object_points, &config.left);
     lens_warnings(&mut warnings, &cams[1], 1, &right_poses, object_points, &config.right);
-    Ok(StereoCalibrationResult {
-        essential: rig.essential(),
-        fundamental: rig.fundamental(),
-        rig,
-        camera_from_board: poses,
-        rms_px: sol.rms_px[0],
-        left_rms_px: sol.rms_px[1],
-        right_rms_px: sol.rms_px[2],
-        per_view_rms_px,
-        residuals_px,
-        left_std_devs: ls.std_devs(0, sol.report.covariance.as_ref()),
-        right_std_devs: rs.std_devs(sol.right_offset, sol.report.covariance.as_ref()),
-        rig_std_devs: sol.rig_std_devs,
-        sigma_px: sol.report.sigma2.sqrt(),
-        dof: sol.report.dof,
-        num_parameters: sol.num_parameters,
-        iterations: sol.report.iterations,
-        converged: sol.report.stop_reason.converged(),
-        warnings,
-    })
+    let cov = sol.report.covariance.as_ref();
+    let std_devs = [ls.std_devs(0, cov), rs.std_devs(sol.right_offset, cov)];
+    sol.into_result(std_devs, warnings)
 }
 
 #[cfg(test)]
