@@ -44,6 +44,19 @@
 //! AVX2 code compiled with AVX-512's 32 registers ran within ±3 %. The naive reference in
 //! `tests/sgm_vs_naive.rs` implements the same definition directly on a full cost volume and
 //! every level must match it exactly.
+//!
+//! Stack at opt-level 0 (issue 50): there LLVM gives every local of every body inlined into a
+//! function a stack slot of its own, shared with none, and the kernels' vector temporaries
+//! (`#[inline(always)]` bodies pasted for each path count, mode and lane count) made frames of
+//! 999 KiB (`strip_avx2`, with the any-count row kernels inlined) on top of 498 KiB
+//! (`forward_row_avx2`): more than a rayon worker's 2 MiB stack. So the strip calls every row
+//! kernel, at every level and lane count, as a function of its own (`per_lane_count!`; the
+//! strip inlined the scalar level's and the vector level's any-count ones), and at opt-level 0
+//! (`cfg(opt_level_zero)`, from `build.rs`) the lane kernels pasted several times per row
+//! ([`paths`], [`vertical`], and in `lanes` `paths`, `vertical`, `box_row`, `wta_in` and
+//! `right_update`) are not inlined: the largest frame there 23 KiB, a strip's whole chain under
+//! 128 KiB (`tests/debug_build.rs`). Every other opt-level inlines them as before (the same
+//! machine code, the strip's aside).
 
 use crate::config::{SgmConfig, SgmPaths, Subpixel};
 use crate::engine::{
@@ -452,7 +465,7 @@ fn step_set(c: &[u16], prev: &[u16], pmin: u16, p1: u16, p2: u16, out: &mut [u16
 /// `bt_a`/`bt_b`. With `boxed = Some(r)` (window radius, vector levels only) the row's box
 /// sums follow each column as soon as its window is complete, into `sc.cost` (the columns they
 /// read are still in L1; a second pass read them back from L2 or beyond); returns whether it did.
-#[inline(always)]
+#[cfg_attr(not(opt_level_zero), inline(always))]
 fn vertical(sc: &mut Scratch, nd: usize, sub: bool, boxed: Option<usize>, bt: bool, small: bool, isa: Isa) -> bool {
     #[cfg(target_arch = "x86_64")]
     if isa.avx2() {
@@ -657,7 +670,7 @@ fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, boxed: bool, isa: Isa) {
 /// the first `H` may have `out[i] = prev[i]` (the same address). With [`Isa::Avx2`] the CPU has
 /// AVX2 and the caller is compiled for it (the strip's AVX2 instance, [`strip_avx2`]); the
 /// scalar level never runs `in_place`.
-#[inline(always)]
+#[cfg_attr(not(opt_level_zero), inline(always))]
 #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
 unsafe fn paths<const N: usize, const H: usize, const NDQ: usize>(
     isa: Isa,
@@ -1021,18 +1034,31 @@ macro_rules! by_lane_count {
 /// one `#[target_feature]` function per count, chosen by [`by_lane_count!`] from `$dq`), and
 /// for any count otherwise; `$dq`, the lane count, reads the arguments.
 macro_rules! per_lane_count {
-    ($(#[$doc:meta])* $any:ident, $avx2:ident, $f:ident, $dq:expr, ($($a:ident: $t:ty),*)) => {
+    ($(#[$doc:meta])* $any:ident, $avx2:ident, $scalar:ident, $f:ident, $dq:expr, ($($a:ident: $t:ty),*)) => {
         $(#[$doc])*
         #[inline(always)]
         fn $any($($a: $t,)* isa: Isa) {
             // (each count in a function of its own: inlined into the strip, seven counts made
-            // the crate's build 37 → 206 s, debug profile; as functions, sixteen take 59 s)
+            // the crate's build 37 → 206 s, debug profile; as functions, sixteen take 59 s).
+            // Every level and count calls a function of its own, none is inlined here: at
+            // opt-level 0 the stack slots of every body inlined into a function add up (LLVM
+            // shares none), and with the any-count bodies (vector and scalar) inlined the strip's
+            // frame was 999 KiB on top of a row kernel's, more than a rayon worker's 2 MiB stack.
             #[cfg(target_arch = "x86_64")]
             if isa.avx2() {
                 // SAFETY: `isa` is AVX2 only when the CPU has AVX2 and POPCNT (`run_strip`).
-                unsafe { by_lane_count!($dq, $avx2($($a),*)) }
+                unsafe {
+                    by_lane_count!($dq, $avx2($($a),*));
+                    return $avx2::<0>($($a),*);
+                }
             }
-            $f::<0>($($a,)* isa)
+            $scalar($($a),*)
+        }
+
+        #[doc = concat!("[`", stringify!($f), "`] at the scalar level.")]
+        #[inline(never)]
+        fn $scalar($($a: $t),*) {
+            $f::<0>($($a,)* Isa::Scalar)
         }
 
         #[doc = concat!("[`", stringify!($f), "`] with `NDQ` lanes at the vector level.")]
@@ -1056,26 +1082,26 @@ per_lane_count!(
     /// one thread, callgrind, instructions an evaluation, three paths: tsukuba 25.57 → 19.09, venus
     /// 15.90 → 11.64, teddy 10.49 → 8.26, 626x555x96 9.28 → 7.24, 1282x1110x224 6.67 → 6.13; teddy
     /// with five paths 14.54 → 11.39, eight 24.78 → 21.37.
-    forward_row_any, forward_row_avx2, forward_row, lanes(sh.nd),
+    forward_row_any, forward_row_avx2, forward_row_scalar, forward_row, lanes(sh.nd),
     (sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool)
 );
 
 per_lane_count!(
     /// [`carry_row`] compiled for each lane count up to 256, as [`forward_row_any`].
-    carry_row_any, carry_row_avx2, carry_row, lanes(sh.nd),
+    carry_row_any, carry_row_avx2, carry_row_scalar, carry_row, lanes(sh.nd),
     (sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool)
 );
 
 per_lane_count!(
     /// [`backward_row`] compiled for each lane count up to 256, as [`forward_row_any`] (eight
     /// paths, teddy, one thread, callgrind: 21.37 → 19.97 instructions an evaluation).
-    backward_row_any, backward_row_avx2, backward_row, lanes(sh.nd),
+    backward_row_any, backward_row_avx2, backward_row_scalar, backward_row, lanes(sh.nd),
     (sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool)
 );
 
 per_lane_count!(
     /// [`decide_row`] compiled for each lane count up to 256, as [`forward_row_any`].
-    decide_row_any, decide_row_avx2, decide_row, lanes(sh.nd),
+    decide_row_any, decide_row_avx2, decide_row_scalar, decide_row, lanes(sh.nd),
     (sh: &Shared, sc: &mut Scratch, y: usize, out: &mut [f32], conf: &mut [f32], st: &mut MatchStats)
 );
 
@@ -1836,7 +1862,7 @@ mod lanes {
     /// [`V16`]'s contract; `c`, `acc` have `Dq` entries (a positive multiple of `LANES`) and
     /// every `prev[i]` and `out[i]` `Dq + 2` (the callers assert it); no `out[i]` overlaps an
     /// input or another output, but with `IN_PLACE` one after the first `H` may equal `prev[i]`.
-    #[inline(always)]
+    #[cfg_attr(not(opt_level_zero), inline(always))]
     #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
     pub(super) unsafe fn paths<V: V16, const N: usize, const H: usize, const SET: bool, const IN_PLACE: bool>(
         c: &[u16],
@@ -1937,7 +1963,7 @@ mod lanes {
     ///
     /// # Safety
     /// [`V16`]'s contract; the lengths the callers assert.
-    #[inline(always)]
+    #[cfg_attr(not(opt_level_zero), inline(always))]
     #[allow(clippy::too_many_arguments)] // both row pairs, the lane count and range
     pub(super) unsafe fn vertical<V: V16, const BT: bool, const SUB: bool, const PAIRS: bool>(
         colsum: &mut [u16],
@@ -2076,7 +2102,7 @@ mod lanes {
     ///
     /// # Safety
     /// [`V16`]'s contract; the lengths the callers assert.
-    #[inline(always)]
+    #[cfg_attr(not(opt_level_zero), inline(always))]
     pub(super) unsafe fn box_row<V: V16>(
         cost: &mut [u16],
         colsum: &[u16],
@@ -2201,7 +2227,7 @@ mod lanes {
     ///
     /// # Safety
     /// [`wta_right`]'s, and `all` true only where the above holds.
-    #[inline(always)]
+    #[cfg_attr(not(opt_level_zero), inline(always))]
     #[allow(clippy::too_many_arguments)] // wta_right's, and what it would compute
     pub(super) unsafe fn wta_in<V: V16>(
         s: &[u16],
@@ -2309,7 +2335,7 @@ mod lanes {
     ///
     /// # Safety
     /// [`V16`]'s contract; the three slices have the same length (the callers assert it).
-    #[inline(always)]
+    #[cfg_attr(not(opt_level_zero), inline(always))]
     pub(super) unsafe fn right_update<V: V16>(c: &[u16], rc: &mut [u16], rk: &mut [u16], lo: usize) {
         let n = c.len();
         let mut t = 0;
