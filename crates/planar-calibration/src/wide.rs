@@ -654,43 +654,7 @@ mod tests {
             &Isometry3::from_rvec_tvec(DVec3::new(0.1, 1.4, 0.0), DVec3::new(300.0, -20.0, -50.0)),
             &mut x[b.view_offset(1)..b.view_offset(1) + 6],
         );
-        let m = b.num_residuals();
-        let mut r = vec![0.0; m];
-        let mut j = faer::Mat::<f64>::zeros(m, n);
-        b.evaluate(&x, &mut r, Some(j.as_mut())).unwrap();
-        let (mut xp, mut xm) = (vec![0.0; n], vec![0.0; n]);
-        let (mut rp, mut rm) = (vec![0.0; m], vec![0.0; m]);
-        for k in 0..n {
-            let h = if k < b.num_global { 1e-6 * x[k].abs().max(0.1) } else { 1e-6 };
-            let mut d = vec![0.0; n];
-            d[k] = h;
-            b.retract(&x, &d, &mut xp);
-            d[k] = -h;
-            b.retract(&x, &d, &mut xm);
-            b.evaluate(&xp, &mut rp, None).unwrap();
-            b.evaluate(&xm, &mut rm, None).unwrap();
-            for i in 0..m {
-                let fd = (rp[i] - rm[i]) / (2.0 * h);
-                assert!(
-                    (fd - j[(i, k)]).abs() < 1e-4 * (1.0 + fd.abs()),
-                    "row {i} col {k}: fd {fd} analytic {}",
-                    j[(i, k)]
-                );
-            }
-        }
-        let mut jtj = faer::Mat::<f64>::zeros(n, n);
-        let mut jtr = faer::Col::<f64>::zeros(n);
-        let mut r2 = vec![0.0; m];
-        b.normal_equations(&x, &mut jtj, &mut jtr, &mut r2).unwrap();
-        let dense = j.transpose() * &j;
-        let rc = faer::Col::from_fn(m, |i| r[i]);
-        let g = j.transpose() * &rc;
-        for a in 0..n {
-            assert!((g[a] - jtr[a]).abs() <= 1e-9 * (1.0 + g[a].abs()));
-            for c in 0..n {
-                assert!((dense[(a, c)] - jtj[(a, c)]).abs() <= 1e-9 * (1.0 + dense[(a, c)].abs()));
-            }
-        }
+        crate::bundle::check_derivatives(&b, &x, b.num_global, 0.1);
     }
 
     /// `pose_from_rays` recovers a pose exactly from noise-free rays, also when the board lies

@@ -27,21 +27,15 @@ pub fn rectify_points<C: CameraModel>(
     if !kr.is_finite() {
         return Err(RectifyError::NonFinite("projection matrix"));
     }
-    pixels
-        .iter()
-        .enumerate()
-        .map(|(index, &pixel)| {
-            let fail = |reason: String| RectifyError::Point { what: "pixels", index, u: pixel.x, v: pixel.y, reason };
-            let ray = camera.unproject_ray(pixel).map_err(|e| fail(e.to_string()))?;
-            let h = kr * ray;
-            if h.z.is_nan() || h.z <= 0.0 {
-                return Err(fail("it lies behind the rectified camera".into()));
-            }
-            let out = DVec2::new(h.x / h.z, h.y / h.z);
-            if !out.is_finite() {
-                return Err(fail("non-finite rectified position".into()));
-            }
-            Ok(out)
-        })
-        .collect()
+    crate::wide::map_points(camera, pixels, |ray| {
+        let h = kr * ray;
+        if h.z.is_nan() || h.z <= 0.0 {
+            return Err("it lies behind the rectified camera");
+        }
+        let out = DVec2::new(h.x / h.z, h.y / h.z);
+        if !out.is_finite() {
+            return Err("non-finite rectified position");
+        }
+        Ok(out)
+    })
 }

@@ -459,10 +459,18 @@ pub fn rectify_points_wide<C: CameraModel>(
     if !r.is_finite() {
         return Err(RectifyError::NonFinite("rotation"));
     }
-    map_points(camera, pixels, |ray| view.pixel(r * ray))
+    map_points(camera, pixels, |ray| {
+        view.pixel(r * ray).filter(|q| q.is_finite()).ok_or("its ray has no rectified position")
+    })
 }
 
-fn map_points<C: CameraModel>(camera: &C, pixels: &[DVec2], f: impl Fn(DVec3) -> Option<DVec2>) -> Result<Vec<DVec2>> {
+/// Each pixel's ray (the camera's unprojection) through `f`, or an error naming the first pixel
+/// without a ray or whose ray `f` refuses (with `f`'s reason).
+pub(crate) fn map_points<C: CameraModel>(
+    camera: &C,
+    pixels: &[DVec2],
+    f: impl Fn(DVec3) -> std::result::Result<DVec2, &'static str>,
+) -> Result<Vec<DVec2>> {
     camera.validate().map_err(|source| RectifyError::Camera { what: "camera of the points", source })?;
     pixels
         .iter()
@@ -470,7 +478,7 @@ fn map_points<C: CameraModel>(camera: &C, pixels: &[DVec2], f: impl Fn(DVec3) ->
         .map(|(index, &pixel)| {
             let fail = |reason: String| RectifyError::Point { what: "pixels", index, u: pixel.x, v: pixel.y, reason };
             let ray = camera.unproject_ray(pixel).map_err(|e| fail(e.to_string()))?;
-            f(ray).filter(|q| q.is_finite()).ok_or_else(|| fail("its ray has no rectified position".into()))
+            f(ray).map_err(|reason| fail(reason.into()))
         })
         .collect()
 }
