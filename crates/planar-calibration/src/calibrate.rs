@@ -127,6 +127,9 @@ impl CalibrationConfig {
                 )));
             }
         }
+        if let Some(g) = &self.intrinsic_guess {
+            g.validate()?;
+        }
         if let Some(g) = &self.intrinsic_guess
             && g.lens_model() != self.lens
         {
@@ -450,13 +453,6 @@ fn initial_estimate(
     cfg: &CalibrationConfig,
 ) -> Result<(Camera, Vec<Isometry3>)> {
     if let Some(guess) = &cfg.intrinsic_guess {
-        guess.validate()?;
-        if guess.width != width || guess.height != height {
-            return Err(CalibrationError::InvalidConfig(format!(
-                "intrinsic guess is for {}x{} images, the views are {width}x{height}",
-                guess.width, guess.height
-            )));
-        }
         let poses = object_points
             .iter()
             .zip(image_points)
@@ -677,9 +673,6 @@ pub fn calibrate_camera(
     config: &CalibrationConfig,
 ) -> Result<CalibrationResult> {
     config.check()?;
-    if config.lens.is_wide() {
-        return crate::wide::calibrate_wide(object_points, image_points, width, height, config);
-    }
     validate_views(object_points, image_points, "calibration")?;
     if width == 0 || height == 0 {
         return Err(CalibrationError::InvalidConfig(format!("image size {width}x{height}")));
@@ -691,6 +684,17 @@ pub fn calibrate_camera(
             needed,
             why: "a planar target fixes only 2 of the intrinsics per view (give more views, or an intrinsic guess with a fixed principal point)",
         });
+    }
+    if let Some(guess) = &config.intrinsic_guess
+        && (guess.width, guess.height) != (width, height)
+    {
+        return Err(CalibrationError::InvalidConfig(format!(
+            "intrinsic guess is for {}x{} images, the views are {width}x{height}",
+            guess.width, guess.height
+        )));
+    }
+    if config.lens.is_wide() {
+        return crate::wide::calibrate_wide((object_points, image_points), (width, height), config);
     }
     let (init_camera, init_poses) = initial_estimate(object_points, image_points, width, height, config)?;
     let slots = model_slots(config, &init_camera);

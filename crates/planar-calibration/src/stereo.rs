@@ -278,16 +278,12 @@ pub fn calibrate_stereo(
 ) -> Result<StereoCalibrationResult> {
     config.left.check()?;
     config.right.check()?;
+    validate_views(object_points, left_points, "left camera")?;
+    validate_views(object_points, right_points, "right camera")?;
     match (config.left.lens.is_wide(), config.right.lens.is_wide()) {
         (true, true) => {
-            return crate::wide::calibrate_wide_stereo(
-                object_points,
-                left_points,
-                right_points,
-                left_size,
-                right_size,
-                config,
-            );
+            let points = [left_points, right_points];
+            return crate::wide::calibrate_wide_stereo(object_points, points, [left_size, right_size], config);
         }
         (false, false) => {}
         _ => {
@@ -298,8 +294,6 @@ pub fn calibrate_stereo(
             )));
         }
     }
-    validate_views(object_points, left_points, "left camera")?;
-    validate_views(object_points, right_points, "right camera")?;
     let (lcam, lposes) =
         camera_and_poses(object_points, left_points, left_size, &config.left, config.fix_intrinsics, "left")?;
     let (rcam, rposes) =

@@ -23,7 +23,7 @@ use parallax_least_squares::{
 use crate::bundle::{Bundle, CameraSlots, Slot, ViewObs, pose_at, store_pose};
 use crate::calibrate::{
     CalibrationConfig, CalibrationResult, CalibrationWarning, IntrinsicStdDevs, mono_solution, outlier_views,
-    refine_mono, validate_views, view_spread_deg,
+    refine_mono, view_spread_deg,
 };
 use crate::stereo::{StereoCalibrationResult, StereoConfig, refine_stereo};
 use crate::{CalibrationError, Result};
@@ -257,20 +257,11 @@ fn sse(camera: &Camera, poses: &[Isometry3], object: &[Vec<DVec3>], image: &[Vec
 /// or the focal scan (see the module docs); for double sphere, one start per band of `ξ` fitted
 /// to a Kannala–Brandt calibration.
 fn initial_estimates(
-    object: &[Vec<DVec3>],
-    image: &[Vec<DVec2>],
-    width: u32,
-    height: u32,
+    (object, image): (&[Vec<DVec3>], &[Vec<DVec2>]),
+    (width, height): (u32, u32),
     cfg: &CalibrationConfig,
 ) -> Result<Vec<(Camera, Vec<Isometry3>)>> {
     if let Some(guess) = &cfg.intrinsic_guess {
-        if (guess.width(), guess.height()) != (width, height) {
-            return Err(CalibrationError::InvalidConfig(format!(
-                "intrinsic guess is for {}x{} images, the views are {width}x{height}",
-                guess.width(),
-                guess.height()
-            )));
-        }
         let poses = poses_for(guess, object, image).ok_or_else(|| {
             CalibrationError::EstimationFailed(
                 "a corner lies outside the intrinsic guess's valid region (its ray cannot be found)".into(),
@@ -290,7 +281,7 @@ fn initial_estimates(
             estimate_skew: false,
             ..cfg.clone()
         };
-        if let Ok(kb) = calibrate_wide(object, image, width, height, &kb_cfg) {
+        if let Ok(kb) = calibrate_wide((object, image), (width, height), &kb_cfg) {
             let starts = double_sphere_from_kannala_brandt(&kb.camera, &kb.camera_from_board, object);
             if !starts.is_empty() {
                 return Ok(starts.into_iter().map(|c| (c, kb.camera_from_board.clone())).collect());
@@ -418,13 +409,6 @@ fn double_sphere_from_kannala_brandt(kb: &Camera, poses: &[Isometry3], object: &
         .collect()
 }
 
-fn check_size(width: u32, height: u32) -> Result<()> {
-    if width == 0 || height == 0 {
-        return Err(CalibrationError::InvalidConfig(format!("image size {width}x{height}")));
-    }
-    Ok(())
-}
-
 /// Largest field angle (degrees) of the midpoints of the four image edges that unproject
 /// (the image's horizontal or vertical half field of view; the image corners, rarely covered
 /// by a board, are left out).
@@ -504,25 +488,14 @@ fn common_warnings(
 
 /// [`crate::calibrate_camera`] for a wide lens: `object_points[v]` on the plane `z = 0`
 /// (board units), `image_points[v]` the observed pixels in the same order; no focal-length
-/// guess is needed (see the module docs). The configuration is checked by the caller.
+/// guess is needed (see the module docs). The inputs and the configuration are checked by the
+/// caller.
 pub(crate) fn calibrate_wide(
-    object_points: &[Vec<DVec3>],
-    image_points: &[Vec<DVec2>],
-    width: u32,
-    height: u32,
+    (object_points, image_points): (&[Vec<DVec3>], &[Vec<DVec2>]),
+    size: (u32, u32),
     config: &CalibrationConfig,
 ) -> Result<CalibrationResult> {
-    validate_views(object_points, image_points, "calibration")?;
-    check_size(width, height)?;
-    let needed = if config.intrinsic_guess.is_some() && config.fix_principal_point { 1 } else { 2 };
-    if object_points.len() < needed {
-        return Err(CalibrationError::TooFewViews {
-            got: object_points.len(),
-            needed,
-            why: "a planar target fixes only 2 of the intrinsics per view (give more views, or an intrinsic guess with a fixed principal point)",
-        });
-    }
-    let starts = initial_estimates(object_points, image_points, width, height, config)?;
+    let starts = initial_estimates((object_points, image_points), size, config)?;
     // (the refinement runs from each start and keeps the lowest cost; a start that fails is
     // passed over while another succeeds)
     let mut best: Option<(Slots, Bundle<Slots>, LmReport)> = None;
@@ -562,14 +535,10 @@ pub(crate) fn calibrate_wide(
 /// cameras, `right_from_left` and the left view poses.
 pub(crate) fn calibrate_wide_stereo(
     object_points: &[Vec<DVec3>],
-    left_points: &[Vec<DVec2>],
-    right_points: &[Vec<DVec2>],
-    left_size: (u32, u32),
-    right_size: (u32, u32),
+    [left_points, right_points]: [&[Vec<DVec2>]; 2],
+    [left_size, right_size]: [(u32, u32); 2],
     config: &StereoConfig,
 ) -> Result<StereoCalibrationResult> {
-    validate_views(object_points, left_points, "left camera")?;
-    validate_views(object_points, right_points, "right camera")?;
     let mono = |points: &[Vec<DVec2>], size: (u32, u32), cfg: &CalibrationConfig, which: &str| {
         if config.fix_intrinsics
             && let Some(guess) = &cfg.intrinsic_guess
@@ -579,7 +548,7 @@ pub(crate) fn calibrate_wide_stereo(
             })?;
             return Ok((*guess, poses));
         }
-        let r = calibrate_wide(object_points, points, size.0, size.1, cfg)?;
+        let r = calibrate_wide((object_points, points), size, cfg)?;
         Ok::<_, CalibrationError>((r.camera, r.camera_from_board))
     };
     let (lcam, lposes) = mono(left_points, left_size, &config.left, "left")?;
