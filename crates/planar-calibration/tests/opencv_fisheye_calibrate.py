@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Side by side: cv2.fisheye.calibrate against parallax's calibrate_fisheye on the same corner sets.
+"""Side by side: cv2.fisheye.calibrate against parallax's calibrate_camera (lens kannala-brandt) on the same corner sets.
 
 1. Export the corner sets (and our results on them) from the Rust test:
        cargo test -p parallax-planar-calibration --test fisheye export_corner_sets_for_opencv -- --ignored

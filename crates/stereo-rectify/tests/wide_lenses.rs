@@ -65,7 +65,7 @@ fn new_camera_matrix_matches_opencv() {
     }
 }
 
-/// `fisheye_stereo_rectify` matches `cv2.fisheye.stereoRectify`: R1, R2 to 1e-12, P1, P2, Q to
+/// `stereo_rectify` on a Kannala–Brandt rig matches `cv2.fisheye.stereoRectify`: R1, R2 to 1e-12, P1, P2, Q to
 /// 1e-9 relative; and the map of the left camera matches `cv2.fisheye.initUndistortRectifyMap`
 /// to 1e-3 px (OpenCV's and our maps are f32).
 #[test]
