@@ -197,6 +197,17 @@ fn fold_angle(k: &[f64; 4]) -> f64 {
     PI
 }
 
+/// The unit ray of a normalised image point: `θ` from `θ_d = |m|`, the direction of `m`.
+pub(super) fn unproject(kb: &KannalaBrandt, m: DVec2) -> Result<DVec3> {
+    let theta_d = m.length();
+    let theta = kb.undistort_theta(theta_d)?;
+    if theta_d == 0.0 {
+        return Ok(DVec3::Z);
+    }
+    let (s, c) = theta.sin_cos();
+    Ok(DVec3::new(s * m.x / theta_d, s * m.y / theta_d, c))
+}
+
 pub(super) fn project(m: &KannalaBrandt, p: DVec3, norm: f64) -> Result<NormalizedProjection> {
     let (x, y, z) = (p.x, p.y, p.z);
     let rho = x.hypot(y);

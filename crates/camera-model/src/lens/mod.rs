@@ -214,20 +214,18 @@ impl Lens {
         if !p.is_finite() {
             return Err(CameraModelError::NonFinite { what: "point" });
         }
-        if let Self::BrownConrady(d) = self {
-            return brown_conrady::project(d, p);
-        }
-        let norm = p.length();
-        if norm == 0.0 {
-            return Err(CameraModelError::OutsideValidRegion {
+        // The wide models take the point's direction: the optical centre has none.
+        let norm = || match p.length() {
+            0.0 => Err(CameraModelError::OutsideValidRegion {
                 what: "point",
                 detail: "it is the optical centre (no direction)".into(),
-            });
-        }
+            }),
+            n => Ok(n),
+        };
         match self {
-            Self::BrownConrady(_) => unreachable!("handled above"),
-            Self::KannalaBrandt(m) => kannala_brandt::project(m, p, norm),
-            Self::DoubleSphere(m) => double_sphere::project(m, p, norm),
+            Self::BrownConrady(d) => brown_conrady::project(d, p),
+            Self::KannalaBrandt(m) => kannala_brandt::project(m, p, norm()?),
+            Self::DoubleSphere(m) => double_sphere::project(m, p, norm()?),
         }
     }
 
@@ -244,15 +242,7 @@ impl Lens {
                     CameraModelError::UndistortionDidNotConverge { u: m.x, v: m.y, iterations, residual }
                 })
             }
-            Self::KannalaBrandt(kb) => {
-                let theta_d = m.length();
-                let theta = kb.undistort_theta(theta_d)?;
-                if theta_d == 0.0 {
-                    return Ok(DVec3::Z);
-                }
-                let (s, c) = theta.sin_cos();
-                Ok(DVec3::new(s * m.x / theta_d, s * m.y / theta_d, c))
-            }
+            Self::KannalaBrandt(kb) => kannala_brandt::unproject(kb, m),
             Self::DoubleSphere(ds) => double_sphere::unproject(ds, m),
         }
     }
