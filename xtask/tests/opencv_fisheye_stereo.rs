@@ -26,6 +26,20 @@ fn run(dir: &Path, args: &[&str]) -> String {
     stdout.into_owned()
 }
 
+/// `calibrate --lens LENS` of the 9x6 board of 25 mm squares, with `rest` (corners, outputs).
+fn calibrate(dir: &Path, lens: &str, rest: &[&str]) -> String {
+    let args: Vec<&str> = ["calibrate", "--lens", lens, "--board", "9x6", "--square", "25"]
+        .into_iter()
+        .chain(rest.iter().copied())
+        .collect();
+    run(dir, &args)
+}
+
+/// OpenCV's results on the session (`reference.json`, written by `make.py`).
+fn reference() -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(data().join("reference.json")).unwrap()).unwrap()
+}
+
 /// The `key: value` of `key` in a command's output.
 fn key(out: &str, key: &str) -> f64 {
     let prefix = format!("{key}: ");
@@ -56,16 +70,10 @@ fn kannala_brandt_stereo_from_the_command_line_reproduces_opencv() {
     let dir = Temp::new("opencv-fisheye", "stereo");
     let json = dir.join("calib.json");
     let (left, right) = (data().join("left.json"), data().join("right.json"));
-    let out = run(
+    let out = calibrate(
         &dir,
+        "kannala-brandt",
         &[
-            "calibrate",
-            "--lens",
-            "kannala-brandt",
-            "--board",
-            "9x6",
-            "--square",
-            "25",
             "--corners",
             left.to_str().unwrap(),
             "--right-corners",
@@ -79,8 +87,7 @@ fn kannala_brandt_stereo_from_the_command_line_reproduces_opencv() {
     // The report draws the wide lens too (residuals, coverage, the lens's displacement field).
     let html = std::fs::read_to_string(dir.join("report/report.html")).unwrap();
     assert!(html.contains("<img") && dir.join("report/calibration-left-distortion.png").is_file());
-    let reference: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(data().join("reference.json")).unwrap()).unwrap();
+    let reference = reference();
     let cv = &reference["stereo"];
     let file: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     // `calibrate`'s record: the images, the board, the calibration (rig, lens model, pose) and σ.
@@ -197,23 +204,9 @@ fn flags_of_another_lens_are_refused() {
 fn double_sphere_from_the_command_line() {
     let dir = Temp::new("opencv-fisheye", "ds");
     let left = data().join("left.json");
-    let out = run(
-        &dir,
-        &[
-            "calibrate",
-            "--lens",
-            "double-sphere",
-            "--board",
-            "9x6",
-            "--square",
-            "25",
-            "--corners",
-            left.to_str().unwrap(),
-        ],
-    );
+    let out = calibrate(&dir, "double-sphere", &["--corners", left.to_str().unwrap()]);
     assert!(out.lines().any(|l| l == "lens: double-sphere"), "{out}");
-    let reference: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(data().join("reference.json")).unwrap()).unwrap();
+    let reference = reference();
     let cv_rms = num(&reference, &["mono_left", "rms"]);
     let rms = key(&out, "rms_px");
     assert!(rms < 1.05 * cv_rms, "double sphere RMS {rms} against OpenCV's Kannala–Brandt {cv_rms}");
@@ -230,24 +223,8 @@ fn kannala_brandt_mono_reproduces_opencv() {
     let dir = Temp::new("opencv-fisheye", "mono");
     let left = data().join("left.json");
     let json = dir.join("mono.json");
-    run(
-        &dir,
-        &[
-            "calibrate",
-            "--lens",
-            "kannala-brandt",
-            "--board",
-            "9x6",
-            "--square",
-            "25",
-            "--corners",
-            left.to_str().unwrap(),
-            "--out",
-            json.to_str().unwrap(),
-        ],
-    );
-    let reference: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(data().join("reference.json")).unwrap()).unwrap();
+    calibrate(&dir, "kannala-brandt", &["--corners", left.to_str().unwrap(), "--out", json.to_str().unwrap()]);
+    let reference = reference();
     let cv = &reference["mono_left"];
     let file: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let camera = &file["calibration"]["camera"];
