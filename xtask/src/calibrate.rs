@@ -352,7 +352,7 @@ fn run_stereo(
     // distances between adjacent corners, both from the calibration just made. A wide-lens rig
     // that no pinhole pair can hold is not checked this way (the figures are left out, and why
     // is printed); any other failure is an error.
-    let wide = r.rig.left.lens_model().is_wide() || r.rig.right.lens_model().is_wide();
+    let wide = r.rig.has_wide_lens();
     let checks = match target {
         TargetDescription::Chessboard(b) => session::chessboard_corner_checks(&r.rig, b, lg, rg, r.sigma_px),
         t => session::target_corner_checks(&r.rig, t, &lo, &ro),

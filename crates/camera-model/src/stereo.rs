@@ -84,6 +84,13 @@ impl StereoRig {
         Ok(Self { left, right, right_from_left })
     }
 
+    /// True when either camera has a wide lens (Kannala–Brandt, double sphere): the rig is then
+    /// rectified by OpenCV's `fisheye::stereoRectify` rule and its later stages work on the
+    /// rectified pair.
+    pub fn has_wide_lens(&self) -> bool {
+        self.left.lens_model().is_wide() || self.right.lens_model().is_wide()
+    }
+
     /// Distance between the two optical centres, in the rig's length unit.
     pub fn baseline(&self) -> f64 {
         self.right_from_left.translation.length()

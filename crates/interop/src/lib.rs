@@ -331,7 +331,7 @@ pub fn default_rectify_config() -> parallax_stereo_rectify::RectifyConfig {
 /// axis has no pinhole rectification: that is an error (rectify it with a chosen `fov_scale` and
 /// write the result).
 pub fn rectify_default(rig: &parallax_camera_model::StereoRig) -> Result<RectificationMatrices> {
-    if !(rig.left.lens_model().is_wide() || rig.right.lens_model().is_wide()) {
+    if !(rig.has_wide_lens()) {
         let r = parallax_stereo_rectify::stereo_rectify(rig, &default_rectify_config())
             .map_err(|e| InteropError::Unsupported(format!("rectifying the rig: {e}")))?;
         return Ok(RectificationMatrices::from(&r));

@@ -392,7 +392,7 @@ pub struct StereoRecord {
 impl StereoRecord {
     /// The record of `s`.
     pub fn of(s: &StereoCalibration) -> Self {
-        let wide = s.rig.left.lens_model().is_wide() || s.rig.right.lens_model().is_wide();
+        let wide = s.rig.has_wide_lens();
         Self {
             rig: s.rig,
             lens_model: wide.then(|| lens_model_name(&s.rig.left.lens())),

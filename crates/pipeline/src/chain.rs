@@ -216,11 +216,6 @@ fn detect_pairs<'a>(
     pairs.par_iter().map(|(l, r)| Ok([find(l)?, r.map(find).transpose()?.flatten()])).collect()
 }
 
-/// True when a camera of the rig has a wide lens: its later stages work on the rectified pair.
-fn is_wide(rig: &parallax_camera_model::StereoRig) -> bool {
-    rig.left.lens_model().is_wide() || rig.right.lens_model().is_wide()
-}
-
 /// Runs every stage. Only a detector error (an unusable image) is returned as an error; every
 /// later failure is recorded in the output and the stages that do not depend on it still run.
 pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
@@ -270,7 +265,7 @@ pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
     });
     let adjacent = calib.clone().and_then(|c| {
         let cfg = TriangulationConfig { pixel_sigma: c.sigma_px, ..Default::default() };
-        let rect = if is_wide(&c.rig) { Some(need(&rectified, "rectification")?) } else { None };
+        let rect = if c.rig.has_wide_lens() { Some(need(&rectified, "rectification")?) } else { None };
         stages::adjacent_distances(&c.rig, rect, &views, &cfg).or_else(failed)
     });
 
@@ -279,7 +274,7 @@ pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
     let station_left: Vec<Option<CornerGrid>> = station_detections.iter().map(|d| d[0].clone()).collect();
     let station_poses = calib.clone().and_then(|c| {
         // (a wide lens's poses come from its rectified view: they need the rectification)
-        let rect = if is_wide(&c.rig) { Some(need(&rectified, "rectification")?) } else { None };
+        let rect = if c.rig.has_wide_lens() { Some(need(&rectified, "rectification")?) } else { None };
         stages::board_poses(&c.rig.left, rect, board, &station_left).or_else(failed)
     });
     let hand_eye = if input.stations.iter().all(|s| s.robot.is_none()) {
@@ -312,7 +307,7 @@ pub fn run_chain(input: &ChainInput) -> crate::Result<ChainOutput> {
             let targets = measurement_targets(board);
             let pairs: Vec<(DVec2, DVec2)> = targets.iter().map(|&(c, r)| (gl.at(c, r), gr.at(c, r))).collect();
             let cfg = TriangulationConfig { pixel_sigma: c.sigma_px, ..Default::default() };
-            let rect = if is_wide(&c.rig) { Some(need(&rectified, "rectification")?) } else { None };
+            let rect = if c.rig.has_wide_lens() { Some(need(&rectified, "rectification")?) } else { None };
             let measurement = stages::measure(&c.rig, rect, &pairs, &cfg).or_else(failed)?;
             Ok(StationMeasurement { station, targets, measurement })
         })

@@ -108,7 +108,7 @@ pub struct StereoOutput<'a, B> {
 pub fn stereo_calibration(r: &StereoCalibrationResult) -> Result<StereoCalibration> {
     let rectification = match parallax_interop::rectify_default(&r.rig) {
         Ok(rect) => Some(rect),
-        Err(_) if r.rig.left.lens_model().is_wide() || r.rig.right.lens_model().is_wide() => None,
+        Err(_) if r.rig.has_wide_lens() => None,
         Err(e) => return Err(e.into()),
     };
     Ok(StereoCalibration {

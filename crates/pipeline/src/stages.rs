@@ -217,7 +217,7 @@ pub fn rectify(rig: &StereoRig, views: &StereoViews, config: &RectifyConfig) -> 
         }
     }
     let abs_dv = rectified_abs_dv(rig, &rectification, &views.left, &views.right)?;
-    let wide = rig.left.lens_model().is_wide() || rig.right.lens_model().is_wide();
+    let wide = rig.has_wide_lens();
     let pinhole = wide.then(|| rectified_pinhole_rig(&rectification)).transpose()?;
     Ok(RectifiedRig { rectification, abs_dv, pinhole })
 }

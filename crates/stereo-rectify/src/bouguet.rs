@@ -190,8 +190,7 @@ pub(crate) struct RectF {
 /// Errors on an invalid rig, a zero baseline, cameras of different image sizes, `alpha`
 /// outside `[0, 1]`, a zero new size, or an option of the other lens family.
 pub fn stereo_rectify(rig: &StereoRig, config: &RectifyConfig) -> Result<Rectification> {
-    let wide = [&rig.left, &rig.right].iter().any(|c| c.lens_model().is_wide());
-    if wide {
+    if rig.has_wide_lens() {
         if let Some(a) = config.alpha {
             return Err(RectifyError::Config(format!(
                 "alpha {a} applies to Brown–Conrady rigs; this rig has a {} lens: use balance (0 = only valid \
