@@ -189,6 +189,17 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if let Some(f) = format.filter(|_| args.right.is_some() || args.right_corners.is_some()) {
         crate::files::refuse_unit_for_metres(f, &target)?;
     }
+    // a model the format cannot hold is refused now, not after the calibration
+    if let Some(f) = format {
+        let c = config(&args);
+        let terms = parallax_interop::ModelTerms {
+            lens: c.lens,
+            skew: c.estimate_skew,
+            k3: !c.fix_k3,
+            rational: c.rational_model,
+        };
+        parallax_interop::check_model_fits(f, terms)?;
+    }
     let mut inputs: Vec<PathBuf> = args.corners.iter().chain(&args.right_corners).cloned().collect();
     for spec in args.images.iter().chain(&args.right) {
         inputs.extend(parallax_composition::io::input_paths(spec));

@@ -124,8 +124,9 @@ pub struct Args {
     /// 0..=255.996 px, disparity_colour.png).
     #[arg(long)]
     out: PathBuf,
-    /// The rectification of the pair (`rectify`'s rectification file, any format; two files are
-    /// read together): adds points.ply and the depth figures.
+    /// The rectification of the pair (`rectify`'s rectification file, any format, or OpenCV's
+    /// `intrinsics.yml extrinsics.yml`; two files are read together): adds points.ply and the
+    /// depth figures, through the file's own Q.
     #[arg(long, num_args = 1..=2)]
     calib: Vec<PathBuf>,
 }
@@ -338,7 +339,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let stereo = if args.calib.is_empty() {
         None
     } else {
-        Some(crate::files::read_calibration(&args.calib)?.into_stereo(&args.calib[0].display().to_string())?)
+        // a file without an image size (OpenCV's `stereo_calib.cpp` writes none) is for images of
+        // the rectified pair's size, OpenCV's default `newImageSize`; the depth uses only its Q
+        Some(
+            crate::files::read_calibration(&args.calib, Some(size))?
+                .into_stereo(&args.calib[0].display().to_string())?,
+        )
     };
     // a swapped pair gives a confident-looking wrong map: refuse it unless told otherwise
     if let Some(code) = refuse_swapped(&pair.check_swap(&matcher)?, args.allow_swapped, false) {
@@ -414,7 +420,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     println!("wrote {}/disparity.pfm,{png} disparity_colour.png", args.out.display());
     println!("{}", summary::disparity_keys(&stats, evaluation.as_ref(), seconds, mdes));
     if let Some(depth) = depth {
-        println!("wrote {}", ply.display());
+        println!("wrote {} (points through the calibration file's Q)", ply.display());
         println!("points: {}", depth.cloud.len());
         println!("depth_min: {:.6}", depth.min);
         println!("depth_median: {:.6}", depth.median);

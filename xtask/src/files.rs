@@ -61,12 +61,23 @@ pub fn write_result<T: Serialize>(
     Ok(parallax_composition::io::write_result(path, format, native, calibration)?)
 }
 
-/// The calibration in `paths` (one file, or two read together), in any format.
-pub fn read_calibration(paths: &[PathBuf]) -> anyhow::Result<Calibration> {
+/// The calibration in `paths` (one file, or two read together), in any format. A command that
+/// holds the calibrated images gives their `image_size`: a file without one takes theirs, and the
+/// command says so.
+pub fn read_calibration(paths: &[PathBuf], image_size: Option<(u32, u32)>) -> anyhow::Result<Calibration> {
     ensure!(!paths.is_empty(), "--calib: give a calibration file");
-    let (c, formats) = parallax_interop::read(paths)?;
+    let (c, formats, sized) = match image_size {
+        Some(size) => parallax_interop::read_with_image_size(paths, size)?,
+        None => {
+            let (c, f) = parallax_interop::read(paths)?;
+            (c, f, false)
+        }
+    };
     let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
     let formats: Vec<&str> = formats.iter().map(|f| f.name()).collect();
     println!("calibration: {} ({}, {})", names.join(" + "), formats.join(" + "), c.kind());
+    if let (true, Some((w, h))) = (sized, image_size) {
+        println!("  image size: none in the file; the images' {w}x{h}");
+    }
     Ok(c)
 }

@@ -89,11 +89,23 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         let inputs: Vec<&PathBuf> = args.calib.iter().chain(&args.left).chain(&args.right).collect();
         parallax_composition::io::refuse_overwriting_inputs(&outputs, &inputs)?;
     }
-    let rig = crate::files::read_calibration(&args.calib)?.into_stereo(&args.calib[0].display().to_string())?.rig;
-    let mut images = Vec::new();
-    for (side, path, cam) in [("left", &args.left, &rig.left), ("right", &args.right, &rig.right)] {
+    let mut loaded = Vec::new();
+    for (side, path) in [("left", &args.left), ("right", &args.right)] {
         let Some(path) = path else { continue };
-        let img = parallax_composition::io::load_gray(path)?;
+        loaded.push((side, path, parallax_composition::io::load_gray(path)?));
+    }
+    let size = loaded.first().map(|(_, _, img)| img.dimensions());
+    let stereo =
+        crate::files::read_calibration(&args.calib, size)?.into_stereo(&args.calib[0].display().to_string())?;
+    if stereo.rectification.is_some() {
+        println!(
+            "  raw pixels are triangulated through the rig (K, distortion, R, T); the file's R1 R2 P1 P2 Q are not needed"
+        );
+    }
+    let rig = stereo.rig;
+    let mut images = Vec::new();
+    for (side, path, img) in loaded {
+        let cam = if side == "left" { &rig.left } else { &rig.right };
         ensure!(
             img.width() == cam.width && img.height() == cam.height,
             "{side} image {} is {}x{} but the calibration's {side} camera is {}x{}",

@@ -7,6 +7,11 @@
 //! direction (horizontal lines for a horizontal rig, the pair stacked with vertical lines for a
 //! vertical one) and the rectification (`rectification.ron` by default, `--format` for json /
 //! opencv / ros): the rig with `R1 R2 P1 P2 Q` (row-major), image size and ROIs.
+//!
+//! A calibration that holds `R1 R2 P1 P2 Q` (OpenCV's `extrinsics.yml`, ROS `camera_info`, a
+//! previous `rectify`'s file) is rectified with them, checked against the rig; `--recompute`
+//! computes them again with `--alpha` (or `--balance`, `--fov-scale`). A file without an image
+//! size (OpenCV's `stereo_calib.cpp` writes none) takes the images'. Both choices are printed.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -40,8 +45,13 @@ pub struct Args {
     /// (rectification.yml), ros (rectification_left.yaml, rectification_right.yaml).
     #[arg(long, default_value = "ron")]
     format: String,
+    /// Compute R1 R2 P1 P2 Q again (with --alpha, or --balance and --fov-scale) even when the
+    /// calibration file holds them; without it a file's own matrices are used.
+    #[arg(long)]
+    recompute: bool,
     /// Free scaling of a pinhole (Brown–Conrady) rig: 0 = only valid pixels (the default), 1 =
-    /// keep every source pixel; a negative value selects OpenCV's default (no scaling).
+    /// keep every source pixel; a negative value selects OpenCV's default (no scaling). Applies
+    /// when the rectification is computed (no R1 R2 P1 P2 Q in the file, or --recompute).
     #[arg(long, allow_negative_numbers = true)]
     alpha: Option<f64>,
     /// A rig with a wide lens (kannala-brandt, double-sphere): OpenCV fisheye's balance, 0 =
@@ -81,7 +91,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let inputs: Vec<&PathBuf> = args.calib.iter().chain([&args.left, &args.right]).collect();
     parallax_composition::io::refuse_overwriting_inputs(&outputs, &inputs)?;
     parallax_composition::io::refuse_overwriting_inputs(&crate::files::written_paths(&rect_path, format), &inputs)?;
-    let stereo = crate::files::read_calibration(&args.calib)?.into_stereo(&args.calib[0].display().to_string())?;
+    let left = parallax_composition::io::load_image(&args.left)?;
+    let right = parallax_composition::io::load_image(&args.right)?;
+    let stereo = crate::files::read_calibration(&args.calib, Some(left.dimensions()))?
+        .into_stereo(&args.calib[0].display().to_string())?;
     let rig = stereo.rig;
     if crate::files::in_metres(format) && rig.baseline() >= BASELINE_WARN_METRES {
         eprintln!(
@@ -92,8 +105,6 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             rig.baseline()
         );
     }
-    let left = parallax_composition::io::load_image(&args.left)?;
-    let right = parallax_composition::io::load_image(&args.right)?;
     for (what, img, path) in [("left", &left, &args.left), ("right", &right, &args.right)] {
         anyhow::ensure!(
             img.dimensions() == (rig.left.width, rig.left.height),
@@ -136,8 +147,34 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             }
         }
     };
+    let stored = stereo.rectification.filter(|_| !args.recompute);
+    if stored.is_some() {
+        let options = [
+            ("--alpha", args.alpha.is_some()),
+            ("--balance", args.balance.is_some()),
+            ("--fov-scale", args.fov_scale.is_some()),
+            ("--no-zero-disparity", args.no_zero_disparity),
+            ("--exact-extents", args.exact_extents),
+        ];
+        if let Some((flag, _)) = options.iter().find(|(_, given)| *given) {
+            anyhow::bail!(
+                "{flag} applies when the rectification is computed, and {} holds R1 R2 P1 P2 Q, which are used as \
+                 they are: add --recompute to compute them again with {flag}",
+                args.calib.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(" + ")
+            );
+        }
+    }
     let t0 = Instant::now();
-    let rectifier = Rectifier::new(&rig, &config).context("rectifying the rig")?;
+    let rectifier = match &stored {
+        // the rectified images are the calibrated size, as OpenCV's `newImageSize` default
+        Some(m) => {
+            let r = m
+                .to_rectification(&rig, (rig.left.width, rig.left.height))
+                .context("the calibration file's R1 R2 P1 P2 Q (--recompute computes them again from the rig)")?;
+            Rectifier::from_rectification(&rig, r).context("rectifying the rig")?
+        }
+        None => Rectifier::new(&rig, &config).context("rectifying the rig")?,
+    };
     let t_maps = t0.elapsed();
     let rect = *rectifier.rectification();
 
@@ -155,13 +192,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     files.commit()?;
 
     println!("rectify: {} rig", if rect.vertical { "vertical" } else { "horizontal" });
-    match wide {
-        None => println!(
-            "  alpha {:?}, zero disparity {}, extents {:?}",
+    match (wide, &stored) {
+        (_, Some(_)) => {
+            println!("  R1 R2 P1 P2 Q: the calibration file's (checked against its rig; --recompute computes them)")
+        }
+        (None, None) => println!(
+            "  R1 R2 P1 P2 Q: computed, alpha {:?}, zero disparity {}, extents {:?}",
             config.alpha, config.zero_disparity, config.extents
         ),
-        Some(lens) => println!(
-            "  {lens} lenses to a pinhole pair: balance {}, fov_scale {}, zero disparity {}",
+        (Some(lens), None) => println!(
+            "  R1 R2 P1 P2 Q: computed, {lens} lenses to a pinhole pair: balance {}, fov_scale {}, zero disparity {}",
             config.balance, config.fov_scale, config.zero_disparity
         ),
     }

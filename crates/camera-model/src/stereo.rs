@@ -103,11 +103,13 @@ impl StereoRig {
 
     /// Fundamental matrix `F = K_r⁻ᵀ E K_l⁻¹` with `p_rᵀ F p_l = 0` for undistorted pixels
     /// (pinhole pixels `K (x/z, y/z, 1)`; for a wide lens it relates only rays in front of both
-    /// cameras).
+    /// cameras), scaled as OpenCV's `stereoCalibrate` scales it: `F[2][2] = 1` (unscaled when
+    /// that element is zero).
     pub fn fundamental(&self) -> DMat3 {
         let kl = self.left.intrinsics.matrix().inverse();
         let kr = self.right.intrinsics.matrix().inverse();
-        kr.transpose() * self.essential() * kl
+        let f = kr.transpose() * self.essential() * kl;
+        if f.z_axis.z != 0.0 { f / f.z_axis.z } else { f }
     }
 
     /// Projection matrices `(K_l [I | 0], K_r [R | t])` of the unrectified rig (pinhole part only).

@@ -113,7 +113,7 @@ pub use model::{
     setup_name,
 };
 pub use target::{parse_target, read_target};
-pub use write::{native_string, opencv_entries, record_string, render, ros_pair_paths};
+pub use write::{ModelTerms, check_model_fits, native_string, opencv_entries, record_string, render, ros_pair_paths};
 
 use error::{content, syntax};
 use serde_json::Value;
@@ -255,11 +255,42 @@ fn read_text(path: &Path) -> Result<String> {
 /// `extrinsics.yml` (their keys merged), or two ROS `camera_info` files, left then right
 /// (the rig from their rectification and projection matrices). Returns the formats found.
 pub fn read<P: AsRef<Path>>(paths: &[P]) -> Result<(Calibration, Vec<Format>)> {
+    read_inner(paths, None).map(|(c, f, _)| (c, f))
+}
+
+/// [`read`] for a command that holds the calibrated images: an OpenCV file without an image
+/// size (`stereo_calib.cpp` writes `M1 D1 M2 D2` and `R T R1 R2 P1 P2 Q` without one) takes
+/// `image_size`, the images'. The flag says whether it did, for the caller to say so. A file
+/// with a size keeps it (and a caller compares it with its images).
+pub fn read_with_image_size<P: AsRef<Path>>(
+    paths: &[P],
+    image_size: (u32, u32),
+) -> Result<(Calibration, Vec<Format>, bool)> {
+    read_inner(paths, Some(image_size))
+}
+
+/// Adds `image_width` / `image_height` to an OpenCV camera map (`M1` or `camera_matrix`) that
+/// has no image size at all; returns whether it did.
+fn add_missing_size(value: &mut Value, size: Option<(u32, u32)>) -> bool {
+    let (Some((w, h)), Value::Object(o)) = (size, value) else { return false };
+    let size_keys = ["image_width", "image_height", "imageSize", "image_size", "width", "height"];
+    let opencv_camera = o.contains_key("M1") || o.contains_key("camera_matrix");
+    if !opencv_camera || size_keys.iter().any(|k| o.contains_key(*k)) {
+        return false;
+    }
+    o.insert("image_width".into(), Value::from(w));
+    o.insert("image_height".into(), Value::from(h));
+    true
+}
+
+fn read_inner<P: AsRef<Path>>(paths: &[P], size: Option<(u32, u32)>) -> Result<(Calibration, Vec<Format>, bool)> {
     match paths {
         [one] => {
             let p = one.as_ref();
-            let (c, f) = parse(&read_text(p)?, &p.display().to_string())?;
-            Ok((c, vec![f]))
+            let what = p.display().to_string();
+            let (f, mut v) = detect(&read_text(p)?, &what)?;
+            let sized = add_missing_size(&mut v, size);
+            Ok((interpret(&v, &what)?, vec![f], sized))
         }
         [a, b] => {
             let (a, b) = (a.as_ref(), b.as_ref());
@@ -267,7 +298,7 @@ pub fn read<P: AsRef<Path>>(paths: &[P]) -> Result<(Calibration, Vec<Format>)> {
             let (fa, va) = detect(&read_text(a)?, &a.display().to_string())?;
             let (fb, vb) = detect(&read_text(b)?, &b.display().to_string())?;
             if fa == Format::Ros && fb == Format::Ros {
-                return Ok((rig_from_ros_pair(&va, &vb, &what)?, vec![fa, fb]));
+                return Ok((rig_from_ros_pair(&va, &vb, &what)?, vec![fa, fb], false));
             }
             let (Value::Object(mut merged), Value::Object(second)) = (va, vb) else {
                 return Err(content(&what, "two files are read together only when both are key-value maps"));
@@ -282,7 +313,9 @@ pub fn read<P: AsRef<Path>>(paths: &[P]) -> Result<(Calibration, Vec<Format>)> {
                     }
                 }
             }
-            Ok((interpret(&Value::Object(merged), &what)?, vec![fa, fb]))
+            let mut merged = Value::Object(merged);
+            let sized = add_missing_size(&mut merged, size);
+            Ok((interpret(&merged, &what)?, vec![fa, fb], sized))
         }
         _ => Err(InteropError::Unsupported(format!(
             "{} calibration files given: give one, or two read together (OpenCV intrinsics + extrinsics, or ROS \

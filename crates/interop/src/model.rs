@@ -57,6 +57,18 @@ impl From<&Rectification> for RectificationMatrices {
     }
 }
 
+impl RectificationMatrices {
+    /// These matrices as a rectification of `rig` to `size` images, checked against the rig
+    /// ([`Rectification::from_matrices`]).
+    pub fn to_rectification(
+        &self,
+        rig: &StereoRig,
+        size: (u32, u32),
+    ) -> std::result::Result<Rectification, parallax_stereo_rectify::RectifyError> {
+        Rectification::from_matrices(rig, self.r1, self.r2, self.p1, self.p2, self.q, size)
+    }
+}
+
 /// A stereo calibration (any lenses): the rig, optionally its rectification and the fit's errors.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StereoCalibration {

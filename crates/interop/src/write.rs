@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use parallax_camera_model::{Camera, Isometry3, Lens};
+use parallax_camera_model::{Camera, Isometry3, Lens, LensModel};
 use serde::Serialize;
 
 use crate::error::{InteropError, Result};
@@ -75,6 +75,42 @@ fn entries_hand_eye(h: &crate::HandEyeCalibration) -> Vec<(String, Entry)> {
         e.push(("method".to_string(), Entry::Text(m.clone())));
     }
     e
+}
+
+/// The terms a calibration will estimate, for [`check_model_fits`] before it runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ModelTerms {
+    /// The lens model.
+    pub lens: LensModel,
+    /// Whether the skew is estimated.
+    pub skew: bool,
+    /// Whether Brown–Conrady's `k3` is estimated.
+    pub k3: bool,
+    /// Whether the rational terms `k4 k5 k6` are estimated.
+    pub rational: bool,
+}
+
+/// Refuses, before any calibration work, a model that `format` cannot hold: a double sphere in
+/// OpenCV or ROS files; skew in a Kalibr camchain; `k3` or `k4..k6` in Kalibr's `radtan`. The
+/// writers check the values again; this check moves their refusal ahead of the calibration.
+pub fn check_model_fits(format: Format, terms: ModelTerms) -> Result<()> {
+    match format {
+        Format::OpenCvYaml | Format::OpenCvXml if terms.lens == LensModel::DoubleSphere => {
+            Err(no_double_sphere("OpenCV"))
+        }
+        Format::Ros if terms.lens == LensModel::DoubleSphere => Err(no_double_sphere("ROS camera_info")),
+        Format::Kalibr if terms.skew => Err(InteropError::Unsupported(
+            "Kalibr's camera models have no skew: calibrate without skew to write Kalibr".into(),
+        )),
+        Format::Kalibr if terms.lens == LensModel::BrownConrady && (terms.k3 || terms.rational) => {
+            Err(InteropError::Unsupported(
+                "Kalibr's pinhole-radtan model has no k3 or k4..k6: calibrate with --fix-k3 (and without \
+                 --rational) to write Kalibr"
+                    .into(),
+            ))
+        }
+        _ => Ok(()),
+    }
 }
 
 /// The refusal to write a double-sphere camera to a format that has no such model.
@@ -301,16 +337,30 @@ fn ros(c: &Calibration, path: &Path) -> Result<Vec<(PathBuf, String)>> {
     }
 }
 
+/// One camera of a Kalibr camchain, its keys in the order Kalibr's `kalibr_calibrate_cameras`
+/// writes them (`T_cn_cnm1` from the second camera on, `cam_overlaps`, …, `rostopic`): Kalibr's
+/// own tools (`kalibr_calibrate_imu_camera`, the camchain parser) read `rostopic` and
+/// `cam_overlaps`.
 #[derive(Serialize)]
 #[allow(non_snake_case)]
 struct KalibrCamera {
-    camera_model: &'static str,
-    intrinsics: Vec<f64>,
-    distortion_model: &'static str,
-    distortion_coeffs: Vec<f64>,
-    resolution: [u32; 2],
     #[serde(skip_serializing_if = "Option::is_none")]
     T_cn_cnm1: Option<[[f64; 4]; 4]>,
+    cam_overlaps: Vec<usize>,
+    camera_model: &'static str,
+    distortion_coeffs: Vec<f64>,
+    distortion_model: &'static str,
+    intrinsics: Vec<f64>,
+    resolution: [u32; 2],
+    rostopic: String,
+}
+
+/// `camN` of a camchain of `count` cameras that all see one another (a calibrated rig):
+/// `cam_overlaps` the others, `rostopic` Kalibr's default `/camN/image_raw`.
+fn kalibr_chain_entry(mut camera: KalibrCamera, n: usize, count: usize) -> (String, KalibrCamera) {
+    camera.cam_overlaps = (0..count).filter(|&k| k != n).collect();
+    camera.rostopic = format!("/cam{n}/image_raw");
+    (format!("cam{n}"), camera)
 }
 
 fn kalibr_camera(c: &Camera, name: &str, t: Option<&Isometry3>) -> Result<KalibrCamera> {
@@ -332,6 +382,8 @@ fn kalibr_camera(c: &Camera, name: &str, t: Option<&Isometry3>) -> Result<Kalibr
         distortion_coeffs: vec![d.k1, d.k2, d.p1, d.p2],
         resolution: [c.width, c.height],
         T_cn_cnm1: t.map(kalibr_transform),
+        cam_overlaps: Vec::new(),
+        rostopic: String::new(),
     })
 }
 
@@ -371,6 +423,8 @@ fn kalibr_fisheye(c: &Camera, name: &str, t: Option<&Isometry3>) -> Result<Kalib
         distortion_coeffs,
         resolution: [c.width(), c.height()],
         T_cn_cnm1: t.map(kalibr_transform),
+        cam_overlaps: Vec::new(),
+        rostopic: String::new(),
     })
 }
 
@@ -378,11 +432,13 @@ fn kalibr(c: &Calibration) -> Result<String> {
     let mut chain = std::collections::BTreeMap::new();
     match c {
         Calibration::Mono(m) => {
-            chain.insert("cam0", kalibr_camera(&m.camera, "cam0", None)?);
+            chain.extend([kalibr_chain_entry(kalibr_camera(&m.camera, "cam0", None)?, 0, 1)]);
         }
         Calibration::Stereo(s) => {
-            chain.insert("cam0", kalibr_camera(&s.rig.left, "cam0", None)?);
-            chain.insert("cam1", kalibr_camera(&s.rig.right, "cam1", Some(&s.rig.right_from_left))?);
+            chain.extend([
+                kalibr_chain_entry(kalibr_camera(&s.rig.left, "cam0", None)?, 0, 2),
+                kalibr_chain_entry(kalibr_camera(&s.rig.right, "cam1", Some(&s.rig.right_from_left))?, 1, 2),
+            ]);
         }
         Calibration::HandEye(_) => {
             return Err(InteropError::Unsupported(

@@ -197,6 +197,18 @@ fn kalibr_camchain_round_trips_and_refuses_what_it_cannot_hold() {
     assert_eq!(v["cam1"]["resolution"][0].as_u64(), Some(640));
     assert_eq!(v["cam1"]["T_cn_cnm1"][0][3].as_f64(), Some(ours.rig.right_from_left.translation.x));
     assert!(v["cam0"].get("T_cn_cnm1").is_none());
+    // every key of Kalibr's own camchain layout (kalibr_equi_stereo.yaml, after the files
+    // `kalibr_calibrate_cameras` writes: `cam_overlaps` and `rostopic` are read by its tools)
+    let kalibr: serde_yaml_ng::Value =
+        serde_yaml_ng::from_str(&std::fs::read_to_string(data("kalibr_equi_stereo.yaml")).unwrap()).unwrap();
+    let keys = |v: &serde_yaml_ng::Value| {
+        v.as_mapping().unwrap().keys().map(|k| k.as_str().unwrap().to_string()).collect::<Vec<_>>()
+    };
+    for cam in ["cam0", "cam1"] {
+        assert_eq!(keys(&v[cam]), keys(&kalibr[cam]), "{cam}");
+        assert_eq!(v[cam]["rostopic"], kalibr[cam]["rostopic"], "{cam}");
+        assert_eq!(v[cam]["cam_overlaps"], kalibr[cam]["cam_overlaps"], "{cam}");
+    }
     let (back, format) = parse(text, "camchain").unwrap();
     assert_eq!(format, Format::Kalibr);
     let back = back.into_stereo("camchain").unwrap();

@@ -162,6 +162,143 @@ impl Rectification {
     }
 }
 
+impl Rectification {
+    /// A rectification of `rig` given by its matrices, as a file stores them (OpenCV's
+    /// `stereo_calib.cpp` writes `R1 R2 P1 P2 Q` of `stereoRectify` into `extrinsics.yml`; ROS
+    /// `camera_info` holds `R` and `P`): the rectified images are `width` x `height`. Checked
+    /// against the rig before anything uses them, so that a file's matrices of another rig, or
+    /// of another calibration of this one, are refused instead of rectifying to wrong images:
+    /// `R1`, `R2` rotations; `P1 = [K' | 0]`, `P2 = [K' | K' b]` with one focal length, the
+    /// baseline `b` along `x` (or `y`: a vertical rig) and equal to the rig's baseline turned by
+    /// `R2`; the two rectified frames parallel (`R2 R R1ᵀ = I`); `Q` the one of `P1`, `P2`
+    /// (`stereoRectify`'s formula); the left principal point inside the image. Tolerances are
+    /// 1e-6 (relative to the baseline for lengths), far above the 17 digits files carry.
+    ///
+    /// The valid-pixel rectangles are measured (64 samples per image edge), the scale is the
+    /// focal length over the mean focal length across the baseline (`alpha`'s effect; 1 for a
+    /// rig with a wide lens).
+    pub fn from_matrices(
+        rig: &StereoRig,
+        r1: DMat3,
+        r2: DMat3,
+        p1: ProjectionMatrix,
+        p2: ProjectionMatrix,
+        q: [[f64; 4]; 4],
+        (width, height): (u32, u32),
+    ) -> Result<Self> {
+        const TOL: f64 = 1e-6;
+        let bad = |m: String| RectifyError::Degenerate(format!("stored rectification: {m}"));
+        let finite = r1.is_finite()
+            && r2.is_finite()
+            && p1.rows.iter().chain(&p2.rows).flatten().all(|v| v.is_finite())
+            && q.iter().flatten().all(|v| v.is_finite());
+        if !finite {
+            return Err(RectifyError::NonFinite("stored rectification (R1 R2 P1 P2 Q)"));
+        }
+        if width == 0 || height == 0 {
+            return Err(RectifyError::Config(format!("rectified size must be non-zero, got {width}x{height}")));
+        }
+        for (name, r) in [("R1", r1), ("R2", r2)] {
+            let off = max_abs(r.transpose() * r - DMat3::IDENTITY);
+            if off > TOL || r.determinant() <= 0.0 {
+                return Err(bad(format!(
+                    "{name} is not a rotation (|RᵀR − I| = {off:.2e}, det {:.6})",
+                    r.determinant()
+                )));
+            }
+        }
+        let f = p1.rows[0][0];
+        let (c1, c2) = (DVec2::new(p1.rows[0][2], p1.rows[1][2]), DVec2::new(p2.rows[0][2], p2.rows[1][2]));
+        let shape = |c: DVec2, last: [f64; 2]| [[f, 0.0, c.x, last[0]], [0.0, f, c.y, last[1]], [0.0, 0.0, 1.0, 0.0]];
+        let (tx, ty) = (p2.rows[0][3], p2.rows[1][3]);
+        let vertical = tx.abs() < ty.abs();
+        let idx = usize::from(vertical);
+        let b = if vertical { ty } else { tx };
+        let rel = |a: [[f64; 4]; 3], e: [[f64; 4]; 3]| {
+            a.iter()
+                .flatten()
+                .zip(e.iter().flatten())
+                .map(|(a, e)| (a - e).abs() / e.abs().max(1.0))
+                .fold(0.0, f64::max)
+        };
+        let p1_dev = rel(p1.rows, shape(c1, [0.0, 0.0]));
+        let p2_dev = rel(p2.rows, shape(c2, if vertical { [0.0, ty] } else { [tx, 0.0] }));
+        if !(f > 0.0) || p1_dev > TOL || p2_dev > TOL || b == 0.0 {
+            return Err(bad(format!(
+                "P1, P2 are not a rectified pair ([f 0 cx 0; 0 f cy 0; 0 0 1 0] and [f 0 cx' Tx·f; 0 f cy' Ty·f; 0 0 \
+                 1 0] with one f and one of Tx, Ty): deviations {p1_dev:.2e}, {p2_dev:.2e}"
+            )));
+        }
+        let rig_r = rig.right_from_left.rotation_matrix();
+        let parallel = max_abs(r2 * rig_r * r1.transpose() - DMat3::IDENTITY);
+        if parallel > TOL {
+            return Err(bad(format!(
+                "R2 R R1ᵀ is not the identity ({parallel:.2e}): R1, R2 rectify another rig than this R"
+            )));
+        }
+        let t = r2 * rig.right_from_left.translation;
+        let scale_t = t.length();
+        let mut expected_t = DVec3::ZERO;
+        expected_t[idx] = b / f;
+        let t_dev = (t - expected_t).length() / scale_t;
+        if t_dev > TOL {
+            return Err(bad(format!(
+                "P2's baseline {:.6} ({}) is not this rig's, R2·T = ({:.6}, {:.6}, {:.6}) (relative difference {t_dev:.2e})",
+                b / f,
+                if vertical { "Ty" } else { "Tx" },
+                t.x,
+                t.y,
+                t.z
+            )));
+        }
+        let tb = b / f;
+        let dc = if vertical { c1.y - c2.y } else { c1.x - c2.x };
+        let q_expected =
+            [[1.0, 0.0, 0.0, -c1.x], [0.0, 1.0, 0.0, -c1.y], [0.0, 0.0, 0.0, f], [0.0, 0.0, -1.0 / tb, dc / tb]];
+        let q_dev = q
+            .iter()
+            .flatten()
+            .zip(q_expected.iter().flatten())
+            .map(|(a, e)| (a - e).abs() / if *e == 0.0 { 1.0 } else { e.abs() })
+            .fold(0.0, f64::max);
+        if q_dev > TOL {
+            return Err(bad(format!("Q is not the one of P1 and P2 (largest relative difference {q_dev:.2e})")));
+        }
+        if !((0.0..width as f64).contains(&c1.x) && (0.0..height as f64).contains(&c1.y)) {
+            return Err(bad(format!(
+                "the rectified principal point ({:.1}, {:.1}) lies outside the {width}x{height} image",
+                c1.x, c1.y
+            )));
+        }
+        let k1 = p1.left_block();
+        let k2 = p2.left_block();
+        let scale = if rig.has_wide_lens() {
+            1.0
+        } else {
+            let across = |c: &Camera| if vertical { c.intrinsics.fx } else { c.intrinsics.fy };
+            f / (0.5 * (across(&rig.left) + across(&rig.right)))
+        };
+        Ok(Self {
+            r1,
+            r2,
+            p1,
+            p2,
+            q,
+            roi1: crate::wide::valid_rect(&rig.left, r1, k1, width, height),
+            roi2: crate::wide::valid_rect(&rig.right, r2, k2, width, height),
+            width,
+            height,
+            vertical,
+            scale,
+        })
+    }
+}
+
+/// The largest absolute element of `m`.
+fn max_abs(m: DMat3) -> f64 {
+    m.to_cols_array().iter().fold(0.0, |a, v| a.max(v.abs()))
+}
+
 /// A rectangle with real coordinates (OpenCV's `Rect_<double>`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct RectF {

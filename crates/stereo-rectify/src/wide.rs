@@ -202,7 +202,7 @@ pub fn rectifying_rotations(right_from_left: &Isometry3) -> Result<(DMat3, DMat3
 /// The largest rectangle bounded by the innermost mapped samples of each image edge (64 per
 /// edge): `x0` the largest mapped `x` of the left edge, and so on, clipped to the output.
 /// Edge samples that turn behind the rectified camera do not bound it.
-fn valid_rect<C: CameraModel>(camera: &C, r: DMat3, k: DMat3, width: u32, height: u32) -> Roi {
+pub(crate) fn valid_rect<C: CameraModel>(camera: &C, r: DMat3, k: DMat3, width: u32, height: u32) -> Roi {
     let (w, h) = (camera.width() as f64 - 1.0, camera.height() as f64 - 1.0);
     let map = |p: DVec2| -> Option<DVec2> {
         let q = r * camera.unproject_ray(p).ok()?;
