@@ -213,11 +213,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
     let t0 = Instant::now();
     let detect = |pattern: &str| -> anyhow::Result<Vec<ImageView>> {
-        let views = session::detect_files(
-            &parallax_composition::io::expand_glob(pattern)?,
-            &target,
-            &args.detector.config(Default::default()),
-        )?;
+        let paths = parallax_composition::io::expand_glob(pattern)?;
+        let progress = crate::progress::Progress::new("calibrate", paths.len() as u64, "images searched")?;
+        let views =
+            session::detect_files_with_progress(&paths, &target, &args.detector.config(Default::default()), &|| {
+                progress.inc()
+            })?;
+        progress.finish();
         for v in views.iter().filter(|v| !v.found()) {
             match &target {
                 TargetDescription::Chessboard(b) => {

@@ -181,28 +181,26 @@ fn run_sequence(
     if !png {
         eprintln!("{}", disparity::png16_warning("<name>.png", min, n));
     }
-    let bar = indicatif::ProgressBar::new(lefts.len() as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} frames {per_sec} eta {eta} {msg}")
-            .context("progress bar template")?,
-    );
-    // above the bar on a terminal; plain lines on stderr otherwise (the hidden bar prints nothing)
-    let say = |line: String| if bar.is_hidden() { eprintln!("{line}") } else { bar.println(line) };
+    // a bar on a terminal; plain lines every few seconds otherwise (a pipe, a log file)
+    let progress = crate::progress::Progress::new("disparity", lefts.len() as u64, "frames")?;
     let s = disparity::run_sequence(matcher, lefts, rights, &args.out, args.prefetch, |e| {
         match e {
             FrameEvent::Matched { name, density, warnings } => {
                 if *density < 0.5 {
-                    say(format!("warning: {name}: most of the map was rejected ({:.1} % returned)", 100.0 * density));
+                    progress.println(format!(
+                        "warning: {name}: most of the map was rejected ({:.1} % returned)",
+                        100.0 * density
+                    ));
                 }
                 for w in warnings {
-                    say(format!("warning: {name}: {w}"));
+                    progress.println(format!("warning: {name}: {w}"));
                 }
             }
-            FrameEvent::Failed { index, error } => say(format!("error: frame {index}: {error}")),
+            FrameEvent::Failed { index, error } => progress.println(format!("error: frame {index}: {error}")),
         }
-        bar.inc(1);
+        progress.inc();
     });
-    bar.finish_and_clear();
+    progress.finish();
     let s = s?;
     let files = if png { "<name>.pfm, <name>.png at 1/256 px" } else { "<name>.pfm" };
     println!("wrote {} maps to {} ({files})", s.frames, args.out.display());

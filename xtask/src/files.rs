@@ -69,7 +69,15 @@ pub fn read_calibration(paths: &[PathBuf], image_size: Option<(u32, u32)>) -> an
     let (c, formats, sized) = match image_size {
         Some(size) => parallax_interop::read_with_image_size(paths, size)?,
         None => {
-            let (c, f) = parallax_interop::read(paths)?;
+            let (c, f) = parallax_interop::read(paths).map_err(|e| {
+                let hint = e.to_string().contains("no image size");
+                let e = anyhow::Error::from(e);
+                if hint {
+                    e.context("give the calibrated images (measure: --left / --right) to take their size")
+                } else {
+                    e
+                }
+            })?;
             (c, f, false)
         }
     };

@@ -12,6 +12,7 @@ mod fixtures;
 mod handeye;
 mod measure;
 mod pipeline;
+mod progress;
 mod rectify;
 mod util;
 

@@ -177,6 +177,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     };
     let t_maps = t0.elapsed();
     let rect = *rectifier.rectification();
+    // an absurd calibration (k1 = 1e300, f = 1e308) rectifies to black images: refused with the figure
+    parallax_composition::refuse_collapsed(&rect)?;
 
     let t1 = Instant::now();
     let pair = rectify_pair(&rectifier, &left, &right)?;

@@ -440,6 +440,22 @@ fn sequences_refuse_single_pair_options_and_names_that_do_not_correspond_and_rep
     fails_naming(&seq(&["--gt", &gt]), &["--gt", "single pair"]);
     fails_naming(&seq(&["--confidence"]), &["--confidence", "single pair"]);
     assert!(!out.exists(), "outputs written before the refusal: {:?}", files_below(&out));
+    // stderr redirected to a file (a batch job's log): the progress is there as plain lines
+    let log_path = dir.join("progress.log");
+    let log = std::fs::File::create(&log_path).unwrap();
+    let (l, r) = (dir.join("L"), dir.join("R"));
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_xtask"))
+        .args(["disparity", "--left", l.to_str().unwrap(), "--right", r.to_str().unwrap()])
+        .args(["--out", out.to_str().unwrap()])
+        .stdout(std::process::Stdio::null())
+        .stderr(log)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let logged = std::fs::read_to_string(&log_path).unwrap();
+    let last = logged.lines().rfind(|l| l.starts_with("disparity: ")).unwrap_or_else(|| panic!("{logged}"));
+    assert!(last.starts_with("disparity: 2/2 frames in ") && last.contains("/s, ETA 0 s"), "{last}");
+    std::fs::remove_dir_all(&out).unwrap();
     // a frame that fails is reported on stderr without a terminal (the hidden progress bar
     // printed nothing)
     let small = image::open(easy.join("left.png")).unwrap().crop_imm(0, 0, 200, 100);
@@ -657,6 +673,30 @@ fn a_stereo_calibration_in_millimetres_is_refused_for_ros_and_kalibr_files_and_o
         mono.to_str().unwrap(),
     ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    // a model the format cannot hold is refused before the images are searched (it was refused
+    // after the whole calibration): k3 in Kalibr's radtan, a double sphere in OpenCV files
+    let kalibr = dir.join("kalibr.yaml");
+    let r = calibrate("0.025", "kalibr", &kalibr);
+    fails_naming(&r, &["radtan", "--fix-k3"]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(!stderr.contains("images searched"), "the images were searched first:\n{stderr}");
+    let ds = dir.join("ds.yml");
+    let r = run(&[
+        "calibrate",
+        "--images",
+        &left,
+        "--board",
+        "9x6",
+        "--square",
+        "25",
+        "--lens",
+        "double-sphere",
+        "--out",
+        ds.to_str().unwrap(),
+    ]);
+    fails_naming(&r, &["double-sphere", "kalibr"]);
+    assert!(!String::from_utf8_lossy(&r.stderr).contains("images searched"));
+    assert!(!kalibr.exists() && !ds.exists());
     // in metres: written, and read back with the fixtures' true baseline, 60 mm (calibrated
     // from the rendered views: within 1 mm)
     let ros = dir.join("rig.yaml");
@@ -686,4 +726,45 @@ fn a_stereo_calibration_in_millimetres_is_refused_for_ros_and_kalibr_files_and_o
     ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     assert!(!String::from_utf8_lossy(&r.stderr).contains("in metres"), "{}", String::from_utf8_lossy(&r.stderr));
+}
+
+#[test]
+fn a_calibration_that_rectifies_to_black_images_is_refused_with_the_figure() {
+    // k1 = 1e300 rectified to a 0x0 valid region and two black images, exit 0
+    let dir = temp("collapsed");
+    let (left, right) = (fixture("stereo/left_00.png"), fixture("stereo/right_00.png"));
+    let m = "600., 0., 320., 0., 600., 240., 0., 0., 1.";
+    let file = |k1: &str| {
+        format!(
+            "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\nM1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ {m} ]\nD1: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ {k1}, 0., 0., 0., 0. ]\nM2: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ {m} ]\nD2: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ {k1}, 0., 0., 0., 0. ]\nR: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]\nT: !!opencv-matrix\n   rows: 3\n   cols: 1\n   dt: d\n   data: [ -60., 0., 0. ]\n"
+        )
+    };
+    let out = dir.join("out");
+    let rectify = |calib: &Path| {
+        run(&[
+            "rectify",
+            "--calib",
+            calib.to_str().unwrap(),
+            "--left",
+            &left,
+            "--right",
+            &right,
+            "--out",
+            out.to_str().unwrap(),
+            // without alpha scaling (OpenCV's default): alpha 0 and 1 refuse the absurd lens
+            // already, its extents being infinite
+            "--alpha=-1",
+        ])
+    };
+    let sane = dir.join("sane.yml");
+    std::fs::write(&sane, file("-0.1")).unwrap();
+    assert!(rectify(&sane).status.success());
+    std::fs::remove_dir_all(&out).unwrap();
+    let absurd = dir.join("absurd.yml");
+    std::fs::write(&absurd, file("1e300")).unwrap();
+    let r = rectify(&absurd);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(!r.status.success(), "exit 0:\n{}", String::from_utf8_lossy(&r.stdout));
+    assert!(stderr.contains("valid region of 0x0 px (0.0 % of the image)"), "{stderr}");
+    assert!(!out.exists(), "written before the refusal: {:?}", files_below(&out));
 }

@@ -322,7 +322,7 @@ fn stereo_calib_files_rectify_with_their_stored_matrices_as_opencv_does() {
     close("recomputed focal", key(&out, "focal_px"), stored.p1.rows[0][0], 1e-6);
     close("recomputed cx", key(&out, "principal_point_left_u"), stored.p1.rows[0][2], 1e-6);
 
-    // matrices of another rig are refused, naming --recompute
+    // matrices of another rig are refused when the file is read, naming the matrices
     let other = extr_text.replacen("R1: !!opencv-matrix", "R1_unused: !!opencv-matrix", 1);
     let r1 = parallax_interop::opencv::parse_yaml(&extr_text, "extr").unwrap()["R1"].clone();
     let mut doc: serde_json::Value = parallax_interop::opencv::parse_yaml(&other, "extr").unwrap();
@@ -349,7 +349,10 @@ fn stereo_calib_files_rectify_with_their_stored_matrices_as_opencv_does() {
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&r.stderr);
-    assert!(!r.status.success() && err.contains("R2 R R1ᵀ") && err.contains("--recompute"), "{err}");
+    assert!(
+        !r.status.success() && err.contains("R2 R R1ᵀ") && err.contains("do not belong to its M1 D1 M2 D2 R T"),
+        "{err}"
+    );
     assert!(!dir.join("bad").exists(), "written before the refusal");
 }
 

@@ -317,3 +317,19 @@ fn no_fisheye_twins() {
         .collect();
     assert!(twins.is_empty(), "public wide-lens twins: make the lens a variant of what exists:\n{}", twins.join("\n"));
 }
+
+#[test]
+fn the_readme_quick_start_is_the_example_ci_runs() {
+    // The README's library program is `crates/parallax/examples/quick_start.rs` from its `use`
+    // line on, character for character: CI runs the example, so the README's program runs.
+    let readme = read(&root().join("README.md"));
+    let marker = "<!-- quick-start: crates/parallax/examples/quick_start.rs";
+    let after = &readme[readme.find(marker).expect("the quick-start marker in README.md")..];
+    let start = after.find("```rust\n").expect("a rust block after the marker") + "```rust\n".len();
+    let block = &after[start..start + after[start..].find("```\n").expect("the end of the block")];
+    let example = read(&root().join("crates/parallax/examples/quick_start.rs"));
+    let body = &example[example.find("use parallax::prelude::*;").expect("the example's use line")..];
+    assert_eq!(block, body, "README.md's quick start differs from crates/parallax/examples/quick_start.rs");
+    let lines = body.lines().count();
+    assert!(lines <= 45, "the quick start grew to {lines} lines: keep it a quick start");
+}

@@ -13,10 +13,8 @@
 //! gives a per-pixel confidence (best against second-best non-adjacent cost, times the
 //! left–right agreement), [`BlockMatcher::check_swap`] says whether the pair looks swapped, and
 //! [`evaluate`] reports bad-N both with missing = bad and among the returned pixels.
-//! Defaults (9x9 SAD on the 9x9 rank transform, uniqueness 15 %, left–right 1 px, speckle
-//! 100 px), Middlebury nonocc bad-2 among the returned pixels / density: tsukuba 2.08 % /
-//! 73.4 %, venus 0.83 % / 82.3 %, teddy 2.47 % / 83.8 %; the dense preset (x-Sobel, fill)
-//! 5.90 / 5.06 / 11.08 % with missing = bad.
+//! Defaults: 9x9 SAD on the 9x9 rank transform, uniqueness 15 %, left–right 1 px, speckle
+//! 100 px.
 //!
 //! Semi-global matching ([`Method::Sgm`], presets [`MatcherConfig::sgm`] and
 //! [`MatcherConfig::sgm_dense`]): Hirschmüller's path-wise aggregation over five paths (one
@@ -26,14 +24,8 @@
 //! parallel tasks with `≈ 9 · W · Dq · 2` bytes each (five paths; `Dq`: `D` rounded up to
 //! 16) or `≈ (strip + 9) · W · Dq · 2` bytes (eight paths, strips capped at 48 MiB), paths
 //! starting `overlap` rows outside the strip. Exact 16-bit integer aggregation in AVX2
-//! intrinsics, checked against a naive reference. Middlebury nonocc: bad-2 with missing = bad (dense preset) 3.40 / 1.29 /
-//! 7.39 (five paths) against OpenCV SGBM 3-way's 3.85 / 5.81 / 14.99; among the returned pixels
-//! (measurement preset) 2.33 % at 96.9 % / 0.51 % at 97.8 % / 3.59 % at 92.6 % against SGBM's
-//! 2.40 % at 98.5 % / 0.74 % at 94.9 % / 5.46 % at 89.9 %. [`MatcherConfig::sgm_accurate`]
-//! (SGBM's Birchfield–Tomasi + intensity cost and left–right rule, eight paths) reaches SGBM's
-//! density with fewer wrong pixels on all three: 2.33 % at 98.77 % / 0.67 % at 98.53 % /
-//! 4.36 % at 95.40 %, at about twice the time of the measurement preset (1.1–4.0x the speed of
-//! OpenCV's eight-direction `MODE_HH`, half of 3-way's).
+//! intrinsics, checked against a naive reference. [`MatcherConfig::sgm_accurate`] uses SGBM's
+//! own ingredients (Birchfield–Tomasi and intensity cost, its left–right rule, eight paths).
 //!
 //! Many frames: [`BlockMatcher::frames`] matches an iterator of pairs (any source; no file I/O
 //! here) with the next pair pulled on a prefetch thread.
@@ -46,11 +38,9 @@
 //! registers), in 16-bit lanes when the window sums fit (SAD with the default x-Sobel or the rank prefilter, any
 //! window) and in 32-bit lanes otherwise; NCC (and sums beyond 32 bits) runs generic
 //! `u32`/`u64`/`f64` loops compiled for the baseline and AVX2 and chosen at run time. All paths give identical results (tested against a naive reference).
-//! Speed against OpenCV 5.1 on this project's 2-core AVX2 machine (interleaved runs, same
-//! images, same options; ARCHITECTURE.md has the figures): block matching 9x9 2.0 / 2.6 / 2.3x
-//! `StereoBM`'s speed on teddy 450x375x64 / 626x555x96 / 1282x1110x224 (medians of 9 rounds on
-//! a host stealing a third of the time; OpenCV executes 2.1 / 2.3 / 2.7x our instructions),
-//! semi-global matching (three paths) 1.1–1.2x `StereoSGBM` 3-way's.
+//! Accuracy on Middlebury and speed against OpenCV's `StereoBM` / `StereoSGBM` (interleaved, same
+//! images and options) are recorded in the repository's performance journal,
+//! `benches/RESULTS.md`.
 //!
 //! ```
 //! use parallax_block_matching::{BlockMatcher, MatcherConfig, evaluate};

@@ -373,6 +373,21 @@ fn opencv_stereo(o: &Map<String, Value>, what: &str) -> Result<Calibration> {
     Ok(Calibration::Stereo(StereoCalibration { rig, rectification, rms_px, per_view_rms_px }))
 }
 
+/// A stereo calibration's stored `R1 R2 P1 P2 Q`, when it has them, are a rectification of its
+/// rig (`Rectification::from_matrices`: rotations, one focal length, parallel rectified frames, the
+/// rig's baseline, `Q` of `P1 P2`): a file whose derived matrices disagree with its `K D R T` is
+/// refused here, before any command uses them.
+fn check_rectification(c: &Calibration, what: &str) -> Result<()> {
+    let Calibration::Stereo(s) = c else { return Ok(()) };
+    let Some(m) = &s.rectification else { return Ok(()) };
+    m.to_rectification(&s.rig, (s.rig.left.width(), s.rig.left.height())).map(|_| ()).map_err(|e| {
+        content(
+            what,
+            format!("R1 R2 P1 P2 Q do not belong to its M1 D1 M2 D2 R T: {e} (write the file again, or drop them)"),
+        )
+    })
+}
+
 /// `key` (E or F, defined up to scale), when present, agrees with `expected`: the normalised
 /// matrices, sign too.
 fn check_up_to_scale(o: &Map<String, Value>, key: &str, expected: DMat3, what: &str) -> Result<()> {
@@ -866,6 +881,7 @@ pub fn interpret(root: &Value, what: &str) -> Result<Calibration> {
     let nodes = objects(root);
     for o in &nodes {
         if let Some(s) = stereo_at(o, what)? {
+            check_rectification(&s, what)?;
             return Ok(s);
         }
     }

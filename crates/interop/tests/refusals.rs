@@ -73,3 +73,26 @@ fn stereo_files_with_missing_or_inconsistent_parts_are_refused() {
     assert_eq!((s.rig.left.width, s.rig.left.height), (640, 480));
     refused(&sized("[ 640.9, 480.9 ]"), "whole pixels");
 }
+
+/// Stored `R1 R2 P1 P2 Q` that disagree with the file's `M1 D1 M2 D2 R T` (one entry of `Q` ten
+/// times too large gave depths ten times too small with exit 0; an `R1` of another rig rectified
+/// to images whose rows do not correspond) are refused when read, naming the matrix.
+#[test]
+fn stored_rectification_matrices_that_disagree_with_the_rig_are_refused() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/cv2_stereo.yml");
+    let text = std::fs::read_to_string(path).unwrap();
+    assert!(parse(&text, "f.yml").is_ok(), "OpenCV's own file is read");
+    // Q[3][2] = -1/Tx ten times too large
+    let q = text.replacen("0.016664501429767026", "0.16664501429767026", 1);
+    assert_ne!(q, text);
+    refused(&q, "Q is not the one of P1 and P2");
+    // P2's Tx·f of another baseline, with the Q of that P2: only the rig can tell
+    let p2 =
+        text.replacen("0.016664501429767026", "0.015", 1).replacen("-35938.600306073946", "-39926.590412292997", 1);
+    assert_eq!(p2.len(), text.len() - "0.016664501429767026".len() + "0.015".len());
+    refused(&p2, "is not this rig's");
+    // R1 no longer a rotation (one entry's sign flipped)
+    let r1 = text.replacen("-0.0085393088651686978", "0.0085393088651686978", 1);
+    assert_ne!(r1, text);
+    refused(&r1, "R1 is not a rotation");
+}

@@ -88,9 +88,16 @@ pub use parallax_stereo_rectify as rectify;
 pub use parallax_synthetic as synthetic;
 pub use parallax_triangulation as triangulation;
 
+/// The error of every stage, and of a program's own `image` calls: each stage's error converts
+/// into it with `?` (it is the composition layer's `PipelineError`).
+pub use parallax_composition::PipelineError as Error;
+
+/// `Result` with [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
 /// The names most programs use: `use parallax::prelude::*;`.
 pub mod prelude {
-    pub use crate::image;
+    pub use crate::{glam, image};
     pub use glam::{DMat3, DQuat, DVec2, DVec3};
     pub use parallax_block_matching::{BlockMatcher, CostFunction, MatcherConfig};
     pub use parallax_camera_model::{
@@ -104,5 +111,8 @@ pub mod prelude {
         calibrate_stereo_chessboard,
     };
     pub use parallax_stereo_rectify::{Border, Interpolation, Rectification, Rectifier, RectifyConfig, stereo_rectify};
-    pub use parallax_triangulation::{TriangulationConfig, measure_stereo};
+    pub use parallax_triangulation::{
+        CloudConfig, ReprojectionMatrix, TriangulationConfig, disparity_to_point_cloud, measure_stereo,
+        triangulate_stereo,
+    };
 }

@@ -29,6 +29,13 @@ pub enum PipelineError {
     /// A calibration or result file could not be read, written or converted.
     #[error(transparent)]
     Interop(#[from] parallax_interop::InteropError),
+    /// Least squares rejected an input (a program's own call; the stages report theirs).
+    #[error("least squares: {0}")]
+    LeastSquares(#[from] parallax_least_squares::LeastSquaresError),
+    /// An image could not be decoded or encoded in a program's own `image` call (files read
+    /// through [`crate::io`] carry their path in [`Self::Image`]).
+    #[error("image: {0}")]
+    ImageData(#[from] image::ImageError),
     /// Rendering a synthetic scene failed.
     #[error("synthetic scene: {0}")]
     Synthetic(#[from] parallax_synthetic::SyntheticError),

@@ -24,16 +24,20 @@
 //!   board poses, projection uncertainty and distortion; the rectified pair; disparity with its
 //!   colour bar and error image; hand-eye residuals and methods.
 //!
-//! ```no_run
+//! The whole chain on the repository's five rendered stereo pairs (`fixtures/stereo`: a 9x6
+//! board of 25 mm squares, a rig 60 mm wide):
+//!
+//! ```
 //! use parallax_composition::{ChainInput, run_chain};
 //! use parallax_camera_model::Chessboard;
 //!
-//! let load = |p: &str| parallax_composition::io::load_gray(std::path::Path::new(p));
-//! let pairs = vec![[load("left01.jpg")?, load("right01.jpg")?], [load("left02.jpg")?, load("right02.jpg")?]];
-//! let out = run_chain(&ChainInput::new(Chessboard::new(9, 6, 30.0)?, pairs))?;
-//! if let Ok(c) = &out.calibration {
-//!     println!("stereo RMS {:.3} px, baseline {:.2} mm", c.rms_px, c.rig.baseline());
-//! }
+//! let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/stereo");
+//! let load = |side: &str, i: usize| parallax_composition::io::load_gray(&dir.join(format!("{side}_{i:02}.png")));
+//! let pairs = (0..5).map(|i| Ok([load("left", i)?, load("right", i)?])).collect::<parallax_composition::Result<_>>()?;
+//! let out = run_chain(&ChainInput::new(Chessboard::new(9, 6, 25.0)?, pairs))?;
+//! let c = out.calibration.as_ref().expect("the rig is calibrated");
+//! println!("stereo RMS {:.3} px, baseline {:.2} mm", c.rms_px, c.rig.baseline());
+//! assert!((c.rig.baseline() - 60.0).abs() < 0.5);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
@@ -65,5 +69,5 @@ pub use scene::{Corruption, run_scene};
 pub use stages::{
     MIN_VALID_RECTIFIED_FRACTION, RectifiedRig, StereoChecks, StereoViews, adjacent_distances, board_poses,
     calibrate_mono, calibrate_stereo, check_stereo, detect_boards, detect_target, hand_eye, match_blobs, match_pair,
-    measure, point_cloud, rectified_abs_dv, rectify, rectify_images, target_pose, to_robot_frame,
+    measure, point_cloud, rectified_abs_dv, rectify, rectify_images, refuse_collapsed, target_pose, to_robot_frame,
 };

@@ -58,28 +58,39 @@ impl ImageView {
     }
 }
 
-/// Finds `target` in every image file (read in order, detected in parallel). Chessboards are
-/// found whole with `config` ([`crate::detect_boards`]); any other target through
+/// Finds `target` in every image file (read and searched in parallel, returned in order).
+/// Chessboards are found whole with `config` (`find_chessboard`); any other target through
 /// [`crate::detect_target`] (any part of a ChArUco board or an AprilGrid).
 pub fn detect_files(
     paths: &[PathBuf],
     target: &TargetDescription,
     config: &parallax_corner_detection::ChessboardConfig,
 ) -> Result<Vec<ImageView>> {
-    let images = paths.iter().map(|p| crate::io::load_gray(p)).collect::<Result<Vec<_>>>()?;
-    let found: Vec<(Option<CornerGrid>, Option<TargetObservation>)> = match target {
-        TargetDescription::Chessboard(board) => {
-            crate::detect_boards(&images, board, config)?.into_iter().map(|g| (g, None)).collect()
-        }
-        _ => {
-            images.par_iter().map(|img| crate::detect_target(img, target).map(|o| (None, o))).collect::<Result<_>>()?
-        }
-    };
+    detect_files_with_progress(paths, target, config, &|| {})
+}
+
+/// [`detect_files`], calling `done` as each image is searched (from the worker threads), for a
+/// progress report. Each image is decoded and searched on one worker, so at most one image per
+/// thread is held at a time.
+pub fn detect_files_with_progress(
+    paths: &[PathBuf],
+    target: &TargetDescription,
+    config: &parallax_corner_detection::ChessboardConfig,
+    done: &(dyn Fn() + Sync),
+) -> Result<Vec<ImageView>> {
     paths
-        .iter()
-        .zip(&images)
-        .zip(found)
-        .map(|((p, img), (g, o))| ImageView::new(p.clone(), img.dimensions(), g, o))
+        .par_iter()
+        .map(|p| {
+            let img = crate::io::load_gray(p)?;
+            let (grid, observation) = match target {
+                TargetDescription::Chessboard(board) => {
+                    (parallax_corner_detection::find_chessboard(&img, board.cols, board.rows, config)?, None)
+                }
+                _ => (None, crate::detect_target(&img, target)?),
+            };
+            done();
+            ImageView::new(p.clone(), img.dimensions(), grid, observation)
+        })
         .collect()
 }
 

@@ -197,12 +197,10 @@ pub fn rectified_abs_dv(
 /// it the maps have collapsed (an absurd distortion, or a calibration from mismatched pairs).
 pub const MIN_VALID_RECTIFIED_FRACTION: f64 = 0.05;
 
-/// Rectifies the rig (Bouguet; OpenCV's `fisheye::stereoRectify` rule to a pinhole pair for a
-/// wide lens) and measures the corners' `|Δv|` after rectification. Refuses a rectification
-/// whose valid region is empty or under [`MIN_VALID_RECTIFIED_FRACTION`] of the image (the
-/// images would be mostly black).
-pub fn rectify(rig: &StereoRig, views: &StereoViews, config: &RectifyConfig) -> Result<RectifiedRig> {
-    let rectification = parallax_stereo_rectify::stereo_rectify(rig, config)?;
+/// Refuses a rectification whose valid region is empty or under
+/// [`MIN_VALID_RECTIFIED_FRACTION`] of either image (the images would be mostly black), naming the
+/// region and its share.
+pub fn refuse_collapsed(rectification: &Rectification) -> Result<()> {
     let area = f64::from(rectification.width) * f64::from(rectification.height);
     for (side, roi) in [("left", rectification.roi1), ("right", rectification.roi2)] {
         let valid = f64::from(roi.width) * f64::from(roi.height);
@@ -216,6 +214,15 @@ pub fn rectify(rig: &StereoRig, views: &StereoViews, config: &RectifyConfig) -> 
             )));
         }
     }
+    Ok(())
+}
+
+/// Rectifies the rig (Bouguet; OpenCV's `fisheye::stereoRectify` rule to a pinhole pair for a
+/// wide lens) and measures the corners' `|Δv|` after rectification. Refuses a collapsed
+/// rectification ([`refuse_collapsed`]).
+pub fn rectify(rig: &StereoRig, views: &StereoViews, config: &RectifyConfig) -> Result<RectifiedRig> {
+    let rectification = parallax_stereo_rectify::stereo_rectify(rig, config)?;
+    refuse_collapsed(&rectification)?;
     let abs_dv = rectified_abs_dv(rig, &rectification, &views.left, &views.right)?;
     let wide = rig.has_wide_lens();
     let pinhole = wide.then(|| rectified_pinhole_rig(&rectification)).transpose()?;

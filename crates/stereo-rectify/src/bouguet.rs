@@ -223,7 +223,7 @@ impl Rectification {
         };
         let p1_dev = rel(p1.rows, shape(c1, [0.0, 0.0]));
         let p2_dev = rel(p2.rows, shape(c2, if vertical { [0.0, ty] } else { [tx, 0.0] }));
-        if !(f > 0.0) || p1_dev > TOL || p2_dev > TOL || b == 0.0 {
+        if f <= 0.0 || p1_dev > TOL || p2_dev > TOL || b == 0.0 {
             return Err(bad(format!(
                 "P1, P2 are not a rectified pair ([f 0 cx 0; 0 f cy 0; 0 0 1 0] and [f 0 cx' Tx·f; 0 f cy' Ty·f; 0 0 \
                  1 0] with one f and one of Tx, Ty): deviations {p1_dev:.2e}, {p2_dev:.2e}"
@@ -453,7 +453,8 @@ pub fn stereo_rectify(rig: &StereoRig, config: &RectifyConfig) -> Result<Rectifi
         s = s0 * (1.0 - alpha) + s1 * alpha;
         if !(s.is_finite() && s > 0.0) {
             return Err(RectifyError::Degenerate(format!(
-                "alpha scale {s} (inscribed {s0}, circumscribed {s1}): the undistorted image extents are unusable"
+                "alpha scale {s:.3e} (inscribed {s0:.3e}, circumscribed {s1:.3e}): the undistorted image extents are \
+                 unusable"
             )));
         }
     }
