@@ -31,8 +31,8 @@ pub struct Args {
     /// or folder, must vary alike along the right ones).
     #[arg(long)]
     pair_by_order: bool,
-    /// Sequences: pairs decoded ahead of the matcher (default 2).
-    #[arg(long, default_value_t = 2)]
+    /// Sequences: pairs decoded ahead of the matcher (default 2, at most 64).
+    #[arg(long, default_value_t = 2, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=64))]
     prefetch: usize,
     /// Method: bm (block matching) or sgm (semi-global matching, SAD on the prefilter with a
     /// 5x5 window; see --sgm-paths).

@@ -106,7 +106,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
     let (name, scene) = match &args.scene {
         Some(path) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("reading scene {}", path.display()))?;
+            let text =
+                parallax_interop::read_text_file(path).with_context(|| format!("reading scene {}", path.display()))?;
+            parallax_interop::check_nesting(&text, &path.display().to_string())?;
             let scene = parallax_synthetic::SceneDescription::from_ron(&text)
                 .with_context(|| format!("parsing scene {}", path.display()))?;
             let name = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());

@@ -768,3 +768,22 @@ fn a_calibration_that_rectifies_to_black_images_is_refused_with_the_figure() {
     assert!(stderr.contains("valid region of 0x0 px (0.0 % of the image)"), "{stderr}");
     assert!(!out.exists(), "written before the refusal: {:?}", files_below(&out));
 }
+
+#[test]
+fn a_prefetch_beyond_its_bound_is_refused_before_anything_is_allocated() {
+    // --prefetch 1000000000000 aborted on an allocation failure (issue 51)
+    let dir = temp("prefetch");
+    let easy = fixture("stereo-scene-easy/left.png");
+    let r = run(&[
+        "disparity",
+        "--left",
+        &easy,
+        "--right",
+        &easy,
+        "--out",
+        dir.join("o").to_str().unwrap(),
+        "--prefetch",
+        "1000000000000",
+    ]);
+    fails_naming(&r, &["--prefetch", "1..=64"]);
+}

@@ -90,5 +90,5 @@ pub use error::{BlockMatchingError, Result};
 pub use eval::{Evaluation, evaluate};
 pub use io::{false_colour, from_pfm, from_scaled, to_pfm, to_png16};
 pub use speckle::filter_speckles;
-pub use stream::{Frame, Frames, StereoPair};
+pub use stream::{Frame, Frames, MAX_PREFETCH, StereoPair};
 pub use swap::SwapCheck;

@@ -60,9 +60,14 @@ pub struct Frames<P> {
     index: usize,
 }
 
+/// Most pairs [`BlockMatcher::frames`] decodes ahead: more would hold memory without keeping
+/// the matcher any busier.
+pub const MAX_PREFETCH: usize = 64;
+
 impl BlockMatcher {
     /// Matches every pair of `pairs` in order, as an iterator of frames. A prefetch thread
-    /// pulls up to `prefetch` (at least 1) pairs ahead from the source, so a source that
+    /// pulls up to `prefetch` pairs ahead from the source (at least 1, at most
+    /// [`MAX_PREFETCH`]: the queue's slots are allocated up front), so a source that
     /// decodes images lazily decodes the next pair while this one is matched. A failing frame
     /// yields its error and the iteration goes on with the next pair.
     ///
@@ -88,7 +93,7 @@ impl BlockMatcher {
         I::IntoIter: Send,
         I::Item: StereoPair + Send + 'static,
     {
-        let (tx, rx) = sync_channel(prefetch.max(1));
+        let (tx, rx) = sync_channel(prefetch.clamp(1, MAX_PREFETCH));
         let handle = std::thread::spawn(move || {
             for p in pairs {
                 if tx.send(p).is_err() {

@@ -202,6 +202,7 @@ fn yaml_kind(v: &Value) -> Option<Format> {
 
 /// The format of `text` (from the content, not the name) and its value tree.
 pub fn detect(text: &str, what: &str) -> Result<(Format, Value)> {
+    check_nesting(text, what)?;
     if opencv::is_opencv_xml(text) {
         return Ok((Format::OpenCvXml, opencv::parse_xml(text, what)?));
     }
@@ -247,8 +248,75 @@ pub fn parse(text: &str, what: &str) -> Result<(Calibration, Format)> {
     Ok((interpret(&value, what)?, format))
 }
 
+/// Largest text file read as a calibration, target, pose or result file: 64 MiB (calibration
+/// files are kilobytes; a corners file of thousands of images a few megabytes).
+pub const MAX_TEXT_BYTES: u64 = 64 << 20;
+
+/// Deepest nesting of brackets (`[`, `{`, `(`) accepted in a text file, as the JSON and RON
+/// parsers' own limit: checked in one linear pass before any parser runs, so a nesting bomb is
+/// refused at once instead of parsed in quadratic time or overflowing the stack.
+pub const MAX_NESTING: usize = 128;
+
+/// The bytes of `path`, refused beyond `limit` before they are read: a regular file by its size,
+/// anything else (a pipe, `/dev/zero`) once `limit + 1` bytes have come. The error
+/// (`ErrorKind::FileTooLarge`) gives both figures.
+pub fn read_bounded(path: &Path, limit: u64) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let too_large = |size: String| {
+        std::io::Error::new(
+            std::io::ErrorKind::FileTooLarge,
+            format!("{size} bytes, more than the {limit} bytes this input may hold"),
+        )
+    };
+    let file = std::fs::File::open(path)?;
+    let meta = file.metadata()?;
+    if meta.is_file() && meta.len() > limit {
+        return Err(too_large(meta.len().to_string()));
+    }
+    let mut bytes = Vec::new();
+    file.take(limit + 1).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > limit {
+        return Err(too_large(format!("over {limit}")));
+    }
+    Ok(bytes)
+}
+
+/// The UTF-8 text of `path`, at most [`MAX_TEXT_BYTES`].
+pub fn read_text_file(path: &Path) -> std::io::Result<String> {
+    String::from_utf8(read_bounded(path, MAX_TEXT_BYTES)?)
+        .map_err(|_| std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8 text"))
+}
+
+/// Refuses text nested deeper than [`MAX_NESTING`] brackets (outside double-quoted strings).
+pub fn check_nesting(text: &str, what: &str) -> Result<()> {
+    let (mut depth, mut in_string, mut escaped) = (0usize, false, false);
+    for c in text.chars() {
+        if in_string {
+            match (escaped, c) {
+                (true, _) => escaped = false,
+                (false, '\\') => escaped = true,
+                (false, '"') => in_string = false,
+                _ => {}
+            }
+            continue;
+        }
+        match c {
+            '"' => in_string = true,
+            '[' | '{' | '(' => {
+                depth += 1;
+                if depth > MAX_NESTING {
+                    return Err(syntax(what, format!("nested more than {MAX_NESTING} levels deep: not a calibration")));
+                }
+            }
+            ']' | '}' | ')' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 fn read_text(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).map_err(|source| InteropError::Io { path: path.to_path_buf(), source })
+    read_text_file(path).map_err(|source| InteropError::Io { path: path.to_path_buf(), source })
 }
 
 /// The calibration in one file, or in two read together: OpenCV's `intrinsics.yml` +

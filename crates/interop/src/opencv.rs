@@ -190,13 +190,19 @@ pub fn parse_xml(text: &str, what: &str) -> Result<Value> {
     loop {
         match reader.read_event().map_err(|e| syntax(what, format!("XML: {e}")))? {
             Event::Start(e) => {
+                if stack.len() >= crate::MAX_NESTING {
+                    return Err(syntax(
+                        what,
+                        format!("XML nested more than {} levels deep: not a calibration", crate::MAX_NESTING),
+                    ));
+                }
                 let name = e.name().as_ref().to_string();
                 stack.push((name, Map::new(), String::new()));
             }
             Event::Empty(e) => {
                 let name = e.name().as_ref().to_string();
                 if let Some(parent) = stack.last_mut() {
-                    parent.1.insert(name, Value::Null);
+                    insert_unique(&mut parent.1, name, Value::Null, what)?;
                 }
             }
             Event::Text(t) => {
@@ -234,9 +240,7 @@ pub fn parse_xml(text: &str, what: &str) -> Result<Value> {
                     xml_scalar(&text)
                 };
                 match stack.last_mut() {
-                    Some(parent) => {
-                        parent.1.insert(name, value);
-                    }
+                    Some(parent) => insert_unique(&mut parent.1, name, value, what)?,
                     None => root = Some(value),
                 }
             }
@@ -248,6 +252,17 @@ pub fn parse_xml(text: &str, what: &str) -> Result<Value> {
         Some(Value::Object(m)) => Ok(Value::Object(m)),
         Some(_) | None => Err(syntax(what, "XML: no <opencv_storage> element with entries")),
     }
+}
+
+/// Adds an XML element to its parent's entries; a second element of the same name is refused (a
+/// reader keeping either would guess which one the writer meant). OpenCV's anonymous sequence
+/// items (`<_>`) are not entries of a map and keep the reader's earlier behaviour.
+fn insert_unique(map: &mut Map<String, Value>, name: String, value: Value, what: &str) -> Result<()> {
+    if name != "_" && map.contains_key(&name) {
+        return Err(syntax(what, format!("XML: <{name}> appears twice in one element: which one is meant?")));
+    }
+    map.insert(name, value);
+    Ok(())
 }
 
 #[cfg(test)]

@@ -17,7 +17,7 @@ use crate::error::{InteropError, Result, content};
 
 /// Reads a target file ([`parse_target`] on its text); errors name the file.
 pub fn read_target(path: &Path) -> Result<TargetDescription> {
-    let text = std::fs::read_to_string(path).map_err(|source| InteropError::Io { path: path.to_path_buf(), source })?;
+    let text = crate::read_text_file(path).map_err(|source| InteropError::Io { path: path.to_path_buf(), source })?;
     parse_target(&text, &path.display().to_string())
 }
 
@@ -34,6 +34,7 @@ pub fn read_target(path: &Path) -> Result<TargetDescription> {
 /// ```
 pub fn parse_target(text: &str, what: &str) -> Result<TargetDescription> {
     let trimmed = text.trim();
+    crate::check_nesting(trimmed, what)?;
     if trimmed.is_empty() {
         return Err(content(what, format!("the file is empty; a target is one of: {ACCEPTED_FORMS}")));
     }

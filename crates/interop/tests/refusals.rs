@@ -96,3 +96,62 @@ fn stored_rectification_matrices_that_disagree_with_the_rig_are_refused() {
     assert_ne!(r1, text);
     refused(&r1, "R1 is not a rotation");
 }
+
+/// Hostile files (issue 51): nesting bombs of a megabyte are refused by one linear pass before
+/// any parser runs (an XML nested 100,000 levels overflowed the stack; a YAML nested 200,000
+/// levels parsed for minutes); a repeated XML element is refused, not resolved by keeping the
+/// last one; a file larger than a calibration can be is refused before it is read.
+#[test]
+fn nesting_bombs_duplicate_keys_and_endless_files_are_refused() {
+    let n = 1 << 20;
+    let bombs = [
+        ("json", "[".repeat(n)),
+        ("yaml", format!("%YAML:1.0\n---\nM1: {}", "[".repeat(n))),
+        ("ron", format!("({}", "(".repeat(n))),
+        (
+            "json in a string is no bomb, the rest is",
+            format!("{{\"a\": \"{}\", \"b\": {}}}", "[".repeat(200), "[".repeat(n)),
+        ),
+    ];
+    for (kind, text) in &bombs {
+        let err = parse(text, "f.yml").unwrap_err().to_string();
+        assert!(err.contains("nested more than 128 levels"), "{kind}: {err}");
+        let err = parallax_interop::parse_target(text, "t.yaml").unwrap_err().to_string();
+        assert!(err.contains("nested more than 128 levels"), "{kind} as a target: {err}");
+    }
+    let xml = format!(
+        "<?xml version=\"1.0\"?>\n<opencv_storage>\n{}{}</opencv_storage>\n",
+        "<a>".repeat(100_000),
+        "</a>".repeat(100_000)
+    );
+    let err = parse(&xml, "f.xml").unwrap_err().to_string();
+    assert!(err.contains("XML nested more than 128 levels"), "{err}");
+    // 128 levels of brackets in a string are text, not nesting
+    let quoted = format!("%YAML:1.0\n---\nname: \"{}\"\n", "[".repeat(1000));
+    let err = parse(&quoted, "f.yml").unwrap_err().to_string();
+    assert!(err.contains("no calibration found"), "{err}");
+
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/cv2_mono.xml");
+    let text = std::fs::read_to_string(path).unwrap();
+    assert!(parse(&text, "f.xml").is_ok());
+    let twice = text.replacen("<image_width>", "<image_width>2000</image_width>\n<image_width>", 1);
+    let err = parse(&twice, "f.xml").unwrap_err().to_string();
+    assert!(err.contains("<image_width> appears twice"), "{err}");
+
+    // a sparse file of 65 MiB: refused by its size, unread
+    let dir = std::env::temp_dir().join(format!("parallax-interop-large-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let large = dir.join("calib.yml");
+    std::fs::File::create(&large).unwrap().set_len(parallax_interop::MAX_TEXT_BYTES + 1).unwrap();
+    let err = parallax_interop::read(&[&large]).unwrap_err().to_string();
+    assert!(err.contains("67108865 bytes, more than the 67108864 bytes"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+    // an endless device: refused once the limit has been read
+    let zero = std::path::Path::new("/dev/zero");
+    if zero.exists() {
+        let err = parallax_interop::read(&[zero]).unwrap_err().to_string();
+        assert!(err.contains("over 67108864 bytes"), "{err}");
+    } else {
+        println!("skipped the /dev/zero case: no /dev/zero on this system");
+    }
+}

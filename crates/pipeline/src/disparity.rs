@@ -92,11 +92,9 @@ pub fn load_truth(path: &Path, scale: f32, size: (u32, u32)) -> Result<Disparity
 
 fn read_truth(path: &Path, scale: f32) -> Result<DisparityMap> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("pfm")) {
-        let bytes = std::fs::read(path).map_err(|source| PipelineError::Io {
-            what: "reading",
-            path: path.to_path_buf(),
-            source,
-        })?;
+        // a PFM is 4 bytes a pixel plus its header: larger than the largest image, refused unread
+        let bytes = parallax_interop::read_bounded(path, crate::io::MAX_IMAGE_BYTES)
+            .map_err(|source| PipelineError::Io { what: "reading", path: path.to_path_buf(), source })?;
         return Ok(parallax_block_matching::from_pfm(&bytes, &path.display().to_string())?);
     }
     let img = crate::io::load_image(path)?;

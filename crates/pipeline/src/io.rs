@@ -256,7 +256,8 @@ pub fn write_ron<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
 
 /// Reads and deserialises a RON file, naming the file in every error.
 pub fn read_ron<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
-    let text = std::fs::read_to_string(path).map_err(io_err("reading", path))?;
+    let text = parallax_interop::read_text_file(path).map_err(io_err("reading", path))?;
+    parallax_interop::check_nesting(&text, &path.display().to_string())?;
     ron::from_str(&text).map_err(|e| PipelineError::Format { path: path.to_path_buf(), message: e.to_string() })
 }
 
@@ -294,7 +295,8 @@ pub const MAX_IMAGE_BYTES: u64 = 2 << 30;
 /// end-of-image marker (a truncated file decodes with the missing rows grey), images larger
 /// than [`MAX_IMAGE_PIXELS`], and anything the decoder reports. Every error names the file.
 pub fn load_image(path: &Path) -> Result<image::DynamicImage> {
-    let bytes = std::fs::read(path).map_err(io_err("reading", path))?;
+    // a file larger than the largest decoded image is refused before it is read
+    let bytes = parallax_interop::read_bounded(path, MAX_IMAGE_BYTES).map_err(io_err("reading", path))?;
     decode_image(&bytes, path)
 }
 
@@ -397,6 +399,17 @@ pub fn expand_glob(pattern: &str) -> Result<Vec<PathBuf>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_file_larger_than_any_image_is_refused_unread() {
+        // a 2 GB file named .png was read whole before it was refused (issue 51); sparse here
+        let dir = test_dir("huge-image");
+        let path = dir.join("huge.png");
+        std::fs::File::create(&path).unwrap().set_len(MAX_IMAGE_BYTES + 1).unwrap();
+        let err = load_image(&path).unwrap_err().to_string();
+        assert!(err.contains("huge.png") && err.contains("more than the 2147483648 bytes"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn atomic_write_replaces_and_leaves_no_temp_file() {

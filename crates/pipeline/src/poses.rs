@@ -15,7 +15,7 @@ use crate::{PipelineError, Result};
 /// Reads the poses of one file in `format` (`None`: from the extension, see
 /// [`PoseFileFormat::from_path`]).
 pub fn read_pose_file(path: &Path, format: Option<PoseFileFormat>) -> Result<Vec<Isometry3>> {
-    let text = std::fs::read_to_string(path).map_err(|source| PipelineError::Io {
+    let text = parallax_interop::read_text_file(path).map_err(|source| PipelineError::Io {
         what: "reading",
         path: path.to_path_buf(),
         source,
@@ -83,7 +83,7 @@ impl Intrinsics {
 /// (`perspectiveProjWithDistortion` when present, its `kud` as OpenCV's k1).
 pub fn read_intrinsics(path: &Path, side: Side) -> Result<Intrinsics> {
     let what = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| PipelineError::Io {
+    let text = parallax_interop::read_text_file(path).map_err(|source| PipelineError::Io {
         what: "reading",
         path: path.to_path_buf(),
         source,

@@ -65,11 +65,25 @@ impl Default for RenderOptions {
     }
 }
 
+/// Largest optical blur a render accepts, pixels: a chessboard square of a few tens of pixels is
+/// gone long before it.
+pub const MAX_BLUR_SIGMA: f64 = 50.0;
+
 impl RenderOptions {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), SyntheticError> {
         non_negative("margin_squares", self.margin_squares)?;
         non_negative("blur_sigma", self.blur_sigma)?;
+        if self.blur_sigma > MAX_BLUR_SIGMA {
+            return Err(SyntheticError::config(
+                "blur_sigma",
+                format!(
+                    "{} px is above {MAX_BLUR_SIGMA} px, a blur that leaves no board to find (and takes minutes to \
+                     render)",
+                    self.blur_sigma
+                ),
+            ));
+        }
         non_negative("noise_sigma", self.noise_sigma)?;
         non_negative("illumination_gradient", self.illumination_gradient)?;
         for (field, v) in [("salt_fraction", self.salt_fraction), ("vignetting", self.vignetting)] {

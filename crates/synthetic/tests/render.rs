@@ -229,6 +229,9 @@ fn bad_render_inputs_are_errors() {
     let pose = Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(-100.0, -60.0, 500.0));
     let e = |o: RenderOptions| render_chessboard(&cam, &board, &pose, &o).unwrap_err().to_string();
     assert!(e(RenderOptions { blur_sigma: -1.0, ..Default::default() }).contains("blur_sigma"));
+    // a blur of 1e6 px rendered for minutes (issue 51): refused at once, naming the bound
+    let huge = e(RenderOptions { blur_sigma: 1e6, ..Default::default() });
+    assert!(huge.contains("blur_sigma") && huge.contains("above 50 px"), "{huge}");
     assert!(e(RenderOptions { salt_fraction: 1.5, ..Default::default() }).contains("salt_fraction"));
     assert!(e(RenderOptions { noise_sigma: f64::NAN, ..Default::default() }).contains("noise_sigma"));
     let behind = Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(0.0, 0.0, -500.0));
