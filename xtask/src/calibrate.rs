@@ -211,6 +211,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if let Some(dir) = &args.report {
         refuse_report_folder(dir, &inputs)?;
     }
+    // the result file(s) and the report folder must not meet (the report's pages replaced the
+    // calibration written into its folder)
+    let written = args.out.iter().zip(format).flat_map(|(o, f)| crate::files::written_paths(o, f)).collect::<Vec<_>>();
+    let outputs: Vec<(&str, &Path, bool)> = (args.report.iter().map(|d| ("--report", d.as_path(), true)))
+        .chain(written.iter().map(|p| ("--out", p.as_path(), false)))
+        .collect();
+    parallax_composition::io::refuse_colliding_outputs(&outputs)?;
     let t0 = Instant::now();
     let detect = |pattern: &str| -> anyhow::Result<Vec<ImageView>> {
         let paths = parallax_composition::io::expand_glob(pattern)?;

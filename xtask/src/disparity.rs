@@ -354,6 +354,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let (min, n) = (cfg.min_disparity, cfg.num_disparities);
     // every output is computed first and written as one set at the end
     let mut files = OutputSet::new();
+    // a file of an earlier run into this folder that this run does not write goes
+    for stale in &outputs {
+        files.supersede(stale);
+    }
     let png = disparity::add_maps(&mut files, &args.out, &map, (min, n))?;
     disparity::add_confidence(&mut files, &args.out, &matcher, &map)?;
     let evaluation = truth

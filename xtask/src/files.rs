@@ -13,6 +13,15 @@ pub fn output_format(path: &Path, explicit: Option<&str>) -> anyhow::Result<Form
     Ok(Format::for_output(path, explicit)?)
 }
 
+/// A baseline at or above this, in a file whose lengths are metres, is warned of: stereo rigs
+/// are a few centimetres to a metre or two wide; a rig in millimetres is 20–500 wide.
+pub const BASELINE_WARN_METRES: f64 = 10.0;
+
+/// The name of the first format in `formats` whose lengths are metres (ROS, Kalibr).
+fn formats_in_metres(formats: &[Format]) -> Option<&'static str> {
+    formats.iter().find(|f| in_metres(**f)).map(|f| f.name())
+}
+
 /// Whether `format` gives lengths in metres whatever the calibration's unit: ROS `camera_info`
 /// (the baseline in `P`) and Kalibr camchains (`T_cn_cnm1`). A result is written in its own unit,
 /// the target's, so these need a target measured in metres.
@@ -82,10 +91,23 @@ pub fn read_calibration(paths: &[PathBuf], image_size: Option<(u32, u32)>) -> an
         }
     };
     let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
-    let formats: Vec<&str> = formats.iter().map(|f| f.name()).collect();
-    println!("calibration: {} ({}, {})", names.join(" + "), formats.join(" + "), c.kind());
+    let names_of: Vec<&str> = formats.iter().map(|f| f.name()).collect();
+    println!("calibration: {} ({}, {})", names.join(" + "), names_of.join(" + "), c.kind());
     if let (true, Some((w, h))) = (sized, image_size) {
         println!("  image size: none in the file; the images' {w}x{h}");
+    }
+    // ROS and Kalibr files are in metres: a baseline of 10 or more is a file written in
+    // millimetres or centimetres (the writers warn of it; so does the reader)
+    if let (Some(f), Calibration::Stereo(st)) = (formats_in_metres(&formats), &c)
+        && st.rig.baseline() >= BASELINE_WARN_METRES
+    {
+        eprintln!(
+            "warning: {} files are in metres, and this rig's baseline is {:.4}: a rig {:.4} m wide is unlikely; if \
+             the file was written in millimetres or centimetres, every length computed with it is in that unit",
+            f,
+            st.rig.baseline(),
+            st.rig.baseline()
+        );
     }
     Ok(c)
 }

@@ -177,6 +177,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
     inputs.extend(args.intrinsics.iter().cloned());
     parallax_composition::io::refuse_overwriting_inputs(&outputs, &inputs)?;
+    // two outputs at one path: the second write replaced the first
+    let named: Vec<(&str, &std::path::Path, bool)> = [
+        ("--out", args.out.as_deref()),
+        ("--save-camera-poses", args.save_camera_poses.as_deref()),
+        ("--save-visp", args.save_visp.as_deref()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, p)| Some((flag, p?, false)))
+    .collect();
+    parallax_composition::io::refuse_colliding_outputs(&named)?;
     let robot = poses::read_poses(&args.robot, args.robot_format.file_format())
         .with_context(|| format!("robot poses {:?}", args.robot))?;
     let (robot, camera) = match &args.camera_poses {

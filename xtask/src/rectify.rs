@@ -25,6 +25,8 @@ use parallax_composition::io::OutputSet;
 use parallax_interop::{Calibration, RectificationMatrices, RectifiedRecord, StereoCalibration};
 use parallax_stereo_rectify::{ExtentMethod, Rectifier, RectifyConfig};
 
+use crate::files::BASELINE_WARN_METRES;
+
 /// Arguments of `cargo xtask rectify`.
 #[derive(clap::Args)]
 pub struct Args {
@@ -72,10 +74,6 @@ pub struct Args {
     #[arg(long, default_value_t = 24)]
     line_spacing: u32,
 }
-
-/// A baseline at or above this, written to a file in metres, is warned of: stereo rigs are a few
-/// centimetres to a metre or two wide, a rig calibrated in millimetres is 20–500 wide.
-const BASELINE_WARN_METRES: f64 = 10.0;
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let ext = match args.format.to_ascii_lowercase().as_str() {

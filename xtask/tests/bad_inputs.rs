@@ -495,6 +495,10 @@ fn rectify_in_ros_format_refuses_to_write_over_its_ros_input_files() {
     fails_naming(&r, &["rectification_left.yaml", "is also an input"]);
     assert_eq!((std::fs::read(&l).unwrap(), std::fs::read(&rr).unwrap()), before, "an input was replaced");
     assert_eq!(files_below(&ros), listing);
+    // reading the pair back warns too (it was read without a word, issue 51)
+    let m = run(&["measure", "--calib", l.to_str().unwrap(), rr.to_str().unwrap(), "--points", POINTS]);
+    let err = String::from_utf8_lossy(&m.stderr);
+    assert!(m.status.success() && err.contains("ros files are in metres") && err.contains("baseline is 60.0"), "{err}");
 }
 
 #[test]
@@ -786,4 +790,73 @@ fn a_prefetch_beyond_its_bound_is_refused_before_anything_is_allocated() {
         "1000000000000",
     ]);
     fails_naming(&r, &["--prefetch", "1..=64"]);
+}
+
+#[test]
+fn two_outputs_of_one_command_at_one_place_are_refused_before_any_work() {
+    // `calibrate --out R/report.html --report R`: the report replaced the calibration, exit 0;
+    // `handeye --out X --save-camera-poses X`: the second write replaced the first (issue 51)
+    let dir = temp("colliding-outputs");
+    let report = dir.join("R");
+    let inside = report.join("report.html");
+    let r = run(&[
+        "calibrate",
+        "--images",
+        &fixture("stereo/left_*.png"),
+        "--board",
+        "9x6",
+        "--square",
+        "25",
+        "--out",
+        inside.to_str().unwrap(),
+        "--format",
+        "json",
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    fails_naming(&r, &["--report", "--out", "the same place"]);
+    assert!(!String::from_utf8_lossy(&r.stderr).contains("images searched"), "refused after the work");
+    let calib = calibration_in(&dir);
+    let x = dir.join("x.ron");
+    let r = run(&[
+        "handeye",
+        "--robot",
+        &fixture("handeye/robot_poses.ron"),
+        "--images",
+        &fixture("handeye/station_*.png"),
+        "--board",
+        "9x6",
+        "--square",
+        "25",
+        "--intrinsics",
+        calib.to_str().unwrap(),
+        "--out",
+        x.to_str().unwrap(),
+        "--save-camera-poses",
+        dir.join(".").join("x.ron").to_str().unwrap(),
+    ]);
+    fails_naming(&r, &["--out", "--save-camera-poses", "the same place"]);
+    assert_eq!(files_below(&dir), vec![calib.file_name().unwrap().to_string_lossy().into_owned()]);
+}
+
+#[test]
+fn a_rerun_into_the_same_folder_leaves_no_file_of_the_earlier_run() {
+    // a second `disparity` into the same folder left the first run's disparity16.png beside the
+    // new map (issue 51): a reader then took the old 16-bit map for the new one
+    let dir = temp("disparity-rerun");
+    let out = dir.join("out");
+    let (left, right) = (fixture("stereo-scene-easy/left.png"), fixture("stereo-scene-easy/right.png"));
+    let disparity = |extra: &[&str]| {
+        let base = ["disparity", "--left", &left, "--right", &right, "--out", out.to_str().unwrap()];
+        run(&[&base[..], extra].concat())
+    };
+    let r = disparity(&["--disparities", "32"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(out.join("disparity16.png").is_file());
+    let first = std::fs::read(out.join("disparity.pfm")).unwrap();
+    // a range a 16-bit PNG at 1/256 px cannot hold: this run writes no disparity16.png
+    let r = disparity(&["--disparities", "256", "--min-disparity", "16"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_ne!(std::fs::read(out.join("disparity.pfm")).unwrap(), first, "the map was not replaced");
+    assert_eq!(files_below(&out), ["disparity.pfm", "disparity_colour.png"], "a file of the first run is left");
 }

@@ -31,6 +31,8 @@ pub struct OutputSet {
     files: Vec<(PathBuf, PathBuf)>,
     /// Folders made for the set, outermost first.
     created: Vec<PathBuf>,
+    /// Files of an earlier run that this set replaces as a whole ([`OutputSet::supersede`]).
+    superseded: Vec<PathBuf>,
     committed: bool,
 }
 
@@ -144,7 +146,15 @@ impl OutputSet {
         self.files.is_empty()
     }
 
-    /// Renames every staged file into place; returns the paths written.
+    /// Marks `path` as a file of this run's kind that an earlier run may have left: when the set
+    /// does not write it, the commit removes it, so an output folder never holds a new map beside
+    /// an older run's depth cloud. Give only names the command checked against its inputs.
+    pub fn supersede(&mut self, path: impl Into<PathBuf>) {
+        self.superseded.push(path.into());
+    }
+
+    /// Renames every staged file into place, then removes the superseded files it did not write;
+    /// returns the paths written.
     pub fn commit(mut self) -> Result<Vec<PathBuf>> {
         for k in 0..self.files.len() {
             let (path, tmp) = &self.files[k];
@@ -159,6 +169,15 @@ impl OutputSet {
             }
         }
         self.committed = true;
+        for stale in &self.superseded {
+            if self.files.iter().all(|(p, _)| p != stale) && stale.is_file() {
+                std::fs::remove_file(stale).map_err(|source| PipelineError::Io {
+                    what: "removing the earlier run's",
+                    path: stale.clone(),
+                    source,
+                })?;
+            }
+        }
         Ok(std::mem::take(&mut self.files).into_iter().map(|(p, _)| p).collect())
     }
 }
@@ -204,6 +223,30 @@ pub fn refuse_overwriting_inputs<O: AsRef<Path>, I: AsRef<Path>>(outputs: &[O], 
                 out.display(),
                 input.display()
             )));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses two outputs of one command that resolve to the same file, and a file output inside a
+/// folder another output writes (`(flag, path, is_folder)`): the second write would replace the
+/// first (`handeye --out X --save-camera-poses X`, `calibrate --out R/report.html --report R`).
+/// Call it before any work, with the command's flags as given.
+pub fn refuse_colliding_outputs(outputs: &[(&str, &Path, bool)]) -> Result<()> {
+    let resolved: Vec<(&str, &Path, bool, PathBuf)> =
+        outputs.iter().filter_map(|&(flag, p, dir)| Some((flag, p, dir, resolved_output(p)?))).collect();
+    for (i, (flag_a, a, dir_a, ra)) in resolved.iter().enumerate() {
+        for (flag_b, b, dir_b, rb) in &resolved[i + 1..] {
+            let clash =
+                ra == rb || (*dir_a && !*dir_b && rb.starts_with(ra)) || (*dir_b && !*dir_a && ra.starts_with(rb));
+            if clash {
+                return Err(PipelineError::Input(format!(
+                    "{flag_a} {} and {flag_b} {} are the same place: one would replace the other; give each \
+                     output its own path",
+                    a.display(),
+                    b.display()
+                )));
+            }
         }
     }
     Ok(())
