@@ -62,6 +62,7 @@ impl OutputSet {
         missing.reverse();
         std::fs::create_dir_all(&dir).map_err(io_err("creating directory", &dir))?;
         self.created.extend(missing);
+        remove_dead_runs_temps(&dir, &name);
         let k = match self.files.iter().position(|(p, _)| *p == path) {
             Some(k) => k,
             None => {
@@ -179,6 +180,28 @@ impl OutputSet {
             }
         }
         Ok(std::mem::take(&mut self.files).into_iter().map(|(p, _)| p).collect())
+    }
+}
+
+/// Removes the temporary files an earlier run killed while staging `name` left in `dir`
+/// (`.{name}.tmp{pid}-{k}` whose process no longer exists): `kill -9` skips the cleanup of
+/// [`OutputSet`]'s `Drop`. A process is known to be gone only where `/proc` lists the living
+/// ones (Linux); elsewhere nothing is removed, since the file may be another live run's.
+fn remove_dead_runs_temps(dir: &Path, name: &str) {
+    let proc_fs = Path::new("/proc/self");
+    if !proc_fs.exists() {
+        return;
+    }
+    let prefix = format!(".{name}.tmp");
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for e in entries.flatten() {
+        let file = e.file_name();
+        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix(&prefix)) else { continue };
+        let Some((pid, k)) = rest.split_once('-') else { continue };
+        let (Ok(pid), Ok(_)) = (pid.parse::<u32>(), k.parse::<usize>()) else { continue };
+        if pid != std::process::id() && !Path::new("/proc").join(pid.to_string()).exists() {
+            let _ = std::fs::remove_file(e.path());
+        }
     }
 }
 
@@ -442,6 +465,33 @@ pub fn expand_glob(pattern: &str) -> Result<Vec<PathBuf>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_killed_runs_temporary_files_are_removed_by_the_next_run() {
+        // `kill -9` during the staging left `.name.tmpPID-K` files that nothing removed (issue 51)
+        if !Path::new("/proc/self").exists() {
+            println!("skipped: no /proc here to tell a dead run from a live one");
+            return;
+        }
+        let dir = test_dir("dead-temps");
+        let pid_max: u64 = std::fs::read_to_string("/proc/sys/kernel/pid_max")
+            .ok()
+            .and_then(|s| s.trim().parse().ok())
+            .unwrap_or(4_194_304);
+        // a pid above pid_max never belongs to a process
+        let dead = dir.join(format!(".c.ron.tmp{}-0", pid_max + 1));
+        let live = dir.join(format!(".c.ron.tmp{}-3", 1)); // pid 1 is always alive
+        let other = dir.join(format!(".d.ron.tmp{}-0", pid_max + 1)); // another output's
+        for f in [&dead, &live, &other] {
+            std::fs::write(f, b"half").unwrap();
+        }
+        let mut set = OutputSet::new();
+        set.add(dir.join("c.ron"), b"new").unwrap();
+        set.commit().unwrap();
+        assert!(!dead.exists(), "the dead run's temporary is left");
+        assert!(live.exists() && other.exists(), "a live run's or another output's temporary was removed");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn a_file_larger_than_any_image_is_refused_unread() {
