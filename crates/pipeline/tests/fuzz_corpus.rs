@@ -104,6 +104,17 @@ fn the_real_seed_files_parse() {
     {
         parallax_interop::parse(&text(&format!("calibration/{f}")), f).unwrap();
     }
+    // the nesting bombs and the repeated XML element: refused, naming why
+    for (f, why) in [
+        ("edge-nesting-json.json", "nested more than 128 levels"),
+        ("edge-nesting-yaml.yml", "nested more than 128 levels"),
+        ("edge-nesting-ron.ron", "nested more than 128 levels"),
+        ("edge-nesting-xml.xml", "XML nested more than 128 levels"),
+        ("edge-xml-repeated-key.xml", "<image_width> appears twice"),
+    ] {
+        let err = parallax_interop::parse(&text(&format!("calibration/{f}")), f).unwrap_err().to_string();
+        assert!(err.contains(why), "{f}: {err}");
+    }
     for f in ["easy.ron", "hard.ron", "eye-to-hand.ron"] {
         parallax_synthetic::SceneDescription::from_ron(&text(&format!("scene/{f}"))).unwrap();
     }
