@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use parallax_camera_model::{LensModel, TargetDescription};
+use parallax_composition::io::OutputSet;
 use parallax_composition::records::{MonoOutput, StereoOutput, mono_calibration, stereo_calibration};
 use parallax_composition::session::{self, ImageView};
 use parallax_composition::summary;
@@ -137,21 +138,30 @@ fn config(args: &Args) -> CalibrationConfig {
     }
 }
 
-/// Writes `--out` with the result file of either target form (a chessboard's file keeps its form).
-macro_rules! write_out {
-    ($args:expr, $format:expr, $target:expr, $calibration:expr, |$b:ident| $native:expr) => {
-        if let (Some(out), Some(format)) = (&$args.out, $format) {
-            let written = match $target {
-                TargetDescription::Chessboard($b) => {
-                    crate::files::write_result(out, format, &$native, Some($calibration))
-                }
-                $b => crate::files::write_result(out, format, &$native, Some($calibration)),
-            };
-            for p in written? {
-                println!("wrote {} ({})", p.display(), format.name());
-            }
+/// Stages `--out` (the result file of either target form: a chessboard's file keeps its form) in
+/// the set `$files`; evaluates to the paths it takes.
+macro_rules! stage_out {
+    ($files:expr, $args:expr, $format:expr, $target:expr, $calibration:expr, |$b:ident| $native:expr) => {
+        match (&$args.out, $format) {
+            (Some(out), Some(format)) => match $target {
+                TargetDescription::Chessboard($b) => $files.add_result(out, format, &$native, Some($calibration))?,
+                $b => $files.add_result(out, format, &$native, Some($calibration))?,
+            },
+            _ => Vec::new(),
         }
     };
+}
+
+/// Prints what one committed set wrote: the result files, then the report.
+fn print_written(written: &[PathBuf], format: Option<parallax_interop::Format>, report: Option<(&Path, f64)>) {
+    if let Some(format) = format {
+        for p in written {
+            println!("wrote {} ({})", p.display(), format.name());
+        }
+    }
+    if let Some((dir, ms)) = report {
+        println!("wrote {} ({ms:.0} ms)", dir.join("report.html").display());
+    }
 }
 
 /// The report folder must be a folder (or not exist yet) holding none of the inputs: the
@@ -298,13 +308,19 @@ fn run_mono(
     }
     let names = session::view_names(&found);
     let calibration = Calibration::Mono(mono_calibration(&r));
-    write_out!(args, format, target, &calibration, |b| MonoOutput::new(names.clone(), *b, &r));
+    // the result file and the report are one set: both land, or neither
+    let mut files = OutputSet::new();
+    let written = stage_out!(files, args, format, target, &calibration, |b| MonoOutput::new(names.clone(), *b, &r));
+    let mut report = None;
     if let (Some(dir), TargetDescription::Chessboard(board)) = (&args.report, target) {
         let t = Instant::now();
         let grids = session::points_of(&found).0;
-        parallax_composition::plots::calibration::write_mono_report(dir, board, &grids, &names, &r, &config(args))?;
-        println!("wrote {} ({:.0} ms)", dir.join("report.html").display(), t.elapsed().as_secs_f64() * 1e3);
+        let cfg = config(args);
+        parallax_composition::plots::calibration::add_mono_report(&mut files, dir, board, &grids, &names, &r, &cfg)?;
+        report = Some((dir.as_path(), t.elapsed().as_secs_f64() * 1e3));
     }
+    files.commit()?;
+    print_written(&written, format, report);
     println!("{}", summary::camera_keys("", r.rms_px, &r.camera));
     Ok(ExitCode::SUCCESS)
 }
@@ -362,11 +378,20 @@ fn run_stereo(
     let (ln, rn) = (session::view_names(&lf), session::view_names(&rf));
     let stereo = stereo_calibration(&r)?;
     let calibration = Calibration::Stereo(stereo.clone());
-    write_out!(args, format, target, &calibration, |b| StereoOutput::new(ln.clone(), rn.clone(), *b, &stereo, &r));
+    // the result file and the report are one set, committed once the checks below have passed
+    let mut files = OutputSet::new();
+    let written = stage_out!(files, args, format, target, &calibration, |b| StereoOutput::new(
+        ln.clone(),
+        rn.clone(),
+        *b,
+        &stereo,
+        &r
+    ));
+    let mut report = None;
     if let (Some(dir), TargetDescription::Chessboard(board)) = (&args.report, target) {
         let t = Instant::now();
-        parallax_composition::plots::calibration::write_stereo_report(dir, board, &lg, &rg, &ln, &r, &cfg)?;
-        println!("wrote {} ({:.0} ms)", dir.join("report.html").display(), t.elapsed().as_secs_f64() * 1e3);
+        parallax_composition::plots::calibration::add_stereo_report(&mut files, dir, board, &lg, &rg, &ln, &r, &cfg)?;
+        report = Some((dir.as_path(), t.elapsed().as_secs_f64() * 1e3));
     }
     // Rectification of the detected corners (point-level, no resampling) and triangulated
     // distances between adjacent corners, both from the calibration just made. A wide-lens rig
@@ -385,6 +410,8 @@ fn run_stereo(
         }
         Err(e) => return Err(e.into()),
     };
+    files.commit()?;
+    print_written(&written, format, report);
     if let Some(c) = &checks {
         println!(
             "rectified: focal {:.3} px, {} corners, mean |Δv| {:.4} px, max {:.4} px",

@@ -6,7 +6,6 @@ use std::path::{Path, PathBuf};
 use anyhow::ensure;
 use parallax_camera_model::TargetDescription;
 use parallax_interop::{Calibration, Format};
-use serde::Serialize;
 
 /// The format of `--out path` (and `--format`).
 pub fn output_format(path: &Path, explicit: Option<&str>) -> anyhow::Result<Format> {
@@ -58,16 +57,6 @@ pub fn written_paths(path: &Path, format: Format) -> Vec<PathBuf> {
         v.extend(parallax_interop::ros_pair_paths(path));
     }
     v
-}
-
-/// Writes a result (`parallax_composition::io::write_result`); returns the files written.
-pub fn write_result<T: Serialize>(
-    path: &Path,
-    format: Format,
-    native: &T,
-    calibration: Option<&Calibration>,
-) -> anyhow::Result<Vec<PathBuf>> {
-    Ok(parallax_composition::io::write_result(path, format, native, calibration)?)
 }
 
 /// The calibration in `paths` (one file, or two read together), in any format. A command that

@@ -976,10 +976,26 @@ pub fn write_mono_report(
     result: &CalibrationResult,
     config: &CalibrationConfig,
 ) -> Result<Vec<std::path::PathBuf>> {
+    let mut set = crate::io::OutputSet::new();
+    add_mono_report(&mut set, dir, board, grids, view_names, result, config)?;
+    set.commit()
+}
+
+/// Stages the pictures of [`write_mono_report`] in `set` (one set with the command's other
+/// outputs: all of them land, or none).
+pub fn add_mono_report(
+    set: &mut crate::io::OutputSet,
+    dir: &std::path::Path,
+    board: &Chessboard,
+    grids: &[CornerGrid],
+    view_names: &[String],
+    result: &CalibrationResult,
+    config: &CalibrationConfig,
+) -> Result<()> {
     let (section, _) = mono(board, grids, view_names, result, config)?;
     let mut pictures = super::Pictures::new("parallax calibration — mono");
     pictures.sections.push(section);
-    pictures.write(dir)
+    pictures.add_to(set, dir)
 }
 
 /// Writes the pictures of a stereo calibration (both cameras, the rig in the left camera's pose
@@ -993,8 +1009,25 @@ pub fn write_stereo_report(
     result: &StereoCalibrationResult,
     config: &StereoConfig,
 ) -> Result<Vec<std::path::PathBuf>> {
+    let mut set = crate::io::OutputSet::new();
+    add_stereo_report(&mut set, dir, board, left, right, view_names, result, config)?;
+    set.commit()
+}
+
+/// Stages the pictures of [`write_stereo_report`] in `set` (one set with the command's other
+/// outputs: all of them land, or none).
+pub fn add_stereo_report(
+    set: &mut crate::io::OutputSet,
+    dir: &std::path::Path,
+    board: &Chessboard,
+    left: &[CornerGrid],
+    right: &[CornerGrid],
+    view_names: &[String],
+    result: &StereoCalibrationResult,
+    config: &StereoConfig,
+) -> Result<()> {
     let [l, r] = stereo(board, left, right, view_names, result, config)?;
     let mut pictures = super::Pictures::new("parallax calibration — stereo");
     pictures.sections = vec![l.0, r.0];
-    pictures.write(dir)
+    pictures.add_to(set, dir)
 }

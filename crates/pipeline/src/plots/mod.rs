@@ -90,15 +90,21 @@ impl Pictures {
     /// `report.html` with the figures inline, as one set; returns the files written.
     pub fn write(&self, dir: &Path) -> Result<Vec<std::path::PathBuf>> {
         let mut set = crate::io::OutputSet::new();
-        add_figures(&mut set, dir, &self.sections)?;
+        self.add_to(&mut set, dir)?;
+        set.commit()
+    }
+
+    /// Stages the figure files and `report.html` of [`Self::write`] in `set`, for a command that
+    /// writes them together with its other outputs as one set.
+    pub fn add_to(&self, set: &mut crate::io::OutputSet, dir: &Path) -> Result<()> {
+        add_figures(set, dir, &self.sections)?;
         let html = format!(
             "{}<h1>{}</h1>{}</body></html>\n",
             html_head(&self.title),
             escape(&self.title),
             sections_html(&self.sections)
         );
-        set.add(dir.join("report.html"), html)?;
-        set.commit()
+        set.add(dir.join("report.html"), html)
     }
 }
 
