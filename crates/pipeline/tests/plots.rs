@@ -438,7 +438,9 @@ fn a_disturbed_view_is_flagged_by_name() {
     // The flagged bar is drawn red in the SVG.
     assert!(bars.svg.as_ref().unwrap().contains("#D21E1E"), "no red bar");
     let out = temp("mono");
-    plots::calibration::write_mono_report(&out, &board, &grids, &names, &r, &cfg).unwrap();
+    let mut set = parallax_composition::io::OutputSet::new();
+    plots::calibration::add_mono_report(&mut set, &out, &board, &grids, &names, &r, &cfg).unwrap();
+    set.commit().unwrap();
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert_eq!(check_images(&html, 200), 7);
     cleanup(&out);

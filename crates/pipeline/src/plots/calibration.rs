@@ -966,23 +966,9 @@ impl Plot for Poses<'_> {
     }
 }
 
-/// Writes the pictures of a mono calibration into `dir` (PNG/SVG files and a self-contained
-/// `report.html`); returns the files written. `view_names` names the views (file names).
-pub fn write_mono_report(
-    dir: &std::path::Path,
-    board: &Chessboard,
-    grids: &[CornerGrid],
-    view_names: &[String],
-    result: &CalibrationResult,
-    config: &CalibrationConfig,
-) -> Result<Vec<std::path::PathBuf>> {
-    let mut set = crate::io::OutputSet::new();
-    add_mono_report(&mut set, dir, board, grids, view_names, result, config)?;
-    set.commit()
-}
-
-/// Stages the pictures of [`write_mono_report`] in `set` (one set with the command's other
-/// outputs: all of them land, or none).
+/// Stages the pictures of a mono calibration in `set` under `dir` (PNG/SVG files and a
+/// self-contained `report.html`; `view_names` names the views), to be committed with the
+/// command's other outputs: all of them land, or none.
 pub fn add_mono_report(
     set: &mut crate::io::OutputSet,
     dir: &std::path::Path,
@@ -998,24 +984,8 @@ pub fn add_mono_report(
     pictures.add_to(set, dir)
 }
 
-/// Writes the pictures of a stereo calibration (both cameras, the rig in the left camera's pose
-/// view) into `dir` (PNG/SVG files and a self-contained `report.html`); returns the files.
-pub fn write_stereo_report(
-    dir: &std::path::Path,
-    board: &Chessboard,
-    left: &[CornerGrid],
-    right: &[CornerGrid],
-    view_names: &[String],
-    result: &StereoCalibrationResult,
-    config: &StereoConfig,
-) -> Result<Vec<std::path::PathBuf>> {
-    let mut set = crate::io::OutputSet::new();
-    add_stereo_report(&mut set, dir, board, left, right, view_names, result, config)?;
-    set.commit()
-}
-
-/// Stages the pictures of [`write_stereo_report`] in `set` (one set with the command's other
-/// outputs: all of them land, or none).
+/// Stages the pictures of a stereo calibration (both cameras, the rig in the left camera's pose
+/// view) in `set` under `dir`, as [`add_mono_report`].
 pub fn add_stereo_report(
     set: &mut crate::io::OutputSet,
     dir: &std::path::Path,
