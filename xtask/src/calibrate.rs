@@ -1,6 +1,6 @@
-//! `cargo xtask calibrate`: mono or stereo calibration from images of any target (chessboards,
-//! ChArUco boards, circle grids, AprilGrids; partial views of ChArUco and AprilGrid), or from a
-//! `corners --out` file.
+//! `cargo xtask calibrate`: mono, stereo or rig (any number of cameras: `--camera` repeated)
+//! calibration from images of any target (chessboards, ChArUco boards, circle grids,
+//! AprilGrids; partial views of ChArUco and AprilGrid), or from `corners --out` files.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -14,18 +14,29 @@ use parallax_composition::summary;
 use parallax_interop::Calibration;
 use parallax_planar_calibration::{CalibrationConfig, StereoConfig};
 
+mod rig;
+
 /// Arguments of `cargo xtask calibrate`.
 #[derive(clap::Args)]
 pub struct Args {
     /// Images of the (left) camera, glob pattern (quote it), e.g. '../shared/data/opencv-stereo-chessboard/left*.jpg'.
-    #[arg(long, required_unless_present = "corners", conflicts_with = "corners")]
+    #[arg(long, required_unless_present_any = ["corners", "cameras", "camera_corners"], conflicts_with_all = ["corners", "cameras", "camera_corners"])]
     images: Option<String>,
     /// Images of the right camera for a stereo calibration (paired with --images in sorted order).
     #[arg(long, conflicts_with = "corners")]
     right: Option<String>,
     /// Corners of the (left) camera as `corners --out` wrote them (RON or JSON), instead of --images.
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["cameras", "camera_corners"])]
     corners: Option<PathBuf>,
+    /// Images of one camera of a rig, glob pattern (quote it); repeat once per camera, camera 0
+    /// (the reference) first. Frames are matched across cameras by file name: `cam0/0007.png`
+    /// and `cam2/0007.png` are one frame; a camera without that file did not see it.
+    #[arg(long = "camera", value_name = "GLOB", conflicts_with = "camera_corners")]
+    cameras: Vec<String>,
+    /// Corners file of one camera of a rig (`corners --out` on its images); repeat once per
+    /// camera, camera 0 first. Frames are matched by the image file names the files list.
+    #[arg(long = "camera-corners", value_name = "FILE")]
+    camera_corners: Vec<PathBuf>,
     /// Corners of the right camera (`corners --out` on the right images), for a stereo calibration.
     #[arg(long, requires = "corners")]
     right_corners: Option<PathBuf>,
@@ -48,8 +59,9 @@ pub struct Args {
     format: Option<String>,
     /// The lens model: pinhole (Brown–Conrady, OpenCV's calibrateCamera), kannala-brandt
     /// (OpenCV's cv::fisheye, Kalibr's pinhole-equi) or double-sphere (Kalibr's ds).
+    /// With a rig, give it once for every camera or once per camera in `--camera` order.
     #[arg(long, default_value = "pinhole", value_parser = ["pinhole", "kannala-brandt", "double-sphere"])]
-    lens: String,
+    lens: Vec<String>,
     /// Hold p1 = p2 = 0 (CALIB_ZERO_TANGENT_DIST; pinhole).
     #[arg(long)]
     zero_tangential: bool,
@@ -98,13 +110,17 @@ pub struct Args {
 
 /// The lens model of `--lens` (its values are checked by clap).
 fn lens(args: &Args) -> LensModel {
-    args.lens.parse().unwrap_or_default()
+    args.lens.first().and_then(|l| l.parse().ok()).unwrap_or_default()
 }
 
 /// Refuses the flags that do not apply to the chosen lens, naming the flag and the lens, before
 /// any work (the rule is the library's, [`CalibrationConfig::check`]; its field names are given
 /// here as the command line's flags).
 fn refuse_foreign_flags(args: &Args) -> anyhow::Result<()> {
+    refuse_foreign_flags_of(&config(args))
+}
+
+fn refuse_foreign_flags_of(config: &CalibrationConfig) -> anyhow::Result<()> {
     const FLAGS: [(&str, &str); 8] = [
         ("zero_tangential", "--zero-tangential"),
         ("rational_model", "--rational"),
@@ -115,10 +131,22 @@ fn refuse_foreign_flags(args: &Args) -> anyhow::Result<()> {
         ("fix_k5", "--fix-k5"),
         ("fix_k6", "--fix-k6"),
     ];
-    config(args).check().map_err(|e| {
+    config.check().map_err(|e| {
         let message = FLAGS.iter().fold(e.to_string(), |m, (field, flag)| m.replace(field, flag));
         anyhow::anyhow!("{message}")
     })
+}
+
+/// Refuses, before any work, a model that the output format cannot hold (the library's rule,
+/// `parallax_interop::check_model_fits`, on the terms `config` estimates).
+fn check_model_fits(format: parallax_interop::Format, config: &CalibrationConfig) -> anyhow::Result<()> {
+    let terms = parallax_interop::ModelTerms {
+        lens: config.lens,
+        skew: config.estimate_skew,
+        k3: !config.fix_k3,
+        rational: config.rational_model,
+    };
+    Ok(parallax_interop::check_model_fits(format, terms)?)
 }
 
 fn config(args: &Args) -> CalibrationConfig {
@@ -187,6 +215,14 @@ fn refuse_report_folder(dir: &Path, inputs: &[PathBuf]) -> anyhow::Result<()> {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    if !args.cameras.is_empty() || !args.camera_corners.is_empty() {
+        return rig::run(&args);
+    }
+    anyhow::ensure!(
+        args.lens.len() == 1,
+        "--lens is given {} times: repeat it only for a rig (--camera, once per camera)",
+        args.lens.len()
+    );
     refuse_foreign_flags(&args)?;
     let target = crate::util::target(&args.board, args.square)?;
     anyhow::ensure!(
@@ -201,14 +237,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
     // a model the format cannot hold is refused now, not after the calibration
     if let Some(f) = format {
-        let c = config(&args);
-        let terms = parallax_interop::ModelTerms {
-            lens: c.lens,
-            skew: c.estimate_skew,
-            k3: !c.fix_k3,
-            rational: c.rational_model,
-        };
-        parallax_interop::check_model_fits(f, terms)?;
+        check_model_fits(f, &config(&args))?;
     }
     let mut inputs: Vec<PathBuf> = args.corners.iter().chain(&args.right_corners).cloned().collect();
     for spec in args.images.iter().chain(&args.right) {

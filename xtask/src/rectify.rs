@@ -34,6 +34,10 @@ pub struct Args {
     /// (OpenCV intrinsics.yml + extrinsics.yml, or ROS camera_info left + right).
     #[arg(long, num_args = 1..=2, required = true)]
     calib: Vec<PathBuf>,
+    /// Two cameras of a rig file (`calibrate --camera …`'s Kalibr camchain, OpenCV file or
+    /// record; any Kalibr camchain): `I,J` rectifies camera I as the left and J as the right.
+    #[arg(long, value_name = "I,J", value_parser = parse_pair)]
+    pair: Option<(usize, usize)>,
     /// Left image.
     #[arg(long)]
     left: PathBuf,
@@ -75,6 +79,17 @@ pub struct Args {
     line_spacing: u32,
 }
 
+/// `I,J`: two camera indices of a rig.
+fn parse_pair(s: &str) -> Result<(usize, usize), String> {
+    let (i, j) = s.split_once(',').ok_or_else(|| format!("{s:?}: give two camera indices as I,J (e.g. 0,2)"))?;
+    let index = |v: &str| v.trim().parse::<usize>().map_err(|_| format!("{v:?} is no camera index"));
+    let (i, j) = (index(i)?, index(j)?);
+    if i == j {
+        return Err(format!("{s}: two different cameras"));
+    }
+    Ok((i, j))
+}
+
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let ext = match args.format.to_ascii_lowercase().as_str() {
         "ron" => "ron",
@@ -91,8 +106,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     parallax_composition::io::refuse_overwriting_inputs(&crate::files::written_paths(&rect_path, format), &inputs)?;
     let left = parallax_composition::io::load_image(&args.left)?;
     let right = parallax_composition::io::load_image(&args.right)?;
-    let stereo = crate::files::read_calibration(&args.calib, Some(left.dimensions()))?
-        .into_stereo(&args.calib[0].display().to_string())?;
+    let stereo = match args.pair {
+        None => crate::files::read_calibration(&args.calib, Some(left.dimensions()))?,
+        Some(pair) => {
+            anyhow::ensure!(args.calib.len() == 1, "--pair reads one rig file (--calib FILE)");
+            let c = parallax_interop::read_rig_pair(&args.calib[0], pair)?;
+            println!("calibration: {} (cameras {} and {} of the rig)", args.calib[0].display(), pair.0, pair.1);
+            c
+        }
+    }
+    .into_stereo(&args.calib[0].display().to_string())?;
     let rig = stereo.rig;
     if crate::files::in_metres(format) && rig.baseline() >= BASELINE_WARN_METRES {
         eprintln!(

@@ -96,6 +96,7 @@ mod error;
 mod interpret;
 mod model;
 pub mod opencv;
+mod rig;
 mod target;
 mod write;
 
@@ -113,7 +114,10 @@ pub use model::{
     setup_name,
 };
 pub use target::{parse_target, read_target};
-pub use write::{ModelTerms, check_model_fits, native_string, opencv_entries, record_string, render, ros_pair_paths};
+pub use write::{
+    ModelTerms, RigFile, check_model_fits, native_string, opencv_entries, record_string, render, render_rig,
+    ros_pair_paths,
+};
 
 use error::{content, syntax};
 use serde_json::Value;
@@ -357,6 +361,12 @@ fn read_inner<P: AsRef<Path>>(paths: &[P], size: Option<(u32, u32)>) -> Result<(
             let p = one.as_ref();
             let what = p.display().to_string();
             let (f, mut v) = detect(&read_text(p)?, &what)?;
+            if rig::is_rig(&v) {
+                return Err(content(
+                    &what,
+                    "a rig of several cameras: choose two of them (`rectify --pair I,J`, camera I left)",
+                ));
+            }
             let sized = add_missing_size(&mut v, size);
             Ok((interpret(&v, &what)?, vec![f], sized))
         }
@@ -391,6 +401,15 @@ fn read_inner<P: AsRef<Path>>(paths: &[P], size: Option<(u32, u32)>) -> Result<(
             paths.len()
         ))),
     }
+}
+
+/// Cameras `i` (left) and `j` (right) of a rig file (a Kalibr camchain of any number of
+/// cameras, OpenCV FileStorage in `calibrateMultiview`'s terms, or `calibrate --camera`'s
+/// record) as a stereo calibration, checked as any stereo file is.
+pub fn read_rig_pair(path: &Path, pair: (usize, usize)) -> Result<Calibration> {
+    let what = path.display().to_string();
+    let (_, v) = detect(&read_text(path)?, &what)?;
+    rig::rig_pair(&v, pair, &what)
 }
 
 /// A native result file (RON or JSON, detected from the content) deserialised as `T`: for the

@@ -488,3 +488,90 @@ pub fn render(c: &Calibration, format: Format, path: &Path) -> Result<Vec<(PathB
         Format::Kalibr => one(kalibr(c)?),
     }
 }
+
+/// A calibrated rig of any number of cameras, as the rig files hold it.
+#[derive(Debug, Clone, Copy)]
+pub struct RigFile<'a> {
+    /// The cameras, in rig order.
+    pub cameras: &'a [Camera],
+    /// `camI_from_cam0` per camera (the identity for camera 0).
+    pub cam_from_cam0: &'a [Isometry3],
+    /// Frames seen by both cameras, per pair (`shared_frames[i][j]`): Kalibr's `cam_overlaps`.
+    pub shared_frames: &'a [Vec<usize>],
+    /// RMS reprojection error over every point, pixels.
+    pub rms_px: f64,
+}
+
+/// A Kalibr camchain of the rig: `cam0 … camN-1`, `T_cn_cnm1 = camN_from_camN-1` from the
+/// second camera on, `cam_overlaps` the cameras that shared frames with it.
+fn kalibr_rig(r: &RigFile) -> Result<String> {
+    let mut chain = std::collections::BTreeMap::new();
+    let n = r.cameras.len();
+    for (i, c) in r.cameras.iter().enumerate() {
+        let name = format!("cam{i}");
+        let t = (i > 0).then(|| r.cam_from_cam0[i] * r.cam_from_cam0[i - 1].inverse());
+        let (key, mut camera) = kalibr_chain_entry(kalibr_camera(c, &name, t.as_ref())?, i, n);
+        camera.cam_overlaps = (0..n).filter(|&k| k != i && r.shared_frames[i][k] > 0).collect();
+        chain.insert(key, camera);
+    }
+    serde_yaml_ng::to_string(&chain).map_err(|e| InteropError::Unsupported(format!("Kalibr camchain: {e}")))
+}
+
+/// OpenCV FileStorage of the rig in `calibrateMultiview`'s terms: `nb_cameras`, then per
+/// camera `I` its `camera_matrix_I`, `distortion_coefficients_I` (a Kannala–Brandt camera's 1x4
+/// with `fisheye_model_I: 1`, as `calibrateMultiview`'s `isFisheye`), `image_width_I`,
+/// `image_height_I`, and `R_I` (3x3), `T_I` (3x1) of `camI_from_cam0`. A double sphere camera is
+/// refused: OpenCV has no such model.
+fn opencv_rig_entries(r: &RigFile) -> Result<Vec<(String, Entry)>> {
+    let mut e = vec![("nb_cameras".to_string(), Entry::Int(r.cameras.len() as i64))];
+    for (i, c) in r.cameras.iter().enumerate() {
+        let (k, d, fisheye) = match c.lens() {
+            Lens::KannalaBrandt(_) => {
+                let (k, d) = fisheye_kd(c, "OpenCV")?;
+                (k, d.to_vec(), 1)
+            }
+            Lens::DoubleSphere(_) => return Err(no_double_sphere("OpenCV (calibrateMultiview)")),
+            Lens::BrownConrady(_) => (Entry::matrix(&rows3(&c.intrinsics.matrix())), distortion_vector(c), 0),
+        };
+        let pose = &r.cam_from_cam0[i];
+        e.extend([
+            (format!("image_width_{i}"), Entry::Int(i64::from(c.width()))),
+            (format!("image_height_{i}"), Entry::Int(i64::from(c.height()))),
+            (format!("fisheye_model_{i}"), Entry::Int(fisheye)),
+            (format!("camera_matrix_{i}"), k),
+            (format!("distortion_coefficients_{i}"), Entry::row_vector(&d)),
+            (format!("R_{i}"), Entry::matrix(&rows3(&pose.rotation_matrix()))),
+            (format!("T_{i}"), Entry::col_vector(&pose.translation.to_array())),
+        ]);
+    }
+    e.push(("avg_reprojection_error".to_string(), Entry::Real(r.rms_px)));
+    Ok(e)
+}
+
+/// The file that holds a rig in `format` at `path`: a Kalibr camchain, OpenCV FileStorage
+/// (YAML / XML) in `calibrateMultiview`'s terms. ROS `camera_info` holds one camera per file
+/// and no extrinsics: refused; RON / JSON are the commands' own records (`native_string`).
+pub fn render_rig(r: &RigFile, format: Format, path: &Path) -> Result<Vec<(PathBuf, String)>> {
+    let n = r.cameras.len();
+    if r.cam_from_cam0.len() != n || r.shared_frames.len() != n || r.shared_frames.iter().any(|s| s.len() != n) {
+        return Err(InteropError::Unsupported(format!(
+            "a rig of {n} cameras with {} extrinsics and a {}-row overlap table",
+            r.cam_from_cam0.len(),
+            r.shared_frames.len()
+        )));
+    }
+    let text = match format {
+        Format::Kalibr => kalibr_rig(r)?,
+        Format::OpenCvYaml => crate::opencv::to_yaml(&opencv_rig_entries(r)?)?,
+        Format::OpenCvXml => crate::opencv::to_xml(&opencv_rig_entries(r)?)?,
+        Format::Ros => {
+            return Err(InteropError::Unsupported(
+                "ROS camera_info holds one camera and no extrinsics: write a rig as kalibr, opencv, ron or json".into(),
+            ));
+        }
+        Format::Ron | Format::Json => {
+            return Err(InteropError::Unsupported("a rig's RON / JSON record is written by the command".into()));
+        }
+    };
+    Ok(vec![(path.to_path_buf(), text)])
+}

@@ -190,3 +190,18 @@ impl<'a> HandEyeOutput<'a> {
         }
     }
 }
+
+/// A rig calibration's result file (RON / JSON): the frames (matched file names), each
+/// camera's input, the target, and the whole result (cameras, `camI_from_cam0`,
+/// `cam0_from_board` per frame, residuals, 1σ, the visibility, warnings).
+#[derive(Debug, Serialize)]
+pub struct RigOutput<'a, B> {
+    /// The frames, by the file name the cameras' images share.
+    pub frames: Vec<String>,
+    /// Each camera's input (its `--camera` glob or corners file).
+    pub camera_inputs: Vec<String>,
+    /// The target.
+    pub board: B,
+    /// The calibration.
+    pub result: &'a parallax_planar_calibration::RigCalibrationResult,
+}

@@ -450,6 +450,21 @@ pub fn target_corner_checks(
     Ok(StereoCornerChecks::new(rectification, dv, n, rms))
 }
 
+/// Rig calibration of any target from frames matched across cameras: `frames[f][c]` is camera
+/// `c`'s view of frame `f` (`None`: no such image, or the target not found in it); `sizes[c]`
+/// its image size. Whole chessboards and partial ChArUco / AprilGrid views alike (each camera
+/// uses the points it saw).
+pub fn calibrate_rig_views(
+    target: &TargetDescription,
+    frames: &[Vec<Option<&ImageView>>],
+    sizes: &[(u32, u32)],
+    config: &parallax_planar_calibration::RigConfig,
+) -> Result<parallax_planar_calibration::RigCalibrationResult> {
+    let observations: Vec<Vec<Option<TargetObservation>>> =
+        frames.iter().map(|f| f.iter().map(|v| v.and_then(|v| v.observation.clone())).collect()).collect();
+    Ok(parallax_planar_calibration::calibrate_rig_target(target, &observations, sizes, config)?)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

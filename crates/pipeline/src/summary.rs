@@ -340,6 +340,56 @@ pub fn disparity_keys(
     out
 }
 
+/// The rig's output contract: one `camera:` line per camera (`camera: I lens: NAME fx: fy: cx:
+/// cy: rms:`), one `extrinsic:` line per camera `I ≥ 1` (`camI_from_cam0`: translation in the
+/// target's unit, rotation vector in radians, `sigma_t` the 1σ of the translation's norm,
+/// `sigma_r` of the rotation angle in degrees), then the rig's `rms:`.
+pub fn rig_keys(r: &parallax_planar_calibration::RigCalibrationResult) -> String {
+    let mut out = String::new();
+    for (i, (c, rms)) in r.cameras.iter().zip(&r.camera_rms_px).enumerate() {
+        let k = c.intrinsics;
+        let _ = writeln!(
+            out,
+            "camera: {i} lens: {} fx: {:.6} fy: {:.6} cx: {:.6} cy: {:.6} rms: {rms:.6}",
+            c.lens_model(),
+            k.fx,
+            k.fy,
+            k.cx,
+            k.cy
+        );
+    }
+    for (i, (e, s)) in r.cam_from_cam0.iter().zip(&r.extrinsic_std_devs).enumerate().skip(1) {
+        let (t, w) = (e.translation, e.rvec());
+        let _ = writeln!(
+            out,
+            "extrinsic: {i} tx: {:.6} ty: {:.6} tz: {:.6} rx: {:.8} ry: {:.8} rz: {:.8} sigma_t: {:.6} sigma_r: {:.6}",
+            t.x,
+            t.y,
+            t.z,
+            w.x,
+            w.y,
+            w.z,
+            s.baseline,
+            s.angle_rad.to_degrees()
+        );
+    }
+    let _ = writeln!(out, "rms: {:.6}", r.rms_px);
+    finish(out)
+}
+
+/// The frames × cameras visibility matrix (`x` = the camera saw the target in that frame),
+/// one line per frame with its name.
+pub fn visibility(names: &[String], r: &parallax_planar_calibration::RigCalibrationResult) -> String {
+    let n = r.cameras.len();
+    let width = names.iter().map(String::len).max().unwrap_or(5).max(5);
+    let mut out = format!("{:<width$} {}\n", "frame", (0..n).map(|i| format!("{i:>3}")).collect::<String>());
+    for (name, row) in names.iter().zip(r.visibility()) {
+        let marks: String = row.iter().map(|&v| if v { "  x" } else { "  ." }).collect();
+        let _ = writeln!(out, "{name:<width$} {marks}");
+    }
+    finish(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

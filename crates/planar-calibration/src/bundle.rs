@@ -1,7 +1,9 @@
-//! The bundle problem shared by mono calibration, stereo calibration and pose-only solving:
-//! global parameters (the free intrinsics of one or two cameras, then the rig pose) followed by
-//! one 6-vector pose per view. `normal_equations` accumulates `JᵀJ` block by block (camera
-//! block, rig block, per-view 6x6 blocks and their couplings) without forming `J`. One problem
+//! The bundle problem shared by mono calibration, rig calibration (any number of cameras) and
+//! pose-only solving: global parameters (the free intrinsics of every camera, then
+//! `camI_from_cam0` for each camera `I ≥ 1`) followed by one 6-vector pose per view.
+//! `normal_equations` accumulates `JᵀJ` block by block (camera blocks, extrinsic blocks,
+//! per-view 6x6 blocks and their couplings) without forming `J`; the solver eliminates the
+//! view blocks (`block_diagonal_tail`). One problem
 //! for every camera model: a model enters through [`CameraSlots`] (pinhole with distortion
 //! here, the fisheye models in `fisheye.rs`).
 
@@ -122,37 +124,55 @@ pub(crate) fn store_pose(pose: &Isometry3, out: &mut [f64]) {
     out[3..6].copy_from_slice(&pose.translation.to_array());
 }
 
-/// One view: the object points and, per camera, the observed pixels (same order), if seen.
-pub(crate) struct ViewObs<'a> {
+/// What one camera saw of the target in one view: object points and their pixels, in the
+/// same order.
+#[derive(Clone, Copy)]
+pub(crate) struct Sight<'a> {
     pub object: &'a [DVec3],
-    pub image: [Option<&'a [DVec2]>; 2],
+    pub image: &'a [DVec2],
 }
 
+/// One view (frame): per camera of the bundle, what it saw, if it saw the target.
+pub(crate) struct ViewObs<'a> {
+    pub sights: Vec<Option<Sight<'a>>>,
+}
+
+impl<'a> ViewObs<'a> {
+    /// A view of a one-camera bundle.
+    pub fn mono(object: &'a [DVec3], image: &'a [DVec2]) -> Self {
+        Self { sights: vec![Some(Sight { object, image })] }
+    }
+}
+
+/// The bundle of any number of cameras: their free intrinsics, then `camI_from_cam0` for every
+/// camera `I ≥ 1`, then one `cam0_from_board` per view (camera `I` sees the view through
+/// `camI_from_cam0 ∘ cam0_from_board`, whether or not camera 0 saw it).
 pub(crate) struct Bundle<'a, S: CameraSlots> {
     pub cams: Vec<S>,
     pub cam_offsets: Vec<usize>,
-    /// Offset of the rig pose (`right_from_left`, camera 1 = rig ∘ camera 0 pose), if stereo.
-    pub rig_offset: Option<usize>,
+    /// Offset of `camI_from_cam0` per camera (`None` for camera 0).
+    pub rig_offsets: Vec<Option<usize>>,
     pub num_global: usize,
     pub views: Vec<ViewObs<'a>>,
     pub num_residuals: usize,
 }
 
 impl<'a, S: CameraSlots> Bundle<'a, S> {
-    pub fn new(cams: Vec<S>, stereo: bool, views: Vec<ViewObs<'a>>) -> Self {
+    pub fn new(cams: Vec<S>, views: Vec<ViewObs<'a>>) -> Self {
         let mut cam_offsets = Vec::with_capacity(cams.len());
         let mut off = 0;
         for c in &cams {
             cam_offsets.push(off);
             off += c.num_free();
         }
-        let rig_offset = stereo.then_some(off);
-        if stereo {
+        let mut rig_offsets = vec![None];
+        for _ in 1..cams.len() {
+            rig_offsets.push(Some(off));
             off += 6;
         }
         let num_residuals =
-            views.iter().map(|v| v.image.iter().flatten().map(|img| 2 * img.len()).sum::<usize>()).sum();
-        Self { cams, cam_offsets, rig_offset, num_global: off, views, num_residuals }
+            views.iter().map(|v| v.sights.iter().flatten().map(|s| 2 * s.image.len()).sum::<usize>()).sum();
+        Self { cams, cam_offsets, rig_offsets, num_global: off, views, num_residuals }
     }
 
     pub fn view_offset(&self, v: usize) -> usize {
@@ -164,6 +184,11 @@ impl<'a, S: CameraSlots> Bundle<'a, S> {
         self.cams.iter().zip(&self.cam_offsets).map(|(c, &o)| c.camera(&params[o..o + c.num_free()])).collect()
     }
 
+    /// `camI_from_cam0` of every camera at `params` (identity for camera 0).
+    pub fn extrinsics(&self, params: &[f64]) -> Vec<Isometry3> {
+        self.rig_offsets.iter().map(|o| o.map_or(Isometry3::IDENTITY, |o| pose_at(&params[o..o + 6]))).collect()
+    }
+
     /// Visits every observation: `f(view, camera, residual, entries)` where `entries` lists
     /// `(parameter index, ∂r/∂p)` (the non-zero Jacobian columns of this 2-row block).
     fn for_each_observation(
@@ -172,39 +197,40 @@ impl<'a, S: CameraSlots> Bundle<'a, S> {
         mut f: impl FnMut(usize, usize, DVec2, &[(usize, [f64; 2])]),
     ) -> Result<(), EvaluationError> {
         let cameras = self.cameras(params)?;
-        let rig = self.rig_offset.map(|o| pose_at(&params[o..o + 6]));
-        // Adjoint of the rig for the left perturbation (ω, v): [[R, 0], [[t]× R, R]].
-        let adj = rig.map(|e| {
-            let r = e.rotation_matrix();
-            let tx = parallax_camera_model::skew_symmetric(e.translation) * r;
-            let mut a = [[0.0; 6]; 6];
-            for i in 0..3 {
-                for j in 0..3 {
-                    a[i][j] = r.col(j)[i];
-                    a[3 + i][3 + j] = r.col(j)[i];
-                    a[3 + i][j] = tx.col(j)[i];
+        let rigs = self.extrinsics(params);
+        // Adjoint of each extrinsic for the left perturbation (ω, v): [[R, 0], [[t]× R, R]].
+        let adjoints: Vec<[[f64; 6]; 6]> = rigs
+            .iter()
+            .map(|e| {
+                let r = e.rotation_matrix();
+                let tx = parallax_camera_model::skew_symmetric(e.translation) * r;
+                let mut a = [[0.0; 6]; 6];
+                for i in 0..3 {
+                    for j in 0..3 {
+                        a[i][j] = r.col(j)[i];
+                        a[3 + i][3 + j] = r.col(j)[i];
+                        a[3 + i][j] = tx.col(j)[i];
+                    }
                 }
-            }
-            a
-        });
+                a
+            })
+            .collect();
         let mut entries: Vec<(usize, [f64; 2])> = Vec::with_capacity(32);
         for (v, view) in self.views.iter().enumerate() {
             let vo = self.view_offset(v);
-            let left = pose_at(&params[vo..vo + 6]);
-            for (c, img) in view.image.iter().enumerate() {
-                let Some(img) = img else { continue };
-                let slots = &self.cams[c.min(self.cams.len() - 1)];
-                let cam_index = c.min(self.cams.len() - 1);
-                let camera = &cameras[cam_index];
-                let pose = if c == 0 { left } else { rig.expect("stereo bundle has a rig") * left };
-                for (i, (x, q)) in view.object.iter().zip(img.iter()).enumerate() {
+            let reference = pose_at(&params[vo..vo + 6]);
+            for (c, sight) in view.sights.iter().enumerate() {
+                let Some(sight) = sight else { continue };
+                let slots = &self.cams[c];
+                let camera = &cameras[c];
+                let pose = if c == 0 { reference } else { rigs[c] * reference };
+                for (i, (x, q)) in sight.object.iter().zip(sight.image).enumerate() {
                     let pj = S::project(camera, &pose, *x)
                         .map_err(|e| EvaluationError(format!("view {v}, camera {c}, point {i}: {e}")))?;
                     let r = pj.pixel - *q;
                     entries.clear();
                     // Intrinsics.
-                    let co = self.cam_offsets[cam_index];
-                    let start = entries.len();
+                    let co = self.cam_offsets[c];
                     for k in 0..slots.num_free() {
                         entries.push((co + k, [0.0, 0.0]));
                     }
@@ -215,28 +241,30 @@ impl<'a, S: CameraSlots> Bundle<'a, S> {
                             } else {
                                 (pj.d_distortion[0][t - 5], pj.d_distortion[1][t - 5])
                             };
-                            let e = &mut entries[start + index].1;
+                            let e = &mut entries[index].1;
                             e[0] += scale * a;
                             e[1] += scale * b;
                         }
                     }
-                    if c == 0 {
-                        for k in 0..6 {
-                            entries.push((vo + k, [pj.d_pose[0][k], pj.d_pose[1][k]]));
-                        }
-                    } else {
-                        let ro = self.rig_offset.expect("stereo bundle has a rig");
-                        let a = adj.as_ref().expect("stereo bundle has a rig");
-                        for k in 0..6 {
-                            entries.push((ro + k, [pj.d_pose[0][k], pj.d_pose[1][k]]));
-                        }
-                        for k in 0..6 {
-                            let mut d = [0.0; 2];
-                            for l in 0..6 {
-                                d[0] += pj.d_pose[0][l] * a[l][k];
-                                d[1] += pj.d_pose[1][l] * a[l][k];
+                    match self.rig_offsets[c] {
+                        None => {
+                            for k in 0..6 {
+                                entries.push((vo + k, [pj.d_pose[0][k], pj.d_pose[1][k]]));
                             }
-                            entries.push((vo + k, d));
+                        }
+                        Some(ro) => {
+                            let a = &adjoints[c];
+                            for k in 0..6 {
+                                entries.push((ro + k, [pj.d_pose[0][k], pj.d_pose[1][k]]));
+                            }
+                            for k in 0..6 {
+                                let mut d = [0.0; 2];
+                                for l in 0..6 {
+                                    d[0] += pj.d_pose[0][l] * a[l][k];
+                                    d[1] += pj.d_pose[1][l] * a[l][k];
+                                }
+                                entries.push((vo + k, d));
+                            }
                         }
                     }
                     f(v, c, r, &entries);
@@ -246,9 +274,10 @@ impl<'a, S: CameraSlots> Bundle<'a, S> {
         Ok(())
     }
 
-    /// Per-view, per-camera residual vectors (projected − observed) at `params`.
-    pub fn residuals_by_view(&self, params: &[f64]) -> Result<Vec<[Vec<DVec2>; 2]>, EvaluationError> {
-        let mut out: Vec<[Vec<DVec2>; 2]> = (0..self.views.len()).map(|_| [Vec::new(), Vec::new()]).collect();
+    /// Per-view, per-camera residual vectors (projected − observed) at `params` (empty for a
+    /// camera that did not see the view).
+    pub fn residuals_by_view(&self, params: &[f64]) -> Result<Vec<Vec<Vec<DVec2>>>, EvaluationError> {
+        let mut out: Vec<Vec<Vec<DVec2>>> = (0..self.views.len()).map(|_| vec![Vec::new(); self.cams.len()]).collect();
         self.for_each_observation(params, |v, c, r, _| out[v][c].push(r))?;
         Ok(out)
     }
@@ -288,11 +317,8 @@ impl<S: CameraSlots> Problem for Bundle<'_, S> {
         for i in 0..self.num_params() {
             out[i] = params[i] + delta[i];
         }
-        let mut pose_offsets: Vec<usize> = (0..self.views.len()).map(|v| self.view_offset(v)).collect();
-        if let Some(o) = self.rig_offset {
-            pose_offsets.push(o);
-        }
-        for o in pose_offsets {
+        let pose_offsets = (0..self.views.len()).map(|v| self.view_offset(v));
+        for o in pose_offsets.chain(self.rig_offsets.iter().flatten().copied()) {
             let d: [f64; 6] = std::array::from_fn(|k| delta[o + k]);
             let p = pose_at(&params[o..o + 6]).retract(&d);
             store_pose(&p, &mut out[o..o + 6]);
@@ -338,6 +364,11 @@ impl<S: CameraSlots> Problem for Bundle<'_, S> {
             }
         }
         Ok(())
+    }
+
+    fn block_diagonal_tail(&self) -> Option<(usize, usize)> {
+        // No residual couples two view poses: eliminate them (Schur complement).
+        Some((self.num_global, 6))
     }
 }
 
@@ -405,7 +436,7 @@ mod tests {
     /// The analytic Jacobian (through `retract`) matches central differences, and the
     /// block-accumulated normal equations equal `JᵀJ`, `Jᵀr` of the dense Jacobian.
     #[test]
-    fn stereo_jacobian_matches_finite_differences_and_normal_equations() {
+    fn rig_jacobian_matches_finite_differences_and_normal_equations() {
         let cam = Camera::new(
             Intrinsics { fx: 520.0, fy: 515.0, cx: 320.0, cy: 240.0, skew: 0.3 },
             Distortion { k1: -0.2, k2: 0.05, p1: 0.001, p2: -0.002, k3: 0.01, k4: 0.02, k5: 0.0, k6: 0.0 },
@@ -417,11 +448,10 @@ mod tests {
             (0..12).map(|i| DVec3::new((i % 4) as f64 * 30.0, (i / 4) as f64 * 30.0, 0.0)).collect();
         let image: Vec<DVec2> = (0..12).map(|i| DVec2::new(300.0 + i as f64, 200.0 - i as f64)).collect();
         let all: Vec<usize> = (0..N_INTR).collect();
-        let views = vec![
-            ViewObs { object: &object, image: [Some(&image), Some(&image)] },
-            ViewObs { object: &object, image: [Some(&image), Some(&image)] },
-        ];
-        let b = Bundle::new(vec![slots(&cam, &all), slots(&cam, &[0, 2, 5])], true, views);
+        let sight = Some(Sight { object: &object, image: &image });
+        // Three cameras; camera 2 misses view 0, camera 0 misses view 1.
+        let views = vec![ViewObs { sights: vec![sight, sight, None] }, ViewObs { sights: vec![None, sight, sight] }];
+        let b = Bundle::new(vec![slots(&cam, &all), slots(&cam, &[0, 2, 5]), slots(&cam, &[1, 3])], views);
         let n = b.num_params();
         let mut x = vec![0.0; n];
         x[..N_INTR].copy_from_slice(&theta_of(&cam));
@@ -430,9 +460,16 @@ mod tests {
             cam.intrinsics.cx,
             cam.distortion().copied().unwrap().k1,
         ]);
-        let ro = b.rig_offset.unwrap();
+        let o2 = N_INTR + 3;
+        x[o2..o2 + 2].copy_from_slice(&[cam.intrinsics.fy, cam.intrinsics.cy]);
+        let ro = b.rig_offsets[1].unwrap();
         store_pose(
             &Isometry3::from_rvec_tvec(DVec3::new(0.01, -0.02, 0.03), DVec3::new(-100.0, 2.0, 1.0)),
+            &mut x[ro..ro + 6],
+        );
+        let ro = b.rig_offsets[2].unwrap();
+        store_pose(
+            &Isometry3::from_rvec_tvec(DVec3::new(-0.03, 0.2, 0.01), DVec3::new(80.0, -20.0, 10.0)),
             &mut x[ro..ro + 6],
         );
         store_pose(
@@ -443,6 +480,6 @@ mod tests {
             &Isometry3::from_rvec_tvec(DVec3::new(-0.2, 0.3, 0.0), DVec3::new(-20.0, -50.0, 600.0)),
             &mut x[b.view_offset(1)..b.view_offset(1) + 6],
         );
-        check_derivatives(&b, &x, N_INTR + 3, 1e-3);
+        check_derivatives(&b, &x, N_INTR + 5, 1e-3);
     }
 }

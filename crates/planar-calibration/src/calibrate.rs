@@ -290,6 +290,29 @@ pub enum CalibrationWarning {
         /// Distance from the principal point to the farthest image corner, pixels (along x).
         image_radius_px: f64,
     },
+    /// A parameter the views determine only weakly (its 1σ is a noticeable fraction of it).
+    WeaklyDetermined {
+        /// Camera index.
+        camera: usize,
+        /// `fx`, `fy`, or `baseline` (of `camI_from_cam0`).
+        parameter: String,
+        /// Its value (pixels, or target units).
+        value: f64,
+        /// Its 1σ.
+        std_dev: f64,
+    },
+    /// A camera is linked to the rig through few frames shared with another camera: its
+    /// extrinsic rests on them.
+    FewSharedFrames {
+        /// Camera index.
+        camera: usize,
+        /// The camera it is linked through.
+        linked_to: usize,
+        /// Frames both saw.
+        frames: usize,
+        /// Recommended minimum.
+        recommended: usize,
+    },
     /// A wide lens's corners reach a much smaller field angle than the image shows: the lens
     /// model is extrapolated in the periphery (put the board near the image border too).
     ExtrapolatedPeriphery {
@@ -326,6 +349,17 @@ impl std::fmt::Display for CalibrationWarning {
                 f,
                 "camera {camera}: the lens polynomial folds back at {max_field_deg:.1}° ({radius_px:.0} px from the \
                  principal point), inside the image (corner at {image_radius_px:.0} px)"
+            ),
+            Self::WeaklyDetermined { camera, parameter, value, std_dev } => write!(
+                f,
+                "camera {camera}: {parameter} = {value:.4} is weakly determined (1σ {std_dev:.4}, {:.2} %); tilt the \
+                 board more and add frames",
+                100.0 * std_dev / value.abs()
+            ),
+            Self::FewSharedFrames { camera, linked_to, frames, recommended } => write!(
+                f,
+                "camera {camera} is linked to the rig through {frames} frame(s) shared with camera {linked_to} \
+                 (≥ {recommended} recommended): capture more frames both see"
             ),
             Self::ExtrapolatedPeriphery { camera, observed_deg, image_deg } => write!(
                 f,
@@ -445,7 +479,7 @@ pub(crate) fn model_slots(cfg: &CalibrationConfig, init: &Camera) -> CameraModel
 
 /// Closed-form start: intrinsics (Zhang, or focal lengths with a fixed principal point),
 /// per-view poses from `K⁻¹H`, and Zhang's linear `k1, k2` when those are estimated.
-fn initial_estimate(
+pub(crate) fn initial_estimate(
     object_points: &[Vec<DVec3>],
     image_points: &[Vec<DVec2>],
     width: u32,
@@ -719,12 +753,8 @@ pub(crate) fn refine_mono<'a, S: CameraSlots + Clone>(
     image_points: &'a [Vec<DVec2>],
     lm: &LmConfig,
 ) -> Result<(Bundle<'a, S>, LmReport)> {
-    let views: Vec<ViewObs> = object_points
-        .iter()
-        .zip(image_points)
-        .map(|(o, i)| ViewObs { object: o, image: [Some(i.as_slice()), None] })
-        .collect();
-    let bundle = Bundle::new(vec![slots.clone()], false, views);
+    let views: Vec<ViewObs> = object_points.iter().zip(image_points).map(|(o, i)| ViewObs::mono(o, i)).collect();
+    let bundle = Bundle::new(vec![slots.clone()], views);
     let n = parallax_least_squares::Problem::num_params(&bundle);
     if bundle.num_residuals <= n {
         return Err(CalibrationError::TooFewPoints {
@@ -802,7 +832,8 @@ pub(crate) fn mono_solution<S: CameraSlots>(
         )));
     }
     let by_view = bundle.residuals_by_view(&report.params).map_err(|e| CalibrationError::EstimationFailed(e.0))?;
-    let residuals_px: Vec<Vec<DVec2>> = by_view.into_iter().map(|[r, _]| r.into_iter().map(|e| -e).collect()).collect();
+    let residuals_px: Vec<Vec<DVec2>> =
+        by_view.into_iter().map(|mut r| r.swap_remove(0).into_iter().map(|e| -e).collect()).collect();
     let per_view_rms_px: Vec<f64> = residuals_px.iter().map(|r| rms_of(r)).collect();
     let all: Vec<DVec2> = residuals_px.iter().flatten().copied().collect();
     let cov = report.covariance.as_ref();

@@ -10,10 +10,14 @@
 //!   (analytic Jacobians; `JᵀJ` accumulated block by block), with OpenCV's options, per-view and
 //!   per-corner residuals, the standard deviation of every estimated parameter and warnings
 //!   ([`CalibrationWarning`]).
-//! * [`calibrate_stereo`]: both cameras + `right_from_left` jointly, `E`, `F`, rig std devs.
+//! * [`calibrate_rig`]: any number of cameras of any lens from frames in which any subset of
+//!   them saw the target: closed-form starts, a pose graph over shared frames, one joint
+//!   refinement (frame poses eliminated by the Schur complement) with the 1σ of every
+//!   parameter, and checks that refuse what the data do not determine.
+//! * [`calibrate_stereo`]: the two-camera rig in stereo terms: `right_from_left`, `E`, `F`.
 //! * [`calibrate_target`] / [`calibrate_stereo_target`]: the same from identified points of any
 //!   target (`TargetDescription` + per-view `TargetObservation`): partial ChArUco / AprilGrid
-//!   views, stereo pairs matched by id.
+//!   views, stereo pairs matched by id; [`calibrate_rig_target`] for rigs.
 //! * [`calibrate_dlt`]: `P` from a non-planar target, RQ into `K`, `R`, `t`.
 //! * [`solve_pnp_planar`]: the pose of a calibrated camera from a planar target.
 //!
@@ -54,6 +58,7 @@ mod error;
 mod homography;
 mod partial;
 mod pnp;
+mod rig;
 mod stereo;
 mod wide;
 mod zhang;
@@ -73,6 +78,7 @@ pub use error::{CalibrationError, Result};
 pub use homography::{Homography, estimate_homography, homography_dlt};
 pub use partial::{calibrate_stereo_target, calibrate_target, common_points, object_points_for};
 pub use pnp::{solve_pnp_planar, solve_pnp_planar_points};
+pub use rig::{CameraView, RigCalibrationResult, RigConfig, calibrate_rig, calibrate_rig_target};
 pub use stereo::{
     RigStdDevs, StereoCalibrationResult, StereoConfig, calibrate_stereo, calibrate_stereo_chessboard, median_rig,
 };

@@ -42,7 +42,7 @@ pub fn solve_pnp_planar_points(camera: &Camera, object: &[DVec3], image: &[DVec2
         width: camera.width,
         height: camera.height,
     };
-    let bundle = Bundle::new(vec![slots], false, vec![ViewObs { object, image: [Some(image), None] }]);
+    let bundle = Bundle::new(vec![slots], vec![ViewObs::mono(object, image)]);
     let mut x0 = vec![0.0; 6];
     store_pose(&init, &mut x0);
     let cfg = LmConfig { max_iterations: 50, covariance: false, cost_tolerance: 1e-14, ..LmConfig::default() };

@@ -25,7 +25,6 @@ use crate::calibrate::{
     CalibrationConfig, CalibrationResult, CalibrationWarning, IntrinsicStdDevs, mono_solution, outlier_views,
     refine_mono, view_spread_deg,
 };
-use crate::stereo::{StereoCalibrationResult, StereoConfig, refine_stereo};
 use crate::{CalibrationError, Result};
 
 /// Length of the full per-camera parameter vector `(fx, fy, cx, cy, skew, l0, l1, l2, l3)`
@@ -34,7 +33,7 @@ const N_FULL: usize = 9;
 
 /// The parametrisation of one camera.
 #[derive(Debug, Clone)]
-struct Slots {
+pub(crate) struct Slots {
     slots: [Slot; N_FULL],
     num_free: usize,
     template: Camera,
@@ -49,7 +48,7 @@ fn full_of(c: &Camera) -> [f64; N_FULL] {
 }
 
 impl Slots {
-    fn new(cfg: &CalibrationConfig, init: &Camera, all_fixed: bool) -> Self {
+    pub(crate) fn new(cfg: &CalibrationConfig, init: &Camera, all_fixed: bool) -> Self {
         let theta = full_of(init);
         let mut slots: [Slot; N_FULL] = std::array::from_fn(|i| Slot::Fixed(theta[i]));
         if all_fixed {
@@ -112,7 +111,7 @@ impl Slots {
         out
     }
 
-    fn std_devs(&self, offset: usize, cov: Option<&faer::Mat<f64>>) -> IntrinsicStdDevs {
+    pub(crate) fn std_devs(&self, offset: usize, cov: Option<&faer::Mat<f64>>) -> IntrinsicStdDevs {
         let a: [Option<f64>; N_FULL] = std::array::from_fn(|i| match self.slots[i] {
             Slot::Fixed(_) => None,
             Slot::Free { index, scale } => {
@@ -218,8 +217,7 @@ pub(crate) fn solve_pnp_wide(camera: &Camera, object: &[DVec3], image: &[DVec2])
     let plane: Vec<DVec2> = object.iter().map(|p| p.truncate()).collect();
     let init = pose_from_rays(&plane, &rays)?;
     let held = CalibrationConfig { lens: camera.lens_model(), ..CalibrationConfig::default() };
-    let bundle =
-        Bundle::new(vec![Slots::new(&held, camera, true)], false, vec![ViewObs { object, image: [Some(image), None] }]);
+    let bundle = Bundle::new(vec![Slots::new(&held, camera, true)], vec![ViewObs::mono(object, image)]);
     let mut x0 = vec![0.0; 6];
     store_pose(&init, &mut x0);
     let cfg = LmConfig { max_iterations: 50, covariance: false, cost_tolerance: 1e-14, ..LmConfig::default() };
@@ -345,6 +343,22 @@ fn initial_estimates(
     Ok(vec![(camera, poses)])
 }
 
+/// The closed-form start of one wide camera from its views (the start of
+/// [`initial_estimates`] with the lowest reprojection error), for a rig calibration.
+pub(crate) fn initial_camera(
+    views: (&[Vec<DVec3>], &[Vec<DVec2>]),
+    (width, height): (u32, u32),
+    cfg: &CalibrationConfig,
+) -> Result<(Camera, Vec<Isometry3>)> {
+    let size = width.max(height) as f64;
+    let starts = initial_estimates(views, (width, height), cfg)?;
+    let cost = |(c, p): &(Camera, Vec<Isometry3>)| sse(c, p, views.0, views.1, size * size);
+    starts
+        .into_iter()
+        .min_by(|a, b| cost(a).total_cmp(&cost(b)))
+        .ok_or_else(|| CalibrationError::EstimationFailed("no initial estimate".into()))
+}
+
 /// The double sphere cameras closest to a calibrated Kannala–Brandt one over the field angles
 /// the corners reach: `(ξ, α)` on a grid (ξ ∈ [−0.9, 0.9] by 0.025, α ∈ [0.025, 0.975] by
 /// 0.025), the focal scale in closed form (least squares of `s·r_DS(θ) = r_KB(θ)` over 200
@@ -421,7 +435,7 @@ fn image_field_deg(camera: &Camera) -> f64 {
         .fold(0.0, f64::max)
 }
 
-fn lens_warnings(
+pub(crate) fn lens_warnings(
     warnings: &mut Vec<CalibrationWarning>,
     camera: &Camera,
     index: usize,
@@ -529,55 +543,12 @@ pub(crate) fn calibrate_wide(
     Ok(solution.into_result(camera, std_devs, n, &report, warnings))
 }
 
-/// [`crate::calibrate_stereo`] for two wide lenses: each camera alone ([`calibrate_wide`], or
-/// held at its guess with `fix_intrinsics`), the
-/// element-wise median of the per-view relative poses, then one joint refinement of both
-/// cameras, `right_from_left` and the left view poses.
-pub(crate) fn calibrate_wide_stereo(
-    object_points: &[Vec<DVec3>],
-    [left_points, right_points]: [&[Vec<DVec2>]; 2],
-    [left_size, right_size]: [(u32, u32); 2],
-    config: &StereoConfig,
-) -> Result<StereoCalibrationResult> {
-    let mono = |points: &[Vec<DVec2>], size: (u32, u32), cfg: &CalibrationConfig, which: &str| {
-        if config.fix_intrinsics
-            && let Some(guess) = &cfg.intrinsic_guess
-        {
-            let poses = poses_for(guess, object_points, points).ok_or_else(|| {
-                CalibrationError::EstimationFailed(format!("a {which} corner lies outside the guess's valid region"))
-            })?;
-            return Ok((*guess, poses));
-        }
-        let r = calibrate_wide((object_points, points), size, cfg)?;
-        Ok::<_, CalibrationError>((r.camera, r.camera_from_board))
-    };
-    let (lcam, lposes) = mono(left_points, left_size, &config.left, "left")?;
-    let (rcam, rposes) = mono(right_points, right_size, &config.right, "right")?;
-    let ls = Slots::new(&config.left, &lcam, config.fix_intrinsics);
-    let rs = Slots::new(&config.right, &rcam, config.fix_intrinsics);
-    let starts = [(&lcam, lposes.as_slice()), (&rcam, rposes.as_slice())];
-    let sol = refine_stereo([&ls, &rs], starts, object_points, [left_points, right_points], &config.lm)?;
-    let cams = sol.cameras;
-    let mut warnings = sol.outlier_views([&config.left, &config.right]);
-    let guessless = CalibrationConfig {
-        intrinsic_guess: if config.fix_intrinsics { Some(cams[0]) } else { config.left.intrinsic_guess },
-        ..config.left.clone()
-    };
-    common_warnings(&mut warnings, &sol.poses, &guessless, &sol.report);
-    let right_poses: Vec<Isometry3> = sol.poses.iter().map(|p| sol.right_from_left * *p).collect();
-    lens_warnings(&mut warnings, &cams[0], 0, &sol.poses, object_points, &config.left);
-    lens_warnings(&mut warnings, &cams[1], 1, &right_poses, object_points, &config.right);
-    let cov = sol.report.covariance.as_ref();
-    let std_devs = [ls.std_devs(0, cov), rs.std_devs(sol.right_offset, cov)];
-    sol.into_result(std_devs, warnings)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use parallax_camera_model::KannalaBrandt;
 
-    /// The analytic Jacobian of the stereo fisheye bundle (through `retract`) matches central
+    /// The analytic Jacobian of a two-camera wide-lens bundle (through `retract`) matches central
     /// differences, and the block-accumulated normal equations equal `JᵀJ`, `Jᵀr`.
     #[test]
     fn bundle_jacobian_matches_finite_differences_and_normal_equations() {
@@ -599,17 +570,15 @@ mod tests {
             (0..12).map(|i| DVec3::new((i % 4) as f64 * 30.0, (i / 4) as f64 * 30.0, 0.0)).collect();
         let image: Vec<DVec2> = (0..12).map(|i| DVec2::new(300.0 + i as f64, 200.0 - i as f64)).collect();
         let cfg = CalibrationConfig { lens: LensModel::KannalaBrandt, estimate_skew: true, ..Default::default() };
-        let views = vec![
-            ViewObs { object: &object, image: [Some(&image), Some(&image)] },
-            ViewObs { object: &object, image: [Some(&image), Some(&image)] },
-        ];
-        let b = Bundle::new(vec![Slots::new(&cfg, &kb, false), Slots::new(&cfg, &ds, false)], true, views);
+        let sight = Some(crate::bundle::Sight { object: &object, image: &image });
+        let views = vec![ViewObs { sights: vec![sight, sight] }, ViewObs { sights: vec![sight, sight] }];
+        let b = Bundle::new(vec![Slots::new(&cfg, &kb, false), Slots::new(&cfg, &ds, false)], views);
         let n = b.num_params();
         let mut x = vec![0.0; n];
         x[..9].copy_from_slice(&b.cams[0].free_values(&kb));
         let o1 = b.cam_offsets[1];
         x[o1..o1 + b.cams[1].num_free].copy_from_slice(&b.cams[1].free_values(&ds));
-        let ro = b.rig_offset.unwrap();
+        let ro = b.rig_offsets[1].unwrap();
         store_pose(
             &Isometry3::from_rvec_tvec(DVec3::new(0.01, -0.02, 0.03), DVec3::new(-100.0, 2.0, 1.0)),
             &mut x[ro..ro + 6],

@@ -16,6 +16,7 @@ pub mod calibration;
 pub mod disparity;
 pub mod handeye;
 pub mod rectification;
+pub mod rig;
 pub mod uncertainty;
 
 use std::fmt::Write as _;

@@ -1,5 +1,8 @@
-//! Shared fixtures of the integration tests (all generated; nothing read from disk).
+//! Shared fixtures of the integration tests: generated here, except `rig_json`, which reads
+//! the committed rig point sets OpenCV made (`tests/data/rig/`, with their generator).
 #![allow(dead_code)]
+
+pub mod rig_json;
 
 use glam::{DVec2, DVec3};
 use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3};
