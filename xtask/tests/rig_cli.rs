@@ -318,3 +318,32 @@ fn unseeing_and_unlinked_cameras_are_refused() {
         xtask(tmp.as_path(), &args_for(&set, &[files[0].clone(), files[1].clone(), cut, files[3].clone()], &[]));
     assert!(!ok && e.contains("[2, 3]") && e.contains("share no frame"), "{e}");
 }
+
+/// The OpenCV-made stereo session of 30 views within 1° of fronto-parallel (OpenCV's
+/// `stereoCalibrate`: baseline 79 times the truth, exit fine) through the command line, as a
+/// stereo pair and as a two-camera rig: refused, writing nothing.
+#[test]
+fn near_parallel_stereo_session_is_refused() {
+    let set = rig_set("parallel2.json");
+    let tmp = Temp::new("rig-cli", "parallel");
+    let files = corners_files(&set, tmp.as_path());
+    let stereo: Vec<String> = [
+        "calibrate",
+        "--board",
+        "chessboard:7x6:30",
+        "--corners",
+        "cam0.json",
+        "--right-corners",
+        "cam1.json",
+        "--out",
+        "s.yml",
+    ]
+    .map(String::from)
+    .to_vec();
+    for args in [stereo, args_for(&set, &files, &["--out", "s.yml"])] {
+        let (ok, out, err) = xtask(tmp.as_path(), &args);
+        assert!(!ok, "accepted: {out}");
+        assert!(err.contains("tilt"), "{err}");
+        assert!(!tmp.join("s.yml").exists());
+    }
+}

@@ -67,6 +67,10 @@ pub struct CalibrationConfig {
     /// Wide lenses: warn when the observed corners reach less than this fraction of the field
     /// angle at the midpoints of the image edges (the model extrapolates beyond). Default 0.8.
     pub min_field_coverage: f64,
+    /// A free focal length whose 1σ exceeds this fraction of its value is refused: the views
+    /// do not determine it (boards that all face the camera, too few views). For a double
+    /// sphere lens the focal length near the axis, `f/(1+ξ)`. Default 0.02.
+    pub max_focal_sigma: f64,
 }
 
 impl Default for CalibrationConfig {
@@ -97,6 +101,7 @@ impl Default for CalibrationConfig {
             outlier_view_factor: 2.0,
             min_view_spread_deg: 10.0,
             min_field_coverage: 0.8,
+            max_focal_sigma: 0.02,
         }
     }
 }
@@ -640,6 +645,77 @@ pub fn distortion_fold(camera: &Camera) -> Option<DistortionFold> {
     None
 }
 
+/// The focal lengths the views must determine, with their 1σ (free ones only): `fx`, `fy`;
+/// for a double sphere lens `fx/(1+ξ)`, `fy/(1+ξ)`, the focal length near the axis (`fx` and
+/// `ξ` alone trade off against each other: a large σ of `fx` there is the model's, not the
+/// data's).
+pub(crate) fn focal_std_devs(
+    s: &[Slot],
+    camera: &Camera,
+    offset: usize,
+    cov: &faer::Mat<f64>,
+) -> Vec<(&'static str, f64, f64)> {
+    // The covariance of full parameters `a`, `b` (slot order), 0 for a held one.
+    let covariance = |a: usize, b: usize| match (s[a], s[b]) {
+        (Slot::Free { index: i, scale: si }, Slot::Free { index: j, scale: sj }) => {
+            si * sj * cov[(offset + i, offset + j)]
+        }
+        _ => 0.0,
+    };
+    let free = |a: usize| matches!(s[a], Slot::Free { .. });
+    let k = camera.intrinsics();
+    let mut out = Vec::new();
+    match camera.lens() {
+        parallax_camera_model::Lens::DoubleSphere(ds) => {
+            let d = 1.0 + ds.xi();
+            for (name, f, a) in [("fx/(1+ξ)", k.fx, 0), ("fy/(1+ξ)", k.fy, 1)] {
+                if !free(a) {
+                    continue;
+                }
+                // ∂(f/d)/∂f = 1/d, ∂(f/d)/∂ξ = −f/d².
+                let g = [1.0 / d, -f / (d * d)];
+                let var = g[0] * g[0] * covariance(a, a)
+                    + 2.0 * g[0] * g[1] * covariance(a, 5)
+                    + g[1] * g[1] * covariance(5, 5);
+                out.push((name, f / d, var.max(0.0).sqrt()));
+            }
+        }
+        _ => {
+            for (name, f, a) in [("fx", k.fx, 0), ("fy", k.fy, 1)] {
+                if free(a) {
+                    out.push((name, f, covariance(a, a).max(0.0).sqrt()));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Refuses a free focal length the views do not determine (1σ above
+/// `config.max_focal_sigma` of its value, or not finite: parallel boards, too few views);
+/// returns every free focal length with its 1σ for the caller's warnings.
+pub(crate) fn check_focal(
+    slots: &[Slot],
+    camera: &Camera,
+    offset: usize,
+    cov: &faer::Mat<f64>,
+    config: &CalibrationConfig,
+) -> Result<Vec<(&'static str, f64, f64)>> {
+    let focal = focal_std_devs(slots, camera, offset, cov);
+    for &(name, value, sigma) in &focal {
+        let relative = sigma / value.abs();
+        if relative.is_nan() || relative > config.max_focal_sigma {
+            return Err(CalibrationError::Degenerate(format!(
+                "{name} = {value:.1} px is not determined by the views (1σ {sigma:.1} px, {:.2} % > {:.2} %): tilt \
+                 the board more and in different directions, fill the image, add views",
+                100.0 * relative,
+                100.0 * config.max_focal_sigma
+            )));
+        }
+    }
+    Ok(focal)
+}
+
 pub(crate) fn median(v: &[f64]) -> f64 {
     if v.is_empty() {
         return f64::NAN;
@@ -737,6 +813,9 @@ pub fn calibrate_camera(
     let solution = mono_solution(&bundle, &report, config.intrinsic_guess.is_none() && !config.fix_principal_point)?;
     let camera = slots.camera(&report.params[..slots.num_free]);
     camera.validate().map_err(|e| CalibrationError::EstimationFailed(format!("refined camera is invalid: {e}")))?;
+    if let Some(cov) = report.covariance.as_ref() {
+        check_focal(&slots.slots, &camera, 0, cov, config)?;
+    }
     let std_devs = intrinsic_std_devs(&slots, 0, report.covariance.as_ref());
     let mut warnings = outlier_views(&solution.per_view_rms_px, config.outlier_view_factor, 0);
     diagnostics(&mut warnings, &camera, 0, &solution.poses, config, &report);

@@ -2,10 +2,12 @@
 //! any subset of the cameras saw a planar target. Stereo is the two-camera case of this code
 //! ([`crate::calibrate_stereo`] calls [`calibrate_rig`]).
 //!
-//! 1. **Start, without mono calibrations**: each camera's closed form from all its views
-//!    (Zhang, or the focal length with the principal point at the centre when Zhang's
-//!    conic is not positive definite, as OpenCV's `initCameraMatrix2D`; the focal scan for a
-//!    wide lens) and its per-view poses.
+//! 1. **Start**: each camera's closed form from all its views (Zhang, or the focal length with
+//!    the principal point at the centre when Zhang's conic is not positive definite, as
+//!    OpenCV's `initCameraMatrix2D`; the focal scan for a wide lens), refined alone when that
+//!    converges (a closed form has no distortion: off the axis it compresses angles, and on a
+//!    ring of cameras the chained extrinsics go astray), else the closed form as it is. Nothing
+//!    is decided on this start: a camera's weak views are judged on the joint problem.
 //! 2. **Pose graph**: for every two cameras that saw the same frames, `camJ_from_camI` is the
 //!    element-wise median over those frames; a maximum spanning tree from camera 0 (edges
 //!    weighted by shared frames) chains them into `camI_from_cam0`, so a camera that never
@@ -28,9 +30,9 @@ use crate::bundle::{
     Bundle, CameraModelSlots, CameraSlots, N_INTR, Sight, Slot, ViewObs, pose_at, store_pose, theta_of,
 };
 use crate::calibrate::{
-    CalibrationConfig, CalibrationWarning, IntrinsicStdDevs, PARALLEL_VIEWS_DEG, calibrate_camera, distortion_fold,
-    initial_estimate, intrinsic_std_devs, model_slots, outlier_views, pose_std_devs, rms_of, validate_views,
-    view_spread_deg,
+    CalibrationConfig, CalibrationWarning, IntrinsicStdDevs, PARALLEL_VIEWS_DEG, calibrate_camera, check_focal,
+    distortion_fold, initial_estimate, intrinsic_std_devs, model_slots, outlier_views, pose_std_devs, rms_of,
+    validate_views, view_spread_deg,
 };
 use crate::stereo::RigStdDevs;
 use crate::{CalibrationError, Result};
@@ -49,9 +51,6 @@ pub struct RigConfig {
     pub lm: LmConfig,
     /// A camera linked to the rig through fewer shared frames than this is a warning.
     pub min_shared_frames: usize,
-    /// A free focal length whose 1σ exceeds this fraction of its value is refused: the views
-    /// do not determine it (parallel boards, too few views). Default 0.01.
-    pub max_focal_sigma: f64,
     /// A free focal length, or a baseline, whose 1σ exceeds this fraction of its value is a
     /// warning. Default 0.002.
     pub warn_relative_sigma: f64,
@@ -65,7 +64,6 @@ impl Default for RigConfig {
             cameras: vec![camera.clone(), camera],
             fix_intrinsics: false,
             min_shared_frames: 3,
-            max_focal_sigma: 0.01,
             warn_relative_sigma: 0.002,
         }
     }
@@ -225,30 +223,39 @@ fn camera_views(frames: &[Vec<Option<CameraView>>], c: usize) -> CameraViews {
     out
 }
 
-/// The closed-form start of one camera from its views (see the module docs), or its mono
-/// calibration when its intrinsics are held without a guess.
+/// The start of one camera from its views (see the module docs): its closed form refined
+/// alone when that refinement succeeds and converges, else the closed form itself. With the
+/// intrinsics held and no guess, its mono calibration (refused if it fails).
+/// Returns the camera, its view poses, and why it was not refined alone (if it was not).
 fn initial_camera(
     views: &CameraViews,
     size: (u32, u32),
     cfg: &CalibrationConfig,
     held: bool,
-) -> Result<(Camera, Vec<Isometry3>)> {
+) -> Result<(Camera, Vec<Isometry3>, Option<String>)> {
+    if held && cfg.intrinsic_guess.is_some() {
+        // held at the guess: only its view poses
+        return if cfg.lens.is_wide() {
+            crate::wide::initial_camera((&views.object, &views.image), size, cfg)
+        } else {
+            initial_estimate(&views.object, &views.image, size.0, size.1, cfg)
+        }
+        .map(|(c, p)| (c, p, None));
+    }
+    let why = match calibrate_camera(&views.object, &views.image, size.0, size.1, cfg) {
+        Ok(r) if r.converged => return Ok((r.camera, r.camera_from_board, None)),
+        Ok(r) => format!("its refinement alone did not converge in {} iterations", r.iterations),
+        Err(e) => e.to_string(),
+    };
     if held && cfg.intrinsic_guess.is_none() {
-        let r = calibrate_camera(&views.object, &views.image, size.0, size.1, cfg)?;
-        return Ok((r.camera, r.camera_from_board));
+        return Err(CalibrationError::EstimationFailed(format!("its mono calibration, to hold: {why}")));
     }
-    if cfg.lens == parallax_camera_model::LensModel::DoubleSphere
-        && let Ok(r) = calibrate_camera(&views.object, &views.image, size.0, size.1, cfg)
-    {
-        // The double sphere cost has several valleys (`fx` and `ξ` trade off): its start is
-        // the best of the mono refinements from each closed-form start (see `wide`).
-        return Ok((r.camera, r.camera_from_board));
-    }
-    if cfg.lens.is_wide() {
-        crate::wide::initial_camera((&views.object, &views.image), size, cfg)
+    let (camera, poses) = if cfg.lens.is_wide() {
+        crate::wide::initial_camera((&views.object, &views.image), size, cfg)?
     } else {
-        initial_estimate(&views.object, &views.image, size.0, size.1, cfg)
-    }
+        initial_estimate(&views.object, &views.image, size.0, size.1, cfg)?
+    };
+    Ok((camera, poses, Some(why)))
 }
 
 /// Per camera, the camera it is linked to the rig through and the frames they share (`None`
@@ -382,7 +389,7 @@ fn parallel_views(c: usize, count: usize, spread: f64, when: &str) -> Calibratio
 /// Errors: a camera that saw no frame (or too few to determine its intrinsics), a frame no
 /// camera saw, a camera not linked to camera 0 through shared frames, parallel views of a
 /// camera whose focal length is estimated, a refinement that does not converge, a focal
-/// length the data do not determine (1σ above [`RigConfig::max_focal_sigma`]), and
+/// length the data do not determine (1σ above [`CalibrationConfig::max_focal_sigma`]), and
 /// everything a view may be refused for (too few points, non-finite values, non-planar
 /// object points).
 pub fn calibrate_rig(
@@ -397,15 +404,19 @@ pub fn calibrate_rig(
     // 1. Each camera's closed-form start.
     let mut cameras = Vec::with_capacity(n);
     let mut poses = Vec::with_capacity(n);
+    let mut alone = Vec::new();
     for c in 0..n {
         let cfg = &config.cameras[c];
-        let (camera, p) = initial_camera(&views[c], sizes[c], cfg, held)
+        let (camera, p, why) = initial_camera(&views[c], sizes[c], cfg, held)
             .map_err(|e| CalibrationError::EstimationFailed(format!("camera {c}: initial estimate: {e}")))?;
         if needs_spread(cfg, held) && p.len() >= 2 {
             let spread = view_spread_deg(&p);
             if spread < PARALLEL_VIEWS_DEG {
                 return Err(parallel_views(c, p.len(), spread, "(closed-form start)"));
             }
+        }
+        if let Some(why) = why {
+            alone.push(format!("camera {c} alone: {why}"));
         }
         cameras.push(camera);
         poses.push(p);
@@ -455,12 +466,13 @@ pub fn calibrate_rig(
         store_pose(p, &mut x0[o..o + 6]);
     }
     let report = levenberg_marquardt(&bundle, &x0, &LmConfig { covariance: true, ..config.lm }).map_err(|e| {
-        // The start puts a board behind a camera, or similar: the closed forms found no
-        // consistent geometry, which weak views cause.
+        // The start puts a board behind a camera, or similar: the starts found no consistent
+        // geometry, which weak views cause; say what each camera alone showed.
+        let alone = if alone.is_empty() { String::new() } else { format!(" ({})", alone.join("; ")) };
         CalibrationError::Degenerate(format!(
-            "the rig's closed-form start is inconsistent ({e}): the views do not determine the cameras — \
-             typically boards that all face the cameras (nearly parallel views) or too few frames; tilt the board \
-             by 20–40° in different directions across the frames and fill the images"
+            "the rig's start is inconsistent ({e}): the views do not determine the cameras{alone} — typically \
+             boards that all face the cameras (nearly parallel views) or too few frames; tilt the board by 20–40° \
+             in different directions across the frames and fill the images"
         ))
     })?;
     let estimation = |e: EvaluationError| CalibrationError::EstimationFailed(e.0);
@@ -512,17 +524,13 @@ pub fn calibrate_rig(
         (0..n).map(|c| bundle.cams[c].std_devs(bundle.cam_offsets[c], Some(cov))).collect();
     let mut warnings = Vec::new();
     for c in 0..n {
-        for (name, value, sigma) in focal_std_devs(&bundle.cams[c], &cameras[c], bundle.cam_offsets[c], cov) {
-            let relative = sigma / value.abs();
-            if relative.is_nan() || relative > config.max_focal_sigma {
-                return Err(CalibrationError::Degenerate(format!(
-                    "camera {c}: {name} = {value:.1} px is not determined by the views (1σ {sigma:.1} px, {:.2} % \
-                     > {:.2} %): tilt the board more and in different directions, fill the image, add frames",
-                    100.0 * relative,
-                    100.0 * config.max_focal_sigma
-                )));
-            }
-            if relative > config.warn_relative_sigma {
+        let focal = check_focal(bundle.cams[c].slots(), &cameras[c], bundle.cam_offsets[c], cov, &config.cameras[c])
+            .map_err(|e| match e {
+                CalibrationError::Degenerate(m) => CalibrationError::Degenerate(format!("camera {c}: {m}")),
+                other => other,
+            })?;
+        for (name, value, sigma) in focal {
+            if sigma > config.warn_relative_sigma * value.abs() {
                 warnings.push(CalibrationWarning::WeaklyDetermined {
                     camera: c,
                     parameter: name.to_string(),
@@ -611,53 +619,6 @@ pub fn calibrate_rig(
         iterations: report.iterations,
         warnings,
     })
-}
-
-/// The focal lengths the views must determine, with their 1σ (free ones only): `fx`, `fy`;
-/// for a double sphere lens `fx/(1+ξ)`, `fy/(1+ξ)`, the focal length near the axis (`fx` and
-/// `ξ` alone trade off against each other: a large σ of `fx` there is the model's, not the
-/// data's).
-fn focal_std_devs(
-    slots: &AnySlots,
-    camera: &Camera,
-    offset: usize,
-    cov: &faer::Mat<f64>,
-) -> Vec<(&'static str, f64, f64)> {
-    // The covariance of full parameters `a`, `b` (slot order), 0 for a held one.
-    let s = slots.slots();
-    let covariance = |a: usize, b: usize| match (s[a], s[b]) {
-        (Slot::Free { index: i, scale: si }, Slot::Free { index: j, scale: sj }) => {
-            si * sj * cov[(offset + i, offset + j)]
-        }
-        _ => 0.0,
-    };
-    let free = |a: usize| matches!(s[a], Slot::Free { .. });
-    let k = camera.intrinsics();
-    let mut out = Vec::new();
-    match camera.lens() {
-        parallax_camera_model::Lens::DoubleSphere(ds) => {
-            let d = 1.0 + ds.xi();
-            for (name, f, a) in [("fx/(1+ξ)", k.fx, 0), ("fy/(1+ξ)", k.fy, 1)] {
-                if !free(a) {
-                    continue;
-                }
-                // ∂(f/d)/∂f = 1/d, ∂(f/d)/∂ξ = −f/d².
-                let g = [1.0 / d, -f / (d * d)];
-                let var = g[0] * g[0] * covariance(a, a)
-                    + 2.0 * g[0] * g[1] * covariance(a, 5)
-                    + g[1] * g[1] * covariance(5, 5);
-                out.push((name, f / d, var.max(0.0).sqrt()));
-            }
-        }
-        _ => {
-            for (name, f, a) in [("fx", k.fx, 0), ("fy", k.fy, 1)] {
-                if free(a) {
-                    out.push((name, f, covariance(a, a).max(0.0).sqrt()));
-                }
-            }
-        }
-    }
-    out
 }
 
 /// 1σ of an extrinsic stored at `offset` (left perturbation): per-axis rotation and

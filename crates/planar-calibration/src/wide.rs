@@ -536,6 +536,9 @@ pub(crate) fn calibrate_wide(
     let camera = slots
         .camera(&report.params[..slots.num_free])
         .map_err(|e| CalibrationError::EstimationFailed(format!("refined camera is invalid: {e}")))?;
+    if let Some(cov) = report.covariance.as_ref() {
+        crate::calibrate::check_focal(&slots.slots, &camera, 0, cov, config)?;
+    }
     let std_devs = slots.std_devs(0, report.covariance.as_ref());
     let mut warnings = outlier_views(&solution.per_view_rms_px, config.outlier_view_factor, 0);
     common_warnings(&mut warnings, &solution.poses, config, &report);

@@ -102,6 +102,19 @@ fn near_parallel_sessions_made_by_opencv_are_refused_or_right() {
     let left: Vec<_> = frames.iter().map(|f| f[0].as_ref().unwrap().image.clone()).collect();
     let right: Vec<_> = frames.iter().map(|f| f[1].as_ref().unwrap().image.clone()).collect();
     let size = set.sizes()[0];
+    // each camera alone: refused too (the focal length is not determined)
+    for (c, image) in [&left, &right].into_iter().enumerate() {
+        let e = parallax_planar_calibration::calibrate_camera(
+            &object,
+            image,
+            size.0,
+            size.1,
+            &CalibrationConfig::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("not determined") || e.contains("parallel"), "camera {c}: {e}");
+    }
     let cfg =
         StereoConfig { left: CalibrationConfig::default(), right: CalibrationConfig::default(), ..Default::default() };
     match calibrate_stereo(&object, &left, &right, size, size, &cfg) {
