@@ -347,3 +347,98 @@ fn near_parallel_stereo_session_is_refused() {
         assert!(!tmp.join("s.yml").exists());
     }
 }
+
+/// `--camera` globs end to end on images our renderer made: three pinhole cameras (a stereo
+/// pair and one turned 30°), 15 frames; a camera that did not see a frame has a plain image of
+/// that name, or no file at all (camera 2): matched by file name, the rig's contract lines
+/// against the truth.
+#[test]
+fn camera_globs_of_rendered_images() {
+    use glam::DVec3;
+    use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3};
+    let tmp = Temp::new("rig-cli", "rendered");
+    let cam =
+        Camera::new(Intrinsics::new(560.0, 560.0, 319.5, 239.5), Distortion::new(-0.12, 0.05, 0.0, 0.0, 0.0), 640, 480)
+            .unwrap();
+    let from0 = [
+        Isometry3::IDENTITY,
+        Isometry3::from_rvec_tvec(DVec3::new(0.0, 0.02, 0.0), DVec3::new(-110.0, 0.0, 0.0)),
+        Isometry3::from_rvec_tvec(DVec3::new(0.0, -30f64.to_radians(), 0.0), DVec3::new(-60.0, 0.0, -20.0)),
+    ];
+    let board = Chessboard::new(9, 6, 25.0).unwrap();
+    let centre = DVec3::new(100.0, 62.5, 0.0);
+    let tilts = [(0.4, 0.1), (-0.35, 0.2), (0.1, 0.45), (0.2, -0.4), (-0.3, -0.25), (0.45, 0.3), (-0.1, -0.45)];
+    let mut seen = vec![[false; 3]; 15];
+    for c in 0..3 {
+        std::fs::create_dir_all(tmp.join(format!("cam{c}"))).unwrap();
+    }
+    for f in 0..15 {
+        // in turn: before the pair, before camera 2, half-way between (seen by all three)
+        let (a, b) = tilts[f % 7];
+        let rv = DVec3::new(a, b, 0.05 * f as f64 - 0.3);
+        let rot = Isometry3::from_rvec_tvec(rv, DVec3::ZERO);
+        let at =
+            DVec3::new(if f % 3 == 0 { -55.0 } else { 0.0 }, 10.0 * (f % 3) as f64 - 10.0, 480.0 + 15.0 * f as f64);
+        let cam0_from_board = match f % 3 {
+            0 => Isometry3::from_rvec_tvec(rv, at - rot.transform_vector(centre)),
+            1 => from0[2].inverse() * Isometry3::from_rvec_tvec(rv, at - rot.transform_vector(centre)),
+            _ => {
+                let half = Isometry3::from_rvec_tvec(DVec3::new(0.0, 15f64.to_radians(), 0.0), DVec3::ZERO);
+                let turned = half * Isometry3::from_rvec_tvec(rv * 0.5, DVec3::ZERO);
+                let at = half.transform_vector(DVec3::new(-20.0, 0.0, 750.0));
+                Isometry3::from_rotation_translation(turned.rotation_matrix(), at - turned.transform_vector(centre))
+                    .unwrap()
+            }
+        };
+        for c in 0..3 {
+            let pose = from0[c] * cam0_from_board;
+            let corners = parallax_synthetic::project_corners(&cam, &board, &pose);
+            let inside =
+                corners.is_ok_and(|k| k.iter().all(|u| u.x > 15.0 && u.y > 15.0 && u.x < 624.0 && u.y < 464.0));
+            let path = tmp.join(format!("cam{c}/frame{f:02}.png"));
+            if inside {
+                let opts = parallax_synthetic::RenderOptions { seed: (10 * f + c) as u64, ..Default::default() };
+                parallax_synthetic::render_chessboard(&cam, &board, &pose, &opts).unwrap().image.save(&path).unwrap();
+                seen[f][c] = true;
+            } else if c != 2 {
+                image::GrayImage::from_pixel(640, 480, image::Luma([120])).save(&path).unwrap();
+            }
+        }
+    }
+    let counts: Vec<usize> = (0..3).map(|c| seen.iter().filter(|s| s[c]).count()).collect();
+    assert!(counts.iter().all(|&n| n >= 5) && seen.iter().any(|s| s[1] && s[2]), "visibility {counts:?}");
+    let args: Vec<String> = [
+        "calibrate",
+        "--board",
+        "9x6",
+        "--square",
+        "25",
+        "--camera",
+        "cam0/*.png",
+        "--camera",
+        "cam1/*.png",
+        "--camera",
+        "cam2/*.png",
+        "--out",
+        "rig.yml",
+    ]
+    .map(String::from)
+    .to_vec();
+    let (ok, out, err) = xtask(tmp.as_path(), &args);
+    assert!(ok, "{out}\n{err}");
+    for c in 0..3 {
+        assert!(out.contains(&format!("camera {c}: target found in {}/", counts[c])), "{out}");
+        let line = out.lines().find(|l| l.starts_with(&format!("camera: {c} "))).unwrap();
+        assert!((key(line, "fx") / 560.0 - 1.0).abs() < 3e-3, "{line}");
+    }
+    for c in 1..3 {
+        let line = out.lines().find(|l| l.starts_with(&format!("extrinsic: {c} "))).unwrap();
+        let t = from0[c].translation;
+        let got = DVec3::new(key(line, "tx"), key(line, "ty"), key(line, "tz"));
+        assert!((got - t).length() < 0.01 * t.length(), "{line} vs {t}");
+        let w = DVec3::new(key(line, "rx"), key(line, "ry"), key(line, "rz"));
+        assert!((w - from0[c].rvec()).length() < 2e-3, "{line}");
+    }
+    let yml = std::fs::read_to_string(tmp.join("rig.yml")).unwrap();
+    assert!(yml.contains("nb_cameras: 3") && yml.contains("camera_matrix_2"), "{yml}");
+}

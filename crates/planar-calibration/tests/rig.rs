@@ -267,11 +267,13 @@ fn std_devs_are_honest_over_100_trials() {
     let mut all = 0.0;
     for (name, sum) in &z2 {
         let rms = (sum / trials as f64).sqrt();
+        eprintln!("{name}: z-score RMS {rms:.3}");
         // One parameter's RMS of 100 z-scores: ±0.07 (1σ) around 1 when honest.
         assert!((0.7..=1.4).contains(&rms), "{name}: z-score RMS {rms:.2}");
         all += sum;
     }
     let overall = (all / (trials as f64 * z2.len() as f64)).sqrt();
+    eprintln!("overall z-score RMS {overall:.3} over {} parameters", z2.len());
     assert!((0.85..=1.15).contains(&overall), "overall z-score RMS {overall:.3}");
 }
 
