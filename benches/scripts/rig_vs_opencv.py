@@ -5,7 +5,7 @@
 crates/planar-calibration/tests/data/rig/pinhole4.json, 60 frames, 0.2 px noise), alternating,
 R rounds.
 
-  cargo build --release -p planar-calibration --example rig_solve
+  cargo build --release -p parallax-planar-calibration --example rig_solve
   python3 benches/scripts/rig_vs_opencv.py [fixture.json] [rounds] [threads]
 
 OpenCV is called as the fixture's generator calls it (make_rig.py): calibrateMultiviewExtended,

@@ -368,7 +368,7 @@ fn camera_globs_of_rendered_images() {
     let board = Chessboard::new(9, 6, 25.0).unwrap();
     let centre = DVec3::new(100.0, 62.5, 0.0);
     let tilts = [(0.4, 0.1), (-0.35, 0.2), (0.1, 0.45), (0.2, -0.4), (-0.3, -0.25), (0.45, 0.3), (-0.1, -0.45)];
-    let mut seen = vec![[false; 3]; 15];
+    let mut seen = [[false; 3]; 15];
     for c in 0..3 {
         std::fs::create_dir_all(tmp.join(format!("cam{c}"))).unwrap();
     }
