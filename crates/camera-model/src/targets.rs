@@ -398,6 +398,11 @@ impl CircleGrid {
 /// black square of that size in the gap at every tag corner (as `kalibr_create_target_pdf`
 /// draws them), so every tag corner is an X-junction.
 ///
+/// Each tag is printed turned 180° from OpenCV's canonical `DICT_APRILTAG_36h11` marker image
+/// (Kalibr draws the Kaess tag36h11 codes, which are OpenCV's turned 180°, with
+/// `np.rot90(code, 2)` in `kalibr_create_target_pdf`): a decoded marker's corner 0 is the tag's
+/// bottom-right on the print, 1 its bottom-left, 2 its top-left, 3 its top-right.
+///
 /// Numbering as Kalibr's `GridCalibrationTargetAprilgrid`: tag 0 at the bottom-left of the
 /// printed target, ids along `x` then up; the target frame has its origin at tag 0's
 /// bottom-left corner, `x` right and `y` **up** on the print (`z` towards the viewer); the

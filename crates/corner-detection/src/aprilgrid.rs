@@ -76,7 +76,12 @@ pub fn detect_aprilgrid(img: &GrayImage, grid: &AprilGrid, cfg: &AprilGridConfig
         let (c, r) = (t as usize % cols, rows - 1 - t as usize / cols);
         DVec2::new(c as f64 * pitch, r as f64 * pitch)
     };
-    let unit = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(0.0, 1.0)];
+    // Where each decoded marker corner (OpenCV's order: the canonical marker's top-left,
+    // top-right, bottom-right, bottom-left) lies on the tag, print frame, tag sizes: Kalibr
+    // prints every tag turned 180° from OpenCV's canonical image, so marker corner 0 is the
+    // tag's bottom-right on the print (the owner's definition, checked on a board drawn as
+    // `kalibr_create_target_pdf` draws it: `tests/data/kalibr-aprilgrid/`).
+    let unit = [DVec2::new(1.0, 1.0), DVec2::new(0.0, 1.0), DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0)];
     let homs: Vec<Option<DMat3>> =
         tags.iter().map(|m| homography_4(&unit.map(|u| u + origin(m.id)), &m.corners)).collect();
     let centre = |m: &DetectedMarker| (m.corners[0] + m.corners[1] + m.corners[2] + m.corners[3]) * 0.25;
@@ -110,9 +115,10 @@ pub fn detect_aprilgrid(img: &GrayImage, grid: &AprilGrid, cfg: &AprilGridConfig
         let (true, Some(h)) = (confirmed[k], homs[k]) else { continue };
         used.push(*m);
         let ids = grid.tag_corner_ids(m.id).expect("tag on the grid");
-        // Kalibr's order (bottom-left, bottom-right, top-right, top-left) against the marker's
-        // (top-left, top-right, bottom-right, bottom-left) on the print.
-        for (kalibr, marker) in [(0usize, 3usize), (1, 2), (2, 1), (3, 0)] {
+        // Kalibr's order (bottom-left, bottom-right, top-right, top-left of the tag on the
+        // print, `y` up) against the marker corners (`unit` above): marker corner 1 is the
+        // tag's bottom-left, 0 its bottom-right, 3 its top-right, 2 its top-left.
+        for (kalibr, marker) in [(0usize, 1usize), (1, 0), (2, 3), (3, 2)] {
             let b = unit[marker] + origin(m.id);
             let inward = (origin(m.id) + DVec2::splat(0.5) - b).signum();
             let scale = [inward, -inward, DVec2::new(inward.x, -inward.y), DVec2::new(-inward.x, inward.y)]

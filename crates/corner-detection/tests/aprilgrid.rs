@@ -95,3 +95,34 @@ fn fifty_views_zero_wrong_ids_and_exact_corners() {
     assert!(mid_views >= 3 && mid_ok == mid_views);
     assert!(found as f64 >= 0.85 * visible_total as f64);
 }
+
+/// The owner's board: a 6x6 AprilGrid drawn as Kalibr's `kalibr_create_target_pdf` draws it
+/// (its layout, the Kaess tag36h11 codes and their 180° turn, the corner squares), by
+/// `tests/data/kalibr-aprilgrid/draw_kalibr_aprilgrid.py` — nothing of ours (provenance in
+/// `PROVENANCE.md`). Every one of the 144 corners is found with Kalibr's id, at the pixel the
+/// drawing put it (the board is pixel-exact: edges on pixel boundaries).
+#[test]
+fn a_board_drawn_as_kalibr_draws_it_is_found_with_kalibrs_ids() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/kalibr-aprilgrid");
+    let img = image::open(dir.join("aprilgrid_6x6_kalibr.png")).unwrap().to_luma8();
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("aprilgrid_6x6_kalibr.json")).unwrap()).unwrap();
+    let grid = AprilGrid::new(6, 6, 80.0, 0.3).unwrap();
+    let det = detect_aprilgrid(&img, &grid, &AprilGridConfig::default()).unwrap();
+    assert_eq!(det.tags.len(), 36);
+    let mut worst: f64 = 0.0;
+    let mut count = 0;
+    for tag in truth["tags"].as_array().unwrap() {
+        let ids = tag["kalibr_point_ids"].as_array().unwrap();
+        let px = tag["kalibr_points_image_px_center"].as_array().unwrap();
+        for (id, p) in ids.iter().zip(px) {
+            let id = id.as_u64().unwrap() as u32;
+            let want = DVec2::new(p[0].as_f64().unwrap(), p[1].as_f64().unwrap());
+            let got = det.observation.get(id).unwrap_or_else(|| panic!("Kalibr point {id} not found"));
+            worst = worst.max((got - want).length());
+            count += 1;
+        }
+    }
+    assert_eq!((count, det.observation.ids().len()), (144, 144));
+    assert!(worst < 0.05, "largest corner error {worst} px");
+}

@@ -279,15 +279,19 @@ pub fn search_corners(
             let ms = t0.elapsed().as_secs_f64() * 1e3;
             entry.time_ms = ms;
             let line = match &det {
-                Some(d) => format!(
-                    "{name}: found {}x{} in {ms:.2} ms (min spacing {:.1} px, min contrast {:.0}, refinement not \
-                     converged at {} corners)",
-                    b.cols,
-                    b.rows,
-                    d.min_spacing,
-                    d.min_contrast,
-                    d.refinement.iter().filter(|r| !r.converged).count()
-                ),
+                Some(d) => {
+                    // said only when it happened: "not converged at 0 corners" read like a warning
+                    let unconverged = d.refinement.iter().filter(|r| !r.converged).count();
+                    let refinement = if unconverged == 0 {
+                        "refinement converged at every corner".to_string()
+                    } else {
+                        format!("refinement did not converge at {unconverged} of {} corners", d.refinement.len())
+                    };
+                    format!(
+                        "{name}: found {}x{} in {ms:.2} ms (min spacing {:.1} px, min contrast {:.0}, {refinement})",
+                        b.cols, b.rows, d.min_spacing, d.min_contrast
+                    )
+                }
                 None => format!("{name}: not found ({ms:.2} ms)"),
             };
             let drawing = match (&det, overlay) {

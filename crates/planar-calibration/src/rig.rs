@@ -401,7 +401,7 @@ pub fn calibrate_rig(
     let n = sizes.len();
     let views: Vec<CameraViews> = (0..n).map(|c| camera_views(frames, c)).collect();
     let held = config.fix_intrinsics;
-    // 1. Each camera's closed-form start.
+    // 1. Each camera's start.
     let mut cameras = Vec::with_capacity(n);
     let mut poses = Vec::with_capacity(n);
     let mut alone = Vec::new();
@@ -412,7 +412,7 @@ pub fn calibrate_rig(
         if needs_spread(cfg, held) && p.len() >= 2 {
             let spread = view_spread_deg(&p);
             if spread < PARALLEL_VIEWS_DEG {
-                return Err(parallel_views(c, p.len(), spread, "(closed-form start)"));
+                return Err(parallel_views(c, p.len(), spread, "(at the start)"));
             }
         }
         if let Some(why) = why {

@@ -278,7 +278,10 @@ pub fn render_aprilgrid(
                 return black;
             }
             let id = ((rows - 1 - j as usize) * cols + i as usize) as u32;
-            return if dict.bit(id, cy - 2, cx - 2) { white } else { black };
+            // Kalibr prints each tag turned 180° from OpenCV's canonical marker image
+            // (`kalibr_create_target_pdf`: `np.rot90(codeMatrix, 2)` of the Kaess codes, which
+            // are OpenCV's `DICT_APRILTAG_36h11` turned 180°; see [`AprilGrid`]).
+            return if dict.bit(id, 7 - cy, 7 - cx) { white } else { black };
         }
         // Corner squares: in the gap before tag column i (i = 0..=cols) and row j.
         let (si, sj) = (((x + g) / pitch).floor(), ((y + g) / pitch).floor());
