@@ -11,14 +11,10 @@ use serde_json::{Map, Value, json};
 
 use crate::error::content;
 use crate::interpret::{mat3_of, matrix};
-use crate::{Calibration, Result, interpret};
+use crate::{Calibration, Result, interpret, mat3, rows3};
 
 fn isometry(r: DMat3, t: DVec3, what: &str) -> Result<Isometry3> {
     Isometry3::from_rotation_translation(r, t).map_err(|e| content(what, format!("a rig extrinsic: {e}")))
-}
-
-fn rows(m: &DMat3) -> Vec<Vec<f64>> {
-    (0..3).map(|r| (0..3).map(|c| m.col(c)[r]).collect()).collect()
 }
 
 fn index_check(n: usize, (i, j): (usize, usize), what: &str) -> Result<()> {
@@ -44,8 +40,7 @@ fn kalibr_pair(o: &Map<String, Value>, (i, j): (usize, usize), what: &str) -> Re
         if (r, c) != (4, 4) || d[12..] != [0.0, 0.0, 0.0, 1.0] {
             return Err(content(what, format!("{key} is not a 4x4 rigid transform")));
         }
-        let rot =
-            DMat3::from_cols(DVec3::new(d[0], d[4], d[8]), DVec3::new(d[1], d[5], d[9]), DVec3::new(d[2], d[6], d[10]));
+        let rot = mat3(&[[d[0], d[1], d[2]], [d[4], d[5], d[6]], [d[8], d[9], d[10]]]);
         let step = isometry(rot, DVec3::new(d[3], d[7], d[11]), what)?;
         from0.push(step * from0[k - 1]);
     }
@@ -54,7 +49,7 @@ fn kalibr_pair(o: &Map<String, Value>, (i, j): (usize, usize), what: &str) -> Re
     left.remove("T_cn_cnm1");
     let mut right = o[&format!("cam{j}")].as_object().cloned().unwrap_or_default();
     let (r, t) = (j_from_i.rotation_matrix(), j_from_i.translation);
-    let m = rows(&r);
+    let m = rows3(&r);
     right.insert(
         "T_cn_cnm1".into(),
         json!([
@@ -90,7 +85,7 @@ fn opencv_pair(o: &Map<String, Value>, (i, j): (usize, usize), what: &str) -> Re
             format!("cameras {i} and {j} are of different lens families: OpenCV's stereo keys mark both with one"),
         ));
     }
-    let r = rows(&j_from_i.rotation_matrix());
+    let r = rows3(&j_from_i.rotation_matrix());
     let t = j_from_i.translation;
     let mut out = json!({
         "image_width": get(format!("image_width_{i}"))?,

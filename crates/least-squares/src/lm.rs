@@ -77,10 +77,11 @@ pub(crate) fn solve_block_tail(a: &Mat<f64>, rhs: &Col<f64>, g: usize, b: usize)
         let o = g + k * b;
         let d = a.submatrix(o, o, b, b).to_owned().llt(Side::Lower).ok()?;
         // X = D⁻¹ B_kᵀ (b x g), z = D⁻¹ r_k.
+        let r_k = Col::from_fn(b, |i| rhs[o + i]);
         let x = d.solve(a.submatrix(o, 0, b, g));
-        let z = d.solve(Col::from_fn(b, |i| rhs[o + i]));
+        let z = d.solve(&r_k);
         s -= a.submatrix(0, o, g, b) * &x;
-        y -= x.transpose() * &Col::from_fn(b, |i| rhs[o + i]);
+        y -= x.transpose() * &r_k;
         solved.push((x, z));
     }
     let dg = if g > 0 { s.llt(Side::Lower).ok()?.solve(&y) } else { Col::zeros(0) };

@@ -305,7 +305,12 @@ fn pose_graph(
     Ok((extrinsic.into_iter().map(|e| e.expect("every camera reached")).collect(), link))
 }
 
-fn check_inputs(frames: &[Vec<Option<CameraView>>], sizes: &[(u32, u32)], config: &RigConfig) -> Result<()> {
+/// Checks the inputs and returns each camera's views.
+fn check_inputs(
+    frames: &[Vec<Option<CameraView>>],
+    sizes: &[(u32, u32)],
+    config: &RigConfig,
+) -> Result<Vec<CameraViews>> {
     let n = sizes.len();
     if n == 0 {
         return Err(CalibrationError::Empty("cameras"));
@@ -346,6 +351,7 @@ fn check_inputs(frames: &[Vec<Option<CameraView>>], sizes: &[(u32, u32)], config
     if !unseen.is_empty() {
         return Err(CalibrationError::SizeMismatch(format!("frame(s) {unseen:?} were seen by no camera: drop them")));
     }
+    let mut all = Vec::with_capacity(n);
     for c in 0..n {
         let views = camera_views(frames, c);
         if views.frames.is_empty() {
@@ -364,8 +370,9 @@ fn check_inputs(frames: &[Vec<Option<CameraView>>], sizes: &[(u32, u32)], config
                 views.frames.len()
             )));
         }
+        all.push(views);
     }
-    Ok(())
+    Ok(all)
 }
 
 /// Whether camera `c`'s views must tilt: its focal length and principal point are estimated.
@@ -397,9 +404,8 @@ pub fn calibrate_rig(
     sizes: &[(u32, u32)],
     config: &RigConfig,
 ) -> Result<RigCalibrationResult> {
-    check_inputs(frames, sizes, config)?;
+    let views = check_inputs(frames, sizes, config)?;
     let n = sizes.len();
-    let views: Vec<CameraViews> = (0..n).map(|c| camera_views(frames, c)).collect();
     let held = config.fix_intrinsics;
     // 1. Each camera's start.
     let mut cameras = Vec::with_capacity(n);

@@ -55,12 +55,8 @@ pub fn read(name: &str) -> RigSet {
 }
 
 pub fn isometry(r: &[[f64; 3]; 3], t: &[f64; 3]) -> Isometry3 {
-    let m = DMat3::from_cols(
-        DVec3::new(r[0][0], r[1][0], r[2][0]),
-        DVec3::new(r[0][1], r[1][1], r[2][1]),
-        DVec3::new(r[0][2], r[1][2], r[2][2]),
-    );
-    Isometry3::from_rotation_translation(m, DVec3::from_array(*t)).unwrap()
+    // `r` is row-major: glam's column arrays, transposed
+    Isometry3::from_rotation_translation(DMat3::from_cols_array_2d(r).transpose(), DVec3::from_array(*t)).unwrap()
 }
 
 impl RigSet {
