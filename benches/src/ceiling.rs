@@ -10,6 +10,7 @@
 //! evaluations per second is the best 16-bit lane rate divided by [`OPS_PER_EVALUATION`].
 //! Assembly because the compiler folds a loop of constant vector adds into one multiply-add.
 
+use parallax_block_matching::SimdLevel;
 use std::time::Instant;
 
 /// Vector operations per disparity evaluation assumed by the ceiling (`stereo-limits.md`).
@@ -44,19 +45,10 @@ impl Width {
         self.bits() / 16
     }
 
-    /// Whether this CPU runs the chains at this width.
+    /// Whether this CPU runs the chains at this width (both widths are compiled with VEX
+    /// encodings: the AVX2 level, which implies AVX).
     pub fn available(self) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        {
-            match self {
-                Width::W128 => std::arch::is_x86_feature_detected!("avx"),
-                Width::W256 => std::arch::is_x86_feature_detected!("avx2"),
-            }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            false
-        }
+        cfg!(target_arch = "x86_64") && SimdLevel::detect() >= SimdLevel::Avx2
     }
 }
 

@@ -55,14 +55,14 @@ const STAGES: [&str; 7] = [
 
 #[test]
 fn the_crate_graph_is_a_star() {
-    let shared = ["parallax-camera-model", "parallax-least-squares"];
+    let shared = ["parallax-camera-model", "parallax-least-squares", "parallax-simd"];
     let mut seen = 0;
     for (dir, m) in members() {
         let ours = |deps: &[String]| deps.iter().filter(|d| d.starts_with("parallax-")).cloned().collect::<Vec<_>>();
         let deps = ours(&m.dependencies);
         match m.name.as_str() {
-            "parallax-camera-model" | "parallax-least-squares" => {
-                assert!(deps.is_empty(), "{} depends on {deps:?}: the vocabulary depends on no stage", dir.display())
+            "parallax-camera-model" | "parallax-least-squares" | "parallax-simd" => {
+                assert!(deps.is_empty(), "{} depends on {deps:?}: the foundations depend on no stage", dir.display())
             }
             name if STAGES.contains(&name) => {
                 seen += 1;
@@ -217,6 +217,38 @@ fn every_unsafe_fn_documents_its_safety_contract() {
     }
     assert!(count > 0, "no unsafe fn found at all: the scan is broken");
     assert!(bad.is_empty(), "unsafe fn without a `# Safety` doc section: {bad:?}");
+}
+
+/// The CPU is asked in one place: `parallax-simd` detects the instruction set once per process
+/// and its tokens prove it; no other file of the workspace queries CPU features or declares an
+/// instruction-set enum of its own.
+#[test]
+fn the_cpu_is_asked_in_one_place() {
+    let owner = root().join("crates/simd/src/lib.rs");
+    let mut sites = Vec::new();
+    let mut enums = Vec::new();
+    for dir in [root().join("crates"), root().join("xtask"), root().join("benches")] {
+        for f in rust_files(&dir) {
+            let text = read(&f);
+            let name = f.strip_prefix(root()).unwrap_or(&f).display().to_string();
+            let probes = text.matches(concat!("is_x86_feature", "_detected")).count();
+            if probes > 0 && f != owner {
+                sites.push(format!("{name} ({probes})"));
+            }
+            for l in text.lines().map(str::trim_start) {
+                let l = l.strip_prefix("pub ").or_else(|| l.strip_prefix("pub(crate) ")).unwrap_or(l);
+                if let Some(rest) = l.strip_prefix("enum ")
+                    && (rest.contains("Isa") || rest.starts_with("SimdLevel"))
+                    && f != owner
+                {
+                    enums.push(format!("{name}: {l}"));
+                }
+            }
+        }
+    }
+    assert!(read(&owner).contains(concat!("is_x86_feature", "_detected")), "the scan is broken");
+    assert!(sites.is_empty(), "CPU feature queries outside parallax-simd (use its tokens): {sites:?}");
+    assert!(enums.is_empty(), "instruction-set enums outside parallax-simd (use SimdLevel / its tokens): {enums:?}");
 }
 
 #[test]

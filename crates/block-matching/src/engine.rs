@@ -12,55 +12,18 @@ use crate::prefilter::{
     TextureRows, TextureSource, box_sum, normalized_response, rank_transform_into, x_sobel_into, x_sobel_u8_into,
 };
 use crate::speckle::filter_speckles;
+use parallax_simd::{Avx2, Avx512};
 
 /// A 16-bit grayscale image (`image` crate buffer).
 pub type Gray16Image = ImageBuffer<Luma<u16>, Vec<u16>>;
 
-/// Which instruction set the inner loops were compiled for (chosen at run time). Levels are
-/// ordered: a CPU that has a level has every level below it. More may come with new instruction
-/// sets.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
-#[non_exhaustive]
-pub enum SimdLevel {
-    /// Portable code (the compiler's baseline, SSE2 on x86-64).
-    Scalar,
-    /// The same loops compiled with AVX2 (256-bit), and the explicit 256-bit kernels.
-    Avx2,
-    /// [`SimdLevel::Avx2`], with block matching's 16-bit kernel (SAD whose window sums fit in
-    /// 16 bits: the x-Sobel and rank prefilters) compiled for AVX-512 F/BW/VL: the same 256-bit
-    /// operations and results, with 32 vector registers instead of 16, so that up to 16 chunks
-    /// of running box sums stay in registers from column to column (8 with AVX2). Every other
-    /// kernel runs its AVX2 code at this level (measured no faster with 32 registers: semi-global
-    /// matching, whose path steps are bound by the vector units, not by registers).
-    Avx512,
-}
-
-impl SimdLevel {
-    /// The best level this CPU supports.
-    pub fn detect() -> Self {
-        #[cfg(target_arch = "x86_64")]
-        {
-            // every feature a kernel of the level enables (the AVX2 band kernels also use
-            // BMI1/2, LZCNT and POPCNT)
-            let avx2 = is_x86_feature_detected!("avx2")
-                && is_x86_feature_detected!("fma")
-                && is_x86_feature_detected!("bmi1")
-                && is_x86_feature_detected!("bmi2")
-                && is_x86_feature_detected!("lzcnt")
-                && is_x86_feature_detected!("popcnt");
-            let avx512 = is_x86_feature_detected!("avx512f")
-                && is_x86_feature_detected!("avx512bw")
-                && is_x86_feature_detected!("avx512vl");
-            if avx2 && avx512 {
-                return SimdLevel::Avx512;
-            }
-            if avx2 {
-                return SimdLevel::Avx2;
-            }
-        }
-        SimdLevel::Scalar
-    }
-}
+/// Which instruction set the inner loops run (`parallax_simd`'s level, detected once per
+/// process). At [`SimdLevel::Avx512`] block matching's 16-bit kernel (SAD whose window sums fit
+/// in 16 bits: the x-Sobel and rank prefilters) has a copy compiled for AVX-512 F/BW/VL: the same
+/// 256-bit operations and results, with 32 vector registers instead of 16, so that up to 16
+/// chunks of running box sums stay in registers from column to column (8 with AVX2); every other
+/// kernel runs its AVX2 code there.
+pub use parallax_simd::SimdLevel;
 
 /// Why pixels of the last frame have no disparity, and the resulting density.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -636,22 +599,22 @@ impl BlockMatcher {
         // sentinel)
         #[cfg(target_arch = "x86_64")]
         let kernel = {
-            let avx2 = simd >= SimdLevel::Avx2;
             let fits = |limit: u64| n.checked_mul(max_term).is_some_and(|s| s < limit);
-            match cfg.cost {
-                CostFunction::Sad if avx2 && fits(u16::MAX as u64) => Some(SimdKernel::Lanes16),
-                CostFunction::Sad if avx2 && fits(u32::MAX as u64) => Some(SimdKernel::Lanes32 { squared: false }),
-                CostFunction::Ssd if avx2 && fits(u32::MAX as u64) => Some(SimdKernel::Lanes32 { squared: true }),
+            let wide = Avx512::at_most(simd);
+            match (Avx2::at_most(simd), cfg.cost) {
+                (Some(t), CostFunction::Sad) if fits(u16::MAX as u64) => Some(SimdKernel::Lanes16 { t, wide }),
+                (Some(t), CostFunction::Sad) if fits(u32::MAX as u64) => {
+                    Some(SimdKernel::Lanes32 { t, squared: false })
+                }
+                (Some(t), CostFunction::Ssd) if fits(u32::MAX as u64) => Some(SimdKernel::Lanes32 { t, squared: true }),
                 _ => None,
             }
         };
         let mut job = || -> Vec<MatchStats> {
+            // (each kernel chosen above only when every window sum fits below the lane maximum)
             #[cfg(target_arch = "x86_64")]
-            // SAFETY (both kernels): `kernel` was chosen above only at `SimdLevel::Avx2` or above,
-            // which `SimdLevel::detect()` found, and when every window sum fits below the lane
-            // maximum.
             match kernel {
-                Some(SimdKernel::Lanes16) => {
+                Some(SimdKernel::Lanes16 { t, wide }) => {
                     return for_each_band(
                         &shared,
                         &mut self.simd16,
@@ -659,15 +622,10 @@ impl BlockMatcher {
                         band_rows,
                         data,
                         conf_plane,
-                        // SAFETY: AVX2 was detected (and AVX-512 F/BW/VL at that level: `simd`
-                        // never exceeds `SimdLevel::detect()`) and the 16-bit kernel was chosen
-                        // only when every window sum fits below the lane maximum.
-                        |sc, rows, conf, y0, y1| unsafe {
-                            crate::simd::band16(&shared, sc, rows, conf, y0, y1, simd == SimdLevel::Avx512)
-                        },
+                        |sc, rows, conf, y0, y1| crate::simd::band16(t, wide, &shared, sc, rows, conf, y0, y1),
                     );
                 }
-                Some(SimdKernel::Lanes32 { squared }) => {
+                Some(SimdKernel::Lanes32 { t, squared }) => {
                     return for_each_band(
                         &shared,
                         &mut self.simd32,
@@ -675,11 +633,7 @@ impl BlockMatcher {
                         band_rows,
                         data,
                         conf_plane,
-                        // SAFETY: AVX2 was detected and the 32-bit kernel was chosen only when
-                        // every window sum fits below the lane maximum.
-                        |sc, rows, conf, y0, y1| unsafe {
-                            crate::simd::band32(squared, &shared, sc, rows, conf, y0, y1)
-                        },
+                        |sc, rows, conf, y0, y1| crate::simd::band32(t, squared, &shared, sc, rows, conf, y0, y1),
                     );
                 }
                 None => {}
@@ -835,8 +789,15 @@ pub(crate) fn conf_row<'a>(sh: &Shared, conf: &'a mut [f32], y: usize, y0: usize
 #[cfg(target_arch = "x86_64")]
 #[derive(Debug, Clone, Copy)]
 enum SimdKernel {
-    Lanes16,
-    Lanes32 { squared: bool },
+    /// 16-bit lanes, with AVX-512's 32 registers when `wide`.
+    Lanes16 {
+        t: Avx2,
+        wide: Option<Avx512>,
+    },
+    Lanes32 {
+        t: Avx2,
+        squared: bool,
+    },
 }
 
 fn run_bands<A: Acc>(
@@ -869,23 +830,18 @@ fn dispatch<A: Acc, const K: u8>(
     simd: SimdLevel,
 ) -> MatchStats {
     #[cfg(target_arch = "x86_64")]
-    {
-        match simd {
-            // SAFETY: `simd` never exceeds `SimdLevel::detect()`, which checked AVX2 (the
-            // AVX-512 level includes it).
-            SimdLevel::Avx2 | SimdLevel::Avx512 => return unsafe { band_avx2::<A, K>(sh, sc, out, conf, y0, y1) },
-            SimdLevel::Scalar => {}
-        }
+    if let Some(t) = Avx2::at_most(simd) {
+        // SAFETY: the token `t` proves AVX2, FMA, BMI1/2, LZCNT and POPCNT.
+        return unsafe { band_avx2::<A, K>(t, sh, sc, out, conf, y0, y1) };
     }
-    let _ = simd;
     band::<A, K>(sh, sc, out, conf, y0, y1)
 }
 
+/// [`band`] compiled for AVX2 (the token proves the CPU runs it).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-/// # Safety
-/// The CPU must support AVX2, FMA, BMI1/2, LZCNT and POPCNT (the caller checks `SimdLevel::detect()`), and `sc` must be sized for `sh` (as `for_each_band` does).
-unsafe fn band_avx2<A: Acc, const K: u8>(
+fn band_avx2<A: Acc, const K: u8>(
+    _t: Avx2,
     sh: &Shared,
     sc: &mut Scratch<A>,
     out: &mut [f32],

@@ -85,13 +85,13 @@ macro_rules! with_simd {
             fn imp $(<$g: $bound>)? ($($a: $t),*) $body
             #[cfg(target_arch = "x86_64")]
             #[target_feature(enable = "avx2")]
-            fn avx2 $(<$g: $bound>)? ($($a: $t),*) {
+            fn avx2 $(<$g: $bound>)? (_t: parallax_simd::Avx2, $($a: $t),*) {
                 imp($($a),*)
             }
             #[cfg(target_arch = "x86_64")]
-            if is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU supports AVX2.
-                return unsafe { avx2($($a),*) };
+            if let Some(t) = parallax_simd::Avx2::new() {
+                // SAFETY: the token `t` proves AVX2.
+                return unsafe { avx2(t, $($a),*) };
             }
             imp($($a),*)
         }

@@ -65,6 +65,7 @@ use crate::engine::{
 };
 use crate::error::{BlockMatchingError, Result};
 use crate::prefilter::TextureRows;
+use parallax_simd::Avx2;
 
 /// Uniqueness margin (percent) a winner needs where the image edge cuts its pixel's candidates
 /// short of the range (the left band `x < dmin + D − 1`, or the right one with negative
@@ -466,9 +467,17 @@ fn step_set(c: &[u16], prev: &[u16], pmin: u16, p1: u16, p2: u16, out: &mut [u16
 /// sums follow each column as soon as its window is complete, into `sc.cost` (the columns they
 /// read are still in L1; a second pass read them back from L2 or beyond); returns whether it did.
 #[cfg_attr(not(opt_level_zero), inline(always))]
-fn vertical(sc: &mut Scratch, nd: usize, sub: bool, boxed: Option<usize>, bt: bool, small: bool, isa: Isa) -> bool {
+fn vertical(
+    sc: &mut Scratch,
+    nd: usize,
+    sub: bool,
+    boxed: Option<usize>,
+    bt: bool,
+    small: bool,
+    isa: Option<Avx2>,
+) -> bool {
     #[cfg(target_arch = "x86_64")]
-    if isa.avx2() {
+    if let Some(t) = isa {
         let pairs = small && sub && !bt;
         if pairs {
             // both rows' differences from byte pairs (every pixel below 128): per 16 candidates,
@@ -485,8 +494,8 @@ fn vertical(sc: &mut Scratch, nd: usize, sub: bool, boxed: Option<usize>, bt: bo
         let rows = (&sc.l_a[..], &sc.r_a[..], &sc.l_b[..], &sc.r_b[..]);
         let bt_rows = bt.then(|| (sc.bt_a.each_ref().map(|v| &v[..]), sc.bt_b.each_ref().map(|v| &v[..])));
         let pairs = pairs.then(|| (&sc.pairs[..], &sc.l_pairs[..]));
-        // SAFETY: `isa` only when the CPU has AVX2; lengths asserted inside.
-        unsafe { avx2::vertical(&mut sc.colsum, rows, bt_rows, lanes(nd), sub, cost, pairs) };
+        // SAFETY: the token `t` proves AVX2 and POPCNT; lengths asserted inside.
+        unsafe { avx2::vertical(t, &mut sc.colsum, rows, bt_rows, lanes(nd), sub, cost, pairs) };
         return boxed.is_some();
     }
     let _ = (isa, boxed, small);
@@ -559,7 +568,7 @@ fn load(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, b: bool, intens
 
 /// The column sums of row `y` from scratch.
 #[inline(always)]
-fn colsum_init(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, isa: Isa) {
+fn colsum_init(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, isa: Option<Avx2>) {
     let (h, r) = (sh.h as i64, sh.r as i64);
     sc.colsum.fill(0);
     for j in y as i64 - r..=y as i64 + r {
@@ -576,7 +585,7 @@ fn colsum_init(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, isa: Isa
 /// Moves the column sums from row `y` to row `y + 1` (`down`) or `y − 1`; returns whether the
 /// new row's box sums were made with them (see [`vertical`]).
 #[inline(always)]
-fn colsum_move(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, down: bool, isa: Isa) -> bool {
+fn colsum_move(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, down: bool, isa: Option<Avx2>) -> bool {
     let (h, r) = (sh.h as i64, sh.r as i64);
     let clamp = |v: i64| v.clamp(0, h - 1) as usize;
     let (yi, yo) = if down {
@@ -605,16 +614,16 @@ fn colsum_move(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, down: bo
 /// `C` of the current row from the column sums: running box sums along the row (unless
 /// `boxed`: made with the column sums), then the out-of-image candidates set to `cmax`.
 #[inline(always)]
-fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, boxed: bool, isa: Isa) {
+fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, boxed: bool, isa: Option<Avx2>) {
     let (w, r, nd, dmin) = (sh.w, sh.r, sh.nd, sh.dmin);
     let ndq = lanes(nd);
     let (cost, colsum) = (&mut sc.cost, &sc.colsum);
     #[cfg(target_arch = "x86_64")]
-    if isa == Isa::Avx2 && !boxed {
-        // SAFETY: `isa` only when the CPU has AVX2; lengths asserted inside.
-        unsafe { avx2::box_row(cost, colsum, w, r, ndq) };
+    if let Some(t) = isa.filter(|_| !boxed) {
+        // SAFETY: the token `t` proves AVX2 and POPCNT; lengths asserted inside.
+        unsafe { avx2::box_row(t, cost, colsum, w, r, ndq) };
     }
-    if !isa.avx2() {
+    if isa.is_none() {
         let c0 = &mut cost[..ndq];
         c0.fill(0);
         for xp in 0..=2 * r {
@@ -673,7 +682,7 @@ fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, boxed: bool, isa: Isa) {
 #[cfg_attr(not(opt_level_zero), inline(always))]
 #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
 unsafe fn paths<const N: usize, const H: usize, const NDQ: usize>(
-    isa: Isa,
+    isa: Option<Avx2>,
     c: *const u16,
     prev: [*const u16; N],
     pmin: [u16; N],
@@ -689,15 +698,14 @@ unsafe fn paths<const N: usize, const H: usize, const NDQ: usize>(
     // SAFETY: the lengths and the absence of overlap are the caller's.
     let (c, acc) = unsafe { (std::slice::from_raw_parts(c, ndq), std::slice::from_raw_parts_mut(acc, ndq)) };
     #[cfg(target_arch = "x86_64")]
-    if isa.avx2() {
-        use lanes::W256;
-        // SAFETY: the caller's (lengths, the instruction set, `in_place`); all lanes 0..Dq.
+    if let Some(t) = isa {
+        // SAFETY: the caller's (lengths, `in_place`); all lanes 0..Dq.
         return unsafe {
             match (set, in_place) {
-                (true, true) => lanes::paths::<W256, N, H, true, true>(c, prev, pmin, p2, p1, out, acc),
-                (true, false) => lanes::paths::<W256, N, H, true, false>(c, prev, pmin, p2, p1, out, acc),
-                (false, true) => lanes::paths::<W256, N, H, false, true>(c, prev, pmin, p2, p1, out, acc),
-                (false, false) => lanes::paths::<W256, N, H, false, false>(c, prev, pmin, p2, p1, out, acc),
+                (true, true) => lanes::paths::<N, H, true, true>(t, c, prev, pmin, p2, p1, out, acc),
+                (true, false) => lanes::paths::<N, H, true, false>(t, c, prev, pmin, p2, p1, out, acc),
+                (false, true) => lanes::paths::<N, H, false, true>(t, c, prev, pmin, p2, p1, out, acc),
+                (false, false) => lanes::paths::<N, H, false, false>(t, c, prev, pmin, p2, p1, out, acc),
             }
         };
     }
@@ -836,7 +844,7 @@ impl Sweep {
     #[allow(clippy::too_many_arguments)] // the pixel, the range, the penalties and the sweep's kind
     unsafe fn vertical<const NDQ: usize>(
         &self,
-        isa: Isa,
+        isa: Option<Avx2>,
         x: usize,
         w: usize,
         nd: usize,
@@ -877,7 +885,14 @@ impl Sweep {
 /// `p` is visited by the four paths at step `p` and by the right→left path at step `w − 1 − p`,
 /// the four paths first when both fall on the same step.
 #[inline(always)]
-fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
+fn forward_row<const NDQ: usize>(
+    sh: &Shared,
+    sc: &mut Scratch,
+    pp: &SgmParams,
+    y: usize,
+    first: bool,
+    isa: Option<Avx2>,
+) {
     let (w, nd) = (sh.w, sh.nd);
     let ndq = lanes(nd);
     assert!(NDQ == 0 || NDQ == ndq);
@@ -895,7 +910,7 @@ fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, 
     // interleaved rounds: 1282x1110x224 one
     // thread 196–198 → 187–188 ms, two threads 99–104 → 96–99 ms; teddy within ±1 %; five
     // paths, one thread: 1282x1110x224 337–343 → 305–311 ms, teddy 10.32–10.45 → 10.14–10.21 ms)
-    let in_place = isa.avx2();
+    let in_place = isa.is_some();
     let s = Sweep::new(sh, sc, pp, row, above, if three { 1 } else { 3 }, first, in_place);
     // both horizontal paths start from the path start (zeros, minimum 0)
     sc.hprev.copy_from_slice(&sc.zero);
@@ -993,13 +1008,20 @@ fn forward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, 
 /// between 9.5–9.9 and 10.2–10.8 ms (three paths, 3–4 interleaved rounds); as its own function
 /// 9.55–9.93 ms, against 9.87–10.18 ms with the whole sweep in the overlap (5 rounds).
 #[inline(always)]
-fn carry_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
+fn carry_row<const NDQ: usize>(
+    sh: &Shared,
+    sc: &mut Scratch,
+    pp: &SgmParams,
+    y: usize,
+    first: bool,
+    isa: Option<Avx2>,
+) {
     let (w, nd) = (sh.w, sh.nd);
     assert!(NDQ == 0 || NDQ == lanes(nd));
     let row = &pp.intensity[y * w..][..w];
     let above = if first { row } else { &pp.intensity[(y - 1) * w..][..w] };
     let three = pp.paths == SgmPaths::Three;
-    let in_place = isa.avx2();
+    let in_place = isa.is_some();
     let vertical = if three { 1 } else { 3 };
     let s = Sweep::new(sh, sc, pp, row, above, vertical, first, in_place);
     for x in 0..w {
@@ -1037,7 +1059,7 @@ macro_rules! per_lane_count {
     ($(#[$doc:meta])* $any:ident, $avx2:ident, $scalar:ident, $f:ident, $dq:expr, ($($a:ident: $t:ty),*)) => {
         $(#[$doc])*
         #[inline(always)]
-        fn $any($($a: $t,)* isa: Isa) {
+        fn $any($($a: $t,)* isa: Option<Avx2>) {
             // (each count in a function of its own: inlined into the strip, seven counts made
             // the crate's build 37 → 206 s, debug profile; as functions, sixteen take 59 s).
             // Every level and count calls a function of its own, none is inlined here: at
@@ -1045,11 +1067,11 @@ macro_rules! per_lane_count {
             // shares none), and with the any-count bodies (vector and scalar) inlined the strip's
             // frame was 999 KiB on top of a row kernel's, more than a rayon worker's 2 MiB stack.
             #[cfg(target_arch = "x86_64")]
-            if isa.avx2() {
-                // SAFETY: `isa` is AVX2 only when the CPU has AVX2 and POPCNT (`run_strip`).
+            if let Some(t) = isa {
+                // SAFETY: the token `t` proves AVX2 and POPCNT.
                 unsafe {
-                    by_lane_count!($dq, $avx2($($a),*));
-                    return $avx2::<0>($($a),*);
+                    by_lane_count!($dq, $avx2(t, $($a),*));
+                    return $avx2::<0>(t, $($a),*);
                 }
             }
             $scalar($($a),*)
@@ -1058,18 +1080,15 @@ macro_rules! per_lane_count {
         #[doc = concat!("[`", stringify!($f), "`] at the scalar level.")]
         #[inline(never)]
         fn $scalar($($a: $t),*) {
-            $f::<0>($($a,)* Isa::Scalar)
+            $f::<0>($($a,)* None)
         }
 
         #[doc = concat!("[`", stringify!($f), "`] with `NDQ` lanes at the vector level.")]
-        ///
-        /// # Safety
-        /// The CPU has AVX2 and POPCNT.
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = "avx2,popcnt")]
         #[inline(never)]
-        unsafe fn $avx2<const NDQ: usize>($($a: $t),*) {
-            $f::<NDQ>($($a,)* Isa::Avx2)
+        fn $avx2<const NDQ: usize>(t: Avx2, $($a: $t),*) {
+            $f::<NDQ>($($a,)* Some(t))
         }
     };
 }
@@ -1108,7 +1127,14 @@ per_lane_count!(
 /// The backward paths of row `y` (from the row below unless `first`): bottom, bottom-left,
 /// bottom-right, added to `acc`.
 #[inline(always)]
-fn backward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams, y: usize, first: bool, isa: Isa) {
+fn backward_row<const NDQ: usize>(
+    sh: &Shared,
+    sc: &mut Scratch,
+    pp: &SgmParams,
+    y: usize,
+    first: bool,
+    isa: Option<Avx2>,
+) {
     let (w, nd) = (sh.w, sh.nd);
     assert!(NDQ == 0 || NDQ == lanes(nd));
     let row = &pp.intensity[y * w..][..w];
@@ -1116,7 +1142,7 @@ fn backward_row<const NDQ: usize>(sh: &Shared, sc: &mut Scratch, pp: &SgmParams,
     // the paths rewritten in place, as the forward sweep's (the bottom and bottom-right, eight paths,
     // one thread, 3 interleaved rounds, with the forward sweep's already in place: 1282x1110x224
     // 753–769 → 681–690 ms, teddy 20.35–20.49 → 19.04–19.25 ms)
-    let in_place = isa.avx2();
+    let in_place = isa.is_some();
     let s = Sweep::new(sh, sc, pp, row, below, 3, first, in_place);
     for x in 0..w {
         // SAFETY: x < w, the sweep made for three paths; `isa` as the strip's.
@@ -1145,7 +1171,7 @@ fn decide_row<const NDQ: usize>(
     out: &mut [f32],
     conf: &mut [f32],
     st: &mut MatchStats,
-    isa: Isa,
+    isa: Option<Avx2>,
 ) {
     let (w, nd, dmin) = (sh.w, sh.nd, sh.dmin);
     let ndq = lanes(nd);
@@ -1188,7 +1214,7 @@ fn decide_row<const NDQ: usize>(
             // (the left band too: its lanes past `hi` read u16::MAX and leave the right minima
             // unchanged), a winner to search (1282x1110x224, three paths, callgrind: the left
             // band's chunks 38 → 22 instructions)
-            let fused = isa.avx2() && sh.lr.is_some() && lo == 0 && !rejected;
+            let fused = isa.is_some() && sh.lr.is_some() && lo == 0 && !rejected;
             if sh.lr.is_some() && !fused {
                 // SAFETY: j0 + len ≤ w (the candidates' right pixels), within rc and rk.
                 let (rc, rk) = unsafe {
@@ -1196,12 +1222,10 @@ fn decide_row<const NDQ: usize>(
                 };
                 let c = &s[lo..=hi];
                 #[cfg(target_arch = "x86_64")]
-                if isa.avx2() {
-                    // SAFETY: `isa` only in the strip's AVX2 instance; the three slices have `len`
-                    // entries.
-                    unsafe { lanes::right_update::<lanes::W256>(c, rc, rk, lo) };
+                if let Some(t) = isa {
+                    lanes::right_update(t, c, rc, rk, lo);
                 }
-                if !isa.avx2() {
+                if isa.is_none() {
                     right_update16(c, rc, rk, lo);
                 }
             }
@@ -1214,14 +1238,14 @@ fn decide_row<const NDQ: usize>(
             // one)
             let uniq = if lo > 0 || hi + 1 < nd { sh.uniq.max(sh.edge_uniq) } else { sh.uniq };
             #[cfg(target_arch = "x86_64")]
-            if isa.avx2() {
+            if let Some(t) = isa {
                 let second = if sh.conf || uniq > 0 { lanes::Second::Min } else { lanes::Second::Skip };
                 let right = fused.then(|| (rcp.wrapping_add(j0), rkp.wrapping_add(j0)));
                 // SAFETY: `isa` only in the strip's AVX2 instance; `s` and `tail` have Dq lanes,
                 // lo ≤ hi < D (asserted above the loop and by the `lo > hi` exit). With `fused`,
                 // lo = 0, and rc, rk have Dq lanes from j0 = w − 1 − xd ≤ w − 1 (w + Dq lanes,
                 // asserted above the loop).
-                let (m, kb, third) = unsafe { lanes::wta_right::<lanes::W256>(s, &sc.tail, lo, hi, second, right) };
+                let (m, kb, third) = unsafe { lanes::wta_right(t, s, &sc.tail, lo, hi, second, right) };
                 // `third`: the smallest S apart from the winner and its neighbours (u16::MAX: none)
                 (sc.win_k[x], sc.win_s[x], sc.win_third[x]) = (kb as i32, m, third);
                 (sc.win_m[x], sc.win_p[x]) = (s[kb.saturating_sub(1)], s[(kb + 1).min(nd - 1)]);
@@ -1251,7 +1275,7 @@ fn decide_row<const NDQ: usize>(
     // when they all have candidate 0 (x − dmin ≤ w − 1), else in `any_range` (teddy, three
     // paths, one thread, callgrind: 7.56 → 7.30 instructions an evaluation, tsukuba 17.28 →
     // 17.05, 1282x1110x224 5.63 → 5.52)
-    let (band_start, mid_start, mid_end) = if isa.avx2() {
+    let (band_start, mid_start, mid_end) = if isa.is_some() {
         let start = dmin.clamp(0, left_end as i64) as usize;
         (if w as i64 + dmin >= left_end as i64 { start } else { left_end }, left_end, right_start)
     } else {
@@ -1261,7 +1285,7 @@ fn decide_row<const NDQ: usize>(
         any_range!(x);
     }
     #[cfg(target_arch = "x86_64")]
-    if isa.avx2() {
+    if let Some(t) = isa {
         let (acc, tail) = (&sc.acc[..w * ndq], &sc.tail[..ndq]);
         let (ks, ms, thirds) = (&mut sc.win_k[..w], &mut sc.win_s[..w], &mut sc.win_third[..w]);
         let (cms, cps, best) = (&mut sc.win_m[..w], &mut sc.win_p[..w], &mut sc.best[..w]);
@@ -1291,7 +1315,7 @@ fn decide_row<const NDQ: usize>(
                                     std::slice::from_raw_parts_mut(rcp.add(j0), hi + 1),
                                     std::slice::from_raw_parts_mut(rkp.add(j0), hi + 1),
                                 );
-                                lanes::right_update::<lanes::W256>(&s[..=hi], rc, rk, 0);
+                                lanes::right_update(t, &s[..=hi], rc, rk, 0);
                             }
                         }
                         (best[x], ks[x]) = (-1, -1);
@@ -1304,7 +1328,7 @@ fn decide_row<const NDQ: usize>(
                         // Dq lanes, lo = 0 ≤ hi < D ≤ Dq, and in the middle (`all`) hi = D − 1
                         // where `tail` marks the lanes past D − 1; with `right`, lo = 0 and rc
                         // and rk have Dq lanes from j0 (as above).
-                        unsafe { lanes::wta_in::<lanes::W256>(s, tail, 0, hi, !$band, $second, right) };
+                        unsafe { lanes::wta_in(t, s, tail, 0, hi, !$band, $second, right) };
                     (ks[x], ms[x], thirds[x]) = (kb as i32, m, third);
                     (cms[x], cps[x]) = (s[kb.saturating_sub(1).min(nd1)], s[(kb + 1).min(nd1)]);
                 }
@@ -1327,14 +1351,14 @@ fn decide_row<const NDQ: usize>(
     for x in mid_end..w {
         any_range!(x);
     }
-    if isa.avx2() {
+    if isa.is_some() {
         decide_winners(sh, sc, st);
     }
     // (at the scalar level every update went to the first copy)
-    if sh.lr.is_some() && isa.avx2() {
+    if sh.lr.is_some() && isa.is_some() {
         merge_right(&sc.rc, &mut sc.rk, w, stride);
     }
-    let right = Reversed::new(&sc.rk, w, isa.avx2());
+    let right = Reversed::new(&sc.rk, w, isa);
     finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, &mut sc.rw, &right);
 }
 
@@ -1358,23 +1382,16 @@ struct Reversed<'a> {
     /// At least `w + 1` entries (the vector gather reads a 32-bit lane at `w − 1`).
     rk: &'a [u16],
     w: usize,
-    /// Gather with AVX2: asked for and found on the CPU.
-    avx2: bool,
+    /// Gather with AVX2.
+    avx2: Option<Avx2>,
 }
 
 impl<'a> Reversed<'a> {
-    /// `avx2`: gather with AVX2 if the CPU has it (the caller at the vector level, compiled for
-    /// it, so that the intrinsics are inlined).
+    /// `avx2`: gather with AVX2 (the caller at the vector level, compiled for it, so that the
+    /// intrinsics are inlined).
     #[inline(always)]
-    fn new(rk: &'a [u16], w: usize, avx2: bool) -> Self {
+    fn new(rk: &'a [u16], w: usize, avx2: Option<Avx2>) -> Self {
         assert!(rk.len() > w && w < 1 << 30);
-        #[cfg(target_arch = "x86_64")]
-        let avx2 = avx2 && std::arch::is_x86_feature_detected!("avx2");
-        #[cfg(not(target_arch = "x86_64"))]
-        let avx2 = {
-            let _ = avx2;
-            false
-        };
         Self { rk, w, avx2 }
     }
 }
@@ -1392,11 +1409,11 @@ impl RightWinners for Reversed<'_> {
     fn gather(&self, best: &[i32], dmin: i64, rw: &mut [u32]) {
         let mut from = 0;
         #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
+        if let Some(t) = self.avx2 {
             assert!(best.len() == self.w && rw.len() == self.w);
-            // SAFETY: `avx2` only when the CPU has AVX2 (`new`); rk has more than w entries and
-            // w < 2^30 (`new`), best and rw w (asserted above).
-            from = unsafe { gather_reversed_avx2(self.rk, best, dmin, rw) };
+            // SAFETY: the token proves AVX2; rk has more than w entries and w < 2^30 (`new`),
+            // best and rw w (asserted above).
+            from = unsafe { gather_reversed_avx2(t, self.rk, best, dmin, rw) };
         }
         gather_from(self, best, dmin, rw, from);
     }
@@ -1406,12 +1423,13 @@ impl RightWinners for Reversed<'_> {
 /// `u16` index `w − 1 − u` (scale 2), its low half kept; returns the pixels done.
 ///
 /// # Safety
-/// The CPU has AVX2; `rk.len() > w` (the word at index `w − 1` ends inside), `best.len() =
+/// `t` proves AVX2 (which the intrinsics need); `rk.len() > w` (the word at index `w − 1` ends inside), `best.len() =
 /// rw.len() = w < 2^30`; `|dmin| ≤ 2^20` and `best[x] < 2^16` (validated ranges), so that
 /// `x − dmin − k` fits `i32`.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn gather_reversed_avx2(rk: &[u16], best: &[i32], dmin: i64, rw: &mut [u32]) -> usize {
+unsafe fn gather_reversed_avx2(t: Avx2, rk: &[u16], best: &[i32], dmin: i64, rw: &mut [u32]) -> usize {
+    let _ = t;
     use std::arch::x86_64::*;
     let w = rw.len();
     // SAFETY: x + 8 ≤ w for the loads and stores of best and rw; every gathered index
@@ -1488,12 +1506,12 @@ fn strip(
     conf: &mut [f32],
     y0: usize,
     y1: usize,
-    isa: Isa,
+    isa: Option<Avx2>,
 ) -> MatchStats {
     let (w, h) = (sh.w, sh.h);
     let nd = lanes(sh.nd);
     let eight = pp.paths == SgmPaths::Eight;
-    sc.resize(sh, y1 - y0, pp.overlap, pp.paths, pp.bt.is_some(), isa.avx2());
+    sc.resize(sh, y1 - y0, pp.overlap, pp.paths, pp.bt.is_some(), isa.is_some());
     let mut st = MatchStats::default();
     let ys = y0.saturating_sub(pp.overlap);
     colsum_init(sh, pp, sc, ys, isa);
@@ -1531,11 +1549,11 @@ fn strip(
     st
 }
 
+/// [`strip`] compiled for AVX2 (the token proves the CPU runs it).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,popcnt")]
-/// # Safety
-/// The CPU must support AVX2 and POPCNT (the caller checks `SimdLevel::detect()`), and the strip's buffers must be sized for `sh` (as the driver does).
-unsafe fn strip_avx2(
+fn strip_avx2(
+    t: Avx2,
     sh: &Shared,
     pp: &SgmParams,
     sc: &mut Scratch,
@@ -1544,26 +1562,11 @@ unsafe fn strip_avx2(
     y0: usize,
     y1: usize,
 ) -> MatchStats {
-    strip(sh, pp, sc, out, conf, y0, y1, Isa::Avx2)
-}
-
-/// The instruction set of a run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Isa {
-    Scalar,
-    Avx2,
-}
-
-impl Isa {
-    /// True when the AVX2 kernels may run.
-    #[inline(always)]
-    fn avx2(self) -> bool {
-        self != Isa::Scalar
-    }
+    strip(sh, pp, sc, out, conf, y0, y1, Some(t))
 }
 
 /// Rows `y0..y1` of one strip, compiled for the instruction set of `simd` (the same code; the
-/// caller passes a level the CPU supports, from `SimdLevel::detect()`).
+/// AVX-512 level runs the AVX2 kernels here, see `SimdLevel::Avx512`).
 pub(crate) fn run_strip(
     sh: &Shared,
     pp: &SgmParams,
@@ -1574,25 +1577,22 @@ pub(crate) fn run_strip(
     y1: usize,
     simd: SimdLevel,
 ) -> MatchStats {
-    let simd = simd.min(SimdLevel::detect());
     #[cfg(target_arch = "x86_64")]
-    match simd {
-        // SAFETY: `detect()` found AVX2 and POPCNT on this CPU (the AVX-512 level runs the AVX2
-        // kernels here: see `SimdLevel::Avx512`).
-        SimdLevel::Avx2 | SimdLevel::Avx512 => return unsafe { strip_avx2(sh, pp, sc, out, conf, y0, y1) },
-        SimdLevel::Scalar => {}
+    if let Some(t) = Avx2::at_most(simd) {
+        // SAFETY: the token `t` proves AVX2 and POPCNT.
+        return unsafe { strip_avx2(t, sh, pp, sc, out, conf, y0, y1) };
     }
-    let _ = simd;
-    strip(sh, pp, sc, out, conf, y0, y1, Isa::Scalar)
+    strip(sh, pp, sc, out, conf, y0, y1, None)
 }
 
-/// The SGM kernels written once over the vector width ([`lanes::V16`]: 16 lanes of `u16` in
-/// 256 bits) and compiled for AVX2 by the thin `avx2` entry points below. The
+/// The SGM kernels written once over the lanes of `parallax_simd` ([`parallax_simd::U16x16`]: 16
+/// lanes of `u16` in 256 bits, made by an [`Avx2`] token) and compiled for AVX2 by the thin
+/// `avx2` entry points below. The
 /// compiler did not vectorise the scalar path step (measured: teddy 450x375x64, five paths,
 /// ~150 ms, the inner loop scalar).
 #[cfg(target_arch = "x86_64")]
 mod lanes {
-    use std::arch::x86_64::*;
+    use parallax_simd::{Avx2, U16x16};
 
     /// Checks the lengths [`vertical`] needs (the entry points assert them before any
     /// unchecked access).
@@ -1619,232 +1619,10 @@ mod lanes {
         assert!(ndq.is_multiple_of(16) && w > 0 && cost.len() >= w * ndq && colsum.len() >= (w + 2 * r) * ndq);
     }
 
-    /// A vector of `u16` lanes and the operations the kernels use.
-    ///
-    /// # Safety
-    /// Every method must run on a CPU with the vector's instruction set, inlined (they are
-    /// `inline(always)`) into a function compiled for it; pointers must address `LANES`
-    /// readable (or writable) lanes.
-    pub(super) trait V16: Copy {
-        /// Lanes per vector.
-        const LANES: usize;
-        /// Loads `LANES` lanes from `p`.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn ld(p: *const u16) -> Self;
-        /// Stores `v` at `p`.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn st(p: *mut u16, v: Self);
-        /// `x` in every lane.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn splat(x: u16) -> Self;
-        /// Wrapping `a + b`.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn add(a: Self, b: Self) -> Self;
-        /// Wrapping `a − b`.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn sub(a: Self, b: Self) -> Self;
-        /// Saturating unsigned `a + b`.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn adds(a: Self, b: Self) -> Self;
-        /// Saturating unsigned `a − b`.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn subs(a: Self, b: Self) -> Self;
-        /// Unsigned minimum.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn min(a: Self, b: Self) -> Self;
-        /// Unsigned maximum.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn max(a: Self, b: Self) -> Self;
-        /// All ones in the lanes where `a = b`, zero elsewhere.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn eq(a: Self, b: Self) -> Self;
-        /// Bitwise or.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn or(a: Self, b: Self) -> Self;
-        /// The smallest lane.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn hmin(self) -> u16;
-        /// Lanes moved up by one: lane `k` of the result is lane `k − 1` of `self`, lane 0 the
-        /// last lane of `before`.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn up(self, before: Self) -> Self;
-        /// Lanes moved down by one: lane `k` of the result is lane `k + 1` of `self`, the last
-        /// lane lane 0 of `after`.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn down(self, after: Self) -> Self;
-        /// All ones in the lanes where `a < b` (unsigned), zero elsewhere.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn less(a: Self, b: Self) -> Self;
-        /// `a` in the lanes where `m` is all ones, `b` where it is zero.
-        ///
-        /// # Safety
-        /// The trait's contract.
-        unsafe fn select(m: Self, a: Self, b: Self) -> Self;
-        /// `|a − r_a| − |b − r_b|` per lane (wrapping) from the byte pairs `(a, b)` of `ab`
-        /// and `LANES` byte pairs `(r_a, r_b)` at `p`, every byte below 128: the byte
-        /// difference does not wrap, its absolute value is below 128 and the multiply-add by
-        /// `(1, −1)` is exact.
-        ///
-        /// # Safety
-        /// The trait's contract; `2 · LANES` readable bytes at `p`.
-        unsafe fn pair_diff(ab: Self, p: *const u8) -> Self;
-    }
-
-    /// One [`V16`] implementation per register width, from its intrinsics.
-    macro_rules! v16 {
-        ($name:ident, $reg:ty, $lanes:literal, $doc:literal, $ld:ident, $st:ident, $set1:ident,
-         $($op:ident: $intrinsic:ident),+; |$h:ident| $hmin:expr;
-         |$u:ident, $ub:ident| $up:expr; |$dn:ident, $da:ident| $down:expr;
-         |$la:ident, $lb:ident| $less:expr; |$sm:ident, $sa:ident, $sb:ident| $select:expr;
-         |$pa:ident, $pp:ident| $pair:expr) => {
-            #[doc = $doc]
-            #[derive(Clone, Copy)]
-            pub(super) struct $name($reg);
-
-            impl V16 for $name {
-                const LANES: usize = $lanes;
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn ld(p: *const u16) -> Self {
-                    // SAFETY: the trait's contract (a full vector at p, the instruction set).
-                    unsafe { $name($ld(p as *const _)) }
-                }
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn st(p: *mut u16, v: Self) {
-                    // SAFETY: the trait's contract (a full vector at p, the instruction set).
-                    unsafe { $st(p as *mut _, v.0) }
-                }
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn splat(x: u16) -> Self {
-                    // SAFETY: the trait's contract (the instruction set).
-                    unsafe { $name($set1(x as i16)) }
-                }
-                $(
-                    /// # Safety
-                    /// The trait's contract.
-                    #[inline(always)]
-                    unsafe fn $op(a: Self, b: Self) -> Self {
-                        // SAFETY: the trait's contract (the instruction set).
-                        unsafe { $name($intrinsic(a.0, b.0)) }
-                    }
-                )+
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn hmin(self) -> u16 {
-                    let $h = self.0;
-                    // SAFETY: the trait's contract (the instruction set).
-                    unsafe { $hmin }
-                }
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn up(self, before: Self) -> Self {
-                    let ($u, $ub) = (self.0, before.0);
-                    // SAFETY: the trait's contract (the instruction set).
-                    $name(unsafe { $up })
-                }
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn down(self, after: Self) -> Self {
-                    let ($dn, $da) = (self.0, after.0);
-                    // SAFETY: the trait's contract (the instruction set).
-                    $name(unsafe { $down })
-                }
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn less(a: Self, b: Self) -> Self {
-                    let ($la, $lb) = (a.0, b.0);
-                    // SAFETY: the trait's contract (the instruction set).
-                    $name(unsafe { $less })
-                }
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn select(m: Self, a: Self, b: Self) -> Self {
-                    let ($sm, $sa, $sb) = (m.0, a.0, b.0);
-                    // SAFETY: the trait's contract (the instruction set).
-                    $name(unsafe { $select })
-                }
-                /// # Safety
-                /// The trait's contract.
-                #[inline(always)]
-                unsafe fn pair_diff(ab: Self, p: *const u8) -> Self {
-                    let ($pa, $pp) = (ab.0, p);
-                    // SAFETY: the trait's contract (the bytes at p, the instruction set).
-                    $name(unsafe { $pair })
-                }
-            }
-        };
-    }
-
-    v16!(
-        W256, __m256i, 16, "16 lanes (AVX2).", _mm256_loadu_si256, _mm256_storeu_si256, _mm256_set1_epi16,
-        add: _mm256_add_epi16, sub: _mm256_sub_epi16, adds: _mm256_adds_epu16, subs: _mm256_subs_epu16,
-        min: _mm256_min_epu16, max: _mm256_max_epu16, eq: _mm256_cmpeq_epi16, or: _mm256_or_si256;
-        |v| {
-            let m = _mm_min_epu16(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
-            (_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xffff) as u16
-        };
-        // [before.hi, v.lo] then per 128-bit half the last 2 bytes of the first operand's
-        // half and the first 14 of the second's
-        |v, b| _mm256_alignr_epi8::<14>(v, _mm256_permute2x128_si256::<0x21>(b, v));
-        |v, a| _mm256_alignr_epi8::<2>(_mm256_permute2x128_si256::<0x21>(v, a), v);
-        // a < b ⟺ max(a, b) ≠ a
-        |a, b| _mm256_xor_si256(_mm256_cmpeq_epi16(_mm256_max_epu16(a, b), a), _mm256_set1_epi16(-1));
-        |m, a, b| _mm256_blendv_epi8(b, a, m);
-        |ab, p| {
-            let r = _mm256_loadu_si256(p as *const __m256i);
-            _mm256_maddubs_epi16(_mm256_abs_epi8(_mm256_sub_epi8(ab, r)), _mm256_set1_epi16(0xff01u16 as i16))
-        }
-    );
-
-    /// `|a − b|` per lane.
-    ///
-    /// # Safety
-    /// [`V16`]'s contract.
-    #[inline(always)]
-    unsafe fn absdiff<V: V16>(a: V, b: V) -> V {
-        // SAFETY: the caller's (V16's contract).
-        unsafe { V::or(V::subs(a, b), V::subs(b, a)) }
-    }
+    /// The vector the kernels are written over: 16 lanes of `u16`, made by an [`Avx2`] token.
+    type V = U16x16;
+    /// Lanes per vector.
+    pub(super) const LANES: usize = 16;
 
     /// [`super::paths`] on all `Dq` lanes: per chunk of every path, the minimum of `L(d)`,
     /// `L(d ± 1) + P1` (saturating) and `min L + P2'`, minus `min L`, plus `C` (saturating: the
@@ -1859,12 +1637,13 @@ mod lanes {
     /// writing the new vectors to a second row-sized buffer cost).
     ///
     /// # Safety
-    /// [`V16`]'s contract; `c`, `acc` have `Dq` entries (a positive multiple of `LANES`) and
+    /// `c`, `acc` have `Dq` entries (a positive multiple of `LANES`) and
     /// every `prev[i]` and `out[i]` `Dq + 2` (the callers assert it); no `out[i]` overlaps an
     /// input or another output, but with `IN_PLACE` one after the first `H` may equal `prev[i]`.
     #[cfg_attr(not(opt_level_zero), inline(always))]
     #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
-    pub(super) unsafe fn paths<V: V16, const N: usize, const H: usize, const SET: bool, const IN_PLACE: bool>(
+    pub(super) unsafe fn paths<const N: usize, const H: usize, const SET: bool, const IN_PLACE: bool>(
+        t: Avx2,
         c: &[u16],
         prev: [*const u16; N],
         pmin: [u16; N],
@@ -1887,19 +1666,19 @@ mod lanes {
         // Dq.
         unsafe {
             let ndq = c.len();
-            let p1v = V::splat(p1);
-            let pad = V::splat(super::PAD);
-            let pm: [V; N] = std::array::from_fn(|i| V::splat(pmin[i]));
+            let p1v = t.splat(p1);
+            let pad = t.splat(super::PAD);
+            let pm: [V; N] = std::array::from_fn(|i| t.splat(pmin[i]));
             // (`min L + P2'` in the vectors: the compiler then keeps the previous pixel's
             // minimum in a vector register from its `hmin`, where the scalar sum cost it a move
             // out, the sum and a broadcast back; three paths, one thread, callgrind, with the
             // search's one-compare key: tsukuba 19.00 → 17.62, venus 11.39 → 10.94, teddy 7.94 →
             // 7.68 instructions an evaluation)
-            let jump: [V; N] = std::array::from_fn(|i| V::adds(pm[i], V::splat(p2[i])));
-            let mut mv = [V::splat(u16::MAX); N];
+            let jump: [V; N] = std::array::from_fn(|i| V::adds(pm[i], t.splat(p2[i])));
+            let mut mv = [t.splat(u16::MAX); N];
             // the lanes just outside 0..Dq: slots 0 and Dq + 1 (PAD)
             let mut before = [pad; N];
-            let mut cur: [V; N] = std::array::from_fn(|i| V::ld(prev[i].add(1)));
+            let mut cur: [V; N] = std::array::from_fn(|i| t.load_ptr(prev[i].add(1)));
             // (`IN_PLACE`: each vertical path's next first load, taken before the store)
             let mut carried = [pad; N];
             // one chunk at d with the predecessors' next chunks `next`. A macro, not a closure:
@@ -1908,50 +1687,50 @@ mod lanes {
                 ($d:expr, $next:expr) => {{
                     let d = $d;
                     let next: [V; N] = $next;
-                    let cv = V::ld(c.as_ptr().add(d));
-                    let mut sum = if SET { V::splat(0) } else { V::ld(acc.as_ptr().add(d)) };
+                    let cv = t.load_ptr(c.as_ptr().add(d));
+                    let mut sum = if SET { t.splat(0) } else { t.load_ptr(acc.as_ptr().add(d)) };
                     for i in 0..N {
                         let (a, b, e) = if i < H {
                             (cur[i].up(before[i]), cur[i], cur[i].down(next[i]))
                         } else {
                             let p = prev[i].add(d);
-                            let a = if IN_PLACE && d > 0 { carried[i] } else { V::ld(p) };
-                            let (b, e) = (V::ld(p.add(1)), V::ld(p.add(2)));
-                            if IN_PLACE && d + V::LANES < ndq {
-                                carried[i] = V::ld(p.add(V::LANES));
+                            let a = if IN_PLACE && d > 0 { carried[i] } else { t.load_ptr(p) };
+                            let (b, e) = (t.load_ptr(p.add(1)), t.load_ptr(p.add(2)));
+                            if IN_PLACE && d + LANES < ndq {
+                                carried[i] = t.load_ptr(p.add(LANES));
                             }
                             (a, b, e)
                         };
                         // min(a + P1, e + P1) = min(a, e) + P1 (saturating addition is monotone)
                         let best = V::min(V::min(b, jump[i]), V::adds(V::min(a, e), p1v));
                         // (best ≥ min L: no wrap)
-                        let v = V::adds(cv, V::sub(best, pm[i]));
-                        V::st(out[i].add(d + 1), v);
+                        let v = V::adds(cv, V::wrapping_sub(best, pm[i]));
+                        t.store_ptr(out[i].add(d + 1), v);
                         mv[i] = V::min(mv[i], v);
-                        sum = V::add(sum, v);
+                        sum = V::wrapping_add(sum, v);
                         (before[i], cur[i]) = (cur[i], next[i]);
                     }
-                    V::st(acc.as_mut_ptr().add(d), sum);
+                    t.store_ptr(acc.as_mut_ptr().add(d), sum);
                 }};
             }
-            let next = |d: usize| -> [V; N] { std::array::from_fn(|i| V::ld(prev[i].add(d + 1 + V::LANES))) };
+            let next = |d: usize| -> [V; N] { std::array::from_fn(|i| t.load_ptr(prev[i].add(d + 1 + LANES))) };
             // the chunks before the last three at a time: the horizontal paths' `before`,
             // `cur` and `next` then come back to the registers they started in, without the
             // moves a loop of one chunk made (three paths, one thread, callgrind: teddy 11.31 → 10.99
             // instructions an evaluation)
             let mut d = 0;
-            for _ in 0..(ndq / V::LANES - 1) / 3 {
+            for _ in 0..(ndq / LANES - 1) / 3 {
                 chunk!(d, next(d));
-                chunk!(d + V::LANES, next(d + V::LANES));
-                chunk!(d + 2 * V::LANES, next(d + 2 * V::LANES));
-                d += 3 * V::LANES;
+                chunk!(d + LANES, next(d + LANES));
+                chunk!(d + 2 * LANES, next(d + 2 * LANES));
+                d += 3 * LANES;
             }
-            while d + V::LANES < ndq {
+            while d + LANES < ndq {
                 chunk!(d, next(d));
-                d += V::LANES;
+                d += LANES;
             }
             chunk!(d, [pad; N]);
-            std::array::from_fn(|i| mv[i].hmin())
+            std::array::from_fn(|i| mv[i].horizontal_min())
         }
     }
 
@@ -1962,10 +1741,11 @@ mod lanes {
     /// (`r_a` the low byte), `pairs.1` the left rows' (`l_a[xp] | l_b[xp] << 8`).
     ///
     /// # Safety
-    /// [`V16`]'s contract; the lengths the callers assert.
+    /// the lengths the callers assert.
     #[cfg_attr(not(opt_level_zero), inline(always))]
     #[allow(clippy::too_many_arguments)] // both row pairs, the lane count and range
-    pub(super) unsafe fn vertical<V: V16, const BT: bool, const SUB: bool, const PAIRS: bool>(
+    pub(super) unsafe fn vertical<const BT: bool, const SUB: bool, const PAIRS: bool>(
+        t: Avx2,
         colsum: &mut [u16],
         (la, ra, lb, rb): Rows,
         bt: Option<BtRows>,
@@ -1983,25 +1763,22 @@ mod lanes {
             // SAFETY: base + d + LANES ≤ wp − 1 + ndq, within r and the right intervals
             // (asserted by the callers).
             unsafe {
-                let v = V::ld(r.as_ptr().add(base));
+                let v = t.load_ptr(r.as_ptr().add(base));
                 if BT {
-                    let (v0, v1) = (V::ld(bt[2].as_ptr().add(base)), V::ld(bt[3].as_ptr().add(base)));
+                    let (v0, v1) = (t.load_ptr(bt[2].as_ptr().add(base)), t.load_ptr(bt[3].as_ptr().add(base)));
                     // distance to an interval: at most one of the two saturating differences is
                     // non-zero, so their `or` is their maximum
                     V::min(V::or(V::subs(u, v1), V::subs(v0, u)), V::or(V::subs(v, u1), V::subs(u0, v)))
                 } else {
-                    absdiff(u, v)
+                    V::abs_diff(u, v)
                 }
             }
         };
         let splat3 = |l: &[u16], bt: &[&[u16]; 4], xp: usize| {
-            // SAFETY: the trait's contract; xp < wp ≤ each left row's length (asserted).
-            unsafe {
-                if BT {
-                    (V::splat(l[xp]), V::splat(bt[0][xp]), V::splat(bt[1][xp]))
-                } else {
-                    (V::splat(l[xp]), V::splat(0), V::splat(0))
-                }
+            if BT {
+                (t.splat(l[xp]), t.splat(bt[0][xp]), t.splat(bt[1][xp]))
+            } else {
+                (t.splat(l[xp]), t.splat(0), t.splat(0))
             }
         };
         // one column's update, then `$after` on each new chunk of sums (`$d`: its first lane,
@@ -2020,21 +1797,20 @@ mod lanes {
                     // 2(base + d) .. 2(base + d + LANES) ≤ 2(wp − 1 + ndq), and the column sums
                     // as below; `$after`'s (asserted by the callers).
                     unsafe {
-                        let lp = V::splat(*pairs.1.add(xp));
+                        let lp = t.splat(*pairs.1.add(xp));
                         let mut d = from;
                         while d < to {
                             let p = cs.add(xp * ndq + d);
-                            let v = V::add(V::ld(p), V::pair_diff(lp, pairs.0.add(2 * (base + d))));
-                            V::st(p, v);
+                            let v = V::wrapping_add(t.load_ptr(p), t.pair_difference(lp, pairs.0.add(2 * (base + d))));
+                            t.store_ptr(p, v);
                             let ($d, $v) = (d, v);
                             $after
-                            d += V::LANES;
+                            d += LANES;
                         }
                     }
                 } else {
                     let (ua, ua0, ua1) = splat3(la, &bta, xp);
-                    // SAFETY: the trait's contract.
-                    let zero = unsafe { V::splat(0) };
+                    let zero = t.splat(0);
                     let (ub, ub0, ub1) = if SUB { splat3(lb, &btb, xp) } else { (zero, zero, zero) };
                     let mut d = from;
                     while d < to {
@@ -2042,15 +1818,15 @@ mod lanes {
                         // `$after`'s.
                         unsafe {
                             let p = cs.add(xp * ndq + d);
-                            let mut v = V::add(V::ld(p), diff(ua, ua0, ua1, ra, &bta, base + d));
+                            let mut v = V::wrapping_add(t.load_ptr(p), diff(ua, ua0, ua1, ra, &bta, base + d));
                             if SUB {
-                                v = V::sub(v, diff(ub, ub0, ub1, rb, &btb, base + d));
+                                v = V::wrapping_sub(v, diff(ub, ub0, ub1, rb, &btb, base + d));
                             }
-                            V::st(p, v);
+                            t.store_ptr(p, v);
                             let ($d, $v) = (d, v);
                             $after
                         }
-                        d += V::LANES;
+                        d += LANES;
                     }
                 }
             }};
@@ -2071,8 +1847,8 @@ mod lanes {
                 // (SAFETY, in `column`'s unsafe block: x·ndq + d + LANES ≤ (wp − 2r)·ndq lanes
                 // of cost, and the column sums as above, asserted by the callers)
                 column!(xp, |d, v| {
-                    let run = V::add(V::ld(c.add((x - 1) * ndq + d)), v);
-                    V::st(c.add(x * ndq + d), V::sub(run, V::ld(cs.add((x - 1) * ndq + d))));
+                    let run = V::wrapping_add(t.load_ptr(c.add((x - 1) * ndq + d)), v);
+                    t.store_ptr(c.add(x * ndq + d), V::wrapping_sub(run, t.load_ptr(cs.add((x - 1) * ndq + d))));
                 });
                 continue;
             }
@@ -2086,13 +1862,13 @@ mod lanes {
                 // SAFETY: d + LANES ≤ ndq lanes of cost, and the column sums as above (asserted
                 // by the callers).
                 unsafe {
-                    let mut acc = V::splat(0);
+                    let mut acc = t.splat(0);
                     for k in 0..=2 * r {
-                        acc = V::add(acc, V::ld(cs.add(k * ndq + d)));
+                        acc = V::wrapping_add(acc, t.load_ptr(cs.add(k * ndq + d)));
                     }
-                    V::st(c.add(d), acc);
+                    t.store_ptr(c.add(d), acc);
                 }
-                d += V::LANES;
+                d += LANES;
             }
         }
     }
@@ -2101,9 +1877,10 @@ mod lanes {
     /// along the row.
     ///
     /// # Safety
-    /// [`V16`]'s contract; the lengths the callers assert.
+    /// the lengths the callers assert.
     #[cfg_attr(not(opt_level_zero), inline(always))]
-    pub(super) unsafe fn box_row<V: V16>(
+    pub(super) unsafe fn box_row(
+        t: Avx2,
         cost: &mut [u16],
         colsum: &[u16],
         w: usize,
@@ -2117,22 +1894,25 @@ mod lanes {
         unsafe {
             let mut d = from;
             while d < to {
-                let mut acc = V::splat(0);
+                let mut acc = t.splat(0);
                 for xp in 0..=2 * r {
-                    acc = V::add(acc, V::ld(cs.add(xp * ndq + d)));
+                    acc = V::wrapping_add(acc, t.load_ptr(cs.add(xp * ndq + d)));
                 }
-                V::st(c.add(d), acc);
-                d += V::LANES;
+                t.store_ptr(c.add(d), acc);
+                d += LANES;
             }
             for x in 1..w {
                 let mut d = from;
                 while d < to {
-                    let v = V::sub(
-                        V::add(V::ld(c.add((x - 1) * ndq + d)), V::ld(cs.add((x + 2 * r) * ndq + d))),
-                        V::ld(cs.add((x - 1) * ndq + d)),
+                    let v = V::wrapping_sub(
+                        V::wrapping_add(
+                            t.load_ptr(c.add((x - 1) * ndq + d)),
+                            t.load_ptr(cs.add((x + 2 * r) * ndq + d)),
+                        ),
+                        t.load_ptr(cs.add((x - 1) * ndq + d)),
                     );
-                    V::st(c.add(x * ndq + d), v);
-                    d += V::LANES;
+                    t.store_ptr(c.add(x * ndq + d), v);
+                    d += LANES;
                 }
             }
         }
@@ -2163,22 +1943,22 @@ mod lanes {
     /// All ones in the lanes of the chunk starting at candidate `d` that lie outside `lo..=hi`.
     ///
     /// # Safety
-    /// [`V16`]'s contract.
+    /// Only the memory the arguments address.
     #[inline(always)]
-    unsafe fn outside<V: V16>(d: usize, lo: usize, hi: usize) -> V {
-        let below = lo.saturating_sub(d).min(V::LANES);
-        let within = (hi + 1).saturating_sub(d).min(V::LANES);
+    unsafe fn outside(t: Avx2, d: usize, lo: usize, hi: usize) -> V {
+        let below = lo.saturating_sub(d).min(LANES);
+        let within = (hi + 1).saturating_sub(d).min(LANES);
         // SAFETY: offsets 32 − below ≥ 0 and 64 − within ≥ 32, plus LANES ≤ 32 lanes, stay
         // inside the 96 lanes of EDGES.
-        unsafe { V::or(V::ld(EDGES.as_ptr().add(32 - below)), V::ld(EDGES.as_ptr().add(64 - within))) }
+        unsafe { V::or(t.load_ptr(EDGES.as_ptr().add(32 - below)), t.load_ptr(EDGES.as_ptr().add(64 - within))) }
     }
 
     /// Checks the lengths [`wta_right`] needs (the tests' entry; `decide_row` asserts them once per
     /// row).
     #[cfg(test)]
-    pub(super) fn wta_checked<V: V16>(s: &[u16], tail: &[u16], lo: usize, hi: usize) {
+    pub(super) fn wta_checked(s: &[u16], tail: &[u16], lo: usize, hi: usize) {
         let n = s.len();
-        assert!(V::LANES <= 32 && n.is_multiple_of(V::LANES) && tail.len() == n && lo <= hi && hi < n && n < 1 << 15);
+        assert!(LANES <= 32 && n.is_multiple_of(LANES) && tail.len() == n && lo <= hi && hi < n && n < 1 << 15);
     }
 
     /// What [`wta_right`] finds besides the winner, among the candidates other than the winner and
@@ -2203,11 +1983,12 @@ mod lanes {
     /// `u16::MAX`, so they leave them unchanged.
     ///
     /// # Safety
-    /// [`V16`]'s contract; `s` and `tail` have `Dq` lanes (a multiple of `LANES` below
+    /// `s` and `tail` have `Dq` lanes (a multiple of `LANES` below
     /// 2^15) and `lo ≤ hi < Dq` (what the tests' `wta_checked` asserts); with `right`, `lo = 0`
     /// and `rc`, `rk` address `Dq` writable lanes each.
     #[inline(always)]
-    pub(super) unsafe fn wta_right<V: V16>(
+    pub(super) unsafe fn wta_right(
+        t: Avx2,
         s: &[u16],
         tail: &[u16],
         lo: usize,
@@ -2218,7 +1999,7 @@ mod lanes {
         // every candidate in the image (most pixels): the lanes past hi are those `tail` marks
         let all = lo == 0 && tail[hi] == 0 && (hi + 1 == tail.len() || tail[hi + 1] != 0);
         // SAFETY: the caller's; `all` as computed.
-        unsafe { wta_in::<V>(s, tail, lo, hi, all, second, right) }
+        unsafe { wta_in(t, s, tail, lo, hi, all, second, right) }
     }
 
     /// [`wta_right`] told whether every candidate is in the image (`all`: `lo = 0` and the
@@ -2229,7 +2010,8 @@ mod lanes {
     /// [`wta_right`]'s, and `all` true only where the above holds.
     #[cfg_attr(not(opt_level_zero), inline(always))]
     #[allow(clippy::too_many_arguments)] // wta_right's, and what it would compute
-    pub(super) unsafe fn wta_in<V: V16>(
+    pub(super) unsafe fn wta_in(
+        t: Avx2,
         s: &[u16],
         tail: &[u16],
         lo: usize,
@@ -2240,7 +2022,7 @@ mod lanes {
     ) -> (u16, usize, u16) {
         // (with `all`, 0 and `Dq`: hi = D − 1 is in the last chunk; a constant when the caller's
         // `Dq` is)
-        let (c0, c1) = if all { (0, tail.len()) } else { (lo / V::LANES * V::LANES, (hi / V::LANES + 1) * V::LANES) };
+        let (c0, c1) = if all { (0, tail.len()) } else { (lo / LANES * LANES, (hi / LANES + 1) * LANES) };
         debug_assert!(all == (lo == 0 && tail[hi] == 0 && (hi + 1 == tail.len() || tail[hi + 1] != 0)));
         debug_assert!(right.is_none() || lo == 0);
         // SAFETY: chunks d .. d + LANES ≤ c1 ≤ s.len() = tail.len() (and within rc, rk: the
@@ -2252,15 +2034,15 @@ mod lanes {
             // with the candidate counter below; with the band's fused update, the decisions
             // 1.98 → 1.61 instructions an evaluation)
             let masked = |d: usize| {
-                let mask = if all { V::ld(tail.as_ptr().add(d)) } else { outside::<V>(d, lo, hi) };
-                V::or(V::ld(s.as_ptr().add(d)), mask)
+                let mask = if all { t.load_ptr(tail.as_ptr().add(d)) } else { outside(t, d, lo, hi) };
+                V::or(t.load_ptr(s.as_ptr().add(d)), mask)
             };
             // per lane, the smallest S, its first candidate (strictly smaller replaces) and (for
             // `Second::Min`) the second smallest S (equal to the smallest when it occurs twice);
             // `k`: the chunk's candidates
-            let step = V::splat(V::LANES as u16);
-            let (mut mv, mut iv, mut m2) = (V::splat(u16::MAX), V::splat(0), V::splat(u16::MAX));
-            let mut k = V::add(V::ld(RAMP.as_ptr()), V::splat(c0 as u16));
+            let step = t.splat(LANES as u16);
+            let (mut mv, mut iv, mut m2) = (t.splat(u16::MAX), t.splat(0), t.splat(u16::MAX));
+            let mut k = V::wrapping_add(t.load_ptr(RAMP.as_ptr()), t.splat(c0 as u16));
             let two = matches!(second, Second::Min);
             // one chunk `$v` at `$d` (candidates `k`), and with `$right` the right update; a macro, pasted in the
             // two loops (one loop with the update under a test per chunk measured 4 % more
@@ -2280,23 +2062,23 @@ mod lanes {
                         let (rc, rk): (*mut u16, *mut u16) = (rc, rk);
                         // (v ≥ r likewise: the right pixel keeps its candidate; a masked lane,
                         // u16::MAX, leaves it unchanged)
-                        let r = V::ld(rc.add($d));
+                        let r = t.load_ptr(rc.add($d));
                         let nr = V::min(r, v);
-                        V::st(rc.add($d), nr);
-                        V::st(rk.add($d), V::select(V::eq(nr, r), V::ld(rk.add($d)), k));
+                        t.store_ptr(rc.add($d), nr);
+                        t.store_ptr(rk.add($d), V::select(V::eq(nr, r), t.load_ptr(rk.add($d)), k));
                     }
                 }};
             }
             macro_rules! search {
                 ($right:expr) => {{
                     let mut d = c0;
-                    if !all && lo > c0 && d + V::LANES < c1 {
+                    if !all && lo > c0 && d + LANES < c1 {
                         chunk!(d, masked(d), $right);
-                        (d, k) = (d + V::LANES, V::add(k, step));
+                        (d, k) = (d + LANES, V::wrapping_add(k, step));
                     }
-                    while d + V::LANES < c1 {
-                        chunk!(d, V::ld(s.as_ptr().add(d)), $right);
-                        (d, k) = (d + V::LANES, V::add(k, step));
+                    while d + LANES < c1 {
+                        chunk!(d, t.load_ptr(s.as_ptr().add(d)), $right);
+                        (d, k) = (d + LANES, V::wrapping_add(k, step));
                     }
                     chunk!(d, masked(d), $right);
                 }};
@@ -2305,14 +2087,14 @@ mod lanes {
                 None => search!(None::<(*mut u16, *mut u16)>),
                 Some(r) => search!(Some(r)),
             }
-            let m = mv.hmin();
+            let m = mv.horizontal_min();
             // the first candidate holding the minimum: the smallest of the lanes' first
             // candidates among the lanes whose minimum it is (mv = m: one compare, as mv ≥ m in
             // every lane; the others masked to u16::MAX), without a branch on where it is (a
             // data-dependent exit mispredicted)
             let first = iv;
-            let key = V::select(V::eq(mv, V::splat(m)), first, V::splat(u16::MAX));
-            let kb = key.hmin() as usize;
+            let key = V::select(V::eq(mv, t.splat(m)), first, t.splat(u16::MAX));
+            let kb = key.horizontal_min() as usize;
             match second {
                 Second::Skip => (m, kb, 0),
                 Second::Min => {
@@ -2322,36 +2104,34 @@ mod lanes {
                     // over S with masks at kb measured 12 instructions a chunk, plus the
                     // neighbours' scalar tests). Lanes whose first minimum is at kb − 1 ..= kb + 1:
                     // first − (kb − 1) in 0..=2 (wrapping: kb = 0 has no kb − 1).
-                    let off = V::sub(first, V::splat((kb as u16).wrapping_sub(1)));
-                    let near = V::less(off, V::splat(3));
-                    (m, kb, V::select(near, m2, mv).hmin())
+                    let off = V::wrapping_sub(first, t.splat((kb as u16).wrapping_sub(1)));
+                    let near = V::less(off, t.splat(3));
+                    (m, kb, V::select(near, m2, mv).horizontal_min())
                 }
             }
         }
     }
 
     /// [`super::right_update16`] in chunks of `LANES` (strictly smaller wins: first wins),
-    /// the last partial chunk lane by lane.
-    ///
-    /// # Safety
-    /// [`V16`]'s contract; the three slices have the same length (the callers assert it).
+    /// the last partial chunk lane by lane. The three slices have the same length.
     #[cfg_attr(not(opt_level_zero), inline(always))]
-    pub(super) unsafe fn right_update<V: V16>(c: &[u16], rc: &mut [u16], rk: &mut [u16], lo: usize) {
+    pub(super) fn right_update(t: Avx2, c: &[u16], rc: &mut [u16], rk: &mut [u16], lo: usize) {
         let n = c.len();
-        let mut t = 0;
-        // SAFETY: t + LANES ≤ n for all three slices; RAMP has 32 ≥ LANES lanes.
+        assert!(rc.len() == n && rk.len() == n);
+        let mut i = 0;
+        // SAFETY: i + LANES ≤ n for all three slices; RAMP has 32 ≥ LANES lanes.
         unsafe {
-            let ramp = V::ld(RAMP.as_ptr());
-            while t + V::LANES <= n {
-                let v = V::ld(c.as_ptr().add(t));
-                let r = V::ld(rc.as_ptr().add(t));
-                let k = V::add(ramp, V::splat((lo + t) as u16));
-                V::st(rc.as_mut_ptr().add(t), V::min(r, v));
-                V::st(rk.as_mut_ptr().add(t), V::select(V::less(v, r), k, V::ld(rk.as_ptr().add(t))));
-                t += V::LANES;
+            let ramp = t.load_ptr(RAMP.as_ptr());
+            while i + LANES <= n {
+                let v = t.load_ptr(c.as_ptr().add(i));
+                let r = t.load_ptr(rc.as_ptr().add(i));
+                let k = V::wrapping_add(ramp, t.splat((lo + i) as u16));
+                t.store_ptr(rc.as_mut_ptr().add(i), V::min(r, v));
+                t.store_ptr(rk.as_mut_ptr().add(i), V::select(V::less(v, r), k, t.load_ptr(rk.as_ptr().add(i))));
+                i += LANES;
             }
         }
-        super::right_update16(&c[t..], &mut rc[t..], &mut rk[t..], lo + t);
+        super::right_update16(&c[i..], &mut rc[i..], &mut rk[i..], lo + i);
     }
 }
 
@@ -2359,7 +2139,8 @@ mod lanes {
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
 
-    use super::lanes::{self, W256};
+    use super::lanes;
+    use parallax_simd::Avx2;
 
     /// [`lanes::vertical`] on every lane.
     ///
@@ -2368,7 +2149,8 @@ mod avx2 {
     #[inline]
     #[target_feature(enable = "avx2,popcnt")]
     #[allow(clippy::too_many_arguments)] // both row pairs, the lane count, the box sums
-    pub(super) unsafe fn vertical(
+    pub(super) fn vertical(
+        t: Avx2,
         colsum: &mut [u16],
         rows: lanes::Rows,
         bt: Option<lanes::BtRows>,
@@ -2392,26 +2174,22 @@ mod avx2 {
         unsafe {
             let all = (0, ndq);
             match (bt.is_some(), sub, pairs.is_some()) {
-                (true, true, _) => lanes::vertical::<W256, true, true, false>(colsum, rows, bt, pp, ndq, boxed, all),
-                (true, false, _) => lanes::vertical::<W256, true, false, false>(colsum, rows, bt, pp, ndq, boxed, all),
+                (true, true, _) => lanes::vertical::<true, true, false>(t, colsum, rows, bt, pp, ndq, boxed, all),
+                (true, false, _) => lanes::vertical::<true, false, false>(t, colsum, rows, bt, pp, ndq, boxed, all),
                 // (the byte pairs, the default cost's case, compiled for 16 to 128 lanes as
                 // `forward_row_any`: three paths, tsukuba 19.51 → 19.12, venus
                 // 11.99 → 11.70, teddy 8.56 → 8.32 instructions an evaluation)
                 (false, true, true) => match ndq {
-                    16 => lanes::vertical::<W256, false, true, true>(colsum, rows, bt, pp, 16, boxed, (0, 16)),
-                    32 => lanes::vertical::<W256, false, true, true>(colsum, rows, bt, pp, 32, boxed, (0, 32)),
-                    48 => lanes::vertical::<W256, false, true, true>(colsum, rows, bt, pp, 48, boxed, (0, 48)),
-                    64 => lanes::vertical::<W256, false, true, true>(colsum, rows, bt, pp, 64, boxed, (0, 64)),
-                    96 => lanes::vertical::<W256, false, true, true>(colsum, rows, bt, pp, 96, boxed, (0, 96)),
-                    128 => lanes::vertical::<W256, false, true, true>(colsum, rows, bt, pp, 128, boxed, (0, 128)),
-                    _ => lanes::vertical::<W256, false, true, true>(colsum, rows, bt, pp, ndq, boxed, all),
+                    16 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pp, 16, boxed, (0, 16)),
+                    32 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pp, 32, boxed, (0, 32)),
+                    48 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pp, 48, boxed, (0, 48)),
+                    64 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pp, 64, boxed, (0, 64)),
+                    96 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pp, 96, boxed, (0, 96)),
+                    128 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pp, 128, boxed, (0, 128)),
+                    _ => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pp, ndq, boxed, all),
                 },
-                (false, true, false) => {
-                    lanes::vertical::<W256, false, true, false>(colsum, rows, bt, pp, ndq, boxed, all)
-                }
-                (false, false, _) => {
-                    lanes::vertical::<W256, false, false, false>(colsum, rows, bt, pp, ndq, boxed, all)
-                }
+                (false, true, false) => lanes::vertical::<false, true, false>(t, colsum, rows, bt, pp, ndq, boxed, all),
+                (false, false, _) => lanes::vertical::<false, false, false>(t, colsum, rows, bt, pp, ndq, boxed, all),
             }
         }
     }
@@ -2422,27 +2200,16 @@ mod avx2 {
     /// The CPU must support AVX2 (lengths are asserted).
     #[inline]
     #[target_feature(enable = "avx2,popcnt")]
-    pub(super) unsafe fn box_row(cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
+    pub(super) fn box_row(t: Avx2, cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
         lanes::box_row_checked(cost, colsum, w, r, ndq);
         // SAFETY: AVX2 (this function's features); lengths asserted above.
-        unsafe { lanes::box_row::<W256>(cost, colsum, w, r, ndq, (0, ndq)) }
+        unsafe { lanes::box_row(t, cost, colsum, w, r, ndq, (0, ndq)) }
     }
 }
 
 #[cfg(all(test, target_arch = "x86_64"))]
 mod tests {
-    use super::lanes::{V16, W256};
-
-    /// Pseudo-random lanes (a fixed LCG), with repeats so that equal lanes occur.
-    fn lanes_of(seed: u64, n: usize) -> Vec<u16> {
-        let mut s = seed;
-        (0..n)
-            .map(|_| {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                ((s >> 33) % 7) as u16 * 9000 + ((s >> 50) % 3) as u16
-            })
-            .collect()
-    }
+    use parallax_simd::Avx2;
 
     /// A xorshift generator from `seed` (not 0): each call gives a number below its argument.
     fn xorshift(seed: u64) -> impl FnMut(u64) -> u64 {
@@ -2455,56 +2222,17 @@ mod tests {
         }
     }
 
-    /// Every lane operation of one width against its scalar definition.
-    ///
-    /// # Safety
-    /// The CPU must have `V`'s instruction set, and the caller must be compiled for it.
-    #[inline(always)]
-    unsafe fn check<V: V16>() {
-        let n = V::LANES;
-        for seed in 0..50 {
-            let (a, b, m) = (lanes_of(seed, n), lanes_of(seed + 1000, n), lanes_of(seed + 2000, n));
-            let mask: Vec<u16> = m.iter().map(|&v| if v > 30000 { u16::MAX } else { 0 }).collect();
-            let mut out = vec![0u16; n];
-            // SAFETY: every vector is `n = LANES` lanes; the instruction set is the caller's.
-            let (va, vb, vm) = unsafe { (V::ld(a.as_ptr()), V::ld(b.as_ptr()), V::ld(mask.as_ptr())) };
-            let mut got = |v: V| {
-                // SAFETY: as above.
-                unsafe { V::st(out.as_mut_ptr(), v) };
-                out.clone()
-            };
-            // SAFETY: as above (the instruction set).
-            let (up, down, less, select) = unsafe { (va.up(vb), va.down(vb), V::less(va, vb), V::select(vm, va, vb)) };
-            let want_up: Vec<u16> = (0..n).map(|k| if k == 0 { b[n - 1] } else { a[k - 1] }).collect();
-            let want_down: Vec<u16> = (0..n).map(|k| if k + 1 == n { b[0] } else { a[k + 1] }).collect();
-            assert_eq!(got(up), want_up, "up, {n} lanes");
-            assert_eq!(got(down), want_down, "down, {n} lanes");
-            let want_less: Vec<u16> = (0..n).map(|k| if a[k] < b[k] { u16::MAX } else { 0 }).collect();
-            assert_eq!(got(less), want_less, "less, {n} lanes");
-            let want_select: Vec<u16> = (0..n).map(|k| if mask[k] != 0 { a[k] } else { b[k] }).collect();
-            assert_eq!(got(select), want_select, "select, {n} lanes");
-            // SAFETY: as above.
-            assert_eq!(unsafe { va.hmin() }, *a.iter().min().unwrap(), "hmin, {n} lanes");
-            // SAFETY: as above (the instruction set).
-            let (min, max) = unsafe { (V::min(va, vb), V::max(va, vb)) };
-            assert_eq!(got(min), (0..n).map(|k| a[k].min(b[k])).collect::<Vec<_>>(), "min, {n} lanes");
-            assert_eq!(got(max), (0..n).map(|k| a[k].max(b[k])).collect::<Vec<_>>(), "max, {n} lanes");
-        }
-    }
-
     /// [`lanes::wta_right`] against its definition, on sums drawn from a few values (equal sums in
     /// neighbouring candidates and in the same lane of different chunks), garbage in the
     /// padding lanes, and candidate ranges cut at either end or not at all.
     ///
-    /// # Safety
-    /// The CPU must have `V`'s instruction set, and the caller must be compiled for it.
     #[inline(always)]
-    unsafe fn check_wta<V: V16>() {
+    fn check_wta(t: Avx2) {
         use super::lanes::{Second, wta_checked, wta_right};
         let mut rnd = xorshift(0x2545_f491_4f6c_dd1d);
         for case in 0..4000 {
             let nd: usize = [5, 16, 17, 32, 40, 64, 70, 96][case % 8];
-            let ndq = nd.div_ceil(V::LANES) * V::LANES;
+            let ndq = nd.div_ceil(16) * 16;
             let values = [300u16, 301, 302, 330, 900, 65534];
             let sums: Vec<u16> =
                 (0..ndq).map(|d| if d < nd { values[rnd(6) as usize] } else { rnd(400) as u16 }).collect();
@@ -2519,15 +2247,15 @@ mod tests {
                     (a.min(b), a.max(b))
                 }
             };
-            wta_checked::<V>(&sums, &tail, lo, hi);
+            wta_checked(&sums, &tail, lo, hi);
             let within = &sums[lo..=hi];
             let m = *within.iter().min().unwrap();
             let kb = lo + within.iter().position(|&v| v == m).unwrap();
             let rivals = || (lo..=hi).filter(|&d| d.abs_diff(kb) > 1).map(|d| sums[d]);
             for (second, third) in [(Second::Skip, 0), (Second::Min, rivals().min().unwrap_or(u16::MAX))] {
                 // SAFETY: lengths checked by `wta_checked`; the instruction set is the caller's.
-                let got = unsafe { wta_right::<V>(&sums, &tail, lo, hi, second, None) };
-                assert_eq!(got, (m, kb, third), "{} lanes, D {nd}, {lo}..={hi}, {sums:?}", V::LANES);
+                let got = unsafe { wta_right(t, &sums, &tail, lo, hi, second, None) };
+                assert_eq!(got, (m, kb, third), "{} lanes, D {nd}, {lo}..={hi}, {sums:?}", 16);
                 if lo != 0 {
                     continue;
                 }
@@ -2540,7 +2268,7 @@ mod tests {
                 super::right_update16(&sums[..=hi], &mut rc_want[..=hi], &mut rk_want[..=hi], 0);
                 // SAFETY: as above; rc and rk have Dq lanes.
                 let got =
-                    unsafe { wta_right::<V>(&sums, &tail, lo, hi, second, Some((rc.as_mut_ptr(), rk.as_mut_ptr()))) };
+                    unsafe { wta_right(t, &sums, &tail, lo, hi, second, Some((rc.as_mut_ptr(), rk.as_mut_ptr()))) };
                 assert_eq!(got, (m, kb, third), "fused, D {nd}, 0..={hi}, {sums:?}");
                 assert_eq!((rc, rk), (rc_want, rk_want), "fused right update, D {nd}, 0..={hi}, {sums:?}");
             }
@@ -2551,16 +2279,14 @@ mod tests {
     /// vertical path's written over its predecessor (`IN_PLACE`), against the scalar step (the
     /// definition) on random predecessors, costs and penalties, one to fourteen chunks.
     ///
-    /// # Safety
-    /// The CPU must have `V`'s instruction set, and the caller must be compiled for it.
     #[inline(always)]
-    unsafe fn check_paths<V: V16>() {
-        use super::{PAD, lanes::paths, step};
+    fn check_paths(t: Avx2) {
+        use super::{PAD, lanes::LANES, lanes::paths, step};
         let mut rnd = xorshift(0x9e37_79b9_7f4a_7c15);
         for case in 0..600 {
             let chunks = 1 + case % 14;
-            let ndq = chunks * V::LANES;
-            let nd = ndq - (rnd(V::LANES as u64) as usize).min(ndq - 1);
+            let ndq = chunks * 16;
+            let nd = ndq - (rnd(LANES as u64) as usize).min(ndq - 1);
             // predecessors from a few levels (ties between neighbours), padded as the sweep's
             let pred = |rnd: &mut dyn FnMut(u64) -> u64| -> Vec<u16> {
                 (0..ndq + 2)
@@ -2592,13 +2318,13 @@ mod tests {
                 // caller's.
                 let got_min = unsafe {
                     match (in_place, set) {
-                        (true, true) => paths::<V, 2, 1, true, true>(&c, prevs, pmin, p2, p1, outs, &mut acc),
-                        (true, false) => paths::<V, 2, 1, false, true>(&c, prevs, pmin, p2, p1, outs, &mut acc),
-                        (false, true) => paths::<V, 2, 1, true, false>(&c, prevs, pmin, p2, p1, outs, &mut acc),
-                        (false, false) => paths::<V, 2, 1, false, false>(&c, prevs, pmin, p2, p1, outs, &mut acc),
+                        (true, true) => paths::<2, 1, true, true>(t, &c, prevs, pmin, p2, p1, outs, &mut acc),
+                        (true, false) => paths::<2, 1, false, true>(t, &c, prevs, pmin, p2, p1, outs, &mut acc),
+                        (false, true) => paths::<2, 1, true, false>(t, &c, prevs, pmin, p2, p1, outs, &mut acc),
+                        (false, false) => paths::<2, 1, false, false>(t, &c, prevs, pmin, p2, p1, outs, &mut acc),
                     }
                 };
-                let what = format!("{} lanes, D {nd} of {ndq}, in place {in_place}, set {set}", V::LANES);
+                let what = format!("{} lanes, D {nd} of {ndq}, in place {in_place}, set {set}", 16);
                 assert_eq!(got_min.to_vec(), want_min, "minima, {what}");
                 assert_eq!(out_h[1..=nd], want[0][1..=nd], "horizontal path, {what}");
                 assert_eq!(out_v[1..=nd], want[1][1..=nd], "vertical path, {what}");
@@ -2616,24 +2342,17 @@ mod tests {
     }
 
     #[target_feature(enable = "avx2,popcnt")]
-    /// # Safety
-    /// The CPU must support AVX2.
-    unsafe fn check_avx2() {
-        // SAFETY: compiled for AVX2, which the caller checked.
-        unsafe { check::<W256>() };
-        // SAFETY: as above.
-        unsafe { check_wta::<W256>() };
-        // SAFETY: as above.
-        unsafe { check_paths::<W256>() }
+    fn check_avx2(t: Avx2) {
+        check_wta(t);
+        check_paths(t);
     }
 
     #[test]
-    fn lane_operations_and_decisions_match_their_scalar_definitions() {
-        use crate::engine::SimdLevel;
-        let level = SimdLevel::detect();
-        if level >= SimdLevel::Avx2 {
-            // SAFETY: `detect()` found AVX2.
-            unsafe { check_avx2() };
+    fn lane_kernels_match_their_scalar_definitions() {
+        match Avx2::new() {
+            // SAFETY: the token `t` proves AVX2 and POPCNT.
+            Some(t) => unsafe { check_avx2(t) },
+            None => println!("skipped: no AVX2 on this CPU"),
         }
     }
 
@@ -2642,10 +2361,10 @@ mod tests {
     #[test]
     fn right_winners_gather_matches_the_scalar_gather() {
         use super::{Reversed, RightWinners};
-        if super::SimdLevel::detect() < super::SimdLevel::Avx2 {
+        let Some(t) = Avx2::new() else {
             eprintln!("skipped: no AVX2 on this CPU");
             return;
-        }
+        };
         for seed in 0..200u64 {
             let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
             let mut next = |m: u64| {
@@ -2661,8 +2380,8 @@ mod tests {
             let rk: Vec<u16> = (0..w + 16).map(|i| (i as u16).wrapping_mul(7919) ^ 0x5A5A).collect();
             let best: Vec<i32> = (0..w).map(|_| next(nd as u64 + 1) as i32 - 1).collect();
             let (mut fast, mut slow) = (vec![0u32; w], vec![0u32; w]);
-            Reversed::new(&rk, w, true).gather(&best, dmin, &mut fast);
-            Reversed::new(&rk, w, false).gather(&best, dmin, &mut slow);
+            Reversed::new(&rk, w, Some(t)).gather(&best, dmin, &mut fast);
+            Reversed::new(&rk, w, None).gather(&best, dmin, &mut slow);
             assert_eq!(fast, slow, "w {w}, dmin {dmin}, best {best:?}");
         }
     }

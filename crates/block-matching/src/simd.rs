@@ -32,6 +32,7 @@
 use crate::config::Subpixel;
 use crate::engine::{Cost, MatchStats, Shared, curve_ratio};
 use crate::prefilter::TextureRows;
+use parallax_simd::{Avx2, Avx512};
 
 /// A lane type of the kernels: window sums, costs and disparity indices.
 pub(crate) trait Lane: Copy + Default + PartialOrd + Send + Sync + 'static {
@@ -214,38 +215,36 @@ impl<E: Lane> Scratch<E> {
     }
 }
 
-/// Runs rows `y0..y1` of one band with 16-bit lanes (SAD); `avx512`: the instance compiled for
-/// AVX-512 F/BW/VL (32 registers, see `SimdLevel::Avx512`).
-///
-/// # Safety
-/// The CPU must support AVX2 (checked by `SimdLevel::detect`), with `avx512` AVX-512 F/BW/VL as
-/// well, and `block² · max pixel ≤ 65534`.
-pub(crate) unsafe fn band16(
+/// Runs rows `y0..y1` of one band with 16-bit lanes (SAD), compiled for AVX2, or with `wide`
+/// the instance compiled for AVX-512 F/BW/VL (32 registers, see `SimdLevel::Avx512`). Every
+/// window sum must fit in 16 bits (`block² · max pixel ≤ 65534`), else the costs wrap (wrong,
+/// not unsound).
+pub(crate) fn band16(
+    t: Avx2,
+    wide: Option<Avx512>,
     sh: &Shared,
     sc: &mut Scratch<u16>,
     out: &mut [f32],
     conf: &mut [f32],
     y0: usize,
     y1: usize,
-    avx512: bool,
 ) -> MatchStats {
+    let _ = t;
     sc.resize(sh.w, sh.r, sh.nd, 16);
-    // SAFETY: forwarded from the caller; `sc` has just been sized for 16 lanes.
-    unsafe {
-        if avx512 {
-            avx512_16::band::<false>(sh, sc, out, conf, y0, y1)
-        } else {
-            avx2_16::band::<false>(sh, sc, out, conf, y0, y1)
-        }
+    match wide {
+        // SAFETY: the token proves AVX-512 F/BW/VL and AVX2; `sc` has just been sized for 16
+        // lanes.
+        Some(_) => unsafe { avx512_16::band::<false>(sh, sc, out, conf, y0, y1) },
+        // SAFETY: the token `t` proves AVX2; `sc` has just been sized for 16 lanes.
+        None => unsafe { avx2_16::band::<false>(sh, sc, out, conf, y0, y1) },
     }
 }
 
-/// Runs rows `y0..y1` of one band with 32-bit lanes: SSD when `squared`, else SAD.
-///
-/// # Safety
-/// The CPU must support AVX2 and `block² · max term ≤ 2³² − 2` (max term: the largest pixel,
-/// squared for SSD).
-pub(crate) unsafe fn band32(
+/// Runs rows `y0..y1` of one band with 32-bit lanes: SSD when `squared`, else SAD. Every window
+/// sum must fit in 32 bits (`block² · max term ≤ 2³² − 2`, max term: the largest pixel, squared
+/// for SSD), else the costs wrap (wrong, not unsound).
+pub(crate) fn band32(
+    t: Avx2,
     squared: bool,
     sh: &Shared,
     sc: &mut Scratch<u32>,
@@ -254,8 +253,9 @@ pub(crate) unsafe fn band32(
     y0: usize,
     y1: usize,
 ) -> MatchStats {
+    let _ = t;
     sc.resize(sh.w, sh.r, sh.nd, 8);
-    // SAFETY: forwarded from the caller; `sc` has just been sized for 8 lanes.
+    // SAFETY: the token `t` proves AVX2; `sc` has just been sized for 8 lanes.
     unsafe {
         if squared {
             avx2_32::band::<true>(sh, sc, out, conf, y0, y1)
@@ -268,7 +268,8 @@ pub(crate) unsafe fn band32(
 macro_rules! kernel {
     ($feat:literal) => {
         /// # Safety
-        /// See [`super::band16`].
+        /// The CPU must support this module's target features (the callers hold its token), and
+        /// `sc` must have been sized for `sh` by its `resize`.
         #[target_feature(enable = $feat)]
         pub(super) unsafe fn band<const SQ: bool>(
             sh: &Shared,

@@ -210,8 +210,8 @@ pub(crate) fn row_maxima((prev, cur, next): (&[f32], &[f32], &[f32]), thr: f32, 
         imp(rows, thr, keep, x0)
     }
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2.
+    if parallax_simd::Avx2::new().is_some() {
+        // SAFETY: the token proves AVX2.
         return unsafe { avx2((prev, cur, next), thr, keep, x0) };
     }
     imp((prev, cur, next), thr, keep, x0)

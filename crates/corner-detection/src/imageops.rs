@@ -3,42 +3,22 @@
 
 use image::{GrayImage, ImageBuffer, Luma};
 
+use parallax_simd::Avx2;
+
 use crate::{CornerError, Result};
 
 /// A single-channel `f32` image (grey levels keep the 0..255 scale of the input).
 pub type ImageF32 = ImageBuffer<Luma<f32>, Vec<f32>>;
 
-/// Instruction sets our hand-vectorised kernels are compiled for. A value other than
-/// `Baseline` is only constructed when the CPU has it ([`Isa::available`]), which is what makes
-/// calling the matching `#[target_feature]` copy sound.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Isa {
-    /// The x86-64 baseline (SSE2) or any other architecture.
-    Baseline,
-    /// AVX2. (AVX-512 copies were removed: no machine the project is tested on can run them.)
-    #[cfg(target_arch = "x86_64")]
-    Avx2,
-}
+/// The instruction set a hand-vectorised kernel runs: `None` the baseline (SSE2 on x86-64, or
+/// any other architecture), `Some(token)` AVX2, which the `parallax_simd` token proves the CPU
+/// runs (what makes calling the matching `#[target_feature]` copy sound).
+pub(crate) type Isa = Option<Avx2>;
 
-impl Isa {
-    /// Every instruction set this CPU runs, baseline first (tests run each kernel on each).
-    #[allow(dead_code)]
-    pub(crate) fn available() -> Vec<Isa> {
-        let mut out = vec![Isa::Baseline];
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2") {
-                out.push(Isa::Avx2);
-            }
-        }
-        out
-    }
-
-    /// The widest instruction set of this CPU (detected once).
-    pub(crate) fn best() -> Isa {
-        static BEST: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
-        *BEST.get_or_init(|| *Isa::available().last().expect("baseline is always available"))
-    }
+/// Every instruction set this CPU runs, baseline first (tests run each kernel on each).
+#[cfg(test)]
+pub(crate) fn available_isas() -> Vec<Isa> {
+    std::iter::once(None).chain(Avx2::new().map(Some)).collect()
 }
 
 /// Converts an 8-bit image to `f32` grey levels (0..255).
@@ -116,7 +96,7 @@ pub(crate) fn gaussian_blur_into(
     let padded = &mut scratch.padded;
     padded.resize(w + 2 * r, 0.0);
     let offsets = &mut scratch.offsets;
-    let isa = Isa::best();
+    let isa = Avx2::new();
     // Horizontal pass, row by row through a padded buffer.
     offsets.clear();
     offsets.extend(0..k.len());
@@ -198,9 +178,9 @@ pub(crate) fn fir(out: &mut [f32], k: &[f32], src: &[f32], offsets: &[usize], is
         imp(out, k, src, offsets)
     }
     match isa {
-        // SAFETY: `Isa::Avx2` exists only when the CPU has AVX2 (`Isa::available`).
+        // SAFETY: the token proves AVX2.
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { avx2(out, k, src, offsets) },
+        Some(_) => unsafe { avx2(out, k, src, offsets) },
         _ => imp(out, k, src, offsets),
     }
 }
@@ -209,7 +189,7 @@ pub(crate) fn fir(out: &mut [f32], k: &[f32], src: &[f32], offsets: &[usize], is
 /// `(w / 2) x (h / 2)`; an odd last row or column is dropped). Pixel `(i, j)` of the result is
 /// centred on `(2i + ½, 2j + ½)` of the input.
 pub(crate) fn halve_u8(src: &[u8], w: usize, h: usize, dst: &mut Vec<f32>) {
-    halve_u8_on(src, w, h, dst, Isa::best())
+    halve_u8_on(src, w, h, dst, Avx2::new())
 }
 
 /// [`halve_u8`] compiled for `isa` (integer sums, exact on every instruction set; the pair
@@ -235,9 +215,9 @@ pub(crate) fn halve_u8_on(src: &[u8], w: usize, h: usize, dst: &mut Vec<f32>, is
     // Every element is written: keep the length (no memset) when it already fits.
     dst.resize((w / 2) * (h / 2), 0.0);
     match isa {
-        // SAFETY: `Isa::Avx2` exists only when the CPU has AVX2 (`Isa::available`).
+        // SAFETY: the token proves AVX2.
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { avx2(src, w, h, dst) },
+        Some(_) => unsafe { avx2(src, w, h, dst) },
         _ => imp(src, w, h, dst),
     }
 }
@@ -383,7 +363,7 @@ mod tests {
                     (p(2 * y, 2 * x) + p(2 * y, 2 * x + 1) + p(2 * y + 1, 2 * x) + p(2 * y + 1, 2 * x + 1)) / 4.0
                 })
                 .collect();
-            for isa in Isa::available() {
+            for isa in available_isas() {
                 let mut out = vec![f32::NAN; 3];
                 halve_u8_on(&src, w, h, &mut out, isa);
                 assert_eq!(out, naive, "{isa:?} {w}x{h}");
@@ -407,7 +387,7 @@ mod tests {
                         a
                     })
                     .collect();
-                for isa in Isa::available() {
+                for isa in available_isas() {
                     let mut out = vec![f32::NAN; n];
                     fir(&mut out, &taps, &src, &offsets, isa);
                     let same = out.iter().zip(&naive).all(|(a, b)| a.to_bits() == b.to_bits());

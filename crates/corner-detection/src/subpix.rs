@@ -235,9 +235,9 @@ pub(crate) fn saddle_sums(win: &SaddleWindow<'_>, isa: crate::Isa) -> [[f64; 8];
         saddle_sums_imp(win)
     }
     match isa {
-        // SAFETY: `Isa::Avx2` is only constructed when the CPU has AVX2 (`Isa::available`).
+        // SAFETY: the token proves AVX2.
         #[cfg(target_arch = "x86_64")]
-        crate::Isa::Avx2 => unsafe { avx2(win) },
+        Some(_) => unsafe { avx2(win) },
         _ => saddle_sums_imp(win),
     }
 }
@@ -445,7 +445,7 @@ pub(crate) fn saddle_one(
             centre: q,
             radius,
         };
-        let acc = saddle_sums(&window, crate::Isa::best());
+        let acc = saddle_sums(&window, parallax_simd::Avx2::new());
         let ata = faer::Mat::<f64>::from_fn(6, 6, |i, j| if i <= j { acc[i][j] } else { acc[j][i] });
         let atb = faer::Mat::<f64>::from_fn(6, 1, |i, _| acc[i][6]);
         let Ok(llt) = ata.llt(faer::Side::Lower) else {
@@ -522,7 +522,7 @@ pub(crate) mod tests {
         };
         let (w, h) = (97usize, 61usize);
         let data: Vec<f32> = (0..w * h).map(|_| (255.0 * unif()) as f32).collect();
-        let isas = crate::Isa::available();
+        let isas = crate::imageops::available_isas();
         // Baseline, and AVX2 where the CPU has it.
         assert!(!isas.is_empty());
         for case in 0..300 {

@@ -5,6 +5,7 @@ use std::sync::Mutex;
 
 use glam::{DMat3, DVec2, DVec3};
 use parallax_camera_model::Camera;
+use parallax_simd::Avx2;
 use rayon::prelude::*;
 
 use crate::{RectifyError, Result};
@@ -325,16 +326,12 @@ impl MapRow {
             }
             return;
         }
-        #[cfg(target_arch = "x86_64")]
-        let isa = Some(RowIsa::detect()).filter(|&i| i != RowIsa::Baseline);
-        #[cfg(not(target_arch = "x86_64"))]
-        let isa = None;
-        self.row_with(isa, v, mx, my);
+        self.row_with(Avx2::new(), v, mx, my);
     }
 
-    /// [`Self::row`] with the copy for `isa` (`None`: the baseline); `false` (nothing written)
-    /// when the CPU cannot run it.
-    fn row_with(&self, isa: Option<RowIsa>, v: usize, mx: &mut [f32], my: &mut [f32]) -> bool {
+    /// [`Self::row`] with the copy for `isa` (`None`: the baseline; the token proves AVX2);
+    /// `false` (nothing written) when this architecture has no copy for it.
+    fn row_with(&self, isa: Option<Avx2>, v: usize, mx: &mut [f32], my: &mut [f32]) -> bool {
         #[inline(always)]
         fn imp(p: &MapRow, v: usize, mx: &mut [f32], my: &mut [f32]) {
             let [k1, k2, p1, p2, k3, k4, k5, k6] = p.dist;
@@ -367,10 +364,9 @@ impl MapRow {
         assert!(mx.len() <= MAX_SIDE as usize, "rows are checked by `check_size`");
         #[cfg(target_arch = "x86_64")]
         match isa {
-            // SAFETY: `detect` found AVX2 on this CPU.
-            Some(RowIsa::Avx2) if RowIsa::detect() != RowIsa::Baseline => unsafe { avx2(self, v, mx, my) },
+            // SAFETY: the token proves AVX2.
+            Some(_) => unsafe { avx2(self, v, mx, my) },
             None => imp(self, v, mx, my),
-            _ => return false,
         }
         #[cfg(not(target_arch = "x86_64"))]
         match isa {
@@ -378,21 +374,6 @@ impl MapRow {
             _ => return false,
         }
         true
-    }
-}
-
-/// The instruction sets [`MapRow::row`] has a copy for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum RowIsa {
-    Baseline,
-    Avx2,
-}
-
-#[cfg(target_arch = "x86_64")]
-impl RowIsa {
-    fn detect() -> Self {
-        use std::arch::is_x86_feature_detected as has;
-        if has!("avx2") { Self::Avx2 } else { Self::Baseline }
     }
 }
 
@@ -472,11 +453,11 @@ mod tests {
                 // the baseline: the formula with no instruction set enabled
                 p.row_with(None, v, &mut bx, &mut by);
                 nan += bx.iter().filter(|x| x.is_nan()).count();
-                for isa in [RowIsa::Avx2] {
-                    if p.row_with(Some(isa), v, &mut ax, &mut ay) {
-                        let same = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(a, b)| a.to_bits() == b.to_bits());
-                        assert!(same(&ax, &bx) && same(&ay, &by), "{isa:?}, model {i}, row {v}");
-                    }
+                if let Some(isa) = Avx2::new()
+                    && p.row_with(Some(isa), v, &mut ax, &mut ay)
+                {
+                    let same = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(a, b)| a.to_bits() == b.to_bits());
+                    assert!(same(&ax, &bx) && same(&ay, &by), "{isa:?}, model {i}, row {v}");
                 }
             }
             assert_eq!(nan > 0, i == 1, "the second model has pixels behind the camera");

@@ -293,7 +293,7 @@ impl<S: Sample> Ctx<'_, S> {
     #[inline(always)]
     fn fast_row_gray(&self, idx: &[u32], frac: &[u16], border: &[[f32; 2]], row: &mut [S]) {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2")
+        if parallax_simd::Avx2::new().is_some()
             && let Some(raw) = S::as_u8(self.raw)
             && raw.len() < i32::MAX as usize
         {
@@ -307,7 +307,7 @@ impl<S: Sample> Ctx<'_, S> {
                 t[0].to_u32() as u8
             };
             let out = S::as_u8_mut(row).expect("same channel type as the source");
-            // SAFETY: the CPU supports AVX2.
+            // SAFETY: the token (`Avx2::new`) proves AVX2.
             unsafe { gray8_fast_row_avx2(raw, self.sw as usize, idx, frac, out, &mut slow) };
             return;
         }
@@ -543,8 +543,8 @@ pub(crate) fn fast_table_row(
     }
     fn dispatch(mx: &[f32], my: &[f32], index: &mut [u32], frac: &mut [u16], sw: u32, last_x: f32, last_y: f32) -> u32 {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2.
+        if parallax_simd::Avx2::new().is_some() {
+            // SAFETY: the token proves AVX2.
             return unsafe { avx2(mx, my, index, frac, sw, last_x, last_y) };
         }
         imp(mx, my, index, frac, sw, last_x, last_y)
