@@ -32,7 +32,7 @@
 use crate::config::Subpixel;
 use crate::engine::{Cost, MatchStats, Shared, curve_ratio};
 use crate::prefilter::TextureRows;
-use parallax_simd::{Avx2, Avx512};
+use parallax_simd::{Avx2, Avx512, CacheAligned};
 
 /// A lane type of the kernels: window sums, costs and disparity indices.
 pub(crate) trait Lane: Copy + Default + PartialOrd + Send + Sync + 'static {
@@ -136,11 +136,13 @@ impl Lane for u32 {
 pub(crate) struct Scratch<E: Lane> {
     /// Disparities per column, rounded up to the lane count.
     ndp: usize,
-    colsum: Vec<E>,
+    // (the buffers the vectors load and store at multiples of their width start on a cache
+    // line: see `CacheAligned`)
+    colsum: CacheAligned<E>,
     /// The box sums of the last [`RING`] columns (column `x` in slot `x % RING`), each slot
     /// `ndp` lanes with a vector's lanes of padding either side (see [`slot_of`]): the costs
     /// beside any winner `0 ≤ k < ndp` are read without clamping its neighbours' indices.
-    boxs: Vec<E>,
+    boxs: CacheAligned<E>,
     l_in: Vec<u16>,
     l_out: Vec<u16>,
     r_in: Vec<u16>,
@@ -158,28 +160,28 @@ pub(crate) struct Scratch<E: Lane> {
     l_pairs: Vec<u16>,
     /// Right running minimum per lane: lane `k` holds the pixel `u = x − dmin − k` of the
     /// current column (the state moves up one lane per column).
-    rc: Vec<E>,
-    rk: Vec<E>,
+    rc: CacheAligned<E>,
+    rk: CacheAligned<E>,
     /// The right image's final winners of the row, by pixel `u`.
-    rkf: Vec<E>,
-    dvec: Vec<E>,
-    tail: Vec<E>,
+    rkf: CacheAligned<E>,
+    dvec: CacheAligned<E>,
+    tail: CacheAligned<E>,
     /// The left winner of every pixel of the row.
-    keys: Vec<E::Key>,
-    cm: Vec<E>,
-    cp: Vec<E>,
+    keys: CacheAligned<E::Key>,
+    cm: CacheAligned<E>,
+    cp: CacheAligned<E>,
     /// The best cost further than one disparity from the winner (`E::MAX`: none), when the
     /// uniqueness rule or the confidence needs it.
-    c2: Vec<E>,
-    ratio: Vec<f32>,
+    c2: CacheAligned<E>,
+    ratio: CacheAligned<f32>,
     /// `w` times `true`: the texture mask when the texture check is off.
     all_true: Vec<bool>,
     /// The texture measure of the band's rows.
     texture: TextureRows,
-    best: Vec<i32>,
-    sub: Vec<f32>,
+    best: CacheAligned<i32>,
+    sub: CacheAligned<f32>,
     /// The right winners at each pixel's match ([`crate::engine::finish_row`]).
-    rw: Vec<u32>,
+    rw: CacheAligned<u32>,
 }
 
 impl<E: Lane> Scratch<E> {
@@ -199,10 +201,10 @@ impl<E: Lane> Scratch<E> {
         self.rc.resize(ndp, E::MAX);
         self.rk.resize(ndp, E::MAX);
         self.rkf.resize(w, E::MAX);
-        self.dvec.clear();
-        self.dvec.extend((0..ndp).map(E::from_usize));
-        self.tail.clear();
-        self.tail.extend((0..ndp).map(|d| if d < nd { E::ZERO } else { E::MAX }));
+        self.dvec.resize(ndp, E::ZERO);
+        self.dvec.iter_mut().enumerate().for_each(|(d, v)| *v = E::from_usize(d));
+        self.tail.resize(ndp, E::ZERO);
+        self.tail.iter_mut().enumerate().for_each(|(d, v)| *v = if d < nd { E::ZERO } else { E::MAX });
         self.keys.resize(w, E::Key::default());
         self.cm.resize(w, E::ZERO);
         self.cp.resize(w, E::ZERO);

@@ -12,6 +12,9 @@
 //!   be made through a token, so its operations are safe methods; only raw loads and stores are
 //!   `unsafe` (the caller vouches for the memory, never for the CPU).
 //!
+//! * [`CacheAligned`]: a buffer whose first element starts a cache line, so that a kernel's
+//!   vector loads and stores do not straddle lines depending on where the allocator put it.
+//!
 //! Every kernel keeps a portable path (`SimdLevel::Scalar`), which is what runs on other
 //! architectures and what the kernels are tested against.
 //!
@@ -134,6 +137,9 @@ impl Avx512 {
         Avx2 { _proof: () }
     }
 }
+
+mod aligned;
+pub use aligned::CacheAligned;
 
 #[cfg(target_arch = "x86_64")]
 mod x86;
