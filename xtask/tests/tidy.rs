@@ -251,6 +251,68 @@ fn the_cpu_is_asked_in_one_place() {
     assert!(enums.is_empty(), "instruction-set enums outside parallax-simd (use SimdLevel / its tokens): {enums:?}");
 }
 
+/// No import circle among a crate's modules (rust-analyzer's rule: a module never uses a sibling
+/// that uses it back, directly or through others): the edges are `crate::<module>` paths in code
+/// (not in comments). A ratchet: the crates listed in `KNOWN` still have circles to untie; every
+/// other crate must have none, and a listed crate that has none must leave the list.
+#[test]
+fn no_module_imports_itself_back() {
+    const KNOWN: [&str; 4] = ["hand-eye", "planar-calibration", "stereo-rectify", "synthetic"];
+    let mut bad = Vec::new();
+    for (dir, _) in members() {
+        let src = dir.join("src");
+        let krate = dir.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+        let mut graph: BTreeMap<String, std::collections::BTreeSet<String>> = BTreeMap::new();
+        for f in rust_files(&src) {
+            let rel = f.strip_prefix(&src).expect("below src");
+            let top = rel
+                .components()
+                .next()
+                .expect("a path")
+                .as_os_str()
+                .to_string_lossy()
+                .trim_end_matches(".rs")
+                .to_string();
+            if top == "lib" || top == "main" {
+                continue;
+            }
+            let deps = graph.entry(top).or_default();
+            for line in read(&f).lines().filter(|l| !l.trim_start().starts_with("//")) {
+                for (i, _) in line.match_indices("crate::") {
+                    let name: String =
+                        line[i + 7..].chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
+                    deps.insert(name);
+                }
+            }
+        }
+        let names: Vec<String> = graph.keys().cloned().collect();
+        // a module reaches itself through its dependencies
+        let reaches_itself = |m: &str| {
+            let mut stack: Vec<&str> =
+                graph[m].iter().map(String::as_str).filter(|d| names.iter().any(|n| n == d)).collect();
+            let mut seen = std::collections::BTreeSet::new();
+            while let Some(d) = stack.pop() {
+                if d == m {
+                    return true;
+                }
+                if seen.insert(d.to_string()) && d != m {
+                    stack.extend(
+                        graph[d].iter().map(String::as_str).filter(|x| *x != d && names.iter().any(|n| n == x)),
+                    );
+                }
+            }
+            false
+        };
+        let circular: Vec<&String> = names.iter().filter(|m| reaches_itself(m)).collect();
+        match (KNOWN.contains(&krate.as_str()), circular.is_empty()) {
+            (false, false) => bad.push(format!("{krate}: modules in a circle: {circular:?}")),
+            (true, true) => bad.push(format!("{krate} has no circle any more: remove it from KNOWN")),
+            _ => {}
+        }
+    }
+    assert!(bad.is_empty(), "{bad:#?}");
+}
+
 #[test]
 fn workspace_lints_hold_the_unsafe_rules() {
     let text = read(&root().join("Cargo.toml"));

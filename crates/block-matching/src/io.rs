@@ -3,8 +3,8 @@
 use image::{ImageBuffer, Luma, Rgb, RgbImage};
 use parallax_camera_model::DisparityMap;
 
-use crate::engine::Gray16Image;
 use crate::error::{BlockMatchingError, Result};
+use crate::frame::Gray16Image;
 
 /// Encodes `map` as a little-endian greyscale PFM (`Pf`, scale −1, rows bottom to top, as
 /// Middlebury). Invalid pixels are written as `+inf` (Middlebury's convention).

@@ -64,10 +64,13 @@
 //! # Ok::<(), parallax_block_matching::BlockMatchingError>(())
 //! ```
 
+mod band;
 mod config;
+mod decide;
 mod engine;
 mod error;
 mod eval;
+mod frame;
 mod io;
 pub mod prefilter;
 mod sgm;
@@ -85,9 +88,10 @@ pub use parallax_camera_model;
 pub use parallax_least_squares;
 
 pub use config::{CostFunction, MatcherConfig, Method, Prefilter, SgmConfig, SgmPaths, Subpixel};
-pub use engine::{BlockMatcher, Gray16Image, MatchStats, SimdLevel};
+pub use engine::{BlockMatcher, SimdLevel};
 pub use error::{BlockMatchingError, Result};
 pub use eval::{Evaluation, evaluate};
+pub use frame::{Gray16Image, MatchStats};
 pub use io::{false_colour, from_pfm, from_scaled, to_pfm, to_png16};
 pub use speckle::filter_speckles;
 pub use stream::{Frame, Frames, MAX_PREFETCH, StereoPair};

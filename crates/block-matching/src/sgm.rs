@@ -59,13 +59,12 @@
 //! machine code, the strip's aside).
 
 use crate::config::{SgmConfig, SgmPaths, Subpixel};
-use crate::engine::{
-    Cost, MatchStats, RightWinners, Shared, SimdLevel, conf_row, curve_ratio, decide, finish_row, gather_from,
-    load_plane_rows, load_rows,
-};
+use crate::decide::{Cost, RightWinners, curve_ratio, decide, finish_row, gather_from};
 use crate::error::{BlockMatchingError, Result};
+use crate::frame::{MatchStats, Shared, conf_row, load_plane_rows, load_rows};
 use crate::prefilter::TextureRows;
 use parallax_simd::Avx2;
+use parallax_simd::SimdLevel;
 
 /// Uniqueness margin (percent) a winner needs where the image edge cuts its pixel's candidates
 /// short of the range (the left band `x < dmin + D − 1`, or the right one with negative
@@ -1252,12 +1251,12 @@ fn decide_row<const NDQ: usize>(
                 continue;
             }
             match decide(&s[..nd], lo, hi, uniq, sh.subpixel, sh.conf) {
-                crate::engine::Decision::Best(k, off, ratio) => {
+                crate::decide::Decision::Best(k, off, ratio) => {
                     sc.best[x] = k;
                     sc.sub[x] = off;
                     sc.ratio[x] = ratio;
                 }
-                crate::engine::Decision::NotUnique => {
+                crate::decide::Decision::NotUnique => {
                     sc.best[x] = -1;
                     st.not_unique += 1;
                 }

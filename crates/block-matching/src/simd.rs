@@ -30,7 +30,8 @@
 //! registers (`SimdLevel::Avx512`, `avx512_16`).
 
 use crate::config::Subpixel;
-use crate::engine::{Cost, MatchStats, Shared, curve_ratio};
+use crate::decide::{Cost, curve_ratio};
+use crate::frame::{MatchStats, Shared};
 use crate::prefilter::TextureRows;
 use parallax_simd::{Avx2, Avx512, CacheAligned};
 
@@ -180,7 +181,7 @@ pub(crate) struct Scratch<E: Lane> {
     texture: TextureRows,
     best: CacheAligned<i32>,
     sub: CacheAligned<f32>,
-    /// The right winners at each pixel's match ([`crate::engine::finish_row`]).
+    /// The right winners at each pixel's match ([`crate::decide::finish_row`]).
     rw: CacheAligned<u32>,
 }
 
@@ -1302,7 +1303,8 @@ macro_rules! kernel_module {
             const REGS: usize = $regs;
 
             use super::{LAG, Lane, MAX_NCH, Ptrs, RING, Scratch, decide_row, needed, slot_of};
-            use crate::engine::{MatchStats, Shared, WinnersBy, conf_row, finish_row, load_row_pairs, load_rows};
+            use crate::decide::{WinnersBy, finish_row};
+            use crate::frame::{MatchStats, Shared, conf_row, load_row_pairs, load_rows};
 
             $lanes!($feat);
 

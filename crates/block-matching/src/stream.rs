@@ -8,8 +8,9 @@ use std::thread::JoinHandle;
 use image::GrayImage;
 use parallax_camera_model::DisparityMap;
 
-use crate::engine::{BlockMatcher, Gray16Image, MatchStats};
+use crate::engine::BlockMatcher;
 use crate::error::{BlockMatchingError, Result};
+use crate::frame::{Gray16Image, MatchStats};
 
 /// A rectified pair the matcher can run on: 8- or 16-bit images, or a source's `Result` (an
 /// `Err` becomes [`BlockMatchingError::Source`] for that frame).

@@ -10,8 +10,9 @@ use image::{GrayImage, ImageBuffer, Luma, Primitive};
 use serde::{Deserialize, Serialize};
 
 use crate::config::{MatcherConfig, Method};
-use crate::engine::{BlockMatcher, Gray16Image};
+use crate::engine::BlockMatcher;
 use crate::error::Result;
+use crate::frame::Gray16Image;
 
 /// What [`BlockMatcher::check_swap`] found.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -83,7 +84,7 @@ impl BlockMatcher {
     /// whether the images look swapped (see [`SwapCheck`]). Costs about a quarter of a
     /// full-resolution match; run it once per camera setup, not per frame.
     pub fn check_swap(&self, left: &GrayImage, right: &GrayImage) -> Result<SwapCheck> {
-        crate::engine::check_pair(left.width(), left.height(), right.width(), right.height())?;
+        crate::frame::check_pair(left.width(), left.height(), right.width(), right.height())?;
         let (l, r) = (half(left), half(right));
         let mut m = BlockMatcher::new(self.swap_config())?;
         m.compute(&l, &r)?;
@@ -94,7 +95,7 @@ impl BlockMatcher {
 
     /// As [`BlockMatcher::check_swap`] for a 16-bit pair.
     pub fn check_swap_u16(&self, left: &Gray16Image, right: &Gray16Image) -> Result<SwapCheck> {
-        crate::engine::check_pair(left.width(), left.height(), right.width(), right.height())?;
+        crate::frame::check_pair(left.width(), left.height(), right.width(), right.height())?;
         let (l, r) = (half(left), half(right));
         let mut m = BlockMatcher::new(self.swap_config())?;
         m.compute_u16(&l, &r)?;
