@@ -1739,28 +1739,39 @@ mod lanes {
     /// the rows as byte pairs ([`Scratch::pairs`](super::Scratch)): `pairs.0` the right rows'
     /// (`r_a` the low byte), `pairs.1` the left rows' (`l_a[xp] | l_b[xp] << 8`).
     ///
-    /// # Safety
-    /// the lengths the callers assert.
+    /// Lengths are checked once (as `vertical_checked` and `box_row_checked`).
     #[cfg_attr(not(opt_level_zero), inline(always))]
     #[allow(clippy::too_many_arguments)] // both row pairs, the lane count and range
-    pub(super) unsafe fn vertical<const BT: bool, const SUB: bool, const PAIRS: bool>(
+    pub(super) fn vertical<const BT: bool, const SUB: bool, const PAIRS: bool>(
         t: Avx2,
         colsum: &mut [u16],
-        (la, ra, lb, rb): Rows,
+        rows: Rows,
         bt: Option<BtRows>,
-        pairs: (*const u8, *const u16),
+        pairs: Option<(&[u8], &[u16])>,
         ndq: usize,
-        boxed: Option<(*mut u16, usize)>,
+        cost: Option<(&mut [u16], usize)>,
         (from, to): (usize, usize),
     ) {
+        vertical_checked(colsum, rows, bt, ndq, SUB);
+        let (la, ra, lb, rb) = rows;
         let wp = la.len();
+        assert!(from <= to && to <= ndq && (to - from).is_multiple_of(LANES));
+        // the byte pairs only for the differences of both rows without intervals
+        assert!(PAIRS == pairs.is_some());
+        assert!(pairs.is_none_or(|(p, l)| SUB && !BT && p.len() + 2 >= 2 * (wp + ndq) && l.len() >= wp));
+        let pairs = pairs.map_or((std::ptr::null(), std::ptr::null()), |(p, l)| (p.as_ptr(), l.as_ptr()));
+        let boxed = cost.map(|(cost, r)| {
+            assert!(wp > 2 * r);
+            box_row_checked(cost, colsum, wp - 2 * r, r, ndq);
+            (cost.as_mut_ptr(), r)
+        });
         let cs = colsum.as_mut_ptr();
         let empty: [&[u16]; 4] = [&[]; 4];
         let (bta, btb) = bt.unwrap_or((empty, empty));
         // one row's difference at column xp (left value and interval splatted), lanes d..
         let diff = |u: V, u0: V, u1: V, r: &[u16], bt: &[&[u16]; 4], base: usize| -> V {
             // SAFETY: base + d + LANES ≤ wp − 1 + ndq, within r and the right intervals
-            // (asserted by the callers).
+            // (asserted on entry).
             unsafe {
                 let v = t.load_ptr(r.as_ptr().add(base));
                 if BT {
@@ -1794,7 +1805,7 @@ mod lanes {
                 if PAIRS {
                     // SAFETY: xp < wp, within the left pairs; the right pairs' bytes
                     // 2(base + d) .. 2(base + d + LANES) ≤ 2(wp − 1 + ndq), and the column sums
-                    // as below; `$after`'s (asserted by the callers).
+                    // as below; `$after`'s (asserted on entry).
                     unsafe {
                         let lp = t.splat(*pairs.1.add(xp));
                         let mut d = from;
@@ -1813,7 +1824,7 @@ mod lanes {
                     let (ub, ub0, ub1) = if SUB { splat3(lb, &btb, xp) } else { (zero, zero, zero) };
                     let mut d = from;
                     while d < to {
-                        // SAFETY: xp·ndq + d + LANES ≤ wp·ndq (asserted by the callers);
+                        // SAFETY: xp·ndq + d + LANES ≤ wp·ndq (asserted on entry);
                         // `$after`'s.
                         unsafe {
                             let p = cs.add(xp * ndq + d);
@@ -1844,7 +1855,7 @@ mod lanes {
                 // evaluation)
                 let x = xp - 2 * r;
                 // (SAFETY, in `column`'s unsafe block: x·ndq + d + LANES ≤ (wp − 2r)·ndq lanes
-                // of cost, and the column sums as above, asserted by the callers)
+                // of cost, and the column sums as above, asserted on entry)
                 column!(xp, |d, v| {
                     let run = V::wrapping_add(t.load_ptr(c.add((x - 1) * ndq + d)), v);
                     t.store_ptr(c.add(x * ndq + d), V::wrapping_sub(run, t.load_ptr(cs.add((x - 1) * ndq + d))));
@@ -1858,8 +1869,8 @@ mod lanes {
             // pixel 0: its window's 2r + 1 columns
             let mut d = from;
             while d < to {
-                // SAFETY: d + LANES ≤ ndq lanes of cost, and the column sums as above (asserted
-                // by the callers).
+                // SAFETY: d + LANES ≤ ndq lanes of cost, and the column sums as above (asserted on
+                // entry).
                 unsafe {
                     let mut acc = t.splat(0);
                     for k in 0..=2 * r {
@@ -1873,12 +1884,9 @@ mod lanes {
     }
 
     /// The box sums of a row on lanes `from..to`: `cost[x] = Σ colsum[x ..= x + 2r]`, running
-    /// along the row.
-    ///
-    /// # Safety
-    /// the lengths the callers assert.
+    /// along the row (lengths checked once, as `box_row_checked`).
     #[cfg_attr(not(opt_level_zero), inline(always))]
-    pub(super) unsafe fn box_row(
+    pub(super) fn box_row(
         t: Avx2,
         cost: &mut [u16],
         colsum: &[u16],
@@ -1887,9 +1895,10 @@ mod lanes {
         ndq: usize,
         (from, to): (usize, usize),
     ) {
+        box_row_checked(cost, colsum, w, r, ndq);
+        assert!(from <= to && to <= ndq && (to - from).is_multiple_of(LANES));
         let (c, cs) = (cost.as_mut_ptr(), colsum.as_ptr());
-        // SAFETY: offsets below (w + 2r)·ndq in colsum and w·ndq in cost (asserted by the
-        // callers).
+        // SAFETY: offsets below (w + 2r)·ndq in colsum and w·ndq in cost (asserted above).
         unsafe {
             let mut d = from;
             while d < to {
@@ -1939,17 +1948,13 @@ mod lanes {
         t
     };
 
-    /// All ones in the lanes of the chunk starting at candidate `d` that lie outside `lo..=hi`.
-    ///
-    /// # Safety
-    /// Only the memory the arguments address.
+    /// All ones in the lanes of the chunk starting at candidate `d` that lie outside `lo..=hi`
+    /// (offsets 32 − below ≥ 16 and 64 − within ≥ 48, plus 16 lanes, inside EDGES' 96).
     #[inline(always)]
-    unsafe fn outside(t: Avx2, d: usize, lo: usize, hi: usize) -> V {
+    fn outside(t: Avx2, d: usize, lo: usize, hi: usize) -> V {
         let below = lo.saturating_sub(d).min(LANES);
         let within = (hi + 1).saturating_sub(d).min(LANES);
-        // SAFETY: offsets 32 − below ≥ 0 and 64 − within ≥ 32, plus LANES ≤ 32 lanes, stay
-        // inside the 96 lanes of EDGES.
-        unsafe { V::or(t.load_ptr(EDGES.as_ptr().add(32 - below)), t.load_ptr(EDGES.as_ptr().add(64 - within))) }
+        V::or(t.load(&EDGES[32 - below..]), t.load(&EDGES[64 - within..]))
     }
 
     /// Checks the lengths [`wta_right`] needs (the tests' entry; `decide_row` asserts them once per
@@ -2141,10 +2146,7 @@ mod avx2 {
     use super::lanes;
     use parallax_simd::Avx2;
 
-    /// [`lanes::vertical`] on every lane.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 (lengths are asserted).
+    /// [`lanes::vertical`] on every lane, compiled for AVX2 (the token proves it).
     #[inline]
     #[target_feature(enable = "avx2,popcnt")]
     #[allow(clippy::too_many_arguments)] // both row pairs, the lane count, the box sums
@@ -2158,51 +2160,32 @@ mod avx2 {
         cost: Option<(&mut [u16], usize)>,
         pairs: Option<(&[u8], &[u16])>,
     ) {
-        lanes::vertical_checked(colsum, rows, bt, ndq, sub);
-        let wp = rows.0.len();
-        // the byte pairs only for the differences of both rows without intervals
-        assert!(pairs.is_none_or(|(p, l)| sub && bt.is_none() && p.len() + 2 >= 2 * (wp + ndq) && l.len() >= wp));
-        let pp = pairs.map_or((std::ptr::null(), std::ptr::null()), |(p, l)| (p.as_ptr(), l.as_ptr()));
-        let boxed = cost.map(|(cost, r)| {
-            let wp = rows.0.len();
-            assert!(wp > 2 * r);
-            lanes::box_row_checked(cost, colsum, wp - 2 * r, r, ndq);
-            (cost.as_mut_ptr(), r)
-        });
-        // SAFETY: AVX2 (this function's features); lengths asserted above.
-        unsafe {
-            let all = (0, ndq);
-            match (bt.is_some(), sub, pairs.is_some()) {
-                (true, true, _) => lanes::vertical::<true, true, false>(t, colsum, rows, bt, pp, ndq, boxed, all),
-                (true, false, _) => lanes::vertical::<true, false, false>(t, colsum, rows, bt, pp, ndq, boxed, all),
-                // (the byte pairs, the default cost's case, compiled for 16 to 128 lanes as
-                // `forward_row_any`: three paths, tsukuba 19.51 → 19.12, venus
-                // 11.99 → 11.70, teddy 8.56 → 8.32 instructions an evaluation)
-                (false, true, true) => match ndq {
-                    16 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pp, 16, boxed, (0, 16)),
-                    32 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pp, 32, boxed, (0, 32)),
-                    48 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pp, 48, boxed, (0, 48)),
-                    64 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pp, 64, boxed, (0, 64)),
-                    96 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pp, 96, boxed, (0, 96)),
-                    128 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pp, 128, boxed, (0, 128)),
-                    _ => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pp, ndq, boxed, all),
-                },
-                (false, true, false) => lanes::vertical::<false, true, false>(t, colsum, rows, bt, pp, ndq, boxed, all),
-                (false, false, _) => lanes::vertical::<false, false, false>(t, colsum, rows, bt, pp, ndq, boxed, all),
-            }
+        let all = (0, ndq);
+        match (bt.is_some(), sub, pairs.is_some()) {
+            (true, true, _) => lanes::vertical::<true, true, false>(t, colsum, rows, bt, pairs, ndq, cost, all),
+            (true, false, _) => lanes::vertical::<true, false, false>(t, colsum, rows, bt, pairs, ndq, cost, all),
+            // (the byte pairs, the default cost's case, compiled for 16 to 128 lanes as
+            // `forward_row_any`: three paths, tsukuba 19.51 → 19.12, venus
+            // 11.99 → 11.70, teddy 8.56 → 8.32 instructions an evaluation)
+            (false, true, true) => match ndq {
+                16 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pairs, 16, cost, (0, 16)),
+                32 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pairs, 32, cost, (0, 32)),
+                48 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pairs, 48, cost, (0, 48)),
+                64 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pairs, 64, cost, (0, 64)),
+                96 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pairs, 96, cost, (0, 96)),
+                128 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pairs, 128, cost, (0, 128)),
+                _ => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pairs, ndq, cost, all),
+            },
+            (false, true, false) => lanes::vertical::<false, true, false>(t, colsum, rows, bt, pairs, ndq, cost, all),
+            (false, false, _) => lanes::vertical::<false, false, false>(t, colsum, rows, bt, pairs, ndq, cost, all),
         }
     }
 
-    /// [`lanes::box_row`] on every lane.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2 (lengths are asserted).
+    /// [`lanes::box_row`] on every lane, compiled for AVX2 (the token proves it).
     #[inline]
     #[target_feature(enable = "avx2,popcnt")]
     pub(super) fn box_row(t: Avx2, cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
-        lanes::box_row_checked(cost, colsum, w, r, ndq);
-        // SAFETY: AVX2 (this function's features); lengths asserted above.
-        unsafe { lanes::box_row(t, cost, colsum, w, r, ndq, (0, ndq)) }
+        lanes::box_row(t, cost, colsum, w, r, ndq, (0, ndq))
     }
 }
 

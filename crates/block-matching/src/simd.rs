@@ -186,6 +186,18 @@ pub(crate) struct Scratch<E: Lane> {
 }
 
 impl<E: Lane> Scratch<E> {
+    /// Panics unless the buffers are sized for `sh` at `lanes` lanes as [`Self::resize`] sizes
+    /// them: what every raw access of the kernels relies on (checked once per row).
+    fn assert_sized(&self, sh: &Shared, lanes: usize) {
+        let (w, wp, ndp) = (sh.w, sh.w + 2 * sh.r, self.ndp);
+        assert!(ndp > 0 && ndp == sh.nd.div_ceil(lanes) * lanes, "scratch sized for another range");
+        assert!(self.colsum.len() >= wp * ndp && self.boxs.len() >= RING * (ndp + 2 * lanes));
+        assert!([self.l_in.len(), self.l_out.len(), self.l_pairs.len()].iter().all(|&n| n >= wp));
+        assert!([self.r_in.len(), self.r_out.len(), self.pairs.len()].iter().all(|&n| n + 1 >= wp + ndp));
+        assert!([self.rc.len(), self.rk.len(), self.dvec.len(), self.tail.len()].iter().all(|&n| n >= ndp));
+        assert!([self.rkf.len(), self.keys.len(), self.cm.len(), self.cp.len(), self.c2.len()].iter().all(|&n| n >= w));
+    }
+
     pub(crate) fn resize(&mut self, w: usize, r: usize, nd: usize, lanes: usize) {
         let ndp = nd.div_ceil(lanes) * lanes;
         let wp = w + 2 * r;
@@ -235,10 +247,9 @@ pub(crate) fn band16(
     let _ = t;
     sc.resize(sh.w, sh.r, sh.nd, 16);
     match wide {
-        // SAFETY: the token proves AVX-512 F/BW/VL and AVX2; `sc` has just been sized for 16
-        // lanes.
+        // SAFETY: the token proves AVX-512 F/BW/VL and AVX2.
         Some(_) => unsafe { avx512_16::band::<false>(sh, sc, out, conf, y0, y1) },
-        // SAFETY: the token `t` proves AVX2; `sc` has just been sized for 16 lanes.
+        // SAFETY: the token `t` proves AVX2.
         None => unsafe { avx2_16::band::<false>(sh, sc, out, conf, y0, y1) },
     }
 }
@@ -258,7 +269,7 @@ pub(crate) fn band32(
 ) -> MatchStats {
     let _ = t;
     sc.resize(sh.w, sh.r, sh.nd, 8);
-    // SAFETY: the token `t` proves AVX2; `sc` has just been sized for 8 lanes.
+    // SAFETY: the token `t` proves AVX2.
     unsafe {
         if squared {
             avx2_32::band::<true>(sh, sc, out, conf, y0, y1)
@@ -270,11 +281,9 @@ pub(crate) fn band32(
 
 macro_rules! kernel {
     ($feat:literal) => {
-        /// # Safety
-        /// The CPU must support this module's target features (the callers hold its token), and
-        /// `sc` must have been sized for `sh` by its `resize`.
+        /// Rows `y0..y1` of one band (`sc` sized for `sh` by its `resize`, else a panic).
         #[target_feature(enable = $feat)]
-        pub(super) unsafe fn band<const SQ: bool>(
+        pub(super) fn band<const SQ: bool>(
             sh: &Shared,
             sc: &mut Scratch<E>,
             out: &mut [f32],
@@ -292,11 +301,9 @@ macro_rules! kernel {
                     sc.colsum.fill(0);
                     for j in (y0 as i64 - r as i64)..=(y0 + r) as i64 {
                         load_rows(sh, clamp_y(j), &mut sc.l_in, &mut sc.r_in);
-                        // SAFETY: buffers sized by `Scratch16::resize`.
-                        unsafe { add_row::<SQ>(sh, sc) };
+                        add_row::<SQ>(sh, sc);
                     }
-                    // SAFETY: as above.
-                    unsafe { row_n::<false, SQ, false>(sh, sc, y, orow, crow, &mut st) };
+                    row_n::<false, SQ, false>(sh, sc, y, orow, crow, &mut st);
                 } else {
                     let yi = clamp_y(y as i64 + r as i64);
                     let yo = clamp_y(y as i64 - r as i64 - 1);
@@ -304,17 +311,14 @@ macro_rules! kernel {
                         if !SQ && sh.small_px {
                             // below 128 (`small_px`)
                             load_row_pairs(sh, yi, yo, &mut sc.l_pairs, &mut sc.pairs);
-                            // SAFETY: as above; every pixel is below 128.
-                            unsafe { row_n::<true, SQ, true>(sh, sc, y, orow, crow, &mut st) };
+                            row_n::<true, SQ, true>(sh, sc, y, orow, crow, &mut st);
                         } else {
                             load_rows(sh, yi, &mut sc.l_in, &mut sc.r_in);
                             load_rows(sh, yo, &mut sc.l_out, &mut sc.r_out);
-                            // SAFETY: as above.
-                            unsafe { row_n::<true, SQ, false>(sh, sc, y, orow, crow, &mut st) };
+                            row_n::<true, SQ, false>(sh, sc, y, orow, crow, &mut st);
                         }
                     } else {
-                        // SAFETY: as above.
-                        unsafe { row_n::<false, SQ, false>(sh, sc, y, orow, crow, &mut st) };
+                        row_n::<false, SQ, false>(sh, sc, y, orow, crow, &mut st);
                     }
                 }
             }
@@ -325,10 +329,7 @@ macro_rules! kernel {
         /// to 64 disparities, 96, 128, 224 and 256; the box sums then stay in registers, up to
         /// 128 disparities with AVX2's 16, all of these with the AVX-512 level's 32).
         #[target_feature(enable = $feat)]
-        ///
-        /// # Safety
-        /// The CPU must support this module's target features (the dispatch checks `SimdLevel::detect()`), and `sc` must have been sized for `sh` by its `resize`.
-        unsafe fn row_n<const VERT: bool, const SQ: bool, const PAIRS: bool>(
+        fn row_n<const VERT: bool, const SQ: bool, const PAIRS: bool>(
             sh: &Shared,
             sc: &mut Scratch<E>,
             y: usize,
@@ -336,9 +337,9 @@ macro_rules! kernel {
             conf: &mut [f32],
             stats: &mut MatchStats,
         ) {
-            // SAFETY: forwarded. Without the left–right check the right image's minima are not
-            // tracked at all (`LR = false`: a third fewer vector operations per chunk).
-            unsafe {
+            // Without the left–right check the right image's minima are not tracked at all (`LR =
+            // false`: a third fewer vector operations per chunk).
+            {
                 match (sc.ndp / L, sh.lr.is_some()) {
                     (1, true) => row::<VERT, SQ, 1, true, PAIRS>(sh, sc, y, out, conf, stats),
                     (2, true) => row::<VERT, SQ, 2, true, PAIRS>(sh, sc, y, out, conf, stats),
@@ -362,10 +363,8 @@ macro_rules! kernel {
 
         /// Adds `|L − R|` of the row in `l_in` / `r_in` to every column sum.
         #[target_feature(enable = $feat)]
-        ///
-        /// # Safety
-        /// The CPU must support this module's target features (the dispatch checks `SimdLevel::detect()`), and `sc` must have been sized for `sh` by its `resize`.
-        unsafe fn add_row<const SQ: bool>(sh: &Shared, sc: &mut Scratch<E>) {
+        fn add_row<const SQ: bool>(sh: &Shared, sc: &mut Scratch<E>) {
+            sc.assert_sized(sh, L);
             let wp = sh.w + 2 * sh.r;
             let ndp = sc.ndp;
             let cs = sc.colsum.as_mut_ptr();
@@ -383,12 +382,10 @@ macro_rules! kernel {
             }
         }
 
-        /// One row: column-sum update (when `VERT`), box sums, both winners, decisions.
+        /// One row: column-sum update (when `VERT`), box sums, both winners, decisions (`sc` sized
+        /// for `sh` by its `resize`, else a panic).
         #[target_feature(enable = $feat)]
-        ///
-        /// # Safety
-        /// The CPU must support this module's target features (the dispatch checks `SimdLevel::detect()`), and `sc` must have been sized for `sh` by its `resize`.
-        unsafe fn row<const VERT: bool, const SQ: bool, const NCH: usize, const LR: bool, const PAIRS: bool>(
+        fn row<const VERT: bool, const SQ: bool, const NCH: usize, const LR: bool, const PAIRS: bool>(
             sh: &Shared,
             sc: &mut Scratch<E>,
             y: usize,
@@ -401,7 +398,9 @@ macro_rules! kernel {
             // (a constant when the chunk count is: the ring's slot offsets in `beside!` then need
             // no multiplication by a loaded stride)
             let ndp = if NCH > 0 { NCH * L } else { sc.ndp };
-            debug_assert_eq!(ndp, sc.ndp);
+            // (every raw access below relies on these sizes)
+            sc.assert_sized(sh, L);
+            assert_eq!(ndp, sc.ndp);
             sc.rc.fill(E::MAX);
             sc.rk.fill(E::MAX);
             sc.rkf.fill(E::MAX);
