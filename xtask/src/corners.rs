@@ -78,6 +78,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     for path in &paths {
         let search = session::search_corners(path, &target, &cfg, args.draw.is_some())?;
         println!("{}", search.line);
+        if let Some(why) = &search.why {
+            println!("why: {why}");
+        }
         found += usize::from(search.found());
         times.push(search.entry.time_ms);
         if let (Some(dir), Some(overlay)) = (&args.draw, &search.overlay) {

@@ -113,3 +113,43 @@ fn charuco_corners_file_has_ids_and_calibrates() {
     assert!(!out.status.success() && err.contains("no circles:4x11") && err.contains("charuco:"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Issue 49's output contract on a board OpenCV drew (`generateImage`, legacy layout, 5x4 squares:
+/// `crates/corner-detection/tests/data/opencv-charuco/`): described with the right layout, `found
+/// 12 points … ; markers: 10`; with the current layout, `not found … ; markers: N` and a `why:`
+/// line naming the misplaced markers and the legacy layout (most markers confirm each other one
+/// square over: without the check every corner would get a wrong id); with the wrong dictionary
+/// `markers: 0` and a `why:` naming it; as a chessboard, a `why:` with the candidates counted.
+#[test]
+fn a_board_not_found_says_why() {
+    let png = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../crates/corner-detection/tests/data/opencv-charuco/charuco_5x4_dict6x6_250_legacy.png");
+    let png = png.to_str().unwrap();
+    let run = |board: &str| {
+        let out = xtask(&["corners", "--images", png, "--board", board]);
+        assert!(out.status.success(), "{board}: {}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let right = run("charuco:5x4:64:48:DICT_6X6_250:legacy");
+    assert!(
+        right.contains(": found 12 points of charuco:5x4:64:48:DICT_6X6_250:legacy in ")
+            && right.contains("; markers: 10"),
+        "{right}"
+    );
+    assert!(!right.contains("why:"), "{right}");
+    let shifted = run("charuco:5x4:64:48:DICT_6X6_250");
+    let lines: Vec<&str> = shifted.lines().collect();
+    assert!(lines[0].contains(": not found (") && lines[0].contains("; markers: "), "{shifted}");
+    assert!(
+        lines[1].starts_with("why: markers [2, 7] sit where the board as described") && lines[1].contains(":legacy"),
+        "{shifted}"
+    );
+    let dict = run("charuco:5x4:64:48:DICT_4X4_50:legacy");
+    assert!(dict.contains("; markers: 0\nwhy: no marker of DICT_4X4_50 decoded"), "{dict}");
+    let chess = run("9x6");
+    assert!(chess.contains(": not found (") && !chess.contains("markers:"), "{chess}");
+    assert!(
+        chess.lines().any(|l| l.starts_with("why: ") && l.contains("X-junction candidates for the 54 inner corners")),
+        "{chess}"
+    );
+}

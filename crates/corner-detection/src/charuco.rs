@@ -55,6 +55,12 @@ pub struct CharucoDetection {
     pub markers: Vec<DetectedMarker>,
     /// Per corner (same order): the saddle refinement's report.
     pub refinement: Vec<Refinement>,
+    /// Ids of decoded markers of this board that sit, as their confirmed neighbours place them,
+    /// on or next to the board in a square where the board as described has another marker or
+    /// none. Not empty: the description does not match the print (most often the legacy layout
+    /// of boards made before OpenCV 4.6, whose markers sit one square over; or the square
+    /// counts), and no corner is reported — a shifted board would give every corner a wrong id.
+    pub misplaced: Vec<u32>,
 }
 
 /// Finds the ChArUco corners of `board` in `img`: any visible subset, ids in OpenCV's
@@ -115,6 +121,41 @@ pub fn detect_charuco(img: &GrayImage, board: &CharucoBoard, cfg: &CharucoConfig
                 break;
             }
         }
+    }
+    // The layout check: each decoded marker mapped into the board by the nearest confirmed other
+    // marker (a local homography: lens distortion does not matter over a few squares) must land in
+    // its own square. Described with the other layout (legacy vs current, an even row count),
+    // most markers still confirm each other one square over, but not all of them.
+    let mut misplaced = Vec::new();
+    for (k, m) in on_board.iter().enumerate() {
+        let c = centre(m);
+        let side = (m.corners[1] - m.corners[0]).length();
+        let nearest = (0..on_board.len())
+            .filter(|&j| j != k && confirmed[j] && homs[j].is_some() && on_board[j].id != m.id)
+            .map(|j| ((centre(&on_board[j]) - c).length(), j))
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        let Some((d, j)) = nearest else { continue };
+        let Some(inv) = homs[j].map(|h| h.inverse()) else { continue };
+        if d > 4.0 * side {
+            continue;
+        }
+        let q = apply(&inv, c);
+        let (sx, sy) = (q.x.floor(), q.y.floor());
+        let (nx, ny) = (board.squares_x() as f64, board.squares_y() as f64);
+        if !(sx >= -1.0 && sy >= -1.0 && sx <= nx && sy <= ny) {
+            continue;
+        }
+        let own = board.marker_square(m.id).map(|(x, y)| (x as f64, y as f64));
+        if own != Some((sx, sy)) {
+            misplaced.push(m.id);
+        }
+    }
+    if !misplaced.is_empty() {
+        misplaced.sort_unstable();
+        misplaced.dedup();
+        let observation = TargetObservation::new(Vec::new(), Vec::new()).expect("empty");
+        let markers = on_board.iter().zip(&confirmed).filter(|(_, c)| **c).map(|(m, _)| *m).collect();
+        return Ok(CharucoDetection { observation, markers, refinement: Vec::new(), misplaced });
     }
     let mut by_id = vec![None; board.marker_count()];
     let mut markers = Vec::new();
@@ -184,7 +225,7 @@ pub fn detect_charuco(img: &GrayImage, board: &CharucoBoard, cfg: &CharucoConfig
         refinement.push(r);
     }
     let observation = TargetObservation::new(ids, points).expect("ascending unique ids, finite points");
-    Ok(CharucoDetection { observation, markers, refinement })
+    Ok(CharucoDetection { observation, markers, refinement, misplaced })
 }
 
 pub(crate) fn sample_u8(img: &GrayImage, p: DVec2) -> f64 {

@@ -67,7 +67,8 @@ pub use real::{RealChecks, RealInputs, run_real};
 pub use report::{Bound, Report, Row};
 pub use scene::{Corruption, run_scene};
 pub use stages::{
-    MIN_VALID_RECTIFIED_FRACTION, RectifiedRig, StereoChecks, StereoViews, adjacent_distances, board_poses,
-    calibrate_mono, calibrate_stereo, check_stereo, detect_boards, detect_target, hand_eye, match_blobs, match_pair,
-    measure, point_cloud, rectified_abs_dv, rectify, rectify_images, refuse_collapsed, target_pose, to_robot_frame,
+    MIN_VALID_RECTIFIED_FRACTION, RectifiedRig, StereoChecks, StereoViews, TargetSearch, adjacent_distances,
+    board_poses, calibrate_mono, calibrate_stereo, check_stereo, detect_boards, detect_target, hand_eye, match_blobs,
+    match_pair, measure, point_cloud, rectified_abs_dv, rectify, rectify_images, refuse_collapsed, search_target,
+    target_pose, to_robot_frame,
 };

@@ -231,8 +231,8 @@ pub fn target_absent(target: &TargetDescription, images: usize) -> PipelineError
 }
 
 /// One image searched by [`search_corners`]: its corners-file entry, the line that reports it
-/// (`NAME: found …` with the detector's figures, or `NAME: not found (… ms)`), and, when asked
-/// for, the overlay picture (a chessboard's grid in OpenCV's order or, when no board was found,
+/// (`NAME: found …` with the detector's figures, or `NAME: not found (… ms)`; marker targets add
+/// `; markers: N`), why a target was not found (`why`), and, when asked for, the overlay picture (a chessboard's grid in OpenCV's order or, when no board was found,
 /// its X-junction candidates in red; another target's points in green).
 #[derive(Debug, Clone)]
 pub struct CornerSearch {
@@ -240,6 +240,8 @@ pub struct CornerSearch {
     pub entry: ImageCorners,
     /// The report line.
     pub line: String,
+    /// When the target was not found: what the detector saw and why it was not enough.
+    pub why: Option<String>,
     /// The overlay, when asked for.
     pub overlay: Option<image::RgbImage>,
 }
@@ -273,7 +275,7 @@ pub fn search_corners(
         observation: None,
         time_ms: 0.0,
     };
-    let (line, drawing) = match target {
+    let (line, why, drawing) = match target {
         TargetDescription::Chessboard(b) => {
             let det = cd::detect_chessboard(&img, b.cols, b.rows, config).map_err(|e| context(e.into()))?;
             let ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -294,29 +296,50 @@ pub fn search_corners(
                 }
                 None => format!("{name}: not found ({ms:.2} ms)"),
             };
+            // (the candidates are counted only for a board not found)
+            let why = match &det {
+                Some(_) => None,
+                None => {
+                    let n = cd::chessboard_candidates(&img, config).map_err(|e| context(e.into()))?.len();
+                    let need = b.cols * b.rows;
+                    Some(if n < need {
+                        format!(
+                            "{n} X-junction candidates for the {need} inner corners of a {}x{} board: is the whole board in the image, in focus and lit evenly?",
+                            b.cols, b.rows
+                        )
+                    } else {
+                        format!(
+                            "no {}x{} grid among {n} X-junction candidates: the size counts inner corners (a board of 10x7 squares is 9x6); is all of it in the image?",
+                            b.cols, b.rows
+                        )
+                    })
+                }
+            };
             let drawing = match (&det, overlay) {
                 (_, false) => None,
                 (Some(d), true) => Some(cd::draw_chessboard(&img, &d.grid)),
                 (None, true) => Some(cd::draw_points(&img, &cd::chessboard_candidates(&img, config)?, [255, 0, 0])),
             };
             entry.grid = det.map(|d| d.grid);
-            (line, drawing)
+            (line, why, drawing)
         }
         t => {
-            let obs = crate::detect_target(&img, t).map_err(context)?;
+            let search = crate::search_target(&img, t).map_err(context)?;
             let ms = t0.elapsed().as_secs_f64() * 1e3;
             entry.time_ms = ms;
+            let obs = search.observation;
+            let markers = search.markers.map_or(String::new(), |m| format!("; markers: {m}"));
             let line = match &obs {
-                Some(o) => format!("{name}: found {} points of {t} in {ms:.2} ms", o.len()),
-                None => format!("{name}: not found ({ms:.2} ms)"),
+                Some(o) => format!("{name}: found {} points of {t} in {ms:.2} ms{markers}", o.len()),
+                None => format!("{name}: not found ({ms:.2} ms){markers}"),
             };
             let points = obs.as_ref().map_or(&[][..], |o| o.points());
             let drawing = overlay.then(|| cd::draw_points(&img, points, [0, 255, 0]));
             entry.observation = obs;
-            (line, drawing)
+            (line, search.why, drawing)
         }
     };
-    Ok(CornerSearch { entry, line, overlay: drawing })
+    Ok(CornerSearch { entry, line, why, overlay: drawing })
 }
 
 /// The views' chessboard grids and any target's observations (those found).

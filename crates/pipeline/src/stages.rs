@@ -448,19 +448,94 @@ pub fn detect_target(
     img: &image::GrayImage,
     target: &parallax_camera_model::TargetDescription,
 ) -> Result<Option<parallax_camera_model::TargetObservation>> {
+    Ok(search_target(img, target)?.observation)
+}
+
+/// What [`search_target`] saw in one image.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TargetSearch {
+    /// The target's points (at least 4), or `None`.
+    pub observation: Option<parallax_camera_model::TargetObservation>,
+    /// Marker targets (ChArUco, AprilGrid, single marker): the markers decoded and confirmed.
+    pub markers: Option<usize>,
+    /// When nothing was found: what was seen and why it was not enough, as a hint.
+    pub why: Option<String>,
+}
+
+/// [`detect_target`] with what the detector saw: the markers decoded and, when the target is not
+/// found, why (`TargetSearch::why`). A chessboard's reason needs its candidates, which
+/// `session::search_corners` adds; here a chessboard not found gets a generic reason.
+pub fn search_target(
+    img: &image::GrayImage,
+    target: &parallax_camera_model::TargetDescription,
+) -> Result<TargetSearch> {
     use parallax_camera_model::{TargetDescription as T, TargetObservation};
     use parallax_corner_detection as cd;
-    let found = match target {
-        T::Chessboard(b) => cd::find_chessboard(img, b.cols, b.rows, &Default::default())?
-            .map(|g| TargetObservation::whole(g.corners))
-            .transpose()
-            .map_err(|e| PipelineError::Input(e.to_string()))?,
-        T::Charuco(b) => Some(cd::detect_charuco(img, b, &Default::default())?.observation),
-        T::CircleGrid(g) => cd::detect_circle_grid(img, g, &Default::default())?.map(|d| d.observation),
-        T::AprilGrid(g) => Some(cd::detect_aprilgrid(img, g, &Default::default())?.observation),
-        T::Marker(m) => cd::detect_single_marker(img, m, &Default::default())?,
+    // too few points to use (a pose or a calibration needs 4)
+    let few = |n: usize, what: &str| {
+        format!("{n} {what} found, 4 are needed: is most of the target hidden, out of focus or too small?")
     };
-    Ok(found.filter(|o| o.ids().len() >= 4))
+    let (observation, markers, why) = match target {
+        T::Chessboard(b) => {
+            let grid = cd::find_chessboard(img, b.cols, b.rows, &Default::default())?;
+            let why = grid.is_none().then(|| format!("no {}x{} grid of inner corners found", b.cols, b.rows));
+            let obs = grid
+                .map(|g| TargetObservation::whole(g.corners))
+                .transpose()
+                .map_err(|e| PipelineError::Input(e.to_string()))?;
+            (obs, None, why)
+        }
+        T::Charuco(b) => {
+            let d = cd::detect_charuco(img, b, &Default::default())?;
+            let n = d.observation.ids().len();
+            let why = if !d.misplaced.is_empty() {
+                Some(format!(
+                    "markers {:?} sit where the board as described has other markers or none: check the layout \
+                     (`:legacy` for boards made before OpenCV 4.6), the square counts and the dictionary",
+                    d.misplaced
+                ))
+            } else if d.markers.is_empty() {
+                Some(format!(
+                    "no marker of {} decoded: check the dictionary; the board must be in focus",
+                    b.dictionary().name()
+                ))
+            } else {
+                (n < 4).then(|| few(n, "corners"))
+            };
+            (Some(d.observation), Some(d.markers.len()), why)
+        }
+        T::CircleGrid(g) => {
+            let d = cd::detect_circle_grid(img, g, &Default::default())?;
+            let why = d.is_none().then(|| {
+                format!(
+                    "no {target} recognised: check the size (circles per row and column) and symmetric or asymmetric"
+                )
+            });
+            (d.map(|d| d.observation), None, why)
+        }
+        T::AprilGrid(g) => {
+            let d = cd::detect_aprilgrid(img, g, &Default::default())?;
+            let n = d.observation.ids().len();
+            let why = if d.tags.is_empty() {
+                Some(
+                    "no tag36h11 tag of the grid decoded: the grid must be in focus with its border visible"
+                        .to_string(),
+                )
+            } else {
+                (n < 4).then(|| few(n, "corners"))
+            };
+            (Some(d.observation), Some(d.tags.len()), why)
+        }
+        T::Marker(m) => {
+            let o = cd::detect_single_marker(img, m, &Default::default())?;
+            let why = o.is_none().then(|| format!("{target} not decoded: check its id and dictionary"));
+            let markers = usize::from(o.is_some());
+            (o, Some(markers), why)
+        }
+    };
+    let observation = observation.filter(|o| o.ids().len() >= 4);
+    let why = if observation.is_some() { None } else { why.or_else(|| Some(few(0, "points"))) };
+    Ok(TargetSearch { observation, markers, why })
 }
 
 /// `camera_from_target` of one observation by planar PnP with a calibrated camera, and the RMS
