@@ -194,6 +194,18 @@ fn a_truncated_jpeg_is_refused_naming_the_file() {
     let r = run(&["corners", "--images", cut.to_str().unwrap(), "--board", "9x6", "--out", out.to_str().unwrap()]);
     fails_naming(&r, &["cut.jpg", "truncated"]);
     assert_eq!(files_below(&dir), ["cut.jpg"]);
+    // cut in half with an end-of-image marker appended (issue 51 item 5): the decoder alone
+    // returns the image with its lower half grey
+    let marked = dir.join("marked.jpg");
+    std::fs::write(&marked, [&bytes[..bytes.len() / 2], &[0xFF, 0xD9][..]].concat()).unwrap();
+    let r = run(&["corners", "--images", marked.to_str().unwrap(), "--board", "9x6", "--out", out.to_str().unwrap()]);
+    fails_naming(&r, &["marked.jpg", "truncated", "ends after"]);
+    assert_eq!(files_below(&dir), ["cut.jpg", "marked.jpg"]);
+    // the whole file passes
+    let whole = dir.join("whole.jpg");
+    std::fs::write(&whole, &bytes).unwrap();
+    let r = run(&["corners", "--images", whole.to_str().unwrap(), "--board", "9x6"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
 }
 
 #[test]

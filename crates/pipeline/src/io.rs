@@ -379,6 +379,13 @@ pub fn decode_image(bytes: &[u8], path: &Path) -> Result<image::DynamicImage> {
                 path.display()
             )));
         }
+        // a file cut short with an end marker after it: the decoder would fill the rest with grey
+        if let Err(e) = crate::jpeg_scan::check(bytes) {
+            return Err(PipelineError::Input(format!(
+                "{}: truncated or corrupt JPEG: {e}: re-export or re-copy the file",
+                path.display()
+            )));
+        }
     }
     let reader = || {
         let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), format);

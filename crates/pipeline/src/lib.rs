@@ -49,6 +49,7 @@ pub mod fixtures;
 pub mod fuzz_checks;
 pub mod images;
 pub mod io;
+mod jpeg_scan;
 pub mod measurement;
 pub mod plots;
 pub mod poses;
