@@ -146,6 +146,22 @@ fn a_board_not_found_says_why() {
     );
     let dict = run("charuco:5x4:64:48:DICT_4X4_50:legacy");
     assert!(dict.contains("; markers: 0\nwhy: no marker of DICT_4X4_50 decoded"), "{dict}");
+    // --draw shows what was seen even when the board is rejected: the decoded markers outlined
+    let dir = std::env::temp_dir().join(format!("xtask-why-{}", std::process::id()));
+    let out = xtask(&[
+        "corners",
+        "--images",
+        png,
+        "--board",
+        "charuco:5x4:64:48:DICT_6X6_250",
+        "--draw",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    let overlay = image::open(dir.join("charuco_5x4_dict6x6_250_legacy-corners.png")).unwrap().to_rgb8();
+    let orange = overlay.pixels().filter(|p| p.0 == [255, 160, 0]).count();
+    assert!(orange > 10 * 4 * 40, "the 10 markers outlined: {orange} orange pixels");
+    std::fs::remove_dir_all(&dir).unwrap();
     let chess = run("9x6");
     assert!(chess.contains(": not found (") && !chess.contains("markers:"), "{chess}");
     assert!(

@@ -1008,6 +1008,22 @@ pub fn draw_points(img: &GrayImage, points: &[DVec2], colour: [u8; 3]) -> RgbIma
     out
 }
 
+/// Draws the outline of each quadrilateral of `quads` (e.g. the markers a detector decoded) onto
+/// `out`.
+pub fn draw_quads_mut(out: &mut RgbImage, quads: &[[DVec2; 4]], colour: [u8; 3]) {
+    for q in quads {
+        for k in 0..4 {
+            let (a, b) = (q[k], q[(k + 1) % 4]);
+            imageproc::drawing::draw_line_segment_mut(
+                out,
+                (a.x as f32, a.y as f32),
+                (b.x as f32, b.y as f32),
+                Rgb(colour),
+            );
+        }
+    }
+}
+
 /// X-junction candidates of an image (positions only), as used by [`find_chessboard`]: useful
 /// for drawing what the detector saw when no board was found.
 pub fn chessboard_candidates(img: &GrayImage, cfg: &ChessboardConfig) -> Result<Vec<DVec2>> {

@@ -69,7 +69,7 @@ pub use blobs::{BT601, Blob, BlobConfig, BlobDetection, BlobPolarity, detect_blo
 pub use charuco::{CharucoConfig, CharucoDetection, detect_charuco};
 pub use chessboard::{
     ChessboardConfig, ChessboardDetection, ChessboardDetector, CornerRefinement, chessboard_candidates,
-    detect_chessboard, draw_chessboard, draw_points, find_chessboard,
+    detect_chessboard, draw_chessboard, draw_points, draw_quads_mut, find_chessboard,
 };
 pub use circles::{CircleGridConfig, CircleGridDetection, detect_circle_grid};
 pub use error::{CornerError, Result};

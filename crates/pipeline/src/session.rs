@@ -232,8 +232,10 @@ pub fn target_absent(target: &TargetDescription, images: usize) -> PipelineError
 
 /// One image searched by [`search_corners`]: its corners-file entry, the line that reports it
 /// (`NAME: found …` with the detector's figures, or `NAME: not found (… ms)`; marker targets add
-/// `; markers: N`), why a target was not found (`why`), and, when asked for, the overlay picture (a chessboard's grid in OpenCV's order or, when no board was found,
-/// its X-junction candidates in red; another target's points in green).
+/// `; markers: N`), why a target was not found (`why`), and, when asked for, the overlay picture
+/// (a chessboard's grid in OpenCV's order or, when no board was found, its X-junction candidates
+/// in red; another target's points in green and the markers it decoded outlined in orange, found
+/// or not).
 #[derive(Debug, Clone)]
 pub struct CornerSearch {
     /// The entry of the corners file (with the detection time).
@@ -334,7 +336,13 @@ pub fn search_corners(
                 None => format!("{name}: not found ({ms:.2} ms){markers}"),
             };
             let points = obs.as_ref().map_or(&[][..], |o| o.points());
-            let drawing = overlay.then(|| cd::draw_points(&img, points, [0, 255, 0]));
+            // the points found in green, and the markers decoded in orange (also when the target
+            // was rejected: what the detector saw)
+            let drawing = overlay.then(|| {
+                let mut out = cd::draw_points(&img, points, [0, 255, 0]);
+                cd::draw_quads_mut(&mut out, &search.outlines, [255, 160, 0]);
+                out
+            });
             entry.observation = obs;
             (line, search.why, drawing)
         }

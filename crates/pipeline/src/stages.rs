@@ -460,6 +460,8 @@ pub struct TargetSearch {
     pub markers: Option<usize>,
     /// When nothing was found: what was seen and why it was not enough, as a hint.
     pub why: Option<String>,
+    /// The image corners of the markers decoded (marker targets), found or not.
+    pub outlines: Vec<[glam::DVec2; 4]>,
 }
 
 /// [`detect_target`] with what the detector saw: the markers decoded and, when the target is not
@@ -475,6 +477,7 @@ pub fn search_target(
     let few = |n: usize, what: &str| {
         format!("{n} {what} found, 4 are needed: is most of the target hidden, out of focus or too small?")
     };
+    let mut outlines = Vec::new();
     let (observation, markers, why) = match target {
         T::Chessboard(b) => {
             let grid = cd::find_chessboard(img, b.cols, b.rows, &Default::default())?;
@@ -487,6 +490,7 @@ pub fn search_target(
         }
         T::Charuco(b) => {
             let d = cd::detect_charuco(img, b, &Default::default())?;
+            outlines = d.markers.iter().map(|m| m.corners).collect();
             let n = d.observation.ids().len();
             let why = if !d.misplaced.is_empty() {
                 Some(format!(
@@ -515,6 +519,7 @@ pub fn search_target(
         }
         T::AprilGrid(g) => {
             let d = cd::detect_aprilgrid(img, g, &Default::default())?;
+            outlines = d.tags.iter().map(|m| m.corners).collect();
             let n = d.observation.ids().len();
             let why = if d.tags.is_empty() {
                 Some(
@@ -535,7 +540,7 @@ pub fn search_target(
     };
     let observation = observation.filter(|o| o.ids().len() >= 4);
     let why = if observation.is_some() { None } else { why.or_else(|| Some(few(0, "points"))) };
-    Ok(TargetSearch { observation, markers, why })
+    Ok(TargetSearch { observation, markers, why, outlines })
 }
 
 /// `camera_from_target` of one observation by planar PnP with a calibrated camera, and the RMS
