@@ -62,6 +62,8 @@ impl OutputSet {
         missing.reverse();
         std::fs::create_dir_all(&dir).map_err(io_err("creating directory", &dir))?;
         self.created.extend(missing);
+        // a killed run's commit is finished before its staged files would count as leftovers
+        finish_killed_commits(&dir);
         remove_dead_runs_temps(&dir, &name);
         let k = match self.files.iter().position(|(p, _)| *p == path) {
             Some(k) => k,
@@ -157,6 +159,45 @@ impl OutputSet {
     /// Renames every staged file into place, then removes the superseded files it did not write;
     /// returns the paths written.
     pub fn commit(mut self) -> Result<Vec<PathBuf>> {
+        let journal = self.write_journal(std::process::id())?;
+        let result = self.rename_all();
+        if let Some(j) = journal {
+            let _ = std::fs::remove_file(j);
+        }
+        result
+    }
+
+    /// Writes the commit's journal (see [`finish_killed_commits`]) beside the first file, synced
+    /// to disk before any rename; `None` for a set of one file and nothing to remove (a single
+    /// rename is atomic by itself).
+    fn write_journal(&self, pid: u32) -> Result<Option<PathBuf>> {
+        let Some((first, _)) = self.files.first() else { return Ok(None) };
+        if self.files.len() == 1 && self.superseded.is_empty() {
+            return Ok(None);
+        }
+        let abs = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+        let mut text = String::new();
+        for (path, tmp) in &self.files {
+            text.push_str(&format!("rename\t{}\t{}\n", abs(tmp).display(), abs(path).display()));
+        }
+        for stale in self.superseded.iter().filter(|s| self.files.iter().all(|(p, _)| p != *s)) {
+            text.push_str(&format!("remove\t{}\n", abs(stale).display()));
+        }
+        text.push_str("end\n");
+        let dir = first.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let journal = dir.join(format!("{JOURNAL_PREFIX}{pid}"));
+        let write = || -> std::io::Result<()> {
+            use std::io::Write;
+            let mut f = std::fs::File::create(&journal)?;
+            f.write_all(text.as_bytes())?;
+            f.sync_all()
+        };
+        write().map_err(io_err("writing the commit journal", &journal))?;
+        Ok(Some(journal))
+    }
+
+    /// The renames and removals of [`Self::commit`].
+    fn rename_all(&mut self) -> Result<Vec<PathBuf>> {
         for k in 0..self.files.len() {
             let (path, tmp) = &self.files[k];
             if let Err(source) = std::fs::rename(tmp, path) {
@@ -180,6 +221,51 @@ impl OutputSet {
             }
         }
         Ok(std::mem::take(&mut self.files).into_iter().map(|(p, _)| p).collect())
+    }
+}
+
+/// The name of a commit journal: `.parallax-commit-{pid}`.
+const JOURNAL_PREFIX: &str = ".parallax-commit-";
+
+/// Finishes the commits that runs killed half-way (`kill -9`, a power cut) left in `dir`: an
+/// [`OutputSet`] writes, before its first rename, a journal of every rename and removal it will
+/// make (`.parallax-commit-{pid}`, synced to disk); a journal whose process is gone is replayed —
+/// the staged files still there are renamed into place, the earlier run's files removed — so the
+/// folder holds the new set, never a mix of two runs. A journal cut short (killed while writing
+/// it, before any rename) is dropped: the old set is still whole. Every set that stages into a
+/// folder calls this first; a program reading outputs that a killed run may have left can call
+/// it too. Runs only where `/proc` tells the living processes (Linux), like the cleanup of
+/// staged files.
+pub fn finish_killed_commits(dir: &Path) {
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for e in entries.flatten() {
+        let file = e.file_name();
+        let Some(pid) = file.to_str().and_then(|f| f.strip_prefix(JOURNAL_PREFIX)).and_then(|p| p.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        if pid == std::process::id() || Path::new("/proc").join(pid.to_string()).exists() {
+            continue;
+        }
+        let text = std::fs::read_to_string(e.path()).unwrap_or_default();
+        if text.ends_with("end\n") {
+            for line in text.lines() {
+                let parts: Vec<&str> = line.split('\t').collect();
+                match parts[..] {
+                    ["rename", tmp, path] if Path::new(tmp).is_file() => {
+                        let _ = std::fs::rename(tmp, path);
+                    }
+                    ["remove", stale] if Path::new(stale).is_file() => {
+                        let _ = std::fs::remove_file(stale);
+                    }
+                    _ => {}
+                }
+            }
+        }
+        let _ = std::fs::remove_file(e.path());
     }
 }
 
@@ -606,6 +692,54 @@ mod tests {
         let err = load_gray(Path::new("/nonexistent/x.png")).unwrap_err();
         assert!(err.to_string().contains("/nonexistent/x.png"), "{err}");
         assert!(expand_glob("/nonexistent/*.png").is_err());
+    }
+
+    /// A commit killed after some of its renames (simulated: the journal of a process that no
+    /// longer exists, half the files renamed, the superseded file still there) is finished by the
+    /// next set that stages into the folder: the new set whole, the earlier run's extra file
+    /// gone, no journal or staged file left. A journal cut short is dropped and the old set kept.
+    #[test]
+    fn a_commit_killed_half_way_is_finished_by_the_next_run() {
+        let dir = test_dir("io-journal");
+        std::fs::create_dir_all(&dir).unwrap();
+        for (name, text) in [("a.txt", "old a"), ("b.txt", "old b"), ("c.txt", "old c"), ("stale.txt", "old")] {
+            std::fs::write(dir.join(name), text).unwrap();
+        }
+        let mut set = OutputSet::new();
+        for name in ["a.txt", "b.txt", "c.txt"] {
+            set.add(dir.join(name), format!("new {}", &name[..1])).unwrap();
+        }
+        set.supersede(dir.join("stale.txt"));
+        // a dead process: above any pid the kernel hands out (pid_max ≤ 2^22)
+        let dead = 1 << 23;
+        let journal = set.write_journal(dead).unwrap().unwrap();
+        std::fs::rename(&set.files[0].1, &set.files[0].0).unwrap();
+        std::mem::forget(set); // killed: no cleanup
+        let read = |n: &str| std::fs::read_to_string(dir.join(n)).ok();
+        assert_eq!((read("a.txt"), read("b.txt")), (Some("new a".into()), Some("old b".into())), "a mix, for now");
+        // the next run's set stages into the folder
+        let mut next = OutputSet::new();
+        next.add(dir.join("other.txt"), "x").unwrap();
+        drop(next);
+        assert!(!journal.exists());
+        assert_eq!(
+            [read("a.txt"), read("b.txt"), read("c.txt")],
+            [Some("new a".into()), Some("new b".into()), Some("new c".into())]
+        );
+        assert_eq!(read("stale.txt"), None);
+        let left: Vec<String> =
+            std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        assert!(left.iter().all(|n| !n.starts_with('.')), "{left:?}");
+        // a journal cut short (no `end`): dropped, the files stay as they are
+        std::fs::write(
+            dir.join(format!("{JOURNAL_PREFIX}{dead}")),
+            format!("rename\t{}\t{}\n", dir.join(".x").display(), dir.join("a.txt").display()),
+        )
+        .unwrap();
+        finish_killed_commits(&dir);
+        assert_eq!(read("a.txt"), Some("new a".into()));
+        assert!(!dir.join(format!("{JOURNAL_PREFIX}{dead}")).exists());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
