@@ -1,5 +1,5 @@
-//! Crash-consistent outputs (issue 51 item 3): `kill -9` at random moments of `disparity` and
-//! `calibrate --out … --report …` runs that replace an earlier run's outputs. After each kill (and
+//! Crash-consistent outputs (issue 51 item 3): `kill -9` at random moments of `disparity`, `rectify`
+//! and `calibrate --out … --report …` runs (55 kills) that replace an earlier run's outputs. After each kill (and
 //! the commit journal a killed run may leave finished, as the next run does first), the output
 //! folder holds exactly the earlier set or exactly the new one — names and bytes — never a mix,
 //! and no file of an older run beside a newer set; after a complete run no staged file or journal
@@ -133,8 +133,8 @@ fn disparity_outputs_are_the_old_set_or_the_new_one_after_any_kill() {
         }
         a
     };
-    let (old, new) = kill_at_random("disparity", 30, &args, 0x9e37_79b9_7f4a_7c15);
-    println!("disparity: 30 kills, {old} left the earlier set, {new} the new one, none a mix");
+    let (old, new) = kill_at_random("disparity", 25, &args, 0x9e37_79b9_7f4a_7c15);
+    println!("disparity: 25 kills, {old} left the earlier set, {new} the new one, none a mix");
 }
 
 #[test]
@@ -158,6 +158,39 @@ fn calibration_and_report_are_the_old_set_or_the_new_one_after_any_kill() {
         .map(String::from)
         .to_vec()
     };
-    let (old, new) = kill_at_random("calibrate", 20, &args, 0x2545_f491_4f6c_dd1d);
-    println!("calibrate --report: 20 kills, {old} left the earlier set, {new} the new one, none a mix");
+    let (old, new) = kill_at_random("calibrate", 15, &args, 0x2545_f491_4f6c_dd1d);
+    println!("calibrate --report: 15 kills, {old} left the earlier set, {new} the new one, none a mix");
+}
+
+#[test]
+fn rectified_images_and_maps_are_the_old_set_or_the_new_one_after_any_kill() {
+    // an OpenCV stereo calibration of the fixtures' 640x480 rig (k1 = −0.1, 60 mm baseline)
+    let m = "600., 0., 320., 0., 600., 240., 0., 0., 1.";
+    let yaml = format!(
+        "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\nM1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ {m} ]\nD1: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ -0.1, 0., 0., 0., 0. ]\nM2: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ {m} ]\nD2: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ -0.1, 0., 0., 0., 0. ]\nR: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]\nT: !!opencv-matrix\n   rows: 3\n   cols: 1\n   dt: d\n   data: [ -60., 0., 0. ]\n"
+    );
+    let calib = std::env::temp_dir().join(format!("xtask-kill9-calib-{}.yml", std::process::id()));
+    std::fs::write(&calib, yaml).unwrap();
+    let (l, r) = (root().join("fixtures/stereo/left_00.png"), root().join("fixtures/stereo/right_00.png"));
+    let args = |k: usize, out: &Path| -> Vec<String> {
+        let alpha = if k == 0 { "0" } else { "1" };
+        [
+            "rectify",
+            "--calib",
+            calib.to_str().unwrap(),
+            "--left",
+            l.to_str().unwrap(),
+            "--right",
+            r.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--alpha",
+            alpha,
+        ]
+        .map(String::from)
+        .to_vec()
+    };
+    let (old, new) = kill_at_random("rectify", 15, &args, 0x0123_4567_89ab_cdef);
+    std::fs::remove_file(&calib).unwrap();
+    println!("rectify: 15 kills, {old} left the earlier set, {new} the new one, none a mix");
 }
