@@ -53,7 +53,10 @@ pub struct CircleGridDetection {
 /// followed), and the labelled set must be exactly the grid (no missing or extra circle on
 /// the lattice). Of the grid's symmetric orderings (a rectangular grid looks the same turned
 /// by 180°, a square one by 90°) the one whose first row points most along `+u` and whose
-/// columns point most along `+v` is returned, as for chessboards with an even side.
+/// columns point most along `+v` is returned, as for chessboards with an even side. That is
+/// OpenCV's `findCirclesGrid` order, except for a symmetric grid turned by about 90°, which
+/// OpenCV orders mirrored (the board's frame seen from behind); this order keeps the board's
+/// handedness in every view (`tests/circles_opencv.rs`, on grids OpenCV ordered).
 pub fn detect_circle_grid(
     img: &GrayImage,
     grid: &CircleGrid,
