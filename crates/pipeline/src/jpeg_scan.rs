@@ -30,24 +30,44 @@ impl std::fmt::Display for ScanError {
 }
 
 /// One Huffman table in the form of the JPEG standard's decoding procedure (F.2.2.3): per code
-/// length the largest code, and where its symbols start.
-#[derive(Clone, Default)]
+/// length the largest code, and where its symbols start; and, for the codes of up to
+/// [`FAST_BITS`] bits (nearly all of them), the symbol and length by their first bits.
 struct Table {
     maxcode: [i32; 17],
     valptr: [i32; 17],
     mincode: [i32; 17],
     symbols: Vec<u8>,
+    /// By the next `FAST_BITS` bits: (symbol, code length), length 0 for a longer code.
+    fast: Vec<(u8, u8)>,
 }
+
+/// Bits looked up at once.
+const FAST_BITS: u32 = 9;
 
 impl Table {
     fn new(counts: &[u8; 16], symbols: &[u8]) -> Self {
-        let mut t = Table { maxcode: [-1; 17], symbols: symbols.to_vec(), ..Default::default() };
+        let mut t = Table {
+            maxcode: [-1; 17],
+            valptr: [0; 17],
+            mincode: [0; 17],
+            symbols: symbols.to_vec(),
+            fast: vec![(0, 0); 1 << FAST_BITS],
+        };
         let (mut code, mut k) = (0i32, 0i32);
         for len in 1..=16 {
             let n = counts[len - 1] as i32;
             if n > 0 {
                 t.valptr[len] = k;
                 t.mincode[len] = code;
+                if len as u32 <= FAST_BITS {
+                    for (c, &sym) in (code..code + n).zip(symbols.iter().skip(k as usize)) {
+                        let shift = FAST_BITS - len as u32;
+                        // (a table with more codes than its lengths allow: the rest is corrupt)
+                        for e in t.fast.iter_mut().skip((c as usize) << shift).take(1 << shift) {
+                            *e = (sym, len as u8);
+                        }
+                    }
+                }
                 code += n;
                 k += n;
                 t.maxcode[len] = code - 1;
@@ -59,57 +79,75 @@ impl Table {
 }
 
 /// Bits of the entropy-coded data: `0xFF 0x00` is a data byte `0xFF`; any other marker ends
-/// the data (restart markers are consumed by [`Bits::restart`]).
+/// the data (restart markers are consumed by [`Bits::restart`]). Whole bytes are loaded into a
+/// 64-bit word and codes are matched on the next 16 bits at once (bit by bit, the walk took
+/// longer than decoding the image).
 struct Bits<'a> {
     data: &'a [u8],
     pos: usize,
-    acc: u32,
+    /// The low `n` bits are the next ones.
+    acc: u64,
     n: u32,
     /// A marker (or the end of the file) was reached: no more data bits.
     ended: bool,
 }
 
 impl Bits<'_> {
-    fn bit(&mut self) -> Option<u32> {
-        if self.n == 0 {
-            if self.ended || self.pos >= self.data.len() {
+    /// Loads bytes until more than 56 bits are held or the data ends.
+    fn fill(&mut self) {
+        while self.n <= 56 && !self.ended {
+            let Some(&b) = self.data.get(self.pos) else {
                 self.ended = true;
-                return None;
-            }
-            let b = self.data[self.pos];
+                break;
+            };
             if b == 0xFF {
-                match self.data.get(self.pos + 1) {
-                    Some(0x00) => self.pos += 2,
-                    _ => {
-                        self.ended = true;
-                        return None;
-                    }
+                if self.data.get(self.pos + 1) != Some(&0x00) {
+                    self.ended = true;
+                    break;
                 }
+                self.pos += 2;
             } else {
                 self.pos += 1;
             }
-            (self.acc, self.n) = (b as u32, 8);
+            self.acc = (self.acc << 8) | b as u64;
+            self.n += 8;
         }
-        self.n -= 1;
-        Some((self.acc >> self.n) & 1)
     }
 
+    /// Skips `count` bits; `None` when the data ends first.
     fn bits(&mut self, count: u32) -> Option<()> {
-        for _ in 0..count {
-            self.bit()?;
+        if self.n < count {
+            self.fill();
         }
+        self.n = self.n.checked_sub(count)?;
         Some(())
     }
 
     fn decode(&mut self, t: &Table) -> Result<Option<u8>, ScanError> {
-        let mut code = 0i32;
-        for len in 1..=16 {
-            let Some(b) = self.bit() else { return Ok(None) };
-            code = (code << 1) | b as i32;
-            if code <= t.maxcode[len] {
-                let i = (t.valptr[len] + code - t.mincode[len]) as usize;
+        if self.n < 16 {
+            self.fill();
+        }
+        // the next 16 bits, left-aligned, zeros past the end of the data
+        let w = if self.n == 0 { 0 } else { ((self.acc << (64 - self.n)) >> 48) as i32 };
+        let (sym, len) = t.fast[(w >> (16 - FAST_BITS)) as usize];
+        if len > 0 {
+            // (a match on the zeros past the end is a code cut short)
+            let Some(n) = self.n.checked_sub(len as u32) else { return Ok(None) };
+            self.n = n;
+            return Ok(Some(sym));
+        }
+        for len in FAST_BITS + 1..=16u32 {
+            let code = w >> (16 - len);
+            if code <= t.maxcode[len as usize] {
+                // (a match on the zeros past the end is a code cut short)
+                let Some(n) = self.n.checked_sub(len) else { return Ok(None) };
+                self.n = n;
+                let i = (t.valptr[len as usize] + code - t.mincode[len as usize]) as usize;
                 return t.symbols.get(i).copied().map(Some).ok_or(ScanError::Corrupt("a code outside its table"));
             }
+        }
+        if self.n < 16 {
+            return Ok(None);
         }
         Err(ScanError::Corrupt("a code no Huffman table holds"))
     }
@@ -208,19 +246,19 @@ pub(crate) fn check(bytes: &[u8]) -> Result<(), ScanError> {
                     let (Some(Some(d)), Some(Some(a))) = (dc.get(d), ac.get(a)) else {
                         return Err(ScanError::Corrupt("a scan without its Huffman tables"));
                     };
-                    scan.push((f, d.clone(), a.clone()));
+                    scan.push((f, d, a));
                 }
                 let (hmax, vmax) = comps.iter().fold((1, 1), |(h, v), c| (h.max(c.1), v.max(c.2)));
-                // blocks per MCU and MCUs: all components interleaved, or one component alone
-                let (per_mcu, expected): (Vec<(usize, usize)>, usize) = if n == comps.len() && n > 1 {
+                // the scan component of each block of an MCU, and the MCUs: all components
+                // interleaved, or one component alone
+                let (per_mcu, expected): (Vec<usize>, usize) = if n == comps.len() && n > 1 {
                     let blocks =
                         scan.iter().enumerate().flat_map(|(s, x)| std::iter::repeat_n(s, comps[x.0].1 * comps[x.0].2));
-                    let per = blocks.map(|s| (s, 0)).collect();
-                    (per, width.div_ceil(8 * hmax) * height.div_ceil(8 * vmax))
+                    (blocks.collect(), width.div_ceil(8 * hmax) * height.div_ceil(8 * vmax))
                 } else if n == 1 {
                     let c = comps[scan[0].0];
                     let (cw, ch) = ((width * c.1).div_ceil(hmax), (height * c.2).div_ceil(vmax));
-                    (vec![(0, 0)], cw.div_ceil(8) * ch.div_ceil(8))
+                    (vec![0], cw.div_ceil(8) * ch.div_ceil(8))
                 } else {
                     return Ok(());
                 };
@@ -230,7 +268,7 @@ pub(crate) fn check(bytes: &[u8]) -> Result<(), ScanError> {
                     if interval > 0 && mcu > 0 && mcu % interval == 0 && !bits.restart() {
                         return Err(ScanError::Truncated { decoded: mcu, expected });
                     }
-                    for &(s, _) in &per_mcu {
+                    for &s in &per_mcu {
                         let (_, dct, act) = &scan[s];
                         let truncated = Err(ScanError::Truncated { decoded: mcu, expected });
                         let Some(size) = bits.decode(dct)? else { return truncated };
