@@ -33,6 +33,8 @@ pub struct OutputSet {
     created: Vec<PathBuf>,
     /// Files of an earlier run that this set replaces as a whole ([`OutputSet::supersede`]).
     superseded: Vec<PathBuf>,
+    /// Folders whose killed runs' commits were finished ([`finish_killed_commits`], once each).
+    finished: Vec<PathBuf>,
     committed: bool,
 }
 
@@ -63,7 +65,10 @@ impl OutputSet {
         std::fs::create_dir_all(&dir).map_err(io_err("creating directory", &dir))?;
         self.created.extend(missing);
         // a killed run's commit is finished before its staged files would count as leftovers
-        finish_killed_commits(&dir);
+        if !self.finished.contains(&dir) {
+            finish_killed_commits(&dir);
+            self.finished.push(dir.clone());
+        }
         remove_dead_runs_temps(&dir, &name);
         let k = match self.files.iter().position(|(p, _)| *p == path) {
             Some(k) => k,

@@ -298,29 +298,30 @@ pub fn search_corners(
                 }
                 None => format!("{name}: not found ({ms:.2} ms)"),
             };
-            // (the candidates are counted only for a board not found)
-            let why = match &det {
-                Some(_) => None,
-                None => {
-                    let n = cd::chessboard_candidates(&img, config).map_err(|e| context(e.into()))?.len();
-                    let need = b.cols * b.rows;
-                    Some(if n < need {
-                        format!(
-                            "{n} X-junction candidates for the {need} inner corners of a {}x{} board: is the whole board in the image, in focus and lit evenly?",
-                            b.cols, b.rows
-                        )
-                    } else {
-                        format!(
-                            "no {}x{} grid among {n} X-junction candidates: the size counts inner corners (a board of 10x7 squares is 9x6); is all of it in the image?",
-                            b.cols, b.rows
-                        )
-                    })
-                }
+            // the X-junction candidates, only for a board not found: counted for `why`, drawn in
+            // the overlay
+            let candidates = match &det {
+                Some(_) => Vec::new(),
+                None => cd::chessboard_candidates(&img, config).map_err(|e| context(e.into()))?,
             };
+            let why = det.is_none().then(|| {
+                let (n, need) = (candidates.len(), b.cols * b.rows);
+                if n < need {
+                    format!(
+                        "{n} X-junction candidates for the {need} inner corners of a {}x{} board: is the whole board in the image, in focus and lit evenly?",
+                        b.cols, b.rows
+                    )
+                } else {
+                    format!(
+                        "no {}x{} grid among {n} X-junction candidates: the size counts inner corners (a board of 10x7 squares is 9x6); is all of it in the image?",
+                        b.cols, b.rows
+                    )
+                }
+            });
             let drawing = match (&det, overlay) {
                 (_, false) => None,
                 (Some(d), true) => Some(cd::draw_chessboard(&img, &d.grid)),
-                (None, true) => Some(cd::draw_points(&img, &cd::chessboard_candidates(&img, config)?, [255, 0, 0])),
+                (None, true) => Some(cd::draw_points(&img, &candidates, [255, 0, 0])),
             };
             entry.grid = det.map(|d| d.grid);
             (line, why, drawing)

@@ -539,7 +539,8 @@ pub fn search_target(
         }
     };
     let observation = observation.filter(|o| o.ids().len() >= 4);
-    let why = if observation.is_some() { None } else { why.or_else(|| Some(few(0, "points"))) };
+    // (every arm gives its reason when it finds fewer than 4 points)
+    let why = if observation.is_some() { None } else { why };
     Ok(TargetSearch { observation, markers, why, outlines })
 }
 
