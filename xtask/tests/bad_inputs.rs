@@ -749,12 +749,7 @@ fn a_calibration_that_rectifies_to_black_images_is_refused_with_the_figure() {
     // k1 = 1e300 rectified to a 0x0 valid region and two black images, exit 0
     let dir = temp("collapsed");
     let (left, right) = (fixture("stereo/left_00.png"), fixture("stereo/right_00.png"));
-    let m = "600., 0., 320., 0., 600., 240., 0., 0., 1.";
-    let file = |k1: &str| {
-        format!(
-            "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\nM1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ {m} ]\nD1: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ {k1}, 0., 0., 0., 0. ]\nM2: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ {m} ]\nD2: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ {k1}, 0., 0., 0., 0. ]\nR: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]\nT: !!opencv-matrix\n   rows: 3\n   cols: 1\n   dt: d\n   data: [ -60., 0., 0. ]\n"
-        )
-    };
+    let file = common::opencv_stereo_yaml;
     let out = dir.join("out");
     let rectify = |calib: &Path| {
         run(&[

@@ -11,6 +11,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
+mod common;
+
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
 }
@@ -52,8 +54,7 @@ impl Rng {
 /// times: starts run k (alternating), kills it after a random moment within 1.3 times a full
 /// run's duration, finishes any journal, and checks the folder holds one whole set.
 fn kill_at_random(name: &str, kills: usize, args: &dyn Fn(usize, &Path) -> Vec<String>, seed: u64) -> (usize, usize) {
-    let base = std::env::temp_dir().join(format!("xtask-kill9-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&base);
+    let base = common::Temp::new("kill9", name);
     let run = |k: usize, out: &Path| {
         let r = Command::new(env!("CARGO_BIN_EXE_xtask")).args(args(k, out)).current_dir(root()).output().unwrap();
         assert!(r.status.success(), "{name} run {k}: {}", String::from_utf8_lossy(&r.stderr));
@@ -106,7 +107,6 @@ fn kill_at_random(name: &str, kills: usize, args: &dyn Fn(usize, &Path) -> Vec<S
             assert!(hidden.is_empty(), "{name}: left after a complete run: {hidden:?}");
         }
     }
-    std::fs::remove_dir_all(&base).unwrap();
     (old, new)
 }
 
@@ -165,12 +165,9 @@ fn calibration_and_report_are_the_old_set_or_the_new_one_after_any_kill() {
 #[test]
 fn rectified_images_and_maps_are_the_old_set_or_the_new_one_after_any_kill() {
     // an OpenCV stereo calibration of the fixtures' 640x480 rig (k1 = −0.1, 60 mm baseline)
-    let m = "600., 0., 320., 0., 600., 240., 0., 0., 1.";
-    let yaml = format!(
-        "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\nM1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ {m} ]\nD1: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ -0.1, 0., 0., 0., 0. ]\nM2: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ {m} ]\nD2: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ -0.1, 0., 0., 0., 0. ]\nR: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]\nT: !!opencv-matrix\n   rows: 3\n   cols: 1\n   dt: d\n   data: [ -60., 0., 0. ]\n"
-    );
-    let calib = std::env::temp_dir().join(format!("xtask-kill9-calib-{}.yml", std::process::id()));
-    std::fs::write(&calib, yaml).unwrap();
+    let dir = common::Temp::new("kill9", "calib");
+    let calib = dir.join("calib.yml");
+    std::fs::write(&calib, common::opencv_stereo_yaml("-0.1")).unwrap();
     let (l, r) = (root().join("fixtures/stereo/left_00.png"), root().join("fixtures/stereo/right_00.png"));
     let args = |k: usize, out: &Path| -> Vec<String> {
         let alpha = if k == 0 { "0" } else { "1" };
@@ -191,6 +188,5 @@ fn rectified_images_and_maps_are_the_old_set_or_the_new_one_after_any_kill() {
         .to_vec()
     };
     let (old, new) = kill_at_random("rectify", 15, &args, 0x0123_4567_89ab_cdef);
-    std::fs::remove_file(&calib).unwrap();
     println!("rectify: 15 kills, {old} left the earlier set, {new} the new one, none a mix");
 }

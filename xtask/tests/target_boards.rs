@@ -11,6 +11,8 @@ use parallax_camera_model::{Camera, CharucoBoard, Distortion, Intrinsics, Isomet
 use parallax_composition::session::CornersFile;
 use parallax_synthetic::{RenderOptions, render_charuco};
 
+mod common;
+
 const BOARD: &str = "charuco:9x7:25:18:DICT_4X4_50";
 
 fn xtask(args: &[&str]) -> Output {
@@ -147,7 +149,7 @@ fn a_board_not_found_says_why() {
     let dict = run("charuco:5x4:64:48:DICT_4X4_50:legacy");
     assert!(dict.contains("; markers: 0\nwhy: no marker of DICT_4X4_50 decoded"), "{dict}");
     // --draw shows what was seen even when the board is rejected: the decoded markers outlined
-    let dir = std::env::temp_dir().join(format!("xtask-why-{}", std::process::id()));
+    let dir = common::Temp::new("why", "draw");
     let out = xtask(&[
         "corners",
         "--images",
@@ -161,7 +163,6 @@ fn a_board_not_found_says_why() {
     let overlay = image::open(dir.join("charuco_5x4_dict6x6_250_legacy-corners.png")).unwrap().to_rgb8();
     let orange = overlay.pixels().filter(|p| p.0 == [255, 160, 0]).count();
     assert!(orange > 10 * 4 * 40, "the 10 markers outlined: {orange} orange pixels");
-    std::fs::remove_dir_all(&dir).unwrap();
     let chess = run("9x6");
     assert!(chess.contains(": not found (") && !chess.contains("markers:"), "{chess}");
     assert!(

@@ -1422,13 +1422,12 @@ impl RightWinners for Reversed<'_> {
 /// `u16` index `w − 1 − u` (scale 2), its low half kept; returns the pixels done.
 ///
 /// # Safety
-/// `t` proves AVX2 (which the intrinsics need); `rk.len() > w` (the word at index `w − 1` ends inside), `best.len() =
+/// The token proves AVX2 (which the intrinsics need); `rk.len() > w` (the word at index `w − 1` ends inside), `best.len() =
 /// rw.len() = w < 2^30`; `|dmin| ≤ 2^20` and `best[x] < 2^16` (validated ranges), so that
 /// `x − dmin − k` fits `i32`.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn gather_reversed_avx2(t: Avx2, rk: &[u16], best: &[i32], dmin: i64, rw: &mut [u32]) -> usize {
-    let _ = t;
+unsafe fn gather_reversed_avx2(_t: Avx2, rk: &[u16], best: &[i32], dmin: i64, rw: &mut [u32]) -> usize {
     use std::arch::x86_64::*;
     let w = rw.len();
     // SAFETY: x + 8 ≤ w for the loads and stores of best and rw; every gathered index

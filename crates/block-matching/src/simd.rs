@@ -235,7 +235,7 @@ impl<E: Lane> Scratch<E> {
 /// window sum must fit in 16 bits (`block² · max pixel ≤ 65534`), else the costs wrap (wrong,
 /// not unsound).
 pub(crate) fn band16(
-    t: Avx2,
+    _t: Avx2,
     wide: Option<Avx512>,
     sh: &Shared,
     sc: &mut Scratch<u16>,
@@ -244,12 +244,11 @@ pub(crate) fn band16(
     y0: usize,
     y1: usize,
 ) -> MatchStats {
-    let _ = t;
     sc.resize(sh.w, sh.r, sh.nd, 16);
     match wide {
         // SAFETY: the token proves AVX-512 F/BW/VL and AVX2.
         Some(_) => unsafe { avx512_16::band::<false>(sh, sc, out, conf, y0, y1) },
-        // SAFETY: the token `t` proves AVX2.
+        // SAFETY: the token proves AVX2.
         None => unsafe { avx2_16::band::<false>(sh, sc, out, conf, y0, y1) },
     }
 }
@@ -258,7 +257,7 @@ pub(crate) fn band16(
 /// sum must fit in 32 bits (`block² · max term ≤ 2³² − 2`, max term: the largest pixel, squared
 /// for SSD), else the costs wrap (wrong, not unsound).
 pub(crate) fn band32(
-    t: Avx2,
+    _t: Avx2,
     squared: bool,
     sh: &Shared,
     sc: &mut Scratch<u32>,
@@ -267,9 +266,8 @@ pub(crate) fn band32(
     y0: usize,
     y1: usize,
 ) -> MatchStats {
-    let _ = t;
     sc.resize(sh.w, sh.r, sh.nd, 8);
-    // SAFETY: the token `t` proves AVX2.
+    // SAFETY: the token proves AVX2.
     unsafe {
         if squared {
             avx2_32::band::<true>(sh, sc, out, conf, y0, y1)
@@ -339,25 +337,23 @@ macro_rules! kernel {
         ) {
             // Without the left–right check the right image's minima are not tracked at all (`LR =
             // false`: a third fewer vector operations per chunk).
-            {
-                match (sc.ndp / L, sh.lr.is_some()) {
-                    (1, true) => row::<VERT, SQ, 1, true, PAIRS>(sh, sc, y, out, conf, stats),
-                    (2, true) => row::<VERT, SQ, 2, true, PAIRS>(sh, sc, y, out, conf, stats),
-                    (4, true) => row::<VERT, SQ, 4, true, PAIRS>(sh, sc, y, out, conf, stats),
-                    (6, true) => row::<VERT, SQ, 6, true, PAIRS>(sh, sc, y, out, conf, stats),
-                    (8, true) => row::<VERT, SQ, 8, true, PAIRS>(sh, sc, y, out, conf, stats),
-                    (14, true) => row::<VERT, SQ, 14, true, PAIRS>(sh, sc, y, out, conf, stats),
-                    (16, true) => row::<VERT, SQ, 16, true, PAIRS>(sh, sc, y, out, conf, stats),
-                    (_, true) => row::<VERT, SQ, 0, true, PAIRS>(sh, sc, y, out, conf, stats),
-                    (1, false) => row::<VERT, SQ, 1, false, PAIRS>(sh, sc, y, out, conf, stats),
-                    (2, false) => row::<VERT, SQ, 2, false, PAIRS>(sh, sc, y, out, conf, stats),
-                    (4, false) => row::<VERT, SQ, 4, false, PAIRS>(sh, sc, y, out, conf, stats),
-                    (6, false) => row::<VERT, SQ, 6, false, PAIRS>(sh, sc, y, out, conf, stats),
-                    (8, false) => row::<VERT, SQ, 8, false, PAIRS>(sh, sc, y, out, conf, stats),
-                    (14, false) => row::<VERT, SQ, 14, false, PAIRS>(sh, sc, y, out, conf, stats),
-                    (16, false) => row::<VERT, SQ, 16, false, PAIRS>(sh, sc, y, out, conf, stats),
-                    (_, false) => row::<VERT, SQ, 0, false, PAIRS>(sh, sc, y, out, conf, stats),
-                }
+            match (sc.ndp / L, sh.lr.is_some()) {
+                (1, true) => row::<VERT, SQ, 1, true, PAIRS>(sh, sc, y, out, conf, stats),
+                (2, true) => row::<VERT, SQ, 2, true, PAIRS>(sh, sc, y, out, conf, stats),
+                (4, true) => row::<VERT, SQ, 4, true, PAIRS>(sh, sc, y, out, conf, stats),
+                (6, true) => row::<VERT, SQ, 6, true, PAIRS>(sh, sc, y, out, conf, stats),
+                (8, true) => row::<VERT, SQ, 8, true, PAIRS>(sh, sc, y, out, conf, stats),
+                (14, true) => row::<VERT, SQ, 14, true, PAIRS>(sh, sc, y, out, conf, stats),
+                (16, true) => row::<VERT, SQ, 16, true, PAIRS>(sh, sc, y, out, conf, stats),
+                (_, true) => row::<VERT, SQ, 0, true, PAIRS>(sh, sc, y, out, conf, stats),
+                (1, false) => row::<VERT, SQ, 1, false, PAIRS>(sh, sc, y, out, conf, stats),
+                (2, false) => row::<VERT, SQ, 2, false, PAIRS>(sh, sc, y, out, conf, stats),
+                (4, false) => row::<VERT, SQ, 4, false, PAIRS>(sh, sc, y, out, conf, stats),
+                (6, false) => row::<VERT, SQ, 6, false, PAIRS>(sh, sc, y, out, conf, stats),
+                (8, false) => row::<VERT, SQ, 8, false, PAIRS>(sh, sc, y, out, conf, stats),
+                (14, false) => row::<VERT, SQ, 14, false, PAIRS>(sh, sc, y, out, conf, stats),
+                (16, false) => row::<VERT, SQ, 16, false, PAIRS>(sh, sc, y, out, conf, stats),
+                (_, false) => row::<VERT, SQ, 0, false, PAIRS>(sh, sc, y, out, conf, stats),
             }
         }
 

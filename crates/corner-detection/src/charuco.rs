@@ -122,6 +122,14 @@ pub fn detect_charuco(img: &GrayImage, board: &CharucoBoard, cfg: &CharucoConfig
             }
         }
     }
+    let mut by_id = vec![None; board.marker_count()];
+    let mut markers = Vec::new();
+    for (k, m) in on_board.iter().enumerate() {
+        if confirmed[k] {
+            by_id[m.id as usize] = homs[k];
+            markers.push(*m);
+        }
+    }
     // The layout check: each decoded marker mapped into the board by the nearest confirmed other
     // marker (a local homography: lens distortion does not matter over a few squares) must land in
     // its own square. Described with the other layout (legacy vs current, an even row count),
@@ -154,16 +162,7 @@ pub fn detect_charuco(img: &GrayImage, board: &CharucoBoard, cfg: &CharucoConfig
         misplaced.sort_unstable();
         misplaced.dedup();
         let observation = TargetObservation::new(Vec::new(), Vec::new()).expect("empty");
-        let markers = on_board.iter().zip(&confirmed).filter(|(_, c)| **c).map(|(m, _)| *m).collect();
         return Ok(CharucoDetection { observation, markers, refinement: Vec::new(), misplaced });
-    }
-    let mut by_id = vec![None; board.marker_count()];
-    let mut markers = Vec::new();
-    for (k, m) in on_board.iter().enumerate() {
-        if confirmed[k] {
-            by_id[m.id as usize] = homs[k];
-            markers.push(*m);
-        }
     }
     let mut ids = Vec::new();
     let mut points = Vec::new();

@@ -81,12 +81,6 @@ impl Avx2 {
             _mm256_maddubs_epi16(_mm256_abs_epi8(_mm256_sub_epi8(ab.0, r)), _mm256_set1_epi16(0xff01u16 as i16))
         })
     }
-
-    /// The lanes of a raw register (for kernels that also use intrinsics of their own).
-    #[inline(always)]
-    pub fn lanes(self, v: __m256i) -> U16x16 {
-        U16x16(v)
-    }
 }
 
 /// A binary lane operation by one intrinsic.
@@ -121,10 +115,6 @@ impl U16x16 {
         eq: _mm256_cmpeq_epi16;
         /// Bitwise or.
         or: _mm256_or_si256;
-        /// Bitwise and.
-        and: _mm256_and_si256;
-        /// Bitwise `!a & b`.
-        and_not: _mm256_andnot_si256;
     }
 
     /// `|a − b|` per lane.
@@ -179,12 +169,6 @@ impl U16x16 {
         // SAFETY: a `U16x16` is only made by an `Avx2` token: the CPU runs AVX2.
         Self(unsafe { _mm256_alignr_epi8::<2>(_mm256_permute2x128_si256::<0x21>(v, a), v) })
     }
-
-    /// The raw register.
-    #[inline(always)]
-    pub fn raw(self) -> __m256i {
-        self.0
-    }
 }
 
 #[cfg(test)]
@@ -233,8 +217,6 @@ mod tests {
             assert_eq!(lanes(t, va.max(vb)), each(&|x, y| x.max(y)));
             assert_eq!(lanes(t, va.eq(vb)), each(&|x, y| mask(x == y)));
             assert_eq!(lanes(t, va.or(vb)), each(&|x, y| x | y));
-            assert_eq!(lanes(t, va.and(vb)), each(&|x, y| x & y));
-            assert_eq!(lanes(t, va.and_not(vb)), each(&|x, y| !x & y));
             assert_eq!(lanes(t, va.abs_diff(vb)), each(&|x, y| x.abs_diff(y)));
             assert_eq!(lanes(t, va.less(vb)), each(&|x, y| mask(x < y)));
             let m = va.less(vb);

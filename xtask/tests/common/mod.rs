@@ -36,3 +36,13 @@ impl Drop for Temp {
         }
     }
 }
+
+/// An OpenCV stereo calibration (`stereoCalibrate`'s YAML) of a 640x480 rig: both cameras f = 600,
+/// centred, distortion `k1` alone, no rotation, baseline 60 along x.
+#[allow(dead_code)] // (each test binary uses its own part of this module)
+pub fn opencv_stereo_yaml(k1: &str) -> String {
+    let m = "600., 0., 320., 0., 600., 240., 0., 0., 1.";
+    format!(
+        "%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\nM1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ {m} ]\nD1: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ {k1}, 0., 0., 0., 0. ]\nM2: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ {m} ]\nD2: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ {k1}, 0., 0., 0., 0. ]\nR: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]\nT: !!opencv-matrix\n   rows: 3\n   cols: 1\n   dt: d\n   data: [ -60., 0., 0. ]\n"
+    )
+}
