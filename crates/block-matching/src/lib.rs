@@ -90,7 +90,7 @@ pub use parallax_least_squares;
 pub use config::{CostFunction, MatcherConfig, Method, Prefilter, SgmConfig, SgmPaths, Subpixel};
 pub use engine::{BlockMatcher, SimdLevel};
 pub use error::{BlockMatchingError, Result};
-pub use eval::{Evaluation, evaluate};
+pub use eval::{Evaluation, evaluate, evaluate_overlap, overlap_columns};
 pub use frame::{Gray16Image, MatchStats};
 pub use io::{false_colour, from_pfm, from_scaled, to_pfm, to_png16};
 pub use speckle::filter_speckles;
