@@ -269,3 +269,36 @@ fn the_valid_count_is_the_maps_in_every_mode() {
         }
     }
 }
+
+#[test]
+fn every_presets_rejections_add_up_to_its_missing_pixels() {
+    // what `disparity` prints as `rejected_*` (no candidate, texture, uniqueness, left–right,
+    // confidence, speckle) and `filled` must account for every pixel without a disparity: a
+    // reason without a count would leave part of the map unexplained. A smallest disparity
+    // above 0 gives pixels without a candidate (x < min_disparity); a confidence threshold
+    // adds its rejects.
+    let s = scene(4);
+    let presets = [
+        ("default", MatcherConfig::default()),
+        ("dense", MatcherConfig::dense()),
+        ("sgm", MatcherConfig::sgm()),
+        ("sgm_accurate", MatcherConfig::sgm_accurate()),
+        ("sgm_dense", MatcherConfig::sgm_dense()),
+    ];
+    for (name, preset) in presets {
+        for (min_disparity, min_confidence) in [(0, 0.0), (6, 0.0), (6, 0.3)] {
+            let c = MatcherConfig { min_disparity, num_disparities: 32, min_confidence, ..preset.clone() };
+            let mut m = BlockMatcher::new(c).unwrap();
+            let d = m.compute(&s.left, &s.right).unwrap();
+            let st = m.last_stats();
+            let missing = st.pixels - d.valid_count();
+            let explained =
+                st.no_candidate + st.low_texture + st.not_unique + st.lr_inconsistent + st.low_confidence + st.speckle
+                    - st.filled;
+            assert_eq!(explained, missing, "{name} min {min_disparity} confidence {min_confidence}: {st:?}");
+            // x < min_disparity has no candidate in any preset: 6 columns of every row
+            let h = s.left.height() as usize;
+            assert_eq!(st.no_candidate, if min_disparity > 0 { 6 * h } else { 0 }, "{name}: {st:?}");
+        }
+    }
+}
