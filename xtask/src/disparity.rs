@@ -3,9 +3,11 @@
 //! counts by reason, a swapped-pair check, timing in Mde/s.
 //!
 //! Output contract (one `key: value` per line, scripts read it): `bad1`, `bad2` (missing =
-//! bad), `bad2_returned`, `density` (with `--gt`; over the mask), `rejected_texture`,
-//! `rejected_uniqueness`, `rejected_lr`, `rejected_confidence`, `rejected_speckle`, `filled`
-//! (percent of the image), `seconds`, `mdes`.
+//! bad), `bad2_returned`, `density` (with `--gt`; percent of the mask), `bad2_overlap`,
+//! `density_overlap` (with `--gt`; percent of the mask's pixels in the columns where OpenCV's
+//! matchers also answer, `x ≥ min_disparity + disparities`), `rejected_texture`,
+//! `rejected_uniqueness`, `rejected_lr`, `rejected_confidence`, `rejected_speckle`,
+//! `rejected_no_candidate`, `filled` (percent of the image), `seconds`, `mdes`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -45,7 +47,14 @@ pub struct Args {
     sgm_paths: Option<u32>,
     /// With --method sgm: the accurate preset (OpenCV SGBM's cost and left–right rule, eight
     /// paths, no uniqueness margin): SGBM's density with fewer wrong pixels, about twice the
-    /// time of the default SGM. Explicit options still apply.
+    /// time of the default SGM. Explicit options still apply. In the left band, where the image
+    /// edge cuts a pixel's candidates short of the range (x < min_disparity + disparities − 1;
+    /// with a negative min_disparity also the right band x > width − 1 + min_disparity), it
+    /// still applies, as every SGM that is not filled, a uniqueness margin of 100 % (the best
+    /// rival further than one disparity must cost more than twice the winner; counted in
+    /// rejected_uniqueness) and, with the left–right check on, the exact integer left–right
+    /// check (tolerance 0, and no winner on the right image's first column; counted in
+    /// rejected_lr).
     #[arg(long)]
     accurate: bool,
     /// Semi-global matching's pixel difference: sad (|L − R| on the prefilter; default), bt
@@ -105,7 +114,13 @@ pub struct Args {
     /// (exit code 2).
     #[arg(long)]
     allow_swapped: bool,
-    /// Ground-truth disparity (PFM, or PNG of disparity x --gt-scale with 0 = unknown).
+    /// Ground-truth disparity (PFM, or PNG of disparity x --gt-scale with 0 = unknown). Adds
+    /// the keys bad1, bad2 (missing = bad), bad2_returned (among the returned pixels) and
+    /// density in percent of the evaluated pixels (the mask's with known truth), and
+    /// bad2_overlap (missing = bad) and density_overlap in percent of those that lie in the
+    /// columns where OpenCV's matchers also answer (x ≥ min_disparity + disparities, and with a
+    /// negative min_disparity x < width + min_disparity; NaN when none does). The rejected_*
+    /// keys and filled are always percentages of the image.
     #[arg(long)]
     gt: Option<PathBuf>,
     /// Ground-truth PNG value per pixel of disparity (Middlebury: info.txt).
@@ -361,9 +376,20 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let png = disparity::add_maps(&mut files, &args.out, &map, (min, n))?;
     disparity::add_confidence(&mut files, &args.out, &matcher, &map)?;
     let evaluation = truth
-        .map(|t| parallax_block_matching::evaluate(&map, &t, mask.as_deref(), &[1.0, 2.0]))
+        .as_ref()
+        .map(|t| parallax_block_matching::evaluate(&map, t, mask.as_deref(), &[1.0, 2.0]))
         .transpose()
         .context("evaluating against the ground truth")?;
+    // where OpenCV's matchers also answer; none of the mask may lie there (a range as wide as
+    // the image): its keys are then NaN, never 0
+    let overlap = match &truth {
+        Some(t) => match parallax_block_matching::evaluate_overlap(&map, t, mask.as_deref(), (min, n), &[2.0]) {
+            Ok(e) => Some(e),
+            Err(parallax_block_matching::BlockMatchingError::NothingToEvaluate(_)) => None,
+            Err(e) => return Err(anyhow::Error::new(e).context("evaluating against the ground truth")),
+        },
+        None => None,
+    };
     let depth = stereo
         .map(|s| disparity::depth_from_rectification(&s, &map, &args.calib[0].display().to_string()))
         .transpose()?;
@@ -420,7 +446,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
     let png = if png { " disparity16.png," } else { "" };
     println!("wrote {}/disparity.pfm,{png} disparity_colour.png", args.out.display());
-    println!("{}", summary::disparity_keys(&stats, evaluation.as_ref(), seconds, mdes));
+    println!("{}", summary::disparity_keys(&stats, evaluation.as_ref(), overlap.as_ref(), seconds, mdes));
     if let Some(depth) = depth {
         println!("wrote {} (points through the calibration file's Q)", ply.display());
         println!("points: {}", depth.cloud.len());

@@ -42,6 +42,15 @@ enum Command {
     /// Rectify a stereo pair with a stereo calibration.
     Rectify(rectify::Args),
     /// Dense disparity of a rectified pair by block matching.
+    ///
+    /// Ends with `key: value` lines. With --gt: bad1, bad2 (missing = bad), bad2_returned
+    /// (among the returned pixels) and density in percent of the evaluated pixels (the mask's
+    /// with known truth); bad2_overlap (missing = bad) and density_overlap in percent of the
+    /// evaluated pixels in the columns where OpenCV's matchers also answer (x ≥ min_disparity +
+    /// disparities). Without --gt: density in percent of the image. Always rejected_texture,
+    /// rejected_uniqueness, rejected_lr, rejected_confidence, rejected_speckle,
+    /// rejected_no_candidate (no candidate disparity inside the right image) and filled in
+    /// percent of the image, then seconds and mdes.
     Disparity(disparity::Args),
     /// Triangulate points of a stereo pair and measure distances between them.
     Measure(measure::Args),

@@ -305,11 +305,17 @@ pub fn match_stats(stats: &parallax_block_matching::MatchStats) -> String {
 
 /// The `key: value` lines of a disparity map (the output contract of `disparity`): with an
 /// evaluation `evaluated … rms`, `bad1`, `bad2` (missing = bad), `bad2_returned` and `density`
-/// over the mask; else `density` of the map; then the rejections and fills in percent of the
-/// image, `seconds` and `mdes` (million disparity evaluations per second).
+/// over the mask, then `bad2_overlap` (missing = bad) and `density_overlap` over the mask's
+/// pixels in the columns where OpenCV's matchers also answer (`overlap`, see
+/// [`parallax_block_matching::evaluate_overlap`]; `NaN` when no evaluated pixel lies there);
+/// else `density` of the map; then the rejections by reason (`rejected_texture`,
+/// `rejected_uniqueness`, `rejected_lr`, `rejected_confidence`, `rejected_speckle`,
+/// `rejected_no_candidate`: no candidate disparity inside the right image) and `filled` in
+/// percent of the image, `seconds` and `mdes` (million disparity evaluations per second).
 pub fn disparity_keys(
     stats: &parallax_block_matching::MatchStats,
     evaluation: Option<&parallax_block_matching::Evaluation>,
+    overlap: Option<&parallax_block_matching::Evaluation>,
     seconds: f64,
     mdes: f64,
 ) -> String {
@@ -321,6 +327,8 @@ pub fn disparity_keys(
             let _ = writeln!(out, "bad2: {:.2}", e.bad_at(2.0).unwrap_or(f64::NAN));
             let _ = writeln!(out, "bad2_returned: {:.2}", e.bad_returned_at(2.0).unwrap_or(f64::NAN));
             let _ = writeln!(out, "density: {:.2}", e.density);
+            let _ = writeln!(out, "bad2_overlap: {:.2}", overlap.and_then(|o| o.bad_at(2.0)).unwrap_or(f64::NAN));
+            let _ = writeln!(out, "density_overlap: {:.2}", overlap.map_or(f64::NAN, |o| o.density));
         }
         None => {
             let _ = writeln!(out, "density: {:.2}", 100.0 * stats.density);
@@ -332,6 +340,7 @@ pub fn disparity_keys(
         ("rejected_lr", stats.lr_inconsistent),
         ("rejected_confidence", stats.low_confidence),
         ("rejected_speckle", stats.speckle),
+        ("rejected_no_candidate", stats.no_candidate),
         ("filled", stats.filled),
     ] {
         let _ = writeln!(out, "{key}: {:.2}", stats.percent(n));
@@ -446,12 +455,44 @@ mod tests {
             density: 0.85,
             ..Default::default()
         };
-        let keys = disparity_keys(&stats, None, 0.0125, 2345.6);
+        let keys = disparity_keys(&stats, None, None, 0.0125, 2345.6);
         let lines: Vec<&str> = keys.lines().collect();
         assert_eq!(lines[0], "density: 85.00");
         assert_eq!(lines[1], "rejected_texture: 10.00");
         assert_eq!(lines[5], "rejected_speckle: 5.00");
-        assert_eq!(&lines[7..], ["seconds: 0.012500", "mdes: 2346"]);
+        assert_eq!(lines[6], "rejected_no_candidate: 0.00");
+        assert_eq!(&lines[7..], ["filled: 0.00", "seconds: 0.012500", "mdes: 2346"]);
         assert!(match_stats(&stats).ends_with("returned map density 85.00 %"), "{}", match_stats(&stats));
+    }
+
+    #[test]
+    fn the_evaluation_keys_keep_their_lines_and_add_the_overlap_ones() {
+        let stats = parallax_block_matching::MatchStats { pixels: 12, no_candidate: 3, ..Default::default() };
+        let e = parallax_block_matching::Evaluation {
+            evaluated: 10,
+            bad: vec![(1.0, 60.0), (2.0, 50.0)],
+            bad_returned: vec![(1.0, 50.0), (2.0, 37.5)],
+            density: 80.0,
+            rms: 2.5,
+        };
+        let o = parallax_block_matching::Evaluation { bad: vec![(2.0, 50.0)], density: 500.0 / 6.0, ..e.clone() };
+        let keys = disparity_keys(&stats, Some(&e), Some(&o), 1.0, 1.0);
+        let lines: Vec<&str> = keys.lines().collect();
+        assert_eq!(
+            &lines[..7],
+            [
+                "evaluated 10 px, rms 2.500 px",
+                "bad1: 60.00",
+                "bad2: 50.00",
+                "bad2_returned: 37.50",
+                "density: 80.00",
+                "bad2_overlap: 50.00",
+                "density_overlap: 83.33"
+            ]
+        );
+        assert!(keys.contains("\nrejected_no_candidate: 25.00\n"), "{keys}");
+        // no pixel to compare in the overlap: NaN, never 0
+        let keys = disparity_keys(&stats, Some(&e), None, 1.0, 1.0);
+        assert!(keys.contains("\nbad2_overlap: NaN\ndensity_overlap: NaN\n"), "{keys}");
     }
 }
