@@ -95,4 +95,4 @@ pub use frame::{Gray16Image, MatchStats};
 pub use io::{false_colour, from_pfm, from_scaled, to_pfm, to_png16};
 pub use speckle::filter_speckles;
 pub use stream::{Frame, Frames, MAX_PREFETCH, StereoPair};
-pub use swap::SwapCheck;
+pub use swap::{SwapCheck, SwapChecker};

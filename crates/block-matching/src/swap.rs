@@ -81,27 +81,54 @@ impl BlockMatcher {
     }
 
     /// Matches a half-resolution copy of the pair as given and the other way round, and says
-    /// whether the images look swapped (see [`SwapCheck`]). Costs about a quarter of a
-    /// full-resolution match; run it once per camera setup, not per frame.
+    /// whether the images look swapped (see [`SwapCheck`]). Builds its half-resolution matcher
+    /// on each call: for many frames, [`SwapChecker`] keeps one.
     pub fn check_swap(&self, left: &GrayImage, right: &GrayImage) -> Result<SwapCheck> {
-        crate::frame::check_pair(left.width(), left.height(), right.width(), right.height())?;
-        let (l, r) = (half(left), half(right));
-        let mut m = BlockMatcher::new(self.swap_config())?;
-        m.compute(&l, &r)?;
-        let fwd = m.last_stats();
-        m.compute(&r, &l)?;
-        Ok(SwapCheck::from_runs(fwd, m.last_stats()))
+        SwapChecker::new(self)?.check(left, right)
     }
 
     /// As [`BlockMatcher::check_swap`] for a 16-bit pair.
     pub fn check_swap_u16(&self, left: &Gray16Image, right: &Gray16Image) -> Result<SwapCheck> {
+        SwapChecker::new(self)?.check_u16(left, right)
+    }
+}
+
+/// The swapped-pair check of [`BlockMatcher::check_swap`] for many frames: the
+/// half-resolution matcher is built once and keeps its buffers. Its cost per frame is two
+/// half-resolution block matchings over half the range (each an eighth of the disparity
+/// evaluations of the frame at full resolution) plus the halving of both images: measured on
+/// Middlebury teddy against matching the same frame (`examples/swap_check_cost.rs`, figures in
+/// `benches/RESULTS.md`), a small share of a semi-global frame, a smaller one of an
+/// `--accurate` frame, and for the default block matching (the fastest matcher) a larger share,
+/// still well below the matching itself — cheap enough to check every frame of a sequence.
+pub struct SwapChecker {
+    matcher: BlockMatcher,
+}
+
+impl SwapChecker {
+    /// The check for pairs that `matcher` (its range, cost and prefilter) will match.
+    pub fn new(matcher: &BlockMatcher) -> Result<Self> {
+        Ok(Self { matcher: BlockMatcher::new(matcher.swap_config())? })
+    }
+
+    /// Whether the 8-bit pair looks swapped (see [`SwapCheck`]).
+    pub fn check(&mut self, left: &GrayImage, right: &GrayImage) -> Result<SwapCheck> {
         crate::frame::check_pair(left.width(), left.height(), right.width(), right.height())?;
         let (l, r) = (half(left), half(right));
-        let mut m = BlockMatcher::new(self.swap_config())?;
-        m.compute_u16(&l, &r)?;
-        let fwd = m.last_stats();
-        m.compute_u16(&r, &l)?;
-        Ok(SwapCheck::from_runs(fwd, m.last_stats()))
+        self.matcher.compute(&l, &r)?;
+        let fwd = self.matcher.last_stats();
+        self.matcher.compute(&r, &l)?;
+        Ok(SwapCheck::from_runs(fwd, self.matcher.last_stats()))
+    }
+
+    /// Whether the 16-bit pair looks swapped (see [`SwapCheck`]).
+    pub fn check_u16(&mut self, left: &Gray16Image, right: &Gray16Image) -> Result<SwapCheck> {
+        crate::frame::check_pair(left.width(), left.height(), right.width(), right.height())?;
+        let (l, r) = (half(left), half(right));
+        self.matcher.compute_u16(&l, &r)?;
+        let fwd = self.matcher.last_stats();
+        self.matcher.compute_u16(&r, &l)?;
+        Ok(SwapCheck::from_runs(fwd, self.matcher.last_stats()))
     }
 }
 
