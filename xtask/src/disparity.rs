@@ -111,7 +111,9 @@ pub struct Args {
     #[arg(long)]
     fill: bool,
     /// Go on when the pair looks swapped (left and right exchanged); otherwise that is an error
-    /// (exit code 2).
+    /// (exit code 2, nothing written). A sequence checks every frame: one swapped frame stops
+    /// it (exit code 2, naming the frame, nothing written), or with this flag is matched with a
+    /// warning naming it.
     #[arg(long)]
     allow_swapped: bool,
     /// Ground-truth disparity (PFM, or PNG of disparity x --gt-scale with 0 = unknown). Adds
@@ -146,23 +148,23 @@ pub struct Args {
     calib: Vec<PathBuf>,
 }
 
-/// Warns of a swapped-looking pair (`what`: "pair" or "pairs"); `Some(exit code 2)` when that
-/// refuses the run.
-fn refuse_swapped(swap: &SwapCheck, allow: bool, sequence: bool) -> Option<ExitCode> {
+/// Warns of a swapped-looking pair; `Some(exit code 2)` when that refuses the run.
+fn refuse_swapped(swap: &SwapCheck, allow: bool) -> Option<ExitCode> {
     if !swap.looks_swapped {
         return None;
     }
-    eprintln!("{}", disparity::swap_warning(swap, sequence));
-    let res = if sequence { "swapped-looking pairs" } else { "a swapped-looking pair" };
+    eprintln!("{}", disparity::swap_warning(swap, None));
     if allow {
         return None;
     }
-    eprintln!("error: refusing {res}; exchange --left and --right, or pass --allow-swapped");
+    eprintln!("error: refusing a swapped-looking pair; exchange --left and --right, or pass --allow-swapped");
     Some(ExitCode::from(2))
 }
 
-/// `disparity` over an image sequence: decode, match and write overlapped
-/// (`parallax_composition::disparity::run_sequence`), a progress bar, and the throughput.
+/// `disparity` over an image sequence: decode, check, match and write overlapped
+/// (`parallax_composition::disparity::run_sequence`: every frame is checked for a swapped or
+/// doubled pair, and a refused frame leaves nothing written), a progress bar, and the
+/// throughput.
 fn run_sequence(
     args: &Args,
     matcher: BlockMatcher,
@@ -185,21 +187,18 @@ fn run_sequence(
     let (min, n) = (matcher.config().min_disparity, matcher.config().num_disparities);
     let png = disparity::png16_holds(min, n);
     disparity::sequence_outputs(&lefts, &rights, &args.out, png)?;
-    // the first pair decides whether the sequence looks swapped
-    let first = disparity::load_pair(&lefts[0], &rights[0])?;
-    if first.identical() {
-        anyhow::bail!("{} and {} are the same image: nothing to match", lefts[0].display(), rights[0].display());
-    }
-    if let Some(code) = refuse_swapped(&first.check_swap(&matcher)?, args.allow_swapped, true) {
-        return Ok(code);
-    }
     if !png {
         eprintln!("{}", disparity::png16_warning("<name>.png", min, n));
     }
     // a bar on a terminal; plain lines every few seconds otherwise (a pipe, a log file)
     let progress = crate::progress::Progress::new("disparity", lefts.len() as u64, "frames")?;
-    let s = disparity::run_sequence(matcher, lefts, rights, &args.out, args.prefetch, |e| {
+    let s = disparity::run_sequence(matcher, lefts, rights, &args.out, args.prefetch, args.allow_swapped, |e| {
         match e {
+            FrameEvent::Swapped { name, check, .. } => {
+                // heard before the frame's own event: not a frame of the bar
+                progress.println(disparity::swap_warning(check, Some(name)));
+                return;
+            }
             FrameEvent::Matched { name, density, warnings } => {
                 if *density < 0.5 {
                     progress.println(format!(
@@ -216,7 +215,17 @@ fn run_sequence(
         progress.inc();
     });
     progress.finish();
-    let s = s?;
+    let s = match s {
+        Err(e @ parallax_composition::PipelineError::SwappedFrame { .. }) => {
+            // as a single pair: refused with exit code 2 before anything is written
+            eprintln!("error: {e}");
+            eprintln!(
+                "error: refusing a sequence with a swapped-looking pair; exchange its left and right images, or pass --allow-swapped"
+            );
+            return Ok(ExitCode::from(2));
+        }
+        s => s?,
+    };
     let files = if png { "<name>.pfm, <name>.png at 1/256 px" } else { "<name>.pfm" };
     println!("wrote {} maps to {} ({files})", s.frames, args.out.display());
     println!("frames: {}", s.frames);
@@ -360,7 +369,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         )
     };
     // a swapped pair gives a confident-looking wrong map: refuse it unless told otherwise
-    if let Some(code) = refuse_swapped(&pair.check_swap(&matcher)?, args.allow_swapped, false) {
+    if let Some(code) = refuse_swapped(&pair.check_swap(&matcher)?, args.allow_swapped) {
         return Ok(code);
     }
     let (map, seconds) = disparity::match_timed(&mut matcher, &pair, args.runs)?;

@@ -482,6 +482,62 @@ fn sequences_refuse_single_pair_options_and_names_that_do_not_correspond_and_rep
 }
 
 #[test]
+fn a_sequence_whose_sixth_frame_is_swapped_is_refused_naming_it_and_writes_nothing() {
+    // only the first pair was checked: a swapped sixth frame ran with exit 0 and a "most of the
+    // map was rejected" warning
+    let dir = temp("disp-seq-swap");
+    let easy = root().join("fixtures/stereo-scene-easy");
+    for d in ["L", "R"] {
+        std::fs::create_dir_all(dir.join(d)).unwrap();
+    }
+    let put = |k: u32, swapped: bool| {
+        let (l, r) = if swapped { ("right.png", "left.png") } else { ("left.png", "right.png") };
+        std::fs::copy(easy.join(l), dir.join(format!("L/{k}.png"))).unwrap();
+        std::fs::copy(easy.join(r), dir.join(format!("R/{k}.png"))).unwrap();
+    };
+    for k in 1..=6 {
+        put(k, k == 6);
+    }
+    let out = dir.join("out");
+    let seq = |extra: &[&str]| {
+        let (l, r) = (dir.join("L"), dir.join("R"));
+        let base = ["disparity", "--left", l.to_str().unwrap(), "--right", r.to_str().unwrap()];
+        run(&[&base[..], &["--out", out.to_str().unwrap()], extra].concat())
+    };
+    let r = seq(&[]);
+    let (l6, r6) = (dir.join("L/6.png").display().to_string(), dir.join("R/6.png").display().to_string());
+    fails_naming(&r, &["frame 5 (", &l6, &r6, "looks swapped", "nothing was written", "--allow-swapped"]);
+    assert_eq!(r.status.code(), Some(2), "a swapped pair is exit code 2, as for a single pair");
+    assert!(!out.exists(), "outputs written by a refused sequence: {:?}", files_below(&out));
+    // allowed: every frame matched and written, one warning that names the sixth
+    let r = seq(&["--allow-swapped"]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{stderr}");
+    let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("looks swapped")).collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    assert!(warnings[0].starts_with("warning: frame 6 looks swapped"), "{stderr}");
+    let mut expect: Vec<String> = (1..=6).flat_map(|k| [format!("{k}.pfm"), format!("{k}.png")]).collect();
+    expect.sort();
+    assert_eq!(files_below(&out), expect);
+    // the sixth frame the right way round: no warning, no refusal (the check refuses what it
+    // should, not every sequence)
+    std::fs::remove_dir_all(&out).unwrap();
+    put(6, false);
+    let r = seq(&[]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success() && !stderr.contains("swapped"), "{stderr}");
+    assert_eq!(files_below(&out), expect);
+    // a swapped first frame is refused as before, naming it
+    std::fs::remove_dir_all(&out).unwrap();
+    put(1, true);
+    let l1 = dir.join("L/1.png").display().to_string();
+    let r = seq(&[]);
+    fails_naming(&r, &["frame 0 (", &l1, "looks swapped"]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(!out.exists(), "outputs written by a refused sequence: {:?}", files_below(&out));
+}
+
+#[test]
 fn rectify_in_ros_format_refuses_to_write_over_its_ros_input_files() {
     // the check covered rectification.yaml, but ROS is written as rectification_left.yaml and
     // rectification_right.yaml: given as --calib, both were replaced

@@ -275,17 +275,6 @@ pub fn png16_warning(what: &str, min_disparity: i32, num_disparities: usize) -> 
     )
 }
 
-/// Writes a map as `<stem>.pfm` and (`png`) `<stem>.png` (16-bit, 1/256 px) into `dir`, as a
-/// set.
-pub fn write_frame(dir: &Path, stem: &str, map: &DisparityMap, png: bool) -> Result<()> {
-    let mut set = crate::io::OutputSet::new();
-    set.add(dir.join(format!("{stem}.pfm")), parallax_block_matching::to_pfm(map))?;
-    if png {
-        set.add_png(dir.join(format!("{stem}.png")), &parallax_block_matching::to_png16(map, 256.0))?;
-    }
-    set.commit().map(|_| ())
-}
-
 /// Adds a single map's files in `dir` to `set`: `disparity.pfm`, `disparity16.png` (1/256 px,
 /// only when [`png16_holds`] the range `[min, min + n)`) and `disparity_colour.png` (false
 /// colour over the range). Returns whether `disparity16.png` is among them.
@@ -332,14 +321,13 @@ pub fn add_confidence(
     Ok(true)
 }
 
-/// The warning for a pair (or, `sequence`, the first pair of a sequence) that looks swapped:
-/// the share of pixels that pass the checks as given and exchanged.
-pub fn swap_warning(swap: &SwapCheck, sequence: bool) -> String {
-    let (what, looks) =
-        if sequence { ("pairs look", "first pair, half resolution") } else { ("pair looks", "half resolution") };
+/// The warning for a pair (or the frame `frame` of a sequence, named by its file stem) that
+/// looks swapped: the share of pixels that pass the checks as given and exchanged.
+pub fn swap_warning(swap: &SwapCheck, frame: Option<&str>) -> String {
+    let what = frame.map_or_else(|| "the pair looks".to_string(), |name| format!("frame {name} looks"));
     format!(
-        "warning: the {what} swapped (left and right exchanged): {:.1} % of the pixels pass the checks as given, {:.1} % \
-         with the images exchanged ({looks})",
+        "warning: {what} swapped (left and right exchanged): {:.1} % of the pixels pass the checks as given, {:.1} % \
+         with the images exchanged (half resolution)",
         100.0 * swap.forward_density,
         100.0 * swap.reverse_density
     )
@@ -357,6 +345,16 @@ pub enum FrameEvent {
         density: f64,
         /// What [`range_warnings`] says of the map.
         warnings: Vec<String>,
+    },
+    /// A frame looks swapped and the run goes on (`allow_swapped`): its file stem, position and
+    /// what the check found.
+    Swapped {
+        /// File stem of the left image.
+        name: String,
+        /// Position of the frame in the sequence.
+        index: usize,
+        /// What the check found.
+        check: SwapCheck,
     },
     /// A frame could not be read or matched.
     Failed {
@@ -406,44 +404,111 @@ pub fn sequence_outputs(lefts: &[PathBuf], rights: &[PathBuf], out: &Path, png: 
     Ok(outputs)
 }
 
+/// What the prefetch thread found of a frame before it was matched.
+enum Verdict {
+    /// Matched as given (read or not: a read error is the frame's).
+    Match,
+    /// Looks swapped: refused, or with `allow_swapped` matched with a warning.
+    Swapped(SwapCheck),
+    /// The same image twice (every disparity would be 0): refused.
+    Identical,
+}
+
 /// Matches a sequence of pairs into `out` (`<left stem>.pfm` and, when [`png16_holds`] the
-/// matcher's range, `.png` per frame, checked by [`sequence_outputs`] before anything runs): decoding on a prefetch thread (`prefetch` pairs
-/// ahead), matching on this thread, writing on a writer thread, all overlapped. `on_frame`
-/// hears of every frame in order. A frame that fails is counted and the run goes on; a failed
-/// write stops the run with its error.
+/// matcher's range, `.png` per frame, checked by [`sequence_outputs`] before anything runs):
+/// decoding and the checks of each pair on a prefetch thread (`prefetch` pairs ahead), matching
+/// on this thread, staging the files on a writer thread, all overlapped; the files are
+/// committed together at the end as one [`crate::io::OutputSet`]. `on_frame` hears of every
+/// frame in order. A frame that fails to read or match is counted and the run goes on.
+///
+/// Every frame is checked as a single pair is, before it is matched: one that looks swapped
+/// ([`parallax_block_matching::SwapChecker`]) stops the run with
+/// [`PipelineError::SwappedFrame`] unless `allow_swapped` (then it is matched and heard of as
+/// [`FrameEvent::Swapped`]), and one whose two images are the same stops it with an error; a
+/// stopped run, or a failed write, writes nothing. The check runs on the prefetch thread, beside
+/// the matching of the frame before; it costs a fraction of matching the frame (two
+/// half-resolution block matchings over half the range; `benches/RESULTS.md`).
 pub fn run_sequence(
     matcher: BlockMatcher,
     lefts: Vec<PathBuf>,
     rights: Vec<PathBuf>,
     out: &Path,
     prefetch: usize,
+    allow_swapped: bool,
     mut on_frame: impl FnMut(&FrameEvent),
 ) -> Result<SequenceSummary> {
     let (min, n) = (matcher.config().min_disparity, matcher.config().num_disparities);
     let png = png16_holds(min, n);
     sequence_outputs(&lefts, &rights, out, png)?;
-    std::fs::create_dir_all(out).map_err(|source| PipelineError::Io {
-        what: "creating",
-        path: out.to_path_buf(),
-        source,
-    })?;
     let names: Vec<String> = lefts
         .iter()
         .map(|p| p.file_stem().map_or_else(|| "frame".into(), |s| s.to_string_lossy().into_owned()))
         .collect();
-    let source = lefts.into_iter().zip(rights).map(|(l, r)| load_pair(&l, &r).map_err(|e| e.to_string()));
-    // the writer thread: PFM and 16-bit PNG (1/256 px) per frame, atomically
+    let paths: Vec<(PathBuf, PathBuf)> = lefts.iter().cloned().zip(rights.iter().cloned()).collect();
+    // the prefetch thread reads each pair and checks it; its verdicts come in frame order, one
+    // per frame, each sent before its frame
+    let mut checker = parallax_block_matching::SwapChecker::new(&matcher)?;
+    let (verdict_tx, verdicts) = std::sync::mpsc::channel::<Verdict>();
+    let source = lefts.into_iter().zip(rights).map(move |(l, r)| {
+        let pair = load_pair(&l, &r).map_err(|e| e.to_string());
+        let verdict = match &pair {
+            Err(_) => Ok(Verdict::Match),
+            Ok(p) if p.identical() => Ok(Verdict::Identical),
+            Ok(p) => match p {
+                StereoImages::U8(a, b) => checker.check(a, b),
+                StereoImages::U16(a, b) => checker.check_u16(a, b),
+            }
+            .map(|c| if c.looks_swapped { Verdict::Swapped(c) } else { Verdict::Match }),
+        };
+        let (verdict, pair) = match verdict {
+            Ok(Verdict::Match) => (Verdict::Match, pair),
+            Ok(Verdict::Swapped(c)) if allow_swapped => (Verdict::Swapped(c), pair),
+            // a refused frame is not matched
+            Ok(v) => (v, Err("refused".into())),
+            // the check fails where the matching would (a size mismatch): the frame's error
+            Err(e) => (Verdict::Match, Err(e.to_string())),
+        };
+        let _ = verdict_tx.send(verdict);
+        pair
+    });
+    // the writer thread stages each frame's PFM and 16-bit PNG (1/256 px) as it comes
     let (tx, rx) = std::sync::mpsc::sync_channel::<(String, DisparityMap)>(2);
     let out_dir = out.to_path_buf();
-    let writer = std::thread::spawn(move || -> Result<()> {
+    let writer = std::thread::spawn(move || -> Result<crate::io::OutputSet> {
+        let mut set = crate::io::OutputSet::new();
         for (name, map) in rx {
-            write_frame(&out_dir, &name, &map, png)?;
+            set.add(out_dir.join(format!("{name}.pfm")), parallax_block_matching::to_pfm(&map))?;
+            if png {
+                set.add_png(out_dir.join(format!("{name}.png")), &parallax_block_matching::to_png16(&map, 256.0))?;
+            }
         }
-        Ok(())
+        Ok(set)
     });
     let t0 = Instant::now();
     let (mut failed, mut density, mut done) = (0usize, 0.0f64, 0usize);
-    for frame in matcher.frames(source, prefetch) {
+    let mut refused = None;
+    for (index, frame) in matcher.frames(source, prefetch).enumerate() {
+        let verdict = verdicts.recv().unwrap_or(Verdict::Match);
+        let (l, r) = &paths[index];
+        match verdict {
+            Verdict::Match => {}
+            Verdict::Swapped(check) if allow_swapped => {
+                on_frame(&FrameEvent::Swapped { name: names[index].clone(), index, check });
+            }
+            Verdict::Swapped(check) => {
+                refused = Some(PipelineError::SwappedFrame { index, left: l.clone(), right: r.clone(), check });
+                break;
+            }
+            Verdict::Identical => {
+                refused = Some(PipelineError::Input(format!(
+                    "frame {index}: {} and {} are the same image: nothing to match (every disparity would be 0); \
+                     nothing was written",
+                    l.display(),
+                    r.display()
+                )));
+                break;
+            }
+        }
         match frame {
             Ok(f) => {
                 density += f.stats.density;
@@ -456,14 +521,19 @@ pub fn run_sequence(
             }
             Err(e) => {
                 failed += 1;
-                on_frame(&FrameEvent::Failed { index: done + failed - 1, error: e.to_string() });
+                on_frame(&FrameEvent::Failed { index, error: e.to_string() });
             }
         }
     }
     drop(tx);
-    let written = writer.join().map_err(|_| PipelineError::Input("the writer thread panicked".into()))?;
+    let staged = writer.join().map_err(|_| PipelineError::Input("the writer thread panicked".into()))?;
+    if let Some(e) = refused {
+        // the staged files go with the set
+        return Err(e);
+    }
+    let staged = staged.map_err(|e| PipelineError::Input(format!("writing the disparity maps: {e}")))?;
+    staged.commit().map_err(|e| PipelineError::Input(format!("writing the disparity maps: {e}")))?;
     let seconds = t0.elapsed().as_secs_f64();
-    written.map_err(|e| PipelineError::Input(format!("writing the disparity maps: {e}")))?;
     let density_pct = if done > 0 { 100.0 * density / done as f64 } else { 0.0 };
     Ok(SequenceSummary { frames: done, failed, density_pct, seconds })
 }
@@ -637,7 +707,7 @@ mod tests {
         let matcher = BlockMatcher::new(cfg).unwrap();
         let mut events = Vec::new();
         let out = dir.join("out");
-        let s = run_sequence(matcher, lefts, rights, &out, 2, |e| events.push(e.clone())).unwrap();
+        let s = run_sequence(matcher, lefts, rights, &out, 2, false, |e| events.push(e.clone())).unwrap();
         assert_eq!((s.frames, s.failed), (2, 1));
         assert!(matches!(&events[2], FrameEvent::Failed { index: 2, error } if error.contains("missing.png")));
         assert!(matches!(&events[0], FrameEvent::Matched { warnings, .. } if warnings.is_empty()), "{events:?}");
@@ -651,7 +721,7 @@ mod tests {
         let cfg = parallax_block_matching::MatcherConfig { num_disparities: 4, ..Default::default() };
         let (l2, r2) = (vec![dir.join("left0.png")], vec![dir.join("right0.png")]);
         let mut events = Vec::new();
-        run_sequence(BlockMatcher::new(cfg).unwrap(), l2, r2, &dir.join("out4"), 1, |e| events.push(e.clone()))
+        run_sequence(BlockMatcher::new(cfg).unwrap(), l2, r2, &dir.join("out4"), 1, false, |e| events.push(e.clone()))
             .unwrap();
         assert!(
             matches!(&events[0], FrameEvent::Matched { warnings, .. }
@@ -665,7 +735,7 @@ mod tests {
         r.save(&r3).unwrap();
         let before = std::fs::read(&l3).unwrap();
         let m = BlockMatcher::new(parallax_block_matching::MatcherConfig { num_disparities: 16, ..Default::default() });
-        let err = run_sequence(m.unwrap(), vec![l3.clone()], vec![r3], &dir, 1, |_| {}).unwrap_err().to_string();
+        let err = run_sequence(m.unwrap(), vec![l3.clone()], vec![r3], &dir, 1, false, |_| {}).unwrap_err().to_string();
         assert!(err.contains("is also an input"), "{err}");
         assert_eq!(std::fs::read(&l3).unwrap(), before);
         // two left images with one stem would share their outputs
@@ -701,15 +771,13 @@ mod tests {
             forward_lr_rejected: 0.3,
             looks_swapped: true,
         };
-        let w = swap_warning(&swap, false);
+        let w = swap_warning(&swap, None);
         assert!(w.starts_with("warning: the pair looks swapped"), "{w}");
         assert!(
             w.contains("12.3 % of the pixels") && w.contains("67.9 % with the images exchanged (half resolution)"),
             "{w}"
         );
-        assert!(
-            swap_warning(&swap, true).contains("pairs look swapped")
-                && swap_warning(&swap, true).contains("first pair")
-        );
+        let w = swap_warning(&swap, Some("000123"));
+        assert!(w.starts_with("warning: frame 000123 looks swapped") && w.contains("12.3 % of the pixels"), "{w}");
     }
 }

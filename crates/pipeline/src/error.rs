@@ -68,6 +68,26 @@ pub enum PipelineError {
     /// The inputs do not fit together (counts, sizes, a missing file).
     #[error("{0}")]
     Input(String),
+    /// A frame of an image sequence looks swapped (left and right exchanged): the run stopped
+    /// there and wrote nothing ([`crate::disparity::run_sequence`]).
+    #[error(
+        "frame {index} ({left} and {right}) looks swapped (left and right exchanged): {:.1} % of the pixels pass \
+         the checks as given, {:.1} % with the images exchanged (half resolution); nothing was written",
+        100.0 * check.forward_density,
+        100.0 * check.reverse_density,
+        left = left.display(),
+        right = right.display()
+    )]
+    SwappedFrame {
+        /// Position of the frame in the sequence (0-based).
+        index: usize,
+        /// Its left image.
+        left: PathBuf,
+        /// Its right image.
+        right: PathBuf,
+        /// What the check found.
+        check: parallax_block_matching::SwapCheck,
+    },
 }
 
 /// `Result` with [`PipelineError`].
