@@ -46,7 +46,7 @@ fn the_overlap_keys_are_the_figures_of_the_written_map_over_the_columns_opencv_a
     let gt = easy.join("disparity.pfm");
     let truth = parallax_block_matching::from_pfm(&std::fs::read(&gt).unwrap(), "truth").unwrap();
     let (left, right) = (easy.join("left.png"), easy.join("right.png"));
-    for (method, min, n) in [("bm", 0, 40), ("sgm", 0, 48), ("bm", 4, 36)] {
+    for (method, min, n) in [("bm", 0i32, 40i32), ("sgm", 0, 48), ("bm", 4, 36)] {
         let out = dir.join(format!("{method}{min}"));
         let args = [
             "disparity",
@@ -73,9 +73,9 @@ fn the_overlap_keys_are_the_figures_of_the_written_map_over_the_columns_opencv_a
         let map = parallax_block_matching::from_pfm(&std::fs::read(out.join("disparity.pfm")).unwrap(), "map").unwrap();
         let w = map.width();
         let (bad2, density) = bad2_and_density(map.data(), truth.data(), w, 0);
-        let first = (min + n as i32) as usize;
+        let first = (min + n) as usize;
         let (bad2_o, density_o) = bad2_and_density(map.data(), truth.data(), w, first);
-        let case = format!("{method} [{min}, {}):\n{stdout}", min + n as i32);
+        let case = format!("{method} [{min}, {}):\n{stdout}", min + n);
         assert_eq!(key(&stdout, "bad2"), format!("{bad2:.2}"), "{case}");
         assert_eq!(key(&stdout, "density"), format!("{density:.2}"), "{case}");
         assert_eq!(key(&stdout, "bad2_overlap"), format!("{bad2_o:.2}"), "{case}");
