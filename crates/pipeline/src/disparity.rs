@@ -745,6 +745,64 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
+    /// A swapped or doubled frame anywhere in a sequence stops the run before anything is
+    /// written; allowed, a swapped frame is matched and heard of.
+    #[test]
+    fn a_swapped_or_doubled_frame_anywhere_stops_the_sequence_and_nothing_is_written() {
+        let dir = crate::io::test_dir("run-swap");
+        // a rendered scene (the shifted hash texture of `pair` matches itself too well at other
+        // shifts to look swapped at half resolution)
+        let cfg = parallax_synthetic::StereoSceneConfig {
+            width: 192,
+            height: 128,
+            max_disparity: 24.0,
+            seed: 5,
+            ..Default::default()
+        };
+        let scene = parallax_synthetic::render_stereo_scene(&cfg).unwrap();
+        let (l, r) = (scene.left, scene.right);
+        let (mut lefts, mut rights) = (Vec::new(), Vec::new());
+        for k in 0..4 {
+            lefts.push(dir.join(format!("left{k}.png")));
+            rights.push(dir.join(format!("right{k}.png")));
+            // frame 2 swapped
+            let (a, b) = if k == 2 { (&r, &l) } else { (&l, &r) };
+            a.save(&lefts[k]).unwrap();
+            b.save(&rights[k]).unwrap();
+        }
+        let cfg = parallax_block_matching::MatcherConfig { num_disparities: 32, ..Default::default() };
+        let m = || BlockMatcher::new(cfg.clone()).unwrap();
+        let out = dir.join("out");
+        let mut events = Vec::new();
+        let err = run_sequence(m(), lefts.clone(), rights.clone(), &out, 2, false, |e| events.push(e.clone()));
+        match err {
+            Err(PipelineError::SwappedFrame { index, left, right, check }) => {
+                assert_eq!((index, &left, &right), (2, &lefts[2], &rights[2]));
+                assert!(check.looks_swapped && check.reverse_density > check.forward_density, "{check:?}");
+            }
+            other => panic!("not refused as swapped: {other:?}"),
+        }
+        // frames 0 and 1 were matched, then the run stopped: none of them written
+        assert_eq!(events.len(), 2, "{events:?}");
+        assert!(!out.exists(), "a refused sequence wrote {:?}", std::fs::read_dir(&out).unwrap().count());
+        // allowed: matched, heard of, written
+        let mut events = Vec::new();
+        let s = run_sequence(m(), lefts.clone(), rights.clone(), &out, 2, true, |e| events.push(e.clone())).unwrap();
+        assert_eq!((s.frames, s.failed), (4, 0));
+        let swapped: Vec<_> = events.iter().filter(|e| matches!(e, FrameEvent::Swapped { .. })).collect();
+        assert!(matches!(swapped[..], [FrameEvent::Swapped { index: 2, name, .. }] if name == "left2"), "{events:?}");
+        assert!(out.join("left3.pfm").exists());
+        std::fs::remove_dir_all(&out).unwrap();
+        // the same image twice in frame 3: refused, naming it, nothing written
+        l.save(&rights[3]).unwrap();
+        r.save(&rights[2]).unwrap();
+        l.save(&lefts[2]).unwrap();
+        let err = run_sequence(m(), lefts, rights, &out, 2, false, |_| {}).unwrap_err().to_string();
+        assert!(err.contains("frame 3") && err.contains("same image") && err.contains("nothing was written"), "{err}");
+        assert!(!out.exists());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
     #[test]
     fn truth_pngs_are_scaled_and_zero_is_unknown() {
         let dir = crate::io::test_dir("truth");
