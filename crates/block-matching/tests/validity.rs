@@ -302,3 +302,26 @@ fn every_presets_rejections_add_up_to_its_missing_pixels() {
         }
     }
 }
+
+#[test]
+fn the_accurate_preset_keeps_a_uniqueness_margin_in_the_left_band_only() {
+    // `--accurate` has no uniqueness margin, yet its help says it still rejects by uniqueness
+    // where the image edge cuts the candidates (x < min_disparity + disparities − 1): those
+    // rejections exist and all fit in that band; a filled (benchmark) map has none
+    let s = scene(5);
+    let h = s.left.height() as usize;
+    for (min_disparity, nd) in [(0, 32usize), (4, 24)] {
+        let c = MatcherConfig { min_disparity, num_disparities: nd, ..MatcherConfig::sgm_accurate() };
+        assert_eq!(c.uniqueness_ratio, 0);
+        let mut m = BlockMatcher::new(c).unwrap();
+        m.compute(&s.left, &s.right).unwrap();
+        let st = m.last_stats();
+        // columns min_disparity ..< min_disparity + nd − 1 (left of them: no candidate at all)
+        let band = (nd - 1) * h;
+        assert!(st.not_unique > 0 && st.not_unique <= band, "min {min_disparity}: {st:?}, band {band} px");
+        let c = MatcherConfig { min_disparity, num_disparities: nd, ..MatcherConfig::sgm_dense() };
+        let mut m = BlockMatcher::new(c).unwrap();
+        m.compute(&s.left, &s.right).unwrap();
+        assert_eq!(m.last_stats().not_unique, 0, "{:?}", m.last_stats());
+    }
+}
