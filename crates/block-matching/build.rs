@@ -1,6 +1,6 @@
 //! Sets `cfg(opt_level_zero)` when this crate is compiled at opt-level 0: the profile's
 //! `opt-level` (a user's default `cargo run` or `cargo test`), or a later `-C opt-level` / `-O` in
-//! the RUSTFLAGS. There the semi-global matching kernels are not forced inline (`src/sgm.rs`, the
+//! the RUSTFLAGS. There the semi-global and block-matching kernels are not forced inline (`src/sgm.rs`, the
 //! module docs): at opt-level 0 LLVM gives every local of every inlined body a stack slot of its
 //! own, and the kernels' vector temporaries, pasted for every path count, mode and lane count,
 //! made frames of up to 1 MiB (issue 50). Every other level inlines them, with the same code as

@@ -6,7 +6,7 @@ use crate::config::CostFunction;
 use crate::decide::{Cost, Decision, WinnersBy, decide, finish_row, right_update};
 use crate::frame::{MatchStats, Shared, conf_row, for_each_band, load_rows};
 use crate::prefilter::TextureRows;
-use parallax_simd::{Avx2, SimdLevel};
+use parallax_simd::{Avx2, Level, SimdLevel};
 
 /// Accumulator of the exact integer window sums.
 pub(crate) trait Acc: Cost + Ord + Default {
@@ -155,24 +155,12 @@ fn dispatch<A: Acc, const K: u8>(
 ) -> MatchStats {
     #[cfg(target_arch = "x86_64")]
     if let Some(t) = Avx2::at_most(simd) {
-        // SAFETY: the token `t` proves AVX2, FMA, BMI1/2, LZCNT and POPCNT.
-        return unsafe { band_avx2::<A, K>(t, sh, sc, out, conf, y0, y1) };
+        // compiled for AVX2 (the token proves the CPU runs it)
+        return t.vectorize(
+            #[inline(always)]
+            || band::<A, K>(sh, sc, out, conf, y0, y1),
+        );
     }
-    band::<A, K>(sh, sc, out, conf, y0, y1)
-}
-
-/// [`band`] compiled for AVX2 (the token proves the CPU runs it).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-fn band_avx2<A: Acc, const K: u8>(
-    _t: Avx2,
-    sh: &Shared,
-    sc: &mut Scratch<A>,
-    out: &mut [f32],
-    conf: &mut [f32],
-    y0: usize,
-    y1: usize,
-) -> MatchStats {
     band::<A, K>(sh, sc, out, conf, y0, y1)
 }
 

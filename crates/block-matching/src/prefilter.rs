@@ -84,14 +84,8 @@ macro_rules! with_simd {
             #[inline(always)]
             fn imp $(<$g: $bound>)? ($($a: $t),*) $body
             #[cfg(target_arch = "x86_64")]
-            #[target_feature(enable = "avx2")]
-            fn avx2 $(<$g: $bound>)? (_t: parallax_simd::Avx2, $($a: $t),*) {
-                imp($($a),*)
-            }
-            #[cfg(target_arch = "x86_64")]
             if let Some(t) = parallax_simd::Avx2::new() {
-                // SAFETY: the token `t` proves AVX2.
-                return unsafe { avx2(t, $($a),*) };
+                return parallax_simd::Level::vectorize(t, #[inline(always)] || imp($($a),*));
             }
             imp($($a),*)
         }

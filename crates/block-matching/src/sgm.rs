@@ -48,7 +48,7 @@
 //! Stack at opt-level 0 (issue 50): there LLVM gives every local of every body inlined into a
 //! function a stack slot of its own, shared with none, and the kernels' vector temporaries
 //! (`#[inline(always)]` bodies pasted for each path count, mode and lane count) made frames of
-//! 999 KiB (`strip_avx2`, with the any-count row kernels inlined) on top of 498 KiB
+//! 999 KiB (the strip's AVX2 instance, with the any-count row kernels inlined) on top of 498 KiB
 //! (`forward_row_avx2`): more than a rayon worker's 2 MiB stack. So the strip calls every row
 //! kernel, at every level and lane count, as a function of its own (`per_lane_count!`; the
 //! strip inlined the scalar level's and the vector level's any-count ones), and at opt-level 0
@@ -63,8 +63,8 @@ use crate::decide::{Cost, RightWinners, curve_ratio, decide, finish_row, gather_
 use crate::error::{BlockMatchingError, Result};
 use crate::frame::{MatchStats, Shared, conf_row, load_plane_rows, load_rows};
 use crate::prefilter::TextureRows;
-use parallax_simd::Avx2;
 use parallax_simd::SimdLevel;
+use parallax_simd::{Avx2, Level};
 
 /// Uniqueness margin (percent) a winner needs where the image edge cuts its pixel's candidates
 /// short of the range (the left band `x < dmin + D − 1`, or the right one with negative
@@ -493,8 +493,11 @@ fn vertical(
         let rows = (&sc.l_a[..], &sc.r_a[..], &sc.l_b[..], &sc.r_b[..]);
         let bt_rows = bt.then(|| (sc.bt_a.each_ref().map(|v| &v[..]), sc.bt_b.each_ref().map(|v| &v[..])));
         let pairs = pairs.then(|| (&sc.pairs[..], &sc.l_pairs[..]));
-        // SAFETY: the token `t` proves AVX2 and POPCNT; lengths asserted inside.
-        unsafe { avx2::vertical(t, &mut sc.colsum, rows, bt_rows, lanes(nd), sub, cost, pairs) };
+        // (its own function compiled for AVX2; lengths asserted inside)
+        t.vectorize(
+            #[inline(always)]
+            || avx2::vertical(t, &mut sc.colsum, rows, bt_rows, lanes(nd), sub, cost, pairs),
+        );
         return boxed.is_some();
     }
     let _ = (isa, boxed, small);
@@ -619,8 +622,11 @@ fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, boxed: bool, isa: Option<A
     let (cost, colsum) = (&mut sc.cost, &sc.colsum);
     #[cfg(target_arch = "x86_64")]
     if let Some(t) = isa.filter(|_| !boxed) {
-        // SAFETY: the token `t` proves AVX2 and POPCNT; lengths asserted inside.
-        unsafe { avx2::box_row(t, cost, colsum, w, r, ndq) };
+        // (its own function compiled for AVX2; lengths asserted inside)
+        t.vectorize(
+            #[inline(always)]
+            || avx2::box_row(t, cost, colsum, w, r, ndq),
+        );
     }
     if isa.is_none() {
         let c0 = &mut cost[..ndq];
@@ -676,7 +682,7 @@ fn cost_row(sh: &Shared, sc: &mut Scratch, cmax: u16, boxed: bool, isa: Option<A
 /// `c` and `acc` address `Dq` lanes, every `prev[i]` and `out[i]` `Dq + 2`; no `out[i]`
 /// nor `acc` overlaps another of them or an input, except that with `in_place` a path after
 /// the first `H` may have `out[i] = prev[i]` (the same address). With [`Isa::Avx2`] the CPU has
-/// AVX2 and the caller is compiled for it (the strip's AVX2 instance, [`strip_avx2`]); the
+/// AVX2 and the caller is compiled for it (the strip compiled for AVX2 by `run_strip`); the
 /// scalar level never runs `in_place`.
 #[cfg_attr(not(opt_level_zero), inline(always))]
 #[allow(clippy::too_many_arguments)] // the step's inputs and outputs
@@ -1067,11 +1073,8 @@ macro_rules! per_lane_count {
             // frame was 999 KiB on top of a row kernel's, more than a rayon worker's 2 MiB stack.
             #[cfg(target_arch = "x86_64")]
             if let Some(t) = isa {
-                // SAFETY: the token `t` proves AVX2 and POPCNT.
-                unsafe {
-                    by_lane_count!($dq, $avx2(t, $($a),*));
-                    return $avx2::<0>(t, $($a),*);
-                }
+                by_lane_count!($dq, $avx2(t, $($a),*));
+                return $avx2::<0>(t, $($a),*);
             }
             $scalar($($a),*)
         }
@@ -1082,12 +1085,11 @@ macro_rules! per_lane_count {
             $f::<0>($($a,)* None)
         }
 
-        #[doc = concat!("[`", stringify!($f), "`] with `NDQ` lanes at the vector level.")]
+        #[doc = concat!("[`", stringify!($f), "`] with `NDQ` lanes at the vector level (compiled for AVX2 by the token's `vectorize`).")]
         #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "avx2,popcnt")]
         #[inline(never)]
         fn $avx2<const NDQ: usize>(t: Avx2, $($a: $t),*) {
-            $f::<NDQ>($($a,)* Some(t))
+            t.vectorize(#[inline(always)] || $f::<NDQ>($($a,)* Some(t)))
         }
     };
 }
@@ -1547,22 +1549,6 @@ fn strip(
     st
 }
 
-/// [`strip`] compiled for AVX2 (the token proves the CPU runs it).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,popcnt")]
-fn strip_avx2(
-    t: Avx2,
-    sh: &Shared,
-    pp: &SgmParams,
-    sc: &mut Scratch,
-    out: &mut [f32],
-    conf: &mut [f32],
-    y0: usize,
-    y1: usize,
-) -> MatchStats {
-    strip(sh, pp, sc, out, conf, y0, y1, Some(t))
-}
-
 /// Rows `y0..y1` of one strip, compiled for the instruction set of `simd` (the same code; the
 /// AVX-512 level runs the AVX2 kernels here, see `SimdLevel::Avx512`).
 pub(crate) fn run_strip(
@@ -1577,8 +1563,11 @@ pub(crate) fn run_strip(
 ) -> MatchStats {
     #[cfg(target_arch = "x86_64")]
     if let Some(t) = Avx2::at_most(simd) {
-        // SAFETY: the token `t` proves AVX2 and POPCNT.
-        return unsafe { strip_avx2(t, sh, pp, sc, out, conf, y0, y1) };
+        // [`strip`] compiled for AVX2 (the token proves the CPU runs it)
+        return t.vectorize(
+            #[inline(always)]
+            || strip(sh, pp, sc, out, conf, y0, y1, Some(t)),
+        );
     }
     strip(sh, pp, sc, out, conf, y0, y1, None)
 }
@@ -2145,9 +2134,9 @@ mod avx2 {
     use super::lanes;
     use parallax_simd::Avx2;
 
-    /// [`lanes::vertical`] on every lane, compiled for AVX2 (the token proves it).
-    #[inline]
-    #[target_feature(enable = "avx2,popcnt")]
+    /// [`lanes::vertical`] on every lane (entered through the token's `vectorize`, which
+    /// compiles it for AVX2).
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)] // both row pairs, the lane count, the box sums
     pub(super) fn vertical(
         t: Avx2,
@@ -2180,9 +2169,8 @@ mod avx2 {
         }
     }
 
-    /// [`lanes::box_row`] on every lane, compiled for AVX2 (the token proves it).
-    #[inline]
-    #[target_feature(enable = "avx2,popcnt")]
+    /// [`lanes::box_row`] on every lane (entered through the token's `vectorize`).
+    #[inline(always)]
     pub(super) fn box_row(t: Avx2, cost: &mut [u16], colsum: &[u16], w: usize, r: usize, ndq: usize) {
         lanes::box_row(t, cost, colsum, w, r, ndq, (0, ndq))
     }
@@ -2190,7 +2178,7 @@ mod avx2 {
 
 #[cfg(all(test, target_arch = "x86_64"))]
 mod tests {
-    use parallax_simd::Avx2;
+    use parallax_simd::{Avx2, Level};
 
     /// A xorshift generator from `seed` (not 0): each call gives a number below its argument.
     fn xorshift(seed: u64) -> impl FnMut(u64) -> u64 {
@@ -2322,17 +2310,16 @@ mod tests {
         }
     }
 
-    #[target_feature(enable = "avx2,popcnt")]
-    fn check_avx2(t: Avx2) {
-        check_wta(t);
-        check_paths(t);
-    }
-
     #[test]
     fn lane_kernels_match_their_scalar_definitions() {
         match Avx2::new() {
-            // SAFETY: the token `t` proves AVX2 and POPCNT.
-            Some(t) => unsafe { check_avx2(t) },
+            Some(t) => t.vectorize(
+                #[inline(always)]
+                || {
+                    check_wta(t);
+                    check_paths(t);
+                },
+            ),
             None => println!("skipped: no AVX2 on this CPU"),
         }
     }

@@ -8,9 +8,13 @@
 //! * Tokens, [`Avx2`] and [`Avx512`]: zero-sized values that can only be obtained on a CPU that
 //!   has the level ([`Avx2::new`], [`Avx2::at_most`]), so holding one proves the instruction set.
 //!   A kernel compiled with `#[target_feature]` takes the token and is entered once per call.
-//! * Lanes, [`U16x16`] (x86-64): sixteen `u16` lanes in a 256-bit register. A lane value can only
-//!   be made through a token, so its operations are safe methods; only raw loads and stores are
-//!   `unsafe` (the caller vouches for the memory, never for the CPU).
+//! * [`Level`]: what a kernel written once needs from a token: its register count and
+//!   [`Level::vectorize`], which runs an `#[inline(always)]` closure inside a function compiled
+//!   for the level (the one `unsafe` entry per level is here, as in pulp's `Simd::vectorize`).
+//! * Lanes (x86-64), [`U16x16`] and [`U32x8`]: sixteen `u16` or eight `u32` in a 256-bit
+//!   register, and the [`Lanes`] trait over both widths. A lane value can only be made through
+//!   a token, so its operations are safe methods; only raw loads and stores are `unsafe` (the
+//!   caller vouches for the memory, never for the CPU).
 //!
 //! * [`CacheAligned`]: a buffer whose first element starts a cache line, so that a kernel's
 //!   vector loads and stores do not straddle lines depending on where the allocator put it.
@@ -35,6 +39,10 @@
 //!     let mut out = [0u16; 16];
 //!     t.store(&mut out, a.adds(b));
 //!     assert_eq!(out, [16; 16]);
+//!     // a kernel written once, compiled for the level by `vectorize`
+//!     use parallax_simd::{Lanes, Level, U32x8};
+//!     let m = t.vectorize(#[inline(always)] || U32x8::ramp(t).wrapping_add(U32x8::splat(t, 5)).horizontal_min());
+//!     assert_eq!(m, 5);
 //! }
 //! ```
 
@@ -138,13 +146,76 @@ impl Avx512 {
     }
 }
 
+/// A token of an instruction-set level: what a kernel written once needs to be compiled for
+/// that level (the pattern of pulp's `Simd::vectorize`).
+pub trait Level: Copy + Send + Sync + 'static {
+    /// Vector registers the level has (16 for AVX2, 32 with AVX-512's EVEX encodings): how
+    /// many vectors a kernel may keep in registers.
+    const REGISTERS: usize;
+
+    /// The AVX2 token the level implies (lane values are made from it).
+    fn avx2(self) -> Avx2;
+
+    /// Runs `f` inside a function compiled for this level's features. Write `f` as an
+    /// `#[inline(always)]` closure whose body calls only `#[inline(always)]` functions: what is
+    /// inlined into the level's function is compiled for the level (intrinsics become single
+    /// instructions there); what is not still runs correctly, at the baseline.
+    fn vectorize<R>(self, f: impl FnOnce() -> R) -> R;
+}
+
+impl Level for Avx2 {
+    const REGISTERS: usize = 16;
+
+    #[inline(always)]
+    fn avx2(self) -> Avx2 {
+        self
+    }
+
+    #[inline(always)]
+    fn vectorize<R>(self, f: impl FnOnce() -> R) -> R {
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+        fn imp<R>(f: impl FnOnce() -> R) -> R {
+            f()
+        }
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the token proves every feature `imp` is compiled with (see `probe`).
+        return unsafe { imp(f) };
+        #[cfg(not(target_arch = "x86_64"))]
+        f()
+    }
+}
+
+impl Level for Avx512 {
+    const REGISTERS: usize = 32;
+
+    #[inline(always)]
+    fn avx2(self) -> Avx2 {
+        Avx2 { _proof: () }
+    }
+
+    #[inline(always)]
+    fn vectorize<R>(self, f: impl FnOnce() -> R) -> R {
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt,avx512f,avx512bw,avx512vl")]
+        fn imp<R>(f: impl FnOnce() -> R) -> R {
+            f()
+        }
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the token proves every feature `imp` is compiled with (see `probe`).
+        return unsafe { imp(f) };
+        #[cfg(not(target_arch = "x86_64"))]
+        f()
+    }
+}
+
 mod aligned;
 pub use aligned::CacheAligned;
 
 #[cfg(target_arch = "x86_64")]
 mod x86;
 #[cfg(target_arch = "x86_64")]
-pub use x86::U16x16;
+pub use x86::{Lanes, U16x16, U32x8};
 
 #[cfg(test)]
 mod tests {

@@ -171,6 +171,348 @@ impl U16x16 {
     }
 }
 
+/// Eight `u32` lanes in a 256-bit register, made only by an [`Avx2`] token as [`U16x16`].
+#[derive(Clone, Copy)]
+#[repr(transparent)]
+pub struct U32x8(__m256i);
+
+impl std::fmt::Debug for U32x8 {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut lanes = [0u32; 8];
+        // SAFETY: 8 writable lanes; a `U32x8` exists only where AVX2 does.
+        unsafe { _mm256_storeu_si256(lanes.as_mut_ptr().cast(), self.0) };
+        f.debug_tuple("U32x8").field(&lanes).finish()
+    }
+}
+
+/// The same 256 bits as eight 32-bit lanes.
+impl From<U16x16> for U32x8 {
+    #[inline(always)]
+    fn from(v: U16x16) -> Self {
+        U32x8(v.0)
+    }
+}
+
+/// The same 256 bits as sixteen 16-bit lanes.
+impl From<U32x8> for U16x16 {
+    #[inline(always)]
+    fn from(v: U32x8) -> Self {
+        U16x16(v.0)
+    }
+}
+
+/// The lane operations a kernel written once for both lane widths uses ([`U16x16`], [`U32x8`]).
+/// Values exist only through an [`Avx2`] token, so everything but raw loads and stores is safe.
+pub trait Lanes: Copy + Send + Sync + 'static {
+    /// The lane type.
+    type Elem: Copy;
+    /// Lanes per vector.
+    const LANES: usize;
+    /// `x` in every lane.
+    fn splat(t: Avx2, x: Self::Elem) -> Self;
+    /// `x` clamped to `[−1, the largest signed lane]`, in every lane (a range bound for
+    /// [`Lanes::greater_signed`]).
+    fn splat_bound(t: Avx2, x: i64) -> Self;
+    /// The byte pair `ab` (`a | b << 8`) in every 16-bit half-lane (see [`Lanes::pair_difference`]).
+    fn splat_pair(t: Avx2, ab: u16) -> Self;
+    /// The lane indices `0, 1, …, LANES − 1`.
+    fn ramp(t: Avx2) -> Self;
+    /// Loads `LANES` lanes from `p`.
+    ///
+    /// # Safety
+    /// `p` must point to `LANES` readable lanes (no alignment needed).
+    unsafe fn load_ptr(t: Avx2, p: *const Self::Elem) -> Self;
+    /// `LANES` 16-bit values from `p`, widened to the lane type.
+    ///
+    /// # Safety
+    /// `p` must point to `LANES` readable `u16` (no alignment needed).
+    unsafe fn load_u16_ptr(t: Avx2, p: *const u16) -> Self;
+    /// Stores the lanes at `p`.
+    ///
+    /// # Safety
+    /// `p` must point to `LANES` writable lanes (no alignment needed).
+    unsafe fn store_ptr(self, p: *mut Self::Elem);
+    /// `|a − r_a| − |b − r_b|` per lane from the byte pair `(a, b)` of [`Lanes::splat_pair`] and
+    /// the `LANES` byte pairs `(r_a, r_b)` at `p`, every byte below 128 (exact: see
+    /// [`Avx2::pair_difference`]).
+    ///
+    /// # Safety
+    /// `p` must point to `2 · LANES` readable bytes.
+    unsafe fn pair_difference(ab: Self, p: *const u8) -> Self;
+    /// Wrapping `a + b`.
+    fn wrapping_add(self, b: Self) -> Self;
+    /// Wrapping `a − b`.
+    fn wrapping_sub(self, b: Self) -> Self;
+    /// Bitwise or.
+    fn or(self, b: Self) -> Self;
+    /// Bitwise `!a & b`.
+    fn and_not(self, b: Self) -> Self;
+    /// Unsigned minimum.
+    fn min(self, b: Self) -> Self;
+    /// All ones in the lanes where `a = b`, zero elsewhere.
+    fn eq(self, b: Self) -> Self;
+    /// All ones in the lanes where `a > b` as signed integers, zero elsewhere.
+    fn greater_signed(self, b: Self) -> Self;
+    /// `|a − b|` for lanes below half the lane range (the wrapping difference's signed absolute
+    /// value).
+    fn abs_diff_small(self, b: Self) -> Self;
+    /// `a` in the lanes where `self` (a mask of all-ones or zero lanes) is set, `b` elsewhere.
+    fn select(self, a: Self, b: Self) -> Self;
+    /// Lanes moved up by one: lane `k` is lane `k − 1` of `self`, lane 0 the last of `before`.
+    fn up(self, before: Self) -> Self;
+    /// The last lane.
+    fn last(self) -> Self::Elem;
+    /// The smallest lane.
+    fn horizontal_min(self) -> Self::Elem;
+    /// `self` unchanged, but opaque to the optimiser (no instruction runs): keeps it from
+    /// rewriting an operation into another whose result it knows equal.
+    fn opaque(self) -> Self;
+}
+
+/// An empty `asm!` that takes `v`'s register and gives it back.
+#[inline]
+#[target_feature(enable = "avx")]
+fn opaque_ymm(mut v: __m256i) -> __m256i {
+    // SAFETY: the template is a comment: nothing executes, and only `v`'s register is named
+    // (read and written back unchanged).
+    unsafe { std::arch::asm!("/* {0} */", inout(ymm_reg) v, options(pure, nomem, nostack, preserves_flags)) };
+    v
+}
+
+/// The operations of [`Lanes`] that are one intrinsic on the whole register.
+macro_rules! common_lanes {
+    ($add:ident, $sub:ident, $min:ident, $eq:ident, $gt:ident, $abs:ident) => {
+        #[inline(always)]
+        fn wrapping_add(self, b: Self) -> Self {
+            // SAFETY: the lanes exist only where AVX2 does (made by an `Avx2` token).
+            Self(unsafe { $add(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn wrapping_sub(self, b: Self) -> Self {
+            // SAFETY: as `wrapping_add`.
+            Self(unsafe { $sub(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn or(self, b: Self) -> Self {
+            // SAFETY: as `wrapping_add`.
+            Self(unsafe { _mm256_or_si256(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn and_not(self, b: Self) -> Self {
+            // SAFETY: as `wrapping_add`.
+            Self(unsafe { _mm256_andnot_si256(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn min(self, b: Self) -> Self {
+            // SAFETY: as `wrapping_add`.
+            Self(unsafe { $min(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn eq(self, b: Self) -> Self {
+            // SAFETY: as `wrapping_add`.
+            Self(unsafe { $eq(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn greater_signed(self, b: Self) -> Self {
+            // SAFETY: as `wrapping_add`.
+            Self(unsafe { $gt(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn abs_diff_small(self, b: Self) -> Self {
+            // SAFETY: as `wrapping_add`.
+            Self(unsafe { $abs($sub(self.0, b.0)) })
+        }
+        #[inline(always)]
+        fn select(self, a: Self, b: Self) -> Self {
+            // SAFETY: as `wrapping_add`.
+            Self(unsafe { _mm256_blendv_epi8(b.0, a.0, self.0) })
+        }
+        #[inline(always)]
+        fn splat_pair(_t: Avx2, ab: u16) -> Self {
+            // SAFETY: the token proves AVX2.
+            Self(unsafe { _mm256_set1_epi16(ab as i16) })
+        }
+        /// # Safety
+        /// As [`Lanes::load_ptr`].
+        #[inline(always)]
+        unsafe fn load_ptr(_t: Avx2, p: *const Self::Elem) -> Self {
+            // SAFETY: the caller vouches for the memory, the token for AVX2.
+            Self(unsafe { _mm256_loadu_si256(p.cast()) })
+        }
+        /// # Safety
+        /// As [`Lanes::store_ptr`].
+        #[inline(always)]
+        unsafe fn store_ptr(self, p: *mut Self::Elem) {
+            // SAFETY: the caller vouches for the memory; the lanes exist only where AVX2 does.
+            unsafe { _mm256_storeu_si256(p.cast(), self.0) }
+        }
+        #[inline(always)]
+        fn opaque(self) -> Self {
+            // SAFETY: the lanes exist only where AVX2 (and so AVX) does.
+            Self(unsafe { opaque_ymm(self.0) })
+        }
+    };
+}
+
+impl Lanes for U16x16 {
+    type Elem = u16;
+    const LANES: usize = 16;
+    common_lanes!(
+        _mm256_add_epi16,
+        _mm256_sub_epi16,
+        _mm256_min_epu16,
+        _mm256_cmpeq_epi16,
+        _mm256_cmpgt_epi16,
+        _mm256_abs_epi16
+    );
+
+    #[inline(always)]
+    fn splat(t: Avx2, x: u16) -> Self {
+        t.splat(x)
+    }
+    #[inline(always)]
+    fn splat_bound(t: Avx2, x: i64) -> Self {
+        t.splat(x.clamp(-1, i16::MAX as i64) as i16 as u16)
+    }
+    #[inline(always)]
+    fn ramp(_t: Avx2) -> Self {
+        // SAFETY: the token proves AVX2.
+        Self(unsafe { _mm256_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15) })
+    }
+    /// # Safety
+    /// As [`Lanes::load_u16_ptr`].
+    #[inline(always)]
+    unsafe fn load_u16_ptr(t: Avx2, p: *const u16) -> Self {
+        // SAFETY: the caller's.
+        unsafe { t.load_ptr(p) }
+    }
+    /// # Safety
+    /// As [`Lanes::pair_difference`].
+    #[inline(always)]
+    unsafe fn pair_difference(ab: Self, p: *const u8) -> Self {
+        // SAFETY: the caller's; the lanes exist only where AVX2 does.
+        unsafe { Avx2 { _proof: () }.pair_difference(ab, p) }
+    }
+    #[inline(always)]
+    fn up(self, before: Self) -> Self {
+        U16x16::up(self, before)
+    }
+    #[inline(always)]
+    fn last(self) -> u16 {
+        // SAFETY: the lanes exist only where AVX2 does.
+        unsafe { _mm256_extract_epi16::<15>(self.0) as u16 }
+    }
+    #[inline(always)]
+    fn horizontal_min(self) -> u16 {
+        U16x16::horizontal_min(self)
+    }
+}
+
+impl U16x16 {
+    /// The lanes paired with `high`'s as 32-bit lanes `self[k] | high[k] << 16`: lanes 0–3 and
+    /// 8–11 in the first vector, 4–7 and 12–15 in the second (AVX2's unpacks work per 128-bit
+    /// half).
+    #[inline(always)]
+    pub fn zip(self, high: Self) -> (U32x8, U32x8) {
+        // SAFETY: the lanes exist only where AVX2 does.
+        unsafe { (U32x8(_mm256_unpacklo_epi16(self.0, high.0)), U32x8(_mm256_unpackhi_epi16(self.0, high.0))) }
+    }
+}
+
+impl Lanes for U32x8 {
+    type Elem = u32;
+    const LANES: usize = 8;
+    common_lanes!(
+        _mm256_add_epi32,
+        _mm256_sub_epi32,
+        _mm256_min_epu32,
+        _mm256_cmpeq_epi32,
+        _mm256_cmpgt_epi32,
+        _mm256_abs_epi32
+    );
+
+    #[inline(always)]
+    fn splat(_t: Avx2, x: u32) -> Self {
+        // SAFETY: the token proves AVX2.
+        Self(unsafe { _mm256_set1_epi32(x as i32) })
+    }
+    #[inline(always)]
+    fn splat_bound(t: Avx2, x: i64) -> Self {
+        Self::splat(t, x.clamp(-1, i32::MAX as i64) as i32 as u32)
+    }
+    #[inline(always)]
+    fn ramp(_t: Avx2) -> Self {
+        // SAFETY: the token proves AVX2.
+        Self(unsafe { _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7) })
+    }
+    /// # Safety
+    /// As [`Lanes::load_u16_ptr`].
+    #[inline(always)]
+    unsafe fn load_u16_ptr(_t: Avx2, p: *const u16) -> Self {
+        // SAFETY: the caller vouches for 8 readable `u16`, the token for AVX2.
+        Self(unsafe { _mm256_cvtepu16_epi32(_mm_loadu_si128(p.cast())) })
+    }
+    /// # Safety
+    /// As [`Lanes::pair_difference`].
+    #[inline(always)]
+    unsafe fn pair_difference(ab: Self, p: *const u8) -> Self {
+        // SAFETY: the caller vouches for 16 readable bytes; the lanes exist only where AVX2 does.
+        unsafe {
+            let r = _mm_loadu_si128(p.cast());
+            let d = _mm_abs_epi8(_mm_sub_epi8(_mm256_castsi256_si128(ab.0), r));
+            Self(_mm256_cvtepi16_epi32(_mm_maddubs_epi16(d, _mm_set1_epi16(0xff01u16 as i16))))
+        }
+    }
+    #[inline(always)]
+    fn up(self, before: Self) -> Self {
+        // SAFETY: the lanes exist only where AVX2 does.
+        Self(unsafe { _mm256_alignr_epi8::<12>(self.0, _mm256_permute2x128_si256::<0x21>(before.0, self.0)) })
+    }
+    #[inline(always)]
+    fn last(self) -> u32 {
+        // SAFETY: the lanes exist only where AVX2 does.
+        unsafe { _mm256_extract_epi32::<7>(self.0) as u32 }
+    }
+    #[inline(always)]
+    fn horizontal_min(self) -> u32 {
+        // SAFETY: the lanes exist only where AVX2 does.
+        unsafe {
+            let k = _mm_min_epu32(_mm256_castsi256_si128(self.0), _mm256_extracti128_si256::<1>(self.0));
+            let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b01_00_11_10>(k));
+            let k = _mm_min_epu32(k, _mm_shuffle_epi32::<0b10_11_00_01>(k));
+            _mm_cvtsi128_si32(k) as u32
+        }
+    }
+}
+
+impl U32x8 {
+    /// The smallest lane in every lane.
+    #[inline(always)]
+    pub fn min_everywhere(self) -> Self {
+        let v = self.0;
+        // SAFETY: the lanes exist only where AVX2 does.
+        unsafe {
+            let v = _mm256_min_epu32(v, _mm256_permute2x128_si256::<0x01>(v, v));
+            let v = _mm256_min_epu32(v, _mm256_shuffle_epi32::<0b01_00_11_10>(v));
+            Self(_mm256_min_epu32(v, _mm256_shuffle_epi32::<0b10_11_00_01>(v)))
+        }
+    }
+
+    /// The first lane.
+    #[inline(always)]
+    pub fn first(self) -> u32 {
+        // SAFETY: the lanes exist only where AVX2 does.
+        unsafe { _mm256_extract_epi32::<0>(self.0) as u32 }
+    }
+
+    /// The low 32 bits of `a · b` per lane.
+    #[inline(always)]
+    pub fn wrapping_mul(self, b: Self) -> Self {
+        // SAFETY: the lanes exist only where AVX2 does.
+        Self(unsafe { _mm256_mullo_epi32(self.0, b.0) })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -238,6 +580,119 @@ mod tests {
             });
             assert_eq!(lanes(t, d), want);
         }
+    }
+
+    /// Every operation of [`Lanes`] at both widths against its definition on plain integers,
+    /// on values that reach the edges (raw loads and stores through arrays of the lane count).
+    fn lanes_trait_matches<V: Lanes>(t: Avx2, next: &mut dyn FnMut() -> u64)
+    where
+        V::Elem: Copy + Default + PartialEq + std::fmt::Debug + TryFrom<u64> + Into<u64>,
+    {
+        let n = V::LANES;
+        let bits = 8 * std::mem::size_of::<V::Elem>() as u32;
+        let max = (1u64 << bits) - 1;
+        let el = |v: u64| -> V::Elem { V::Elem::try_from(v & max).ok().unwrap() };
+        let load = |a: &[u64]| -> V {
+            let e: Vec<V::Elem> = a.iter().map(|&v| el(v)).collect();
+            // SAFETY: `n` readable lanes.
+            unsafe { V::load_ptr(t, e.as_ptr()) }
+        };
+        let lanes = |v: V| -> Vec<u64> {
+            let mut e = vec![V::Elem::default(); n];
+            // SAFETY: `n` writable lanes.
+            unsafe { v.store_ptr(e.as_mut_ptr()) };
+            e.into_iter().map(Into::into).collect()
+        };
+        let signed = |v: u64| -> i64 { if v >> (bits - 1) == 1 { v as i64 - (1i64 << bits) } else { v as i64 } };
+        let mask = |c: bool| if c { max } else { 0 };
+        for _ in 0..500 {
+            let a: Vec<u64> = (0..n).map(|_| next() & max).collect();
+            let b: Vec<u64> = (0..n).map(|_| next() & max).collect();
+            let m: Vec<u64> = (0..n).map(|_| mask(next() & 1 == 1)).collect();
+            let (va, vb, vm) = (load(&a), load(&b), load(&m));
+            let each =
+                |f: &dyn Fn(u64, u64) -> u64| -> Vec<u64> { a.iter().zip(&b).map(|(&x, &y)| f(x, y) & max).collect() };
+            assert_eq!(lanes(va.wrapping_add(vb)), each(&|x, y| x + y));
+            assert_eq!(lanes(va.wrapping_sub(vb)), each(&|x, y| x.wrapping_sub(y)));
+            assert_eq!(lanes(va.or(vb)), each(&|x, y| x | y));
+            assert_eq!(lanes(va.and_not(vb)), each(&|x, y| !x & y));
+            assert_eq!(lanes(va.min(vb)), each(&|x, y| x.min(y)));
+            assert_eq!(lanes(va.eq(vb)), each(&|x, y| mask(x == y)));
+            assert_eq!(lanes(va.greater_signed(vb)), each(&|x, y| mask(signed(x) > signed(y))));
+            // below half the range
+            let (ha, hb) = (
+                load(&a.iter().map(|v| v >> 1).collect::<Vec<_>>()),
+                load(&b.iter().map(|v| v >> 1).collect::<Vec<_>>()),
+            );
+            let half: Vec<u64> = a.iter().zip(&b).map(|(&x, &y)| (x >> 1).abs_diff(y >> 1)).collect();
+            assert_eq!(lanes(ha.abs_diff_small(hb)), half);
+            let sel: Vec<u64> = (0..n).map(|k| if m[k] != 0 { a[k] } else { b[k] }).collect();
+            assert_eq!(lanes(vm.select(va, vb)), sel);
+            let up: Vec<u64> = (0..n).map(|k| if k == 0 { b[n - 1] } else { a[k - 1] }).collect();
+            assert_eq!(lanes(va.up(vb)), up);
+            assert_eq!(va.last().into(), a[n - 1]);
+            assert_eq!(va.horizontal_min().into(), *a.iter().min().unwrap());
+            assert_eq!(lanes(va.opaque()), a);
+            assert_eq!(lanes(V::splat(t, el(a[0]))), vec![a[0]; n]);
+            assert_eq!(lanes(V::ramp(t)), (0..n as u64).collect::<Vec<_>>());
+            let bound = signed(a[1]) >> 1;
+            assert_eq!(lanes(V::splat_bound(t, bound)), vec![(bound.max(-1) as u64) & max; n]);
+            assert_eq!(lanes(V::splat_bound(t, i64::MAX)), vec![max >> 1; n]);
+            assert_eq!(lanes(V::splat_bound(t, -5)), vec![max; n]);
+            // 16-bit values widened
+            let px: Vec<u16> = (0..n).map(|_| next() as u16).collect();
+            // SAFETY: `n` readable `u16`.
+            let w = unsafe { V::load_u16_ptr(t, px.as_ptr()) };
+            assert_eq!(lanes(w), px.iter().map(|&p| p as u64 & max).collect::<Vec<_>>());
+            // byte pairs below 128: |a − r_a| − |b − r_b| per lane, wrapping
+            let ab = (next() as u16) & 0x7f7f;
+            let r: Vec<u8> = (0..2 * n).map(|_| next() as u8 & 0x7f).collect();
+            // SAFETY: 2n readable bytes.
+            let d = unsafe { V::pair_difference(V::splat_pair(t, ab), r.as_ptr()) };
+            let (x, y) = ((ab & 0xff) as i64, (ab >> 8) as i64);
+            let want: Vec<u64> =
+                (0..n).map(|k| ((x - r[2 * k] as i64).abs() - (y - r[2 * k + 1] as i64).abs()) as u64 & max).collect();
+            assert_eq!(lanes(d), want);
+        }
+    }
+
+    #[test]
+    fn lanes_trait_equals_its_scalar_definition_at_both_widths() {
+        let Some(t) = Avx2::new() else {
+            println!("skipped: this CPU has no AVX2 (levels {:?})", crate::SimdLevel::available());
+            return;
+        };
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            match seed >> 60 {
+                0..=1 => 0,
+                2..=3 => u64::MAX,
+                4 => 1,
+                5 => 1 << 15,
+                _ => seed,
+            }
+        };
+        lanes_trait_matches::<U16x16>(t, &mut next);
+        lanes_trait_matches::<U32x8>(t, &mut next);
+        // the 16-bit lanes as keys of 32-bit lanes
+        let (a, b): ([u16; 16], [u16; 16]) =
+            (std::array::from_fn(|k| k as u16 * 3), std::array::from_fn(|k| 100 + k as u16));
+        let (lo, hi) = t.load(&a).zip(t.load(&b));
+        let (mut l, mut h) = ([0u32; 8], [0u32; 8]);
+        // SAFETY: 8 writable lanes each.
+        unsafe { (lo.store_ptr(l.as_mut_ptr()), hi.store_ptr(h.as_mut_ptr())) };
+        let key = |k: usize| a[k] as u32 | (b[k] as u32) << 16;
+        assert_eq!(l, [0, 1, 2, 3, 8, 9, 10, 11].map(key));
+        assert_eq!(h, [4, 5, 6, 7, 12, 13, 14, 15].map(key));
+        let v = U32x8::ramp(t).wrapping_add(U32x8::splat(t, 70_000));
+        let squares = (0..8u32).map(|k| (70_000 + k).wrapping_mul(70_000 + k));
+        assert_eq!(v.wrapping_mul(v).min_everywhere().first(), squares.min().unwrap());
+        assert_eq!(v.first(), 70_000);
+        // the same bits seen at the other width
+        assert_eq!(U16x16::from(U32x8::splat(t, 0x0002_0001)).horizontal_min(), 1);
     }
 
     /// Loads and stores move exactly 16 lanes and check their slices.
