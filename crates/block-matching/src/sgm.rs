@@ -1058,8 +1058,9 @@ macro_rules! by_lane_count {
 }
 
 /// `$any`: `$f` compiled for each lane count up to 256 at the vector level (through `$avx2`,
-/// one `#[target_feature]` function per count, chosen by [`by_lane_count!`] from `$dq`), and
-/// for any count otherwise; `$dq`, the lane count, reads the arguments.
+/// one function per count that enters the AVX2 level through the token's `vectorize`, chosen by
+/// [`by_lane_count!`] from `$dq`), and for any count otherwise; `$dq`, the lane count, reads the
+/// arguments.
 macro_rules! per_lane_count {
     ($(#[$doc:meta])* $any:ident, $avx2:ident, $scalar:ident, $f:ident, $dq:expr, ($($a:ident: $t:ty),*)) => {
         $(#[$doc])*
