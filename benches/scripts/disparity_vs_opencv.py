@@ -11,7 +11,7 @@ Pairs: Middlebury teddy (../shared) and teddy resized to 626x555 (96 disparities
 uniqueness 0, no left-right check, no speckle filter). SGM: StereoSGBM 3-way (block 5, P1 200,
 P2 800, disp12MaxDiff 1, uniqueness 10) against the SGM measurement preset without texture and
 speckle filters, on three paths (left-to-right, right-to-left, down: 3-way's directions;
-SGM_PATHS=5 or 8 for ours with more; SGM_PRESET=accurate for the accurate preset; SGBM_MODE=hh or sgbm for OpenCV's 8- or 5-direction modes). Both sides use 2 threads (THREADS=n to change). Say the machine load when quoting
+SGM_PATHS=5 or 8 for ours with more; SGM_PRESET=accurate for the accurate preset; PRESET=defaults for both sides' defaults, see pairs.py; SGBM_MODE=hh or sgbm for OpenCV's 8- or 5-direction modes). Both sides use 2 threads (THREADS=n to change). Say the machine load when quoting
 the ratios. XTASK=path times another build of xtask (e.g. a copy of the previous one)."""
 import cv2, numpy as np, subprocess, statistics, time, os, sys
 THREADS = int(os.environ.get("THREADS", "2"))

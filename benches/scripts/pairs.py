@@ -49,7 +49,10 @@ def our_options(mode):
     texture 10, uniqueness 0, no left-right check, no speckle filter); sgm = the SGM measurement
     preset without texture and speckle filters, on SGM_PATHS paths (default 3, 3-way's directions);
     with SGM_PRESET=accurate, the accurate preset (`--accurate`: SGBM's cost and left-right rule,
-    eight paths, its own uniqueness 0) without texture and speckle filters."""
+    eight paths, its own uniqueness 0) without texture and speckle filters. PRESET=defaults:
+    our defaults as they are (`--method sgm` alone for sgm, nothing for bm)."""
+    if os.environ.get("PRESET") == "defaults":
+        return ["--method", "sgm"] if mode == "sgm" else []
     if mode == "sgm" and os.environ.get("SGM_PRESET") == "accurate":
         return ["--method", "sgm", "--accurate", "--speckle-window", "0", "--texture", "0"]
     if mode == "bm":
@@ -62,7 +65,17 @@ def our_options(mode):
 def opencv_matcher(mode, nd):
     """StereoBM 9x9 with uniqueness 0, or StereoSGBM 3-way (block 5, P1 200, P2 800,
     disp12MaxDiff 1, uniqueness 10, no speckle filter); SGBM_MODE=hh (eight directions, full
-    cost volume) or sgbm (five directions) for SGBM's other modes."""
+    cost volume) or sgbm (five directions) for SGBM's other modes. PRESET=defaults: StereoBM 9x9
+    with its defaults, or SGBM with the settings of `overlap_vs_sgbm.py` (blockSize 5, P1 600,
+    P2 2400, uniquenessRatio 10, disp12MaxDiff 1, speckleWindowSize 100, speckleRange 2)."""
+    defaults = os.environ.get("PRESET") == "defaults"
+    if mode == "bm" and defaults:
+        return cv2.StereoBM_create(numDisparities=nd, blockSize=9)
+    if defaults:
+        return cv2.StereoSGBM_create(minDisparity=0, numDisparities=nd, blockSize=5, P1=8 * 3 * 25, P2=32 * 3 * 25,
+                                     disp12MaxDiff=1, uniquenessRatio=10, speckleWindowSize=100, speckleRange=2,
+                                     mode={"3way": cv2.StereoSGBM_MODE_SGBM_3WAY, "sgbm": cv2.StereoSGBM_MODE_SGBM,
+                                           "hh": cv2.StereoSGBM_MODE_HH}[os.environ.get("SGBM_MODE", "3way")])
     if mode == "bm":
         m = cv2.StereoBM_create(numDisparities=nd, blockSize=9); m.setUniquenessRatio(0)
         return m

@@ -36,12 +36,12 @@ pub struct Args {
     /// Sequences: pairs decoded ahead of the matcher (default 2, at most 64).
     #[arg(long, default_value_t = 2, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=64))]
     prefetch: usize,
-    /// Method: bm (block matching) or sgm (semi-global matching, SAD on the prefilter with a
-    /// 5x5 window; see --sgm-paths).
+    /// Method: bm (block matching) or sgm (semi-global matching on the x-Sobel prefilter with a
+    /// 3x3 window; see --sgm-paths, --sgm-cost and --lr-rule).
     #[arg(long, default_value = "bm")]
     method: String,
     /// Semi-global matching paths: 3 (one pass: left-to-right, right-to-left, down; OpenCV
-    /// SGBM 3-way's directions), 5 (one pass, adds both diagonals from above; default) or 8
+    /// SGBM 3-way's directions; default), 5 (one pass, adds both diagonals from above) or 8
     /// (default with --accurate).
     #[arg(long)]
     sgm_paths: Option<u32>,
@@ -57,23 +57,27 @@ pub struct Args {
     /// rejected_lr).
     #[arg(long)]
     accurate: bool,
-    /// Semi-global matching's pixel difference: sad (|L − R| on the prefilter; default), bt
+    /// Semi-global matching's pixel difference: sad (|L − R| on the prefilter), bt
     /// (Birchfield–Tomasi, sampling-insensitive), and either with +intensity (adds the raw
-    /// grey-level difference / 4, as SGBM); default bt+intensity with --accurate.
+    /// grey-level difference / 4, as SGBM); default bt+intensity (sad with --fill).
     #[arg(long)]
     sgm_cost: Option<String>,
-    /// Left–right rule: integer (the right image's winner at the winning integer disparity) or
-    /// subpixel (OpenCV SGBM's: at either integer next to the sub-pixel disparity); default
-    /// integer, subpixel with --accurate.
+    /// Left–right rule: integer (the right image's own winner at the winning integer
+    /// disparity), subpixel (at either integer next to the sub-pixel disparity) or, with
+    /// --method sgm, sgbm (OpenCV SGBM's: subpixel, against the right disparities its left
+    /// winners give — at each right pixel the winner of the left pixel of smallest cost
+    /// matched there); default integer for block matching and with --fill, sgbm for
+    /// --method sgm, subpixel with --accurate.
     #[arg(long)]
     lr_rule: Option<String>,
     /// Matching cost: sad, ssd or ncc.
     #[arg(long, default_value = "sad")]
     cost: String,
     /// Window side in pixels: block matching's (odd, 3..=31; default 9), or with `--method sgm`
-    /// the cost window of semi-global matching (odd, 1..=11; default 5, OpenCV SGBM's
-    /// blockSize; its sums are 16-bit: with the default penalties and x-Sobel, up to 11 with 3
-    /// paths, 9 with 5, 7 with 8 — a larger one is refused).
+    /// the cost window of semi-global matching (odd, 1..=11; default 3, 5 with --accurate or
+    /// --fill; OpenCV SGBM's blockSize). Semi-global matching's sums are 16-bit: a window whose
+    /// largest aggregated cost could exceed them (with the default cost and penalties, above 9
+    /// with 3 paths, 7 with 5, 5 with 8) is refused, saying what to change.
     #[arg(long)]
     block: Option<usize>,
     /// Number of disparities searched.
@@ -83,7 +87,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     min_disparity: i32,
     /// Prefilter: xsobel (cap 31), norm (9x9, cap 31), rank (9x9 rank transform; rank:N for
-    /// N x N) or none (default: the crate's default, rank; xsobel with --fill).
+    /// N x N) or none (default xsobel).
     #[arg(long)]
     prefilter: Option<String>,
     /// Uniqueness ratio in percent (default: the crate's default).
@@ -92,7 +96,8 @@ pub struct Args {
     /// Texture threshold (default: the crate's default).
     #[arg(long)]
     texture: Option<u32>,
-    /// Left–right tolerance in px; negative disables the check (default: the crate's default).
+    /// Left–right tolerance in px; negative disables the check (default: the preset's: 1 px, 2 px
+    /// for `--method sgm` without `--accurate`).
     #[arg(long, allow_hyphen_values = true)]
     lr_max_diff: Option<i32>,
     /// Speckle filter region size in px, 0 disables (default: the crate's default).
@@ -297,12 +302,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             other => anyhow::bail!("--sgm-cost must be sad, bt, sad+intensity or bt+intensity (got {other:?})"),
         },
     };
-    let lr_subpixel = match args.lr_rule.as_deref().map(str::to_ascii_lowercase) {
-        None => d.lr_subpixel,
+    let (lr_subpixel, lr_winners) = match args.lr_rule.as_deref().map(str::to_ascii_lowercase) {
+        None => (d.lr_subpixel, d.lr_winners),
         Some(r) => match r.as_str() {
-            "integer" => false,
-            "subpixel" => true,
-            other => anyhow::bail!("--lr-rule must be integer or subpixel (got {other:?})"),
+            "integer" => (false, false),
+            "subpixel" => (true, false),
+            "sgbm" if sgm => (true, true),
+            "sgbm" => anyhow::bail!("--lr-rule sgbm is semi-global matching's (with --method sgm)"),
+            other => anyhow::bail!("--lr-rule must be integer, subpixel or sgbm (got {other:?})"),
         },
     };
     let prefilter = match args.prefilter.as_deref().map(str::to_ascii_lowercase) {
@@ -323,6 +330,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             None => d.lr_max_diff,
         },
         lr_subpixel,
+        lr_winners,
         speckle_window_size: args.speckle_window.unwrap_or(d.speckle_window_size),
         min_confidence: args.min_confidence.unwrap_or(d.min_confidence),
         confidence_map: args.confidence,
@@ -430,7 +438,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 SgmPaths::Five => 5,
                 SgmPaths::Eight => 8,
             };
-            format!(" paths {paths} pixel cost {cost}{}", if cfg.lr_subpixel { " lr-rule subpixel" } else { "" })
+            format!(
+                " paths {paths} pixel cost {cost}{}",
+                match (cfg.lr_subpixel, cfg.lr_winners) {
+                    (_, true) => " lr-rule sgbm",
+                    (true, false) => " lr-rule subpixel",
+                    (false, false) => "",
+                }
+            )
         } else {
             String::new()
         },

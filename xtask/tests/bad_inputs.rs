@@ -309,7 +309,7 @@ fn sgm_takes_its_window_from_block_and_refuses_one_it_cannot_use() {
     let r = run(&[&common[..], &["--block", "7"]].concat());
     let stdout = String::from_utf8_lossy(&r.stdout);
     assert!(r.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&r.stderr));
-    assert!(stdout.contains("Sgm cost Sad block 7 paths 5 "), "{stdout}");
+    assert!(stdout.contains("Sgm cost Sad block 7 paths 3 "), "{stdout}");
     let cli = parallax_block_matching::from_pfm(&std::fs::read(out.join("disparity.pfm")).unwrap(), "cli").unwrap();
     let (l, rt) = (image::open(&left).unwrap().into_luma8(), image::open(&right).unwrap().into_luma8());
     let lib = |block| {

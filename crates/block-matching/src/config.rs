@@ -89,10 +89,8 @@ pub enum SgmPaths {
     #[default]
     Five,
     /// Three paths in one top-to-bottom pass (left-to-right, right-to-left, down): the
-    /// directions of OpenCV's `MODE_SGBM_3WAY`, the fastest (about 0.7x the time of five).
-    /// Middlebury nonocc with the [`MatcherConfig::sgm`] preset, bad-2 among the returned pixels
-    /// / density: tsukuba 1.94 % / 97.0 %, venus 0.52 % / 97.6 %, teddy 3.54 % / 92.6 %; missing
-    /// = bad ([`MatcherConfig::sgm_dense`]) 2.98 / 1.34 / 7.40.
+    /// directions of OpenCV's `MODE_SGBM_3WAY`, the fastest (about 0.7x the time of five); the
+    /// [`MatcherConfig::sgm`] preset's.
     Three,
 }
 
@@ -151,13 +149,12 @@ impl Default for SgmConfig {
 }
 
 /// Configuration of a [`crate::BlockMatcher`]. The defaults are chosen for measurement: a
-/// rejected pixel is invalid (NaN), never filled unless `fill` asks for it. 9x9 SAD on the 9x9
-/// rank transform, OpenCV's texture threshold 10, uniqueness margin 15 %, left–right check
-/// (1 px) and speckle filter (100 px, 2 px). Middlebury nonocc, bad-2 among the returned pixels
-/// / density (`examples/middlebury_sweep.rs`): tsukuba 2.08 % / 73.4 %, venus 0.83 % / 82.3 %,
-/// teddy 2.47 % / 83.8 % (the x-Sobel prefilter with the same checks: 1.98 / 88.2, 1.19 / 84.8,
-/// 3.87 / 82.5). [`MatcherConfig::dense`] is the benchmark preset for evaluations that count a
-/// missing pixel as bad.
+/// rejected pixel is invalid (NaN), never filled unless `fill` asks for it. 9x9 SAD on the
+/// x-Sobel prefilter (cap 31, as OpenCV `StereoBM`), OpenCV's texture threshold 10, no
+/// uniqueness margin, the left–right check (1 px) and the speckle filter (100 px, 2 px):
+/// chosen on bad-2 with missing = bad where OpenCV's matchers also answer
+/// (`examples/middlebury_sweep.rs`; figures in `benches/RESULTS.md`).
+/// [`MatcherConfig::dense`] is the benchmark preset that fills the rejected pixels.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct MatcherConfig {
@@ -173,8 +170,7 @@ pub struct MatcherConfig {
     /// Number of disparities searched: `[min_disparity, min_disparity + num_disparities)`,
     /// 1..=1024 (default 64; unlike OpenCV any count is allowed, not only multiples of 16).
     pub num_disparities: usize,
-    /// Prefilter of both images (default the 9x9 rank transform; OpenCV's is the clipped
-    /// x-Sobel, cap 31).
+    /// Prefilter of both images (default the clipped x-Sobel, cap 31, as OpenCV's).
     pub prefilter: Prefilter,
     /// A pixel is invalid when the window sum of its clipped x-Sobel magnitude (cap 31, 8-bit
     /// units; times 257 for 16-bit input) is below this (OpenCV `textureThreshold`, default 10;
@@ -182,7 +178,7 @@ pub struct MatcherConfig {
     pub texture_threshold: u32,
     /// Uniqueness margin in percent: the best cost `c*` wins only if every disparity further than
     /// one pixel from it costs more than `c* + c*·ratio/100` (OpenCV `uniquenessRatio`; default
-    /// 15; 0 = off).
+    /// 0 = off; [`MatcherConfig::dense`] and the semi-global presets say theirs).
     pub uniqueness_ratio: u32,
     /// Left–right consistency: a pixel is kept only if the right image's own winner at the
     /// matched pixel is within this many pixels (integer disparities). `None` disables
@@ -193,6 +189,13 @@ pub struct MatcherConfig {
     /// right pixel), not only at the winning integer. Pixels whose search range the image edge
     /// cuts keep the exact check of semi-global matching. Default `false`.
     pub lr_subpixel: bool,
+    /// Semi-global matching: the right disparities the left–right check compares with are
+    /// OpenCV SGBM's — at each right pixel, the winner of the left pixel with the smallest
+    /// aggregated cost among those whose winner matches it — instead of the right image's own
+    /// minima of the costs (`false`). Rejects occlusions, where a hidden pixel's match is taken
+    /// by a visible one, and fewer correct pixels than the right image's own minima. Block
+    /// matching refuses it. Default `false`; [`MatcherConfig::sgm`] sets it.
+    pub lr_winners: bool,
     /// Fill pixels rejected by the left–right check or the confidence threshold (occlusions,
     /// the fattened side of depth edges) with the smaller of the nearest valid disparities left
     /// and right on the row (the background side). Filled pixels are guesses: they are counted
@@ -229,11 +232,12 @@ impl Default for MatcherConfig {
             block_size: 9,
             min_disparity: 0,
             num_disparities: 64,
-            prefilter: Prefilter::Rank { size: 9 },
+            prefilter: Prefilter::XSobel { cap: 31 },
             texture_threshold: 10,
-            uniqueness_ratio: 15,
+            uniqueness_ratio: 0,
             lr_max_diff: Some(1),
             lr_subpixel: false,
+            lr_winners: false,
             fill: false,
             min_confidence: 0.0,
             confidence_map: false,
@@ -267,20 +271,34 @@ impl MatcherConfig {
         }
     }
 
-    /// Semi-global matching for measurement (nothing filled): five paths, 5x5 SAD on the
-    /// x-Sobel prefilter, P1 = 8, P2 = 64 per window pixel with the intensity-adaptive P2
-    /// (γ = 16), uniqueness 10 %, left–right check 1 px, speckle filter 100 px. Middlebury
-    /// nonocc, bad-2 among the returned pixels / density: tsukuba 2.33 % / 96.9 %, venus
-    /// 0.51 % / 97.8 %, teddy 3.59 % / 92.6 % (OpenCV SGBM 3-way: 2.40 / 98.5, 0.74 / 94.9,
-    /// 5.46 / 89.9). Eight paths ([`SgmPaths::Eight`]): 1.80 / 97.3, 0.66 / 97.9, 3.94 / 91.9;
-    /// three ([`SgmPaths::Three`]): 1.94 / 97.0, 0.52 / 97.6, 3.54 / 92.6.
+    /// Semi-global matching for measurement (nothing filled), chosen on bad-2 with missing =
+    /// bad where OpenCV's matchers also answer (`examples/middlebury_sweep.rs overlap`, figures
+    /// in `benches/RESULTS.md`): three paths (OpenCV 3-way's directions), a 3x3 window of
+    /// Birchfield–Tomasi's difference on the x-Sobel plane plus the intensity term (SGBM's
+    /// pixel cost, see [`SgmConfig::sampling_insensitive`] and [`SgmConfig::intensity_cost`]),
+    /// P1 = 20, P2 = 80 per window pixel with the intensity-adaptive P2 (γ = 48), no
+    /// uniqueness margin, SGBM's left–right rule ([`MatcherConfig::lr_subpixel`] and
+    /// [`MatcherConfig::lr_winners`], with 2 px of tolerance) and the speckle filter (100 px,
+    /// 2 px).
     pub fn sgm() -> Self {
         Self {
             method: Method::Sgm,
             prefilter: Prefilter::XSobel { cap: 31 },
-            uniqueness_ratio: 10,
+            uniqueness_ratio: 0,
+            lr_subpixel: true,
+            lr_winners: true,
+            lr_max_diff: Some(2),
             speckle_window_size: 100,
-            sgm: SgmConfig::default(),
+            sgm: SgmConfig {
+                paths: SgmPaths::Three,
+                block: 3,
+                p1: 20,
+                p2: 80,
+                p2_gamma: 48,
+                sampling_insensitive: true,
+                intensity_cost: true,
+                ..SgmConfig::default()
+            },
             ..Self::default()
         }
     }
@@ -297,24 +315,34 @@ impl MatcherConfig {
     /// 3-way's (eight paths take a second pass).
     pub fn sgm_accurate() -> Self {
         Self {
+            method: Method::Sgm,
+            prefilter: Prefilter::XSobel { cap: 31 },
             uniqueness_ratio: 0,
             lr_subpixel: true,
+            speckle_window_size: 100,
             sgm: SgmConfig {
                 paths: SgmPaths::Eight,
                 sampling_insensitive: true,
                 intensity_cost: true,
                 ..SgmConfig::default()
             },
-            ..Self::sgm()
+            ..Self::default()
         }
     }
 
-    /// [`MatcherConfig::sgm`] as a benchmark preset for evaluations that count a missing pixel
-    /// as bad: no uniqueness margin, no speckle filter, left–right rejects filled. Middlebury
-    /// nonocc bad-2 (missing = bad) tsukuba / venus / teddy 3.40 / 1.29 / 7.39 with five paths,
-    /// 2.75 / 1.34 / 7.83 with eight (OpenCV SGBM 3-way: 3.85 / 5.81 / 14.99).
+    /// Semi-global matching as a benchmark preset for evaluations that count a missing pixel as
+    /// bad: [`SgmConfig::default`] (five paths, 5x5 SAD on the x-Sobel plane), no uniqueness
+    /// margin, no speckle filter, left–right rejects filled (`tests/middlebury.rs` holds it
+    /// below OpenCV SGBM 3-way's bad-2 on the full masks).
     pub fn sgm_dense() -> Self {
-        Self { uniqueness_ratio: 0, speckle_window_size: 0, fill: true, ..Self::sgm() }
+        Self {
+            method: Method::Sgm,
+            prefilter: Prefilter::XSobel { cap: 31 },
+            uniqueness_ratio: 0,
+            speckle_window_size: 0,
+            fill: true,
+            ..Self::default()
+        }
     }
 
     /// Whether the matcher needs the second-best non-adjacent cost of every pixel.
@@ -380,6 +408,13 @@ impl MatcherConfig {
             if g.p2_gamma > 4096 {
                 return Err(invalid("sgm.p2_gamma", g.p2_gamma, "must be 0..=4096"));
             }
+        }
+        if self.lr_winners && self.method != Method::Sgm {
+            return Err(invalid(
+                "lr_winners",
+                true,
+                "the left winners' right disparities are semi-global matching's (block matching checks against the right image's own winners)",
+            ));
         }
         if self.threads > 1024 {
             return Err(invalid("threads", self.threads, "must be 0..=1024"));

@@ -323,12 +323,15 @@ fn lr_and_confidence(
             let edge = sh.exact_lr_at_edges & (cut_hi | cut_lo);
             let tol = if edge { 0 } else { tol as u64 };
             // SGBM's rule: also the integer on the other side of the sub-pixel disparity, with
-            // the right image's winner at its own right pixel (not at edge-cut pixels: exact)
+            // the right image's winner at its own right pixel (not at edge-cut pixels: exact).
+            // A right pixel no left winner matched (`u32::MAX`, the left winners' right
+            // disparities) does not reject: OpenCV's `disp2ptr[x_] >= minD` condition
             if sh.lr_subpixel & !edge & valid & (diff > tol) & (sub[x] != 0.0) {
                 let k2 = if sub[x] > 0.0 { kk + 1 } else { kk - 1 };
                 if (0..nd).contains(&k2) {
                     let u2 = (x as i64 - dmin - k2).clamp(0, w - 1) as usize;
-                    diff = diff.min((right_winner(u2) as i64 - k2).unsigned_abs());
+                    let r2 = right_winner(u2);
+                    diff = diff.min(if r2 == u32::MAX { tol } else { (r2 as i64 - k2).unsigned_abs() });
                 }
             }
             // a winner on the image's border column at such a pixel: the minimum may lie

@@ -3,7 +3,7 @@
 //! the generic band of `band.rs`), runs its row bands in parallel (`frame::for_each_band`), then
 //! the frame-wide steps (speckle filter, statistics). Nothing below it imports it back.
 
-use image::GrayImage;
+use image::{GrayImage, RgbImage};
 use parallax_camera_model::DisparityMap;
 use rayon::prelude::*;
 
@@ -52,6 +52,8 @@ pub struct BlockMatcher {
     simd32: Vec<crate::simd::Scratch<u32>>,
     sgm: Vec<crate::sgm::Scratch>,
     sgm_planes: crate::sgm::SgmPlanes,
+    /// Colour input: each channel's raw (widened) and prefiltered planes, left and right.
+    channels: Vec<[Vec<u16>; 4]>,
     stats: MatchStats,
 }
 
@@ -90,6 +92,7 @@ impl BlockMatcher {
             simd32: Vec::new(),
             sgm: Vec::new(),
             sgm_planes: Default::default(),
+            channels: Vec::new(),
             stats: MatchStats::default(),
         })
     }
@@ -133,7 +136,25 @@ impl BlockMatcher {
     /// As [`BlockMatcher::compute`], writing into `out` (resized as needed) to avoid allocating.
     pub fn compute_into(&mut self, left: &GrayImage, right: &GrayImage, out: &mut DisparityMap) -> Result<()> {
         let (w, h) = check_pair(left.width(), left.height(), right.width(), right.height())?;
-        self.run(w, h, Input::U8(left.as_raw(), right.as_raw()), out)
+        self.run(w, h, Input::U8(left.as_raw(), right.as_raw()), None, out)
+    }
+
+    /// Disparity of the left image of a rectified 8-bit colour pair. Semi-global matching sums
+    /// its pixel cost over the three channels, each prefiltered as the configuration says;
+    /// block matching and every grey-level measure (texture, adaptive P2) read the grey
+    /// conversion (`image::imageops::grayscale`).
+    pub fn compute_rgb(&mut self, left: &RgbImage, right: &RgbImage) -> Result<DisparityMap> {
+        let mut out = DisparityMap::new_invalid(0, 0);
+        self.compute_rgb_into(left, right, &mut out)?;
+        Ok(out)
+    }
+
+    /// As [`BlockMatcher::compute_rgb`], writing into `out` (resized as needed).
+    pub fn compute_rgb_into(&mut self, left: &RgbImage, right: &RgbImage, out: &mut DisparityMap) -> Result<()> {
+        let (w, h) = check_pair(left.width(), left.height(), right.width(), right.height())?;
+        let (gl, gr) = (image::imageops::grayscale(left), image::imageops::grayscale(right));
+        let colour = (self.config.method == Method::Sgm).then_some([left.as_raw().as_slice(), right.as_raw()]);
+        self.run(w, h, Input::U8(gl.as_raw(), gr.as_raw()), colour, out)
     }
 
     /// Disparity of the left image of a rectified 16-bit pair.
@@ -146,22 +167,36 @@ impl BlockMatcher {
     /// As [`BlockMatcher::compute_u16`], writing into `out` (resized as needed).
     pub fn compute_u16_into(&mut self, left: &Gray16Image, right: &Gray16Image, out: &mut DisparityMap) -> Result<()> {
         let (w, h) = check_pair(left.width(), left.height(), right.width(), right.height())?;
-        self.run(w, h, Input::U16(left.as_raw(), right.as_raw()), out)
+        self.run(w, h, Input::U16(left.as_raw(), right.as_raw()), None, out)
     }
 
-    fn run(&mut self, w: usize, h: usize, input: Input, out: &mut DisparityMap) -> Result<()> {
+    fn run(
+        &mut self,
+        w: usize,
+        h: usize,
+        input: Input,
+        colour: Option<[&[u8]; 2]>,
+        out: &mut DisparityMap,
+    ) -> Result<()> {
         // everything parallel (conversion, prefilters, texture, bands) runs on the matcher's own
         // pool if any
         let pool = self.pool.take();
         let res = match &pool {
-            Some(p) => p.install(|| self.run_in_pool(w, h, input, out)),
-            None => self.run_in_pool(w, h, input, out),
+            Some(p) => p.install(|| self.run_in_pool(w, h, input, colour, out)),
+            None => self.run_in_pool(w, h, input, colour, out),
         };
         self.pool = pool;
         res
     }
 
-    fn run_in_pool(&mut self, w: usize, h: usize, input: Input, out: &mut DisparityMap) -> Result<()> {
+    fn run_in_pool(
+        &mut self,
+        w: usize,
+        h: usize,
+        input: Input,
+        colour: Option<[&[u8]; 2]>,
+        out: &mut DisparityMap,
+    ) -> Result<()> {
         let scale: u32 = match input {
             Input::U8(..) => 1,
             Input::U16(..) => 257,
@@ -295,6 +330,7 @@ impl BlockMatcher {
             lr: cfg.lr_max_diff,
             exact_lr_at_edges: sgm,
             lr_subpixel: cfg.lr_subpixel,
+            lr_winners: cfg.lr_winners,
             // not in a filled (benchmark) map: there every pixel is returned, guesses included
             edge_uniq: if sgm && !cfg.fill { crate::sgm::EDGE_UNIQUENESS } else { 0 },
             fill: cfg.fill,
@@ -318,8 +354,33 @@ impl BlockMatcher {
         let mut stats = MatchStats::default();
         if sgm {
             let (intensity, iscale) = (raw_left, scale);
-            self.sgm_planes.prepare(&cfg.sgm, [left, right], [raw_left, raw_right], scale, w, h);
-            let pp = crate::sgm::SgmParams::new(&cfg.sgm, maxv, intensity, iscale, &self.sgm_planes)?;
+            if let Some(rgb) = colour {
+                // each channel widened and prefiltered as the grey planes
+                self.channels.resize_with(3, Default::default);
+                self.channels.par_iter_mut().enumerate().for_each(|(c, [rl, rr, pl, pr])| {
+                    for (src, raw, pre) in [(rgb[0], &mut *rl, &mut *pl), (rgb[1], &mut *rr, &mut *pr)] {
+                        raw.clear();
+                        raw.extend(src.iter().skip(c).step_by(3).map(|&v| v as u16));
+                        prefilter_plane(cfg.prefilter, raw, w, h, scale, pre);
+                    }
+                });
+            }
+            let ch = |i: usize| self.channels.iter().map(move |c| [&c[i][..], &c[i + 1][..]]);
+            // per channel the left and right planes: prefiltered, and as read
+            let (pre, raw): (Vec<_>, Vec<_>) = if colour.is_some() {
+                (ch(2).collect(), ch(0).collect())
+            } else {
+                (vec![[left, right]], vec![[raw_left, raw_right]])
+            };
+            self.sgm_planes.prepare(&cfg.sgm, &pre, &raw, scale, w, h);
+            // (raw channels may exceed the grey planes' largest value)
+            let maxc = match cfg.prefilter {
+                Prefilter::None if colour.is_some() => {
+                    pre.iter().flatten().flat_map(|p| p.iter()).copied().max().unwrap_or(0) as u64
+                }
+                _ => maxv,
+            };
+            let pp = crate::sgm::SgmParams::new(&cfg.sgm, maxc, maxc < 128, &pre, intensity, iscale, &self.sgm_planes)?;
             let per_band =
                 for_each_band(&shared, &mut self.sgm, nbands, band_rows, data, conf_plane, |sc, rows, conf, y0, y1| {
                     crate::sgm::run_strip(&shared, &pp, sc, rows, conf, y0, y1, simd)
@@ -444,6 +505,19 @@ impl<'a> Input<'a> {
             Input::U8(l, r) => Pixels::U8(if i == 0 { l } else { r }),
             Input::U16(l, r) => Pixels::U16(if i == 0 { l } else { r }),
         }
+    }
+}
+
+/// `raw` prefiltered by `pf` into `out` (`raw` itself for [`Prefilter::None`]).
+fn prefilter_plane(pf: Prefilter, raw: &[u16], w: usize, h: usize, scale: u32, out: &mut Vec<u16>) {
+    match pf {
+        Prefilter::None => {
+            out.clear();
+            out.extend_from_slice(raw);
+        }
+        Prefilter::XSobel { cap } => x_sobel_into(raw, w, h, cap as u32 * scale, out),
+        Prefilter::Rank { size } => rank_transform_into(raw, w, h, size, out),
+        Prefilter::NormalizedResponse { size, cap } => *out = normalized_response(raw, w, h, size, cap as u32 * scale),
     }
 }
 

@@ -86,6 +86,7 @@ pub(crate) struct Shared<'a> {
     pub(crate) exact_lr_at_edges: bool,
     /// [`MatcherConfig::lr_subpixel`].
     pub(crate) lr_subpixel: bool,
+    pub(crate) lr_winners: bool,
     /// Uniqueness margin (percent) required where the image edge cuts a pixel's search range
     /// (semi-global matching: `sgm::EDGE_UNIQUENESS`; 0 = the configured one only).
     pub(crate) edge_uniq: u32,

@@ -13,14 +13,17 @@
 //! gives a per-pixel confidence (best against second-best non-adjacent cost, times the
 //! left–right agreement), [`BlockMatcher::check_swap`] says whether the pair looks swapped, and
 //! [`evaluate`] reports bad-N both with missing = bad and among the returned pixels.
-//! Defaults: 9x9 SAD on the 9x9 rank transform, uniqueness 15 %, left–right 1 px, speckle
-//! 100 px.
+//! Defaults: 9x9 SAD on the x-Sobel prefilter (cap 31), no uniqueness margin, left–right 1 px,
+//! speckle 100 px. Colour pairs: [`BlockMatcher::compute_rgb`] (grey for block matching; the
+//! semi-global cost summed over the three channels).
 //!
-//! Semi-global matching ([`Method::Sgm`], presets [`MatcherConfig::sgm`] and
-//! [`MatcherConfig::sgm_dense`]): Hirschmüller's path-wise aggregation over five paths (one
-//! pass, as OpenCV's 3-way mode) or eight (two passes), P1/P2 with an intensity-adaptive P2, on
-//! the SAD of the prefiltered images (x-Sobel or rank) over a small window, with the same
-//! decisions and sub-pixel step as block matching. Memory is bounded: strips of rows run as
+//! Semi-global matching ([`Method::Sgm`], presets [`MatcherConfig::sgm`] (the default: three
+//! paths, OpenCV SGBM's pixel cost and left–right rule), [`MatcherConfig::sgm_accurate`] and
+//! [`MatcherConfig::sgm_dense`]): Hirschmüller's path-wise aggregation over three or five paths
+//! (one pass; three are OpenCV 3-way's directions) or eight (two passes), P1/P2 with an
+//! intensity-adaptive P2, on the SAD (or Birchfield–Tomasi difference) of the prefiltered
+//! images (x-Sobel or rank) over a small window, with the same decisions and sub-pixel step as
+//! block matching. Memory is bounded: strips of rows run as
 //! parallel tasks with `≈ 9 · W · Dq · 2` bytes each (five paths; `Dq`: `D` rounded up to
 //! 16) or `≈ (strip + 9) · W · Dq · 2` bytes (eight paths, strips capped at 48 MiB), paths
 //! starting `overlap` rows outside the strip. Exact 16-bit integer aggregation in AVX2

@@ -59,24 +59,22 @@
 //! machine code, the strip's aside).
 
 use crate::config::{SgmConfig, SgmPaths, Subpixel};
-use crate::decide::{Cost, RightWinners, curve_ratio, decide, finish_row, gather_from};
+use crate::decide::{Cost, RightWinners, WinnersBy, curve_ratio, decide, finish_row, gather_from};
 use crate::error::{BlockMatchingError, Result};
-use crate::frame::{MatchStats, Shared, conf_row, load_plane_rows, load_rows};
+use crate::frame::{MatchStats, Shared, conf_row, load_plane_rows};
 use crate::prefilter::TextureRows;
 use parallax_simd::SimdLevel;
 use parallax_simd::{Avx2, Level};
 
 /// Uniqueness margin (percent) a winner needs where the image edge cuts its pixel's candidates
 /// short of the range (the left band `x < dmin + D − 1`, or the right one with negative
-/// disparities): its best rival further than one disparity away must cost more than twice as
-/// much (the confidence `1 − c*/c₂` above 0.5). Where the true match has left the right image
-/// the paths still carry a plausible minimum into the band; the margin the configuration asks
-/// for (0 in [`crate::MatcherConfig::sgm_accurate`]) let most of them through. Middlebury,
-/// pixels whose true match is outside the right image returned more than 2 px off, three / five
-/// / eight paths / accurate preset: venus 172 / 190 / 177 / 600 → 0 / 114 / 116 / 143 of 4318,
-/// teddy 178 / 140 / 521 / 651 → none of 12315; correct band pixels lost: 4–13 %. Not in
-/// filled (benchmark) maps, which return every pixel.
-pub(crate) const EDGE_UNIQUENESS: u32 = 100;
+/// disparities): its best rival further than one disparity away must cost more than three times
+/// as much, and a winner without such a rival (a range of two or three candidates) is not
+/// unique. Where the true match has left the right image the paths still carry a plausible
+/// minimum into the band; the margin the configuration asks for (0 in the SGM presets) lets
+/// them through. Not in filled (benchmark) maps, which return every pixel. Figures (pixels
+/// returned wrong there, before and after): `benches/RESULTS.md`, 2026-12-06.
+pub(crate) const EDGE_UNIQUENESS: u32 = 200;
 
 /// Largest task memory of the eight-path strips, bytes.
 const STRIP_BYTES: usize = 48 << 20;
@@ -93,47 +91,69 @@ fn lanes(nd: usize) -> usize {
 #[derive(Default)]
 pub(crate) struct SgmPlanes {
     /// Birchfield–Tomasi intervals of the prefiltered images: left `I⁻`, left `I⁺`, right
-    /// `I⁻`, right `I⁺` (`w · h` each).
-    bt: [Vec<u16>; 4],
-    /// `⌊I / 4⌋` of the raw images in 8-bit grey levels: left, right.
-    quant: [Vec<u16>; 2],
+    /// `I⁻`, right `I⁺` (`w · h` each), of the grey planes and then of each colour channel.
+    bt: Vec<[Vec<u16>; 4]>,
+    /// `⌊I / 4⌋` of the raw images in 8-bit grey levels: left, right (grey, then each channel).
+    quant: Vec<[Vec<u16>; 2]>,
+}
+
+/// Intervals of one prefiltered image into `lo`, `hi` (`w · h` each).
+fn bt_planes(img: &[u16], w: usize, h: usize, lo: &mut Vec<u16>, hi: &mut Vec<u16>) {
+    lo.resize(w * h, 0);
+    hi.resize(w * h, 0);
+    for ((row, lo), hi) in img.chunks_exact(w).zip(lo.chunks_exact_mut(w)).zip(hi.chunks_exact_mut(w)) {
+        for x in 0..w {
+            let v = row[x] as u32;
+            let vl = (v + row[x.saturating_sub(1)] as u32) / 2;
+            let vr = (v + row[(x + 1).min(w - 1)] as u32) / 2;
+            lo[x] = v.min(vl).min(vr) as u16;
+            hi[x] = v.max(vl).max(vr) as u16;
+        }
+    }
 }
 
 impl SgmPlanes {
     /// Makes the planes `cfg` asks for from the prefiltered (`pre`) and raw images
-    /// (`scale`: 1 for 8-bit input, 257 for 16-bit).
+    /// (`scale`: 1 for 8-bit input, 257 for 16-bit) of each plane pair the cost reads (the
+    /// grey pair, or the colour channels' pairs).
     pub(crate) fn prepare(
         &mut self,
         cfg: &SgmConfig,
-        pre: [&[u16]; 2],
-        raw: [&[u16]; 2],
+        pre: &[[&[u16]; 2]],
+        raw: &[[&[u16]; 2]],
         scale: u32,
         w: usize,
         h: usize,
     ) {
+        let n = pre.len();
+        self.bt.resize_with(n, Default::default);
+        self.quant.resize_with(n, Default::default);
         if cfg.sampling_insensitive {
-            let [a, b, c, d] = &mut self.bt;
-            for (img, lo, hi) in [(pre[0], a, b), (pre[1], c, d)] {
-                lo.resize(w * h, 0);
-                hi.resize(w * h, 0);
-                for ((row, lo), hi) in img.chunks_exact(w).zip(lo.chunks_exact_mut(w)).zip(hi.chunks_exact_mut(w)) {
-                    for x in 0..w {
-                        let v = row[x] as u32;
-                        let vl = (v + row[x.saturating_sub(1)] as u32) / 2;
-                        let vr = (v + row[(x + 1).min(w - 1)] as u32) / 2;
-                        lo[x] = v.min(vl).min(vr) as u16;
-                        hi[x] = v.max(vl).max(vr) as u16;
-                    }
-                }
+            for (p, [a, b, c, d]) in pre.iter().zip(&mut self.bt) {
+                bt_planes(p[0], w, h, a, b);
+                bt_planes(p[1], w, h, c, d);
             }
         }
         if cfg.intensity_cost {
             for (img, q) in raw.iter().zip(&mut self.quant) {
-                q.clear();
-                q.extend(img.iter().map(|&v| (v as u32 / scale) as u16 >> 2));
+                for (img, q) in img.iter().zip(q) {
+                    q.clear();
+                    q.extend(img.iter().map(|&v| (v as u32 / scale) as u16 >> 2));
+                }
             }
         }
     }
+}
+
+/// One pair of planes whose pixel differences the cost sums.
+#[derive(Clone, Copy)]
+pub(crate) struct Term<'a> {
+    l: &'a [u16],
+    r: &'a [u16],
+    /// Birchfield–Tomasi interval planes ([`SgmPlanes`]) when the difference is sampling-insensitive.
+    bt: Option<[&'a [u16]; 4]>,
+    /// Every pixel below 128 (the byte-pair column update).
+    small: bool,
 }
 
 /// Parameters of one run, derived from the configuration and the image.
@@ -150,24 +170,30 @@ pub(crate) struct SgmParams<'a> {
     pub(crate) overlap: usize,
     /// `P2'` by intensity difference in 8-bit grey levels, `0..=255` (no division per pixel).
     p2_table: [u16; 256],
-    /// Birchfield–Tomasi interval planes ([`SgmPlanes`]) when the cost is sampling-insensitive.
-    bt: Option<[&'a [u16]; 4]>,
-    /// The intensity planes when the cost has the intensity term.
-    quant: Option<[&'a [u16]; 2]>,
+    /// The plane pairs the cost sums, the prefiltered ones last (see [`colsum_move`]).
+    terms: Vec<Term<'a>>,
+    /// Some term is sampling-insensitive.
+    bt: bool,
 }
 
 impl<'a> SgmParams<'a> {
-    /// Checks that every sum fits in 16 bits and derives the penalties.
+    /// Checks that every sum fits in 16 bits and derives the penalties. `pre`: the prefiltered
+    /// plane pairs the cost reads (grey, or the colour channels), whose values are at most
+    /// `max_pixel`; `small`: every such value is below 128.
+    #[allow(clippy::too_many_arguments)] // the run's planes and their ranges
     pub(crate) fn new(
         cfg: &SgmConfig,
         max_pixel: u64,
+        small: bool,
+        pre: &[[&'a [u16]; 2]],
         intensity: &'a [u16],
         intensity_scale: u32,
         planes: &'a SgmPlanes,
     ) -> Result<Self> {
         let n = (cfg.block * cfg.block) as u64;
-        // the intensity term adds at most 255 / 4 per window pixel
-        let cmax = n * (max_pixel + if cfg.intensity_cost { 63 } else { 0 });
+        let k = pre.len() as u64;
+        // the intensity term adds at most 255 / 4 per window pixel and plane pair
+        let cmax = n * k * (max_pixel + if cfg.intensity_cost { 63 } else { 0 });
         let (p1, p2) = (cfg.p1 as u64 * n, cfg.p2 as u64 * n);
         let npaths = match cfg.paths {
             SgmPaths::Three => 3,
@@ -178,14 +204,19 @@ impl<'a> SgmParams<'a> {
         if npaths * (cmax + p2) >= PAD as u64 {
             return Err(BlockMatchingError::InvalidConfig {
                 field: "sgm",
-                value: format!("block {} · max pixel {max_pixel} with p2 {} over {npaths} paths", cfg.block, cfg.p2),
+                value: format!(
+                    "block {} · max pixel {max_pixel}{} with p2 {} over {npaths} paths",
+                    cfg.block,
+                    if k > 1 { format!(" · {k} channels") } else { String::new() },
+                    cfg.p2
+                ),
                 reason: if intensity_scale > 1 {
                     // the x-Sobel and normalised-response outputs grow with the bit depth
                     "aggregated costs must fit in 16 bits: on 16-bit images use the rank prefilter (its values \
                      do not grow with the bit depth), a smaller sgm.block or smaller penalties"
                 } else {
                     "aggregated costs must fit in 16 bits: use the rank or x-Sobel prefilter (small pixel \
-                     values), a smaller sgm.block or smaller penalties"
+                     values), a smaller sgm.block, fewer paths or smaller penalties"
                 },
             });
         }
@@ -193,6 +224,16 @@ impl<'a> SgmParams<'a> {
         let p2_table = std::array::from_fn(|di| {
             if gamma == 0 { p2 as u16 } else { (p2 as u32 * gamma / (gamma + di as u32)).max(p1 as u32) as u16 }
         });
+        let mut terms = Vec::new();
+        if cfg.intensity_cost {
+            terms.extend(planes.quant[..pre.len()].iter().map(|[l, r]| Term { l, r, bt: None, small: false }));
+        }
+        terms.extend(pre.iter().zip(&planes.bt).map(|(&[l, r], [a, b, c, d])| Term {
+            l,
+            r,
+            bt: cfg.sampling_insensitive.then(|| [&a[..], &b[..], &c[..], &d[..]]),
+            small,
+        }));
         Ok(Self {
             paths: cfg.paths,
             p1: p1 as u16,
@@ -203,11 +244,8 @@ impl<'a> SgmParams<'a> {
             cmax: cmax as u16,
             overlap: cfg.overlap,
             p2_table,
-            bt: cfg.sampling_insensitive.then(|| {
-                let [a, b, c, d] = &planes.bt;
-                [&a[..], &b[..], &c[..], &d[..]]
-            }),
-            quant: cfg.intensity_cost.then(|| [&planes.quant[0][..], &planes.quant[1][..]]),
+            terms,
+            bt: cfg.sampling_insensitive,
         })
     }
 
@@ -548,20 +586,14 @@ fn bt_difference(u: u16, u0: u16, u1: u16, v: u16, v0: u16, v1: u16) -> u16 {
     u.saturating_sub(v1).max(v0.saturating_sub(u)).min(v.saturating_sub(u1).max(u0.saturating_sub(v)))
 }
 
-/// Loads row `y` into the `a` rows (`b = false`) or the `b` rows: the prefiltered images (and
-/// their Birchfield–Tomasi intervals when the cost uses them), or with `intensity` the
-/// intensity planes.
+/// Loads row `y` of the plane pair `t` into the `a` rows (`b = false`) or the `b` rows (and its
+/// Birchfield–Tomasi intervals when the term uses them).
 #[inline(always)]
-fn load(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, b: bool, intensity: bool) {
+fn load(sh: &Shared, t: &Term, sc: &mut Scratch, y: usize, b: bool) {
     let (l, r, bt) =
         if b { (&mut sc.l_b, &mut sc.r_b, &mut sc.bt_b) } else { (&mut sc.l_a, &mut sc.r_a, &mut sc.bt_a) };
-    if intensity {
-        let [ql, qr] = pp.quant.expect("intensity rows only with the intensity term");
-        load_plane_rows(sh, ql, qr, y, l, r);
-        return;
-    }
-    load_rows(sh, y, l, r);
-    if let Some([l0, l1, r0, r1]) = pp.bt {
+    load_plane_rows(sh, t.l, t.r, y, l, r);
+    if let Some([l0, l1, r0, r1]) = t.bt {
         let [a, b, c, d] = bt;
         load_plane_rows(sh, l0, r0, y, a, c);
         load_plane_rows(sh, l1, r1, y, b, d);
@@ -575,12 +607,10 @@ fn colsum_init(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, isa: Opt
     sc.colsum.fill(0);
     for j in y as i64 - r..=y as i64 + r {
         let j = j.clamp(0, h - 1) as usize;
-        if pp.quant.is_some() {
-            load(sh, pp, sc, j, false, true);
-            vertical(sc, sh.nd, false, None, false, false, isa);
+        for t in &pp.terms {
+            load(sh, t, sc, j, false);
+            vertical(sc, sh.nd, false, None, t.bt.is_some(), false, isa);
         }
-        load(sh, pp, sc, j, false, false);
-        vertical(sc, sh.nd, false, None, pp.bt.is_some(), false, isa);
     }
 }
 
@@ -598,19 +628,20 @@ fn colsum_move(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, down: bo
     if yi == yo {
         return false;
     }
-    // the intensity term first: the box sums, when made in the pass, need the complete sums
-    if pp.quant.is_some() {
-        load(sh, pp, sc, yi, false, true);
-        load(sh, pp, sc, yo, true, true);
-        vertical(sc, sh.nd, true, None, false, false, isa);
+    // the last term's pass makes the box sums, which need the complete sums: the others first
+    let (last, rest) = pp.terms.split_last().expect("a cost has a plane pair");
+    for t in rest {
+        load(sh, t, sc, yi, false);
+        load(sh, t, sc, yo, true);
+        vertical(sc, sh.nd, true, None, t.bt.is_some(), t.small, isa);
     }
-    load(sh, pp, sc, yi, false, false);
-    load(sh, pp, sc, yo, true, false);
+    load(sh, last, sc, yi, false);
+    load(sh, last, sc, yo, true);
     // with the box sums, in the column pass (measured, three paths, 1 thread, when they took a
     // second pass over each column: 1282x1110x224 0.95x the time, 626x555x96 0.96x, teddy
     // 450x375x64 1.03x; in one pass, teddy 0.95x the median time of the second pass, 12 interleaved
     // rounds at load 1.7, and 10.95 → 10.74 instructions an evaluation)
-    vertical(sc, sh.nd, true, Some(sh.r), pp.bt.is_some(), sh.small_px, isa)
+    vertical(sc, sh.nd, true, Some(sh.r), last.bt.is_some(), last.small, isa)
 }
 
 /// `C` of the current row from the column sums: running box sums along the row (unless
@@ -1193,6 +1224,8 @@ fn decide_row<const NDQ: usize>(
     assert!(sc.rc.len() >= 2 * stride && sc.rk.len() >= 2 * stride);
     let (rcp, rkp) = (sc.rc.as_mut_ptr(), sc.rk.as_mut_ptr());
     let texture = sh.texture.as_ref().map(|t| sc.texture.row(t, y));
+    // the right image's own minima, for the left–right check unless it reads the left winners
+    let minima = sh.lr.is_some() && !sh.lr_winners;
     // one pixel with any range (the edge bands, and every pixel at the scalar level); a macro:
     // pasted before and after the middle's loop (the pixels' order decides the right winners'
     // ties)
@@ -1216,8 +1249,8 @@ fn decide_row<const NDQ: usize>(
             // (the left band too: its lanes past `hi` read u16::MAX and leave the right minima
             // unchanged), a winner to search (1282x1110x224, three paths, callgrind: the left
             // band's chunks 38 → 22 instructions)
-            let fused = isa.is_some() && sh.lr.is_some() && lo == 0 && !rejected;
-            if sh.lr.is_some() && !fused {
+            let fused = isa.is_some() && minima && lo == 0 && !rejected;
+            if minima && !fused {
                 // SAFETY: j0 + len ≤ w (the candidates' right pixels), within rc and rk.
                 let (rc, rk) = unsafe {
                     (std::slice::from_raw_parts_mut(rcp.add(j0), len), std::slice::from_raw_parts_mut(rkp.add(j0), len))
@@ -1254,6 +1287,14 @@ fn decide_row<const NDQ: usize>(
                 continue;
             }
             match decide(&s[..nd], lo, hi, uniq, sh.subpixel, sh.conf) {
+                // where the edge cuts the range, a winner without a rival further than one
+                // disparity away shows no margin: not unique
+                crate::decide::Decision::Best(k, ..)
+                    if sh.edge_uniq > 0 && (lo > 0 || hi + 1 < nd) && k as usize <= lo + 1 && k as usize + 1 >= hi =>
+                {
+                    sc.best[x] = -1;
+                    st.not_unique += 1;
+                }
                 crate::decide::Decision::Best(k, off, ratio) => {
                     sc.best[x] = k;
                     sc.sub[x] = off;
@@ -1338,12 +1379,12 @@ fn decide_row<const NDQ: usize>(
         }
         // the band always searches the rivals: its margin is the edge band's, and without
         // a margin or the confidence the rival is not read
-        if sh.lr.is_some() {
+        if minima {
             search!(band_start, mid_start, true, lanes::Second::Min, true);
         } else {
             search!(band_start, mid_start, true, lanes::Second::Min, false);
         }
-        match (sh.conf || sh.uniq > 0, sh.lr.is_some()) {
+        match (sh.conf || sh.uniq > 0, minima) {
             (true, true) => search!(mid_start, mid_end, false, lanes::Second::Min, true),
             (true, false) => search!(mid_start, mid_end, false, lanes::Second::Min, false),
             (false, true) => search!(mid_start, mid_end, false, lanes::Second::Skip, true),
@@ -1357,11 +1398,43 @@ fn decide_row<const NDQ: usize>(
         decide_winners(sh, sc, st);
     }
     // (at the scalar level every update went to the first copy)
-    if sh.lr.is_some() && isa.is_some() {
+    if minima && isa.is_some() {
         merge_right(&sc.rc, &mut sc.rk, w, stride);
+    }
+    if sh.lr_winners && sh.lr.is_some() {
+        // OpenCV SGBM's right disparities: at right pixel `u` the winner of the left pixel with
+        // the smallest `S` among those whose winner matches `u` (the first on a tie)
+        left_winners(&sc.best[..w], &sc.acc, ndq, dmin, &mut sc.rc[..w], &mut sc.rk[..w]);
+        let rk = &sc.rk[..w];
+        let right = WinnersBy(|u: usize| if rk[u] == u16::MAX { u32::MAX } else { rk[u] as u32 });
+        finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, &mut sc.rw, &right);
+        return;
     }
     let right = Reversed::new(&sc.rk, w, isa);
     finish_row(sh, &sc.best, &mut sc.sub, &sc.ratio, out, conf, st, &mut sc.rw, &right);
+}
+
+/// The right disparities of OpenCV SGBM's left–right check ([`crate::MatcherConfig::lr_winners`]):
+/// for each left pixel `x` with a winner `k = best[x]` (after the uniqueness and texture
+/// rejections), its match `u = x − dmin − k` keeps `k` when `S(x, k)` (in `acc`, `ndq` lanes a
+/// pixel) is below every earlier one there; `rc[u]`, `rk[u]`: that `S` and `k` (`u16::MAX`: no
+/// left winner matches `u`).
+#[inline(always)]
+fn left_winners(best: &[i32], acc: &[u16], ndq: usize, dmin: i64, rc: &mut [u16], rk: &mut [u16]) {
+    let w = rc.len();
+    rc.fill(u16::MAX);
+    rk.fill(u16::MAX);
+    for (x, (&k, s)) in best.iter().zip(acc.chunks_exact(ndq)).enumerate() {
+        if k < 0 {
+            continue;
+        }
+        // (a winner's match is inside the right image: 0 ≤ u < w)
+        let u = (x as i64 - dmin - k as i64) as usize;
+        let v = s[k as usize];
+        if u < w && v < rc[u] {
+            (rc[u], rk[u]) = (v, k as u16);
+        }
+    }
 }
 
 /// Merges the second copy of the right minima (`stride` on) into the first's candidates for the
@@ -1476,9 +1549,13 @@ fn decide_winners(sh: &Shared, sc: &mut Scratch, st: &mut MatchStats) {
         let k = ks[x];
         let valid = k >= 0;
         let (m, third) = (ms[x] as u32, thirds[x]);
-        let u = if (lo > 0) | (hi + 1 < nd) { edge_uniq } else { uniq };
+        let edge = (lo > 0) | (hi + 1 < nd);
+        let u = if edge { edge_uniq } else { uniq };
         let t = (m as u16).uniq_thresh(u);
-        let nu = valid & (u > 0) & (third != u16::MAX) & (third <= t);
+        // where the edge cuts the range, a winner without a rival further than one disparity
+        // away (`third` u16::MAX) shows no margin: not unique
+        let rival = third != u16::MAX;
+        let nu = valid & (u > 0) & ((rival & (third <= t)) | (!rival & edge & (sh.edge_uniq > 0)));
         not_unique += nu as u32;
         best[x] = if valid & !nu { k } else { -1 };
         let (cm, c0, cp) = (cms[x] as f32, m as f32, cps[x] as f32);
@@ -1512,7 +1589,7 @@ fn strip(
     let (w, h) = (sh.w, sh.h);
     let nd = lanes(sh.nd);
     let eight = pp.paths == SgmPaths::Eight;
-    sc.resize(sh, y1 - y0, pp.overlap, pp.paths, pp.bt.is_some(), isa.is_some());
+    sc.resize(sh, y1 - y0, pp.overlap, pp.paths, pp.bt, isa.is_some());
     let mut st = MatchStats::default();
     let ys = y0.saturating_sub(pp.overlap);
     colsum_init(sh, pp, sc, ys, isa);

@@ -71,6 +71,7 @@ impl BlockMatcher {
             num_disparities: (hi - lo + 1) as usize,
             uniqueness_ratio: c.uniqueness_ratio.max(10),
             lr_max_diff: Some(1),
+            lr_winners: false,
             fill: false,
             min_confidence: 0.0,
             confidence_map: false,

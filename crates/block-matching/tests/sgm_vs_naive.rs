@@ -18,19 +18,35 @@ use common::clampi;
 /// The naive SGM: returns the disparity map (NaN invalid) and the confidence (0 where invalid).
 /// `scale`: 1 for 8-bit input, 257 for 16-bit (prefilter caps and intensity differences).
 fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, scale: i64) -> (Vec<f32>, Vec<f32>) {
+    naive_channels(left, &[(left, right)], w, h, cfg, scale)
+}
+
+/// [`naive`] with the pixel cost summed over `channels` (left and right planes; colour: the
+/// three channels, `left` the left image's grey conversion for the texture and the adaptive P2).
+fn naive_channels(
+    left: &[u16],
+    channels: &[(&[u16], &[u16])],
+    w: usize,
+    h: usize,
+    cfg: &MatcherConfig,
+    scale: i64,
+) -> (Vec<f32>, Vec<f32>) {
     let g = &cfg.sgm;
     let nd = cfg.num_disparities;
     let dmin = cfg.min_disparity as i64;
-    let (l, rt, maxv): (Vec<u16>, Vec<u16>, i64) = match cfg.prefilter {
-        Prefilter::XSobel { cap } => {
-            let c = cap as u32 * scale as u32;
-            (x_sobel(left, w, h, c), x_sobel(right, w, h, c), 2 * c as i64)
+    let prefilter = |img: &[u16]| -> (Vec<u16>, i64) {
+        match cfg.prefilter {
+            Prefilter::XSobel { cap } => {
+                let c = cap as u32 * scale as u32;
+                (x_sobel(img, w, h, c), 2 * c as i64)
+            }
+            Prefilter::Rank { size } => (rank_transform(img, w, h, size), (size * size - 1) as i64),
+            _ => unreachable!("the test uses x-Sobel and rank"),
         }
-        Prefilter::Rank { size } => {
-            (rank_transform(left, w, h, size), rank_transform(right, w, h, size), (size * size - 1) as i64)
-        }
-        _ => unreachable!("the test uses x-Sobel and rank"),
     };
+    // per channel: the prefiltered left and right planes and the raw ones
+    let planes: Vec<_> = channels.iter().map(|&(a, b)| (prefilter(a).0, prefilter(b).0, a, b)).collect();
+    let maxv = prefilter(left).1;
     let texture_ok: Vec<bool> = if cfg.texture_threshold > 0 {
         assert_eq!(scale, 1, "the 16-bit cases run without the texture check");
         let s = x_sobel(left, w, h, 31);
@@ -42,7 +58,7 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
     };
     let r = (g.block / 2) as i64;
     let n = (g.block * g.block) as i64;
-    let cmax = n * (maxv + if g.intensity_cost { 63 } else { 0 });
+    let cmax = n * channels.len() as i64 * (maxv + if g.intensity_cost { 63 } else { 0 });
     // Birchfield–Tomasi: a pixel's interval is the range of its value and the half-way values
     // to its row neighbours (the neighbour index clamped to the image)
     let interval = |img: &[u16], x: usize, y: usize| -> (i64, i64) {
@@ -52,16 +68,19 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
         (v.min(vl).min(vr), v.max(vl).max(vr))
     };
     let pixel_cost = |xa: usize, xb: usize, y: usize| -> i64 {
-        let (a, b) = (l[y * w + xa] as i64, rt[y * w + xb] as i64);
-        let mut c = if g.sampling_insensitive {
-            let ((a0, a1), (b0, b1)) = (interval(&l, xa, y), interval(&rt, xb, y));
-            (a - b1).max(b0 - a).max(0).min((b - a1).max(a0 - b).max(0))
-        } else {
-            (a - b).abs()
-        };
-        if g.intensity_cost {
-            let q = |v: u16| (v as i64 / scale) >> 2;
-            c += (q(left[y * w + xa]) - q(right[y * w + xb])).abs();
+        let mut c = 0;
+        for (l, rt, left, right) in &planes {
+            let (a, b) = (l[y * w + xa] as i64, rt[y * w + xb] as i64);
+            c += if g.sampling_insensitive {
+                let ((a0, a1), (b0, b1)) = (interval(l, xa, y), interval(rt, xb, y));
+                (a - b1).max(b0 - a).max(0).min((b - a1).max(a0 - b).max(0))
+            } else {
+                (a - b).abs()
+            };
+            if g.intensity_cost {
+                let q = |v: u16| (v as i64 / scale) >> 2;
+                c += (q(left[y * w + xa]) - q(right[y * w + xb])).abs();
+            }
         }
         c
     };
@@ -182,11 +201,12 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
                 }
             }
         }
-        for x in 0..w {
+        // the winner of each pixel after the texture and uniqueness rejections, with its range
+        let winner = |x: usize| -> Option<(usize, usize, usize)> {
             let cs = &s[(y * w + x) * nd..][..nd];
             let ks: Vec<usize> = (0..nd).filter(|&k| (0..w as i64).contains(&(x as i64 - dmin - k as i64))).collect();
             if ks.is_empty() || !texture_ok[y * w + x] {
-                continue;
+                return None;
             }
             let (lo, hi) = (ks[0], *ks.last().unwrap());
             let mut kb = lo;
@@ -196,16 +216,44 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
                 }
             }
             let m = cs[kb];
-            // where the image edge cuts the candidates short of 0..nd, a margin of at least 100 %
+            // where the image edge cuts the candidates short of 0..nd, a margin of at least 200 %
             // (not in filled maps)
             let cut = (lo > 0 || hi < nd - 1) && !cfg.fill;
-            let uniq = if cut { cfg.uniqueness_ratio.max(100) } else { cfg.uniqueness_ratio };
+            let uniq = if cut { cfg.uniqueness_ratio.max(200) } else { cfg.uniqueness_ratio };
             if uniq > 0 {
                 let t = m + m * uniq as i64 / 100;
-                if ks.iter().any(|&k| (k as i64 - kb as i64).abs() > 1 && cs[k] <= t) {
-                    continue;
+                let far = |k: &&usize| (**k as i64 - kb as i64).abs() > 1;
+                if ks.iter().filter(far).any(|&k| cs[k] <= t) {
+                    return None;
+                }
+                // where the edge cuts the range, a winner without a rival further than one
+                // disparity away shows no margin
+                if cut && !ks.iter().any(|k| far(&k)) {
+                    return None;
                 }
             }
+            Some((kb, lo, hi))
+        };
+        if cfg.lr_winners {
+            // OpenCV SGBM's right disparities: the winner of the left pixel with the smallest S
+            // among those whose winner matches u, the first on a tie
+            let mut rcost = vec![i64::MAX; w];
+            rbest = vec![usize::MAX; w];
+            for x in 0..w {
+                if let Some((kb, ..)) = winner(x) {
+                    let u = (x as i64 - dmin - kb as i64) as usize;
+                    let v = s[(y * w + x) * nd + kb];
+                    if v < rcost[u] {
+                        (rcost[u], rbest[u]) = (v, kb);
+                    }
+                }
+            }
+        }
+        for x in 0..w {
+            let cs = &s[(y * w + x) * nd..][..nd];
+            let ks: Vec<usize> = (0..nd).filter(|&k| (0..w as i64).contains(&(x as i64 - dmin - k as i64))).collect();
+            let Some((kb, lo, hi)) = winner(x) else { continue };
+            let m = cs[kb];
             let mut off = 0.0;
             if kb > lo && kb < hi && sub != Subpixel::None {
                 let (a, b, c) = (cs[kb - 1] as f64, cs[kb] as f64, cs[kb + 1] as f64);
@@ -217,6 +265,7 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
             let mut lr_factor = 1.0f32;
             if let Some(tol) = cfg.lr_max_diff {
                 let u = (x as i64 - dmin - kb as i64) as usize;
+                // (u is some left pixel's match: x's own)
                 let mut diff = (rbest[u] as i64 - kb as i64).abs();
                 // where the image cuts the candidates short of 0..nd: an exact match only, and
                 // not on the candidate the image cut at (its right pixel is a border column)
@@ -226,7 +275,14 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
                 if cfg.lr_subpixel && !(cut_lo || cut_hi) && diff > tol && off != 0.0 {
                     let k2 = if off > 0.0 { kb + 1 } else { kb - 1 };
                     let u2 = (x as i64 - dmin - k2 as i64) as usize;
-                    diff = diff.min((rbest[u2] as i64 - k2 as i64).abs());
+                    // a right pixel no left winner matched does not reject (OpenCV SGBM's
+                    // `disp2ptr[x_] >= minD`); without the left winners every right pixel
+                    // with a candidate has a winner, and one without none
+                    diff = diff.min(match rbest[u2] {
+                        usize::MAX if cfg.lr_winners => tol,
+                        usize::MAX => i64::MAX,
+                        r => (r as i64 - k2 as i64).abs(),
+                    });
                 }
                 let on_cut = (cut_lo && kb == lo) || (cut_hi && kb == hi);
                 if diff > tol || on_cut {
@@ -402,6 +458,7 @@ fn sgm_strategy() -> impl Strategy<Value = MatcherConfig> {
         (
             prop_oneof![Just(Subpixel::Auto), Just(Subpixel::Equiangular), Just(Subpixel::None)],
             (any::<bool>(), any::<bool>(), any::<bool>()),
+            any::<bool>(),
         ),
     )
         .prop_map(
@@ -416,7 +473,7 @@ fn sgm_strategy() -> impl Strategy<Value = MatcherConfig> {
                 (texture_threshold, uniqueness_ratio),
                 (lr_max_diff, fill),
                 (confidence_map, min_confidence),
-                (subpixel, (sampling_insensitive, intensity_cost, lr_subpixel)),
+                (subpixel, (sampling_insensitive, intensity_cost, lr_subpixel), lr_winners),
             )| MatcherConfig {
                 method: Method::Sgm,
                 sgm: SgmConfig {
@@ -431,6 +488,7 @@ fn sgm_strategy() -> impl Strategy<Value = MatcherConfig> {
                     intensity_cost,
                 },
                 lr_subpixel,
+                lr_winners,
                 prefilter,
                 min_disparity,
                 num_disparities,
@@ -453,6 +511,57 @@ proptest! {
     #[test]
     fn sgm_fast_equals_naive(cfg in sgm_strategy(), seed in any::<u64>(), w in 5usize..28, h in 3usize..18) {
         run_case(seed, w, h, cfg);
+    }
+}
+
+/// A colour pair (three channels from three random pairs) against the naive reference with
+/// the cost summed over the channels, at every level the CPU has. Returns whether it ran (false:
+/// the configuration's sums do not fit 16 bits with three channels, refused).
+fn run_colour_case(seed: u64, w: usize, h: usize, cfg: &MatcherConfig) -> bool {
+    use parallax_block_matching::image::{Rgb, RgbImage};
+    let chans: Vec<(Vec<u16>, Vec<u16>)> = (0..3).map(|c| make_pair(seed.wrapping_add(c * 7919), w, h)).collect();
+    let rgb = |side: usize| {
+        RgbImage::from_fn(w as u32, h as u32, |x, y| {
+            let i = y as usize * w + x as usize;
+            let v = |c: usize| if side == 0 { chans[c].0[i] } else { chans[c].1[i] } as u8;
+            Rgb([v(0), v(1), v(2)])
+        })
+    };
+    let (li, ri) = (rgb(0), rgb(1));
+    // the grey conversion the matcher documents
+    let grey = |im: &RgbImage| -> Vec<u16> {
+        parallax_block_matching::image::imageops::grayscale(im).as_raw().iter().map(|&v| v as u16).collect()
+    };
+    let gl = grey(&li);
+    let planes: Vec<(&[u16], &[u16])> = chans.iter().map(|(a, b)| (a.as_slice(), b.as_slice())).collect();
+    let mut ran = false;
+    for level in [SimdLevel::Scalar, SimdLevel::Avx2, SimdLevel::Avx512] {
+        let mut m = BlockMatcher::new(MatcherConfig { threads: 2, ..cfg.clone() }).unwrap();
+        if m.set_simd(level) != level {
+            continue;
+        }
+        let got = match m.compute_rgb(&li, &ri) {
+            Ok(d) => d,
+            Err(e) if e.to_string().contains("16 bits") => return false,
+            Err(e) => panic!("{e}"),
+        };
+        let (expect, _) = naive_channels(&gl, &planes, w, h, cfg, 1);
+        let what = format!("colour, {level:?} seed {seed} {w}x{h} {cfg:?}");
+        for (i, (a, b)) in got.data().iter().zip(&expect).enumerate() {
+            let same = (a.is_nan() && b.is_nan()) || a == b;
+            assert!(same, "{what}: pixel ({}, {}) fast {a} naive {b}", i % w, i / w);
+        }
+        ran = true;
+    }
+    ran
+}
+
+proptest! {
+    #![proptest_config(Config { cases: 24, rng_seed: RngSeed::Fixed(0xc0_10a5), failure_persistence: None, ..Config::default() })]
+
+    #[test]
+    fn sgm_fast_equals_naive_on_colour_pairs(cfg in sgm_strategy(), seed in any::<u64>(), w in 5usize..28, h in 3usize..18) {
+        prop_assume!(run_colour_case(seed, w, h, &cfg));
     }
 }
 

@@ -590,7 +590,14 @@ mod tests {
 
     /// A textured pair whose right image is the left shifted by `d` pixels.
     fn pair(d: u32) -> (image::GrayImage, image::GrayImage) {
-        let tex = |x: u32, y: u32| image::Luma([((x.wrapping_mul(2654435761) ^ y.wrapping_mul(40503)) >> 7) as u8]);
+        // a mixed hash: random texture without a period (a multiplicative hash's low bits repeat
+        // closely enough at a lag of 5 px that a range ending below the shift matched there)
+        let tex = |x: u32, y: u32| {
+            let mut h = (x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F);
+            h ^= h >> 29;
+            h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            image::Luma([(h >> 56) as u8])
+        };
         let l = image::GrayImage::from_fn(96, 64, tex);
         let r = image::GrayImage::from_fn(96, 64, |x, y| tex(x + d, y));
         (l, r)
