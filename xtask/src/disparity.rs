@@ -50,9 +50,9 @@ pub struct Args {
     /// time of the default SGM. Explicit options still apply. In the left band, where the image
     /// edge cuts a pixel's candidates short of the range (x < min_disparity + disparities − 1;
     /// with a negative min_disparity also the right band x > width − 1 + min_disparity), it
-    /// still applies, as every SGM that is not filled, a uniqueness margin of 100 % (the best
-    /// rival further than one disparity must cost more than twice the winner; counted in
-    /// rejected_uniqueness) and, with the left–right check on, the exact integer left–right
+    /// still applies, as every SGM that is not filled, a uniqueness margin of 200 % (a rival
+    /// further than one disparity must exist and cost more than three times the winner; counted
+    /// in rejected_uniqueness) and, with the left–right check on, the exact integer left–right
     /// check (tolerance 0, and no winner on the right image's first column; counted in
     /// rejected_lr).
     #[arg(long)]
