@@ -57,6 +57,12 @@ pub struct Args {
     /// rejected_lr).
     #[arg(long)]
     accurate: bool,
+    /// With --method sgm: match 8-bit colour images in colour, the pixel cost summed over the
+    /// three channels (each prefiltered) with the penalties multiplied by 3 (as OpenCV's
+    /// P1 = 8·channels·blockSize²); the texture and the adaptive P2 read the grey conversion.
+    /// Measured on Middlebury, grey matched better (`benches/RESULTS.md`, 2026-12-06).
+    #[arg(long)]
+    colour: bool,
     /// Semi-global matching's pixel difference: sad (|L − R| on the prefilter), bt
     /// (Birchfield–Tomasi, sampling-insensitive), and either with +intensity (adds the raw
     /// grey-level difference / 4, as SGBM); default bt+intensity (sad with --fill).
@@ -197,7 +203,9 @@ fn run_sequence(
     }
     // a bar on a terminal; plain lines every few seconds otherwise (a pipe, a log file)
     let progress = crate::progress::Progress::new("disparity", lefts.len() as u64, "frames")?;
-    let s = disparity::run_sequence(matcher, lefts, rights, &args.out, args.prefetch, args.allow_swapped, |e| {
+    let options =
+        disparity::SequenceOptions { prefetch: args.prefetch, allow_swapped: args.allow_swapped, colour: args.colour };
+    let s = disparity::run_sequence(matcher, lefts, rights, &args.out, options, |e| {
         match e {
             FrameEvent::Swapped { name, check, .. } => {
                 // heard before the frame's own event: not a frame of the bar
@@ -278,6 +286,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
              choose one"
         );
     }
+    if args.colour && !sgm {
+        anyhow::bail!("--colour is semi-global matching's (with --method sgm): block matching reads grey");
+    }
     let d = match (sgm, args.fill, args.accurate) {
         (false, false, _) => MatcherConfig::default(),
         (false, true, _) => MatcherConfig::dense(),
@@ -341,6 +352,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             block: if sgm { args.block.unwrap_or(d.sgm.block) } else { d.sgm.block },
             sampling_insensitive,
             intensity_cost,
+            // a cost summed over three channels: the penalties of one, three times
+            p1: if args.colour { 3 * d.sgm.p1 } else { d.sgm.p1 },
+            p2: if args.colour { 3 * d.sgm.p2 } else { d.sgm.p2 },
             ..d.sgm
         },
         ..d
@@ -354,14 +368,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if let Some((lefts, rights)) = disparity::image_sequence(&args.left, &args.right, args.pair_by_order)? {
         return run_sequence(&args, matcher, lefts, rights);
     }
-    let pair = disparity::load_pair(&args.left, &args.right)?;
-    if pair.identical() {
-        anyhow::bail!(
-            "{} and {} are the same image: nothing to match (every disparity would be 0)",
-            args.left.display(),
-            args.right.display()
-        );
-    }
+    let pair = disparity::load_pair(&args.left, &args.right, args.colour)?;
+    pair.refuse_identical(&args.left, &args.right)?;
     // Ground truth and mask are checked against the pair before anything is computed or written.
     let size = pair.dimensions();
     let truth = args.gt.as_deref().map(|p| disparity::load_truth(p, args.gt_scale, size)).transpose()?;
@@ -439,7 +447,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 SgmPaths::Eight => 8,
             };
             format!(
-                " paths {paths} pixel cost {cost}{}",
+                " paths {paths} pixel cost {cost}{}{}",
+                if args.colour { " over 3 channels" } else { "" },
                 match (cfg.lr_subpixel, cfg.lr_winners) {
                     (_, true) => " lr-rule sgbm",
                     (true, false) => " lr-rule subpixel",

@@ -923,3 +923,83 @@ fn a_rerun_into_the_same_folder_leaves_no_file_of_the_earlier_run() {
     assert_ne!(std::fs::read(out.join("disparity.pfm")).unwrap(), first, "the map was not replaced");
     assert_eq!(files_below(&out), ["disparity.pfm", "disparity_colour.png"], "a file of the first run is left");
 }
+
+#[test]
+fn colour_matching_is_the_librarys_with_three_times_the_penalties_and_refused_where_it_does_not_apply() {
+    use parallax_block_matching::{BlockMatcher, MatcherConfig, SgmConfig};
+    let dir = temp("colour");
+    let out = dir.join("out");
+    // three independent random channels, the right image the left one shifted by 6 px
+    let (w, h, shift) = (160u32, 96u32, 6u32);
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let tex: Vec<[u8; 3]> = (0..(w + shift) * h)
+        .map(|_| {
+            let mut c = [0u8; 3];
+            for v in &mut c {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                *v = (state >> 56) as u8;
+            }
+            c
+        })
+        .collect();
+    let at = |x: u32, y: u32| image::Rgb(tex[(y * (w + shift) + x) as usize]);
+    let left = image::RgbImage::from_fn(w, h, at);
+    let right = image::RgbImage::from_fn(w, h, |x, y| at(x + shift, y));
+    let (lp, rp) = (dir.join("l.png"), dir.join("r.png"));
+    left.save(&lp).unwrap();
+    right.save(&rp).unwrap();
+    let (ls, rs, os) = (lp.to_str().unwrap(), rp.to_str().unwrap(), out.to_str().unwrap());
+    let common = ["disparity", "--left", ls, "--right", rs, "--disparities", "16", "--runs", "1", "--out", os];
+    let r = run(&[&common[..], &["--method", "sgm", "--colour"]].concat());
+    let stdout = String::from_utf8_lossy(&r.stdout);
+    assert!(r.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&r.stderr));
+    assert!(stdout.contains("pixel cost bt+intensity over 3 channels"), "{stdout}");
+    let cli = parallax_block_matching::from_pfm(&std::fs::read(out.join("disparity.pfm")).unwrap(), "cli").unwrap();
+    let base = MatcherConfig { num_disparities: 16, ..MatcherConfig::sgm() };
+    let cfg = MatcherConfig { sgm: SgmConfig { p1: 3 * base.sgm.p1, p2: 3 * base.sgm.p2, ..base.sgm }, ..base };
+    let lib = BlockMatcher::new(cfg).unwrap().compute_rgb(&left, &right).unwrap();
+    let bits = |m: &parallax_camera_model::DisparityMap| m.data().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&cli), bits(&lib), "the CLI's colour map is not the library's");
+    // against the truth: the shift, where the pixel has its match (x ≥ 6)
+    let (mut valid, mut right_shift) = (0, 0);
+    for y in 0..h as usize {
+        for x in shift as usize..w as usize {
+            let v = cli.data()[y * w as usize + x];
+            valid += v.is_finite() as usize;
+            right_shift += (v.is_finite() && (v - shift as f32).abs() < 0.5) as usize;
+        }
+    }
+    let n = (h * (w - shift)) as usize;
+    assert!(
+        valid > n * 9 / 10 && right_shift > valid * 99 / 100,
+        "{valid} of {n} returned, {right_shift} at the shift"
+    );
+    // block matching reads grey: refused, nothing written
+    let out2 = dir.join("out2");
+    let r = run(&["disparity", "--left", ls, "--right", rs, "--out", out2.to_str().unwrap(), "--colour"]);
+    fails_naming(&r, &["--colour", "--method sgm"]);
+    assert!(!out2.exists());
+    // 16-bit images are matched as grey only
+    let l16 = image::ImageBuffer::<image::Rgb<u16>, _>::from_fn(w, h, |x, y| {
+        let p = left.get_pixel(x, y).0;
+        image::Rgb([p[0] as u16 * 257, p[1] as u16 * 257, p[2] as u16 * 257])
+    });
+    let p16 = dir.join("l16.png");
+    l16.save(&p16).unwrap();
+    let r = run(&[
+        "disparity",
+        "--left",
+        p16.to_str().unwrap(),
+        "--right",
+        rs,
+        "--out",
+        out2.to_str().unwrap(),
+        "--method",
+        "sgm",
+        "--colour",
+    ]);
+    fails_naming(&r, &["l16.png", "16-bit", "colour"]);
+    assert!(!out2.exists());
+}

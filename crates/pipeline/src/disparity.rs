@@ -18,6 +18,9 @@ pub enum StereoImages {
     U8(image::GrayImage, image::GrayImage),
     /// 16-bit grey.
     U16(Gray16Image, Gray16Image),
+    /// 8-bit colour, matched by [`BlockMatcher::compute_rgb`] (semi-global matching sums its
+    /// cost over the channels; block matching and the checks read the grey conversion).
+    Rgb(image::RgbImage, image::RgbImage),
 }
 
 impl StereoPair for StereoImages {
@@ -25,6 +28,7 @@ impl StereoPair for StereoImages {
         match self {
             Self::U8(l, r) => m.compute_into(l, r, out),
             Self::U16(l, r) => m.compute_u16_into(l, r, out),
+            Self::Rgb(l, r) => m.compute_rgb_into(l, r, out),
         }
     }
 }
@@ -35,6 +39,7 @@ impl StereoImages {
         match self {
             Self::U8(l, _) => l.dimensions(),
             Self::U16(l, _) => l.dimensions(),
+            Self::Rgb(l, _) => l.dimensions(),
         }
     }
 
@@ -44,16 +49,50 @@ impl StereoImages {
         match self {
             Self::U8(l, r) => l == r,
             Self::U16(l, r) => l == r,
+            Self::Rgb(l, r) => l == r,
         }
     }
 
-    /// Whether the pair looks swapped to `matcher` (see [`BlockMatcher::check_swap`]).
+    /// Refuses the same image given twice ([`StereoImages::identical`]), naming the files.
+    pub fn refuse_identical(&self, left: &Path, right: &Path) -> Result<()> {
+        if self.identical() {
+            return Err(PipelineError::Input(identical_message(left, right)));
+        }
+        Ok(())
+    }
+
+    /// Whether the pair looks swapped to `matcher` (see [`BlockMatcher::check_swap`]; colour
+    /// on its grey conversion).
     pub fn check_swap(&self, matcher: &BlockMatcher) -> Result<SwapCheck> {
         Ok(match self {
             Self::U8(l, r) => matcher.check_swap(l, r)?,
             Self::U16(l, r) => matcher.check_swap_u16(l, r)?,
+            Self::Rgb(l, r) => matcher.check_swap(&grey(l), &grey(r))?,
         })
     }
+
+    /// The same check with a sequence's [`parallax_block_matching::SwapChecker`].
+    fn check_swap_with(&self, checker: &mut parallax_block_matching::SwapChecker) -> Result<SwapCheck> {
+        Ok(match self {
+            Self::U8(l, r) => checker.check(l, r)?,
+            Self::U16(l, r) => checker.check_u16(l, r)?,
+            Self::Rgb(l, r) => checker.check(&grey(l), &grey(r))?,
+        })
+    }
+}
+
+/// The refusal of the same image given twice.
+fn identical_message(left: &Path, right: &Path) -> String {
+    format!(
+        "{} and {} are the same image: nothing to match (every disparity would be 0)",
+        left.display(),
+        right.display()
+    )
+}
+
+/// The grey conversion [`BlockMatcher::compute_rgb`] reads.
+fn grey(img: &image::RgbImage) -> image::GrayImage {
+    image::imageops::grayscale(img)
 }
 
 fn is_16_bit(img: &image::DynamicImage) -> bool {
@@ -61,11 +100,22 @@ fn is_16_bit(img: &image::DynamicImage) -> bool {
 }
 
 /// Loads a pair through [`crate::io::load_image`]'s checks: 16-bit grey when either image has
-/// 16-bit channels, else 8-bit grey.
-pub fn load_pair(left: &Path, right: &Path) -> Result<StereoImages> {
+/// 16-bit channels, else 8-bit grey, or with `colour` 8-bit colour (refused for 16-bit images,
+/// which are matched as grey only).
+pub fn load_pair(left: &Path, right: &Path, colour: bool) -> Result<StereoImages> {
     let (l, r) = (crate::io::load_image(left)?, crate::io::load_image(right)?);
     Ok(if is_16_bit(&l) || is_16_bit(&r) {
+        if colour {
+            let which = if is_16_bit(&l) { left } else { right };
+            return Err(PipelineError::Input(format!(
+                "{} has 16-bit channels: colour matching reads 8-bit images (match it as grey, without the \
+                 colour option)",
+                which.display()
+            )));
+        }
         StereoImages::U16(l.into_luma16(), r.into_luma16())
+    } else if colour {
+        StereoImages::Rgb(l.into_rgb8(), r.into_rgb8())
     } else {
         StereoImages::U8(l.into_luma8(), r.into_luma8())
     })
@@ -404,6 +454,17 @@ pub fn sequence_outputs(lefts: &[PathBuf], rights: &[PathBuf], out: &Path, png: 
     Ok(outputs)
 }
 
+/// How [`run_sequence`] reads and checks the frames.
+#[derive(Debug, Clone, Copy)]
+pub struct SequenceOptions {
+    /// Pairs decoded and checked ahead of the matching (at least 1).
+    pub prefetch: usize,
+    /// Match a frame that looks swapped, with a warning, instead of stopping.
+    pub allow_swapped: bool,
+    /// Read the frames as 8-bit colour ([`load_pair`]).
+    pub colour: bool,
+}
+
 /// What the prefetch thread found of a frame before it was matched.
 enum Verdict {
     /// Matched as given (read or not: a read error is the frame's).
@@ -433,10 +494,10 @@ pub fn run_sequence(
     lefts: Vec<PathBuf>,
     rights: Vec<PathBuf>,
     out: &Path,
-    prefetch: usize,
-    allow_swapped: bool,
+    options: SequenceOptions,
     mut on_frame: impl FnMut(&FrameEvent),
 ) -> Result<SequenceSummary> {
+    let SequenceOptions { prefetch, allow_swapped, colour } = options;
     let (min, n) = (matcher.config().min_disparity, matcher.config().num_disparities);
     let png = png16_holds(min, n);
     sequence_outputs(&lefts, &rights, out, png)?;
@@ -450,15 +511,13 @@ pub fn run_sequence(
     let mut checker = parallax_block_matching::SwapChecker::new(&matcher)?;
     let (verdict_tx, verdicts) = std::sync::mpsc::channel::<Verdict>();
     let source = lefts.into_iter().zip(rights).map(move |(l, r)| {
-        let pair = load_pair(&l, &r).map_err(|e| e.to_string());
+        let pair = load_pair(&l, &r, colour).map_err(|e| e.to_string());
         let verdict = match &pair {
             Err(_) => Ok(Verdict::Match),
             Ok(p) if p.identical() => Ok(Verdict::Identical),
-            Ok(p) => match p {
-                StereoImages::U8(a, b) => checker.check(a, b),
-                StereoImages::U16(a, b) => checker.check_u16(a, b),
-            }
-            .map(|c| if c.looks_swapped { Verdict::Swapped(c) } else { Verdict::Match }),
+            Ok(p) => p
+                .check_swap_with(&mut checker)
+                .map(|c| if c.looks_swapped { Verdict::Swapped(c) } else { Verdict::Match }),
         };
         let (verdict, pair) = match verdict {
             Ok(Verdict::Match) => (Verdict::Match, pair),
@@ -501,10 +560,8 @@ pub fn run_sequence(
             }
             Verdict::Identical => {
                 refused = Some(PipelineError::Input(format!(
-                    "frame {index}: {} and {} are the same image: nothing to match (every disparity would be 0); \
-                     nothing was written",
-                    l.display(),
-                    r.display()
+                    "frame {index}: {}; nothing was written",
+                    identical_message(l, r)
                 )));
                 break;
             }
@@ -589,6 +646,10 @@ mod tests {
     use super::*;
 
     /// A textured pair whose right image is the left shifted by `d` pixels.
+    fn opts(prefetch: usize, allow_swapped: bool) -> SequenceOptions {
+        SequenceOptions { prefetch, allow_swapped, colour: false }
+    }
+
     fn pair(d: u32) -> (image::GrayImage, image::GrayImage) {
         // a mixed hash: random texture without a period (a multiplicative hash's low bits repeat
         // closely enough at a lag of 5 px that a range ending below the shift matched there)
@@ -714,7 +775,7 @@ mod tests {
         let matcher = BlockMatcher::new(cfg).unwrap();
         let mut events = Vec::new();
         let out = dir.join("out");
-        let s = run_sequence(matcher, lefts, rights, &out, 2, false, |e| events.push(e.clone())).unwrap();
+        let s = run_sequence(matcher, lefts, rights, &out, opts(2, false), |e| events.push(e.clone())).unwrap();
         assert_eq!((s.frames, s.failed), (2, 1));
         assert!(matches!(&events[2], FrameEvent::Failed { index: 2, error } if error.contains("missing.png")));
         assert!(matches!(&events[0], FrameEvent::Matched { warnings, .. } if warnings.is_empty()), "{events:?}");
@@ -728,8 +789,10 @@ mod tests {
         let cfg = parallax_block_matching::MatcherConfig { num_disparities: 4, ..Default::default() };
         let (l2, r2) = (vec![dir.join("left0.png")], vec![dir.join("right0.png")]);
         let mut events = Vec::new();
-        run_sequence(BlockMatcher::new(cfg).unwrap(), l2, r2, &dir.join("out4"), 1, false, |e| events.push(e.clone()))
-            .unwrap();
+        run_sequence(BlockMatcher::new(cfg).unwrap(), l2, r2, &dir.join("out4"), opts(1, false), |e| {
+            events.push(e.clone())
+        })
+        .unwrap();
         assert!(
             matches!(&events[0], FrameEvent::Matched { warnings, .. }
                 if warnings.len() == 1 && warnings[0].contains("largest disparity searched (3)")),
@@ -742,7 +805,8 @@ mod tests {
         r.save(&r3).unwrap();
         let before = std::fs::read(&l3).unwrap();
         let m = BlockMatcher::new(parallax_block_matching::MatcherConfig { num_disparities: 16, ..Default::default() });
-        let err = run_sequence(m.unwrap(), vec![l3.clone()], vec![r3], &dir, 1, false, |_| {}).unwrap_err().to_string();
+        let err =
+            run_sequence(m.unwrap(), vec![l3.clone()], vec![r3], &dir, opts(1, false), |_| {}).unwrap_err().to_string();
         assert!(err.contains("is also an input"), "{err}");
         assert_eq!(std::fs::read(&l3).unwrap(), before);
         // two left images with one stem would share their outputs
@@ -781,7 +845,7 @@ mod tests {
         let m = || BlockMatcher::new(cfg.clone()).unwrap();
         let out = dir.join("out");
         let mut events = Vec::new();
-        let err = run_sequence(m(), lefts.clone(), rights.clone(), &out, 2, false, |e| events.push(e.clone()));
+        let err = run_sequence(m(), lefts.clone(), rights.clone(), &out, opts(2, false), |e| events.push(e.clone()));
         match err {
             Err(PipelineError::SwappedFrame { index, left, right, check }) => {
                 assert_eq!((index, &left, &right), (2, &lefts[2], &rights[2]));
@@ -794,7 +858,8 @@ mod tests {
         assert!(!out.exists(), "a refused sequence wrote {:?}", std::fs::read_dir(&out).unwrap().count());
         // allowed: matched, heard of, written
         let mut events = Vec::new();
-        let s = run_sequence(m(), lefts.clone(), rights.clone(), &out, 2, true, |e| events.push(e.clone())).unwrap();
+        let s =
+            run_sequence(m(), lefts.clone(), rights.clone(), &out, opts(2, true), |e| events.push(e.clone())).unwrap();
         assert_eq!((s.frames, s.failed), (4, 0));
         let swapped: Vec<_> = events.iter().filter(|e| matches!(e, FrameEvent::Swapped { .. })).collect();
         assert!(matches!(swapped[..], [FrameEvent::Swapped { index: 2, name, .. }] if name == "left2"), "{events:?}");
@@ -804,7 +869,7 @@ mod tests {
         l.save(&rights[3]).unwrap();
         r.save(&rights[2]).unwrap();
         l.save(&lefts[2]).unwrap();
-        let err = run_sequence(m(), lefts, rights, &out, 2, false, |_| {}).unwrap_err().to_string();
+        let err = run_sequence(m(), lefts, rights, &out, opts(2, false), |_| {}).unwrap_err().to_string();
         assert!(err.contains("frame 3") && err.contains("same image") && err.contains("nothing was written"), "{err}");
         assert!(!out.exists());
         std::fs::remove_dir_all(&dir).unwrap();
