@@ -680,13 +680,13 @@ fn second<E: Lane, V: KernelLanes<E>>(t: Avx2, p: &Ptrs<E>, x: usize, kb: usize,
     let ones = V::splat(t, E::MAX);
     let mut acc = ones;
     for c in (0..p.ndp).step_by(V::LANES) {
-        // SAFETY: c + L ≤ ndp, the length of a slot and of the index and tail buffers
-        // (`Ptrs::new`).
-        let (dv, tail, b) =
-            unsafe { (V::load_ptr(t, p.dv.add(c)), V::load_ptr(t, p.tail.add(c)), V::load_ptr(t, bx.add(c))) };
+        // SAFETY: c + L ≤ ndp, the length of a slot and of the index buffer (`Ptrs::new`).
+        let (dv, b) = unsafe { (V::load_ptr(t, p.dv.add(c)), V::load_ptr(t, bx.add(c))) };
         let mut m = outside(dv, lov, hiv);
         if c + V::LANES > p.nd {
-            m = m.or(tail);
+            // the lanes past D (only the last chunk has them)
+            // SAFETY: c + L ≤ ndp, the length of the tail buffer (`Ptrs::new`).
+            m = m.or(unsafe { V::load_ptr(t, p.tail.add(c)) });
         }
         // lanes kb − 1 ..= kb + 1 are not candidates
         m = m.or(outside(dv, nlo, nhi).and_not(ones));

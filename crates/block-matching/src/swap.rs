@@ -13,6 +13,7 @@ use crate::config::{MatcherConfig, Method};
 use crate::engine::BlockMatcher;
 use crate::error::Result;
 use crate::frame::Gray16Image;
+use parallax_camera_model::DisparityMap;
 
 /// What [`BlockMatcher::check_swap`] found.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -115,20 +116,25 @@ impl SwapChecker {
     /// Whether the 8-bit pair looks swapped (see [`SwapCheck`]).
     pub fn check(&mut self, left: &GrayImage, right: &GrayImage) -> Result<SwapCheck> {
         crate::frame::check_pair(left.width(), left.height(), right.width(), right.height())?;
-        let (l, r) = (half(left), half(right));
-        self.matcher.compute(&l, &r)?;
-        let fwd = self.matcher.last_stats();
-        self.matcher.compute(&r, &l)?;
-        Ok(SwapCheck::from_runs(fwd, self.matcher.last_stats()))
+        self.both_ways(&half(left), &half(right), BlockMatcher::compute)
     }
 
     /// Whether the 16-bit pair looks swapped (see [`SwapCheck`]).
     pub fn check_u16(&mut self, left: &Gray16Image, right: &Gray16Image) -> Result<SwapCheck> {
         crate::frame::check_pair(left.width(), left.height(), right.width(), right.height())?;
-        let (l, r) = (half(left), half(right));
-        self.matcher.compute_u16(&l, &r)?;
+        self.both_ways(&half(left), &half(right), BlockMatcher::compute_u16)
+    }
+
+    /// The half-resolution pair matched as given and exchanged.
+    fn both_ways<I>(
+        &mut self,
+        l: &I,
+        r: &I,
+        compute: impl Fn(&mut BlockMatcher, &I, &I) -> Result<DisparityMap>,
+    ) -> Result<SwapCheck> {
+        compute(&mut self.matcher, l, r)?;
         let fwd = self.matcher.last_stats();
-        self.matcher.compute_u16(&r, &l)?;
+        compute(&mut self.matcher, r, l)?;
         Ok(SwapCheck::from_runs(fwd, self.matcher.last_stats()))
     }
 }
