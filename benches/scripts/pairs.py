@@ -69,17 +69,17 @@ def opencv_matcher(mode, nd):
     with its defaults, or SGBM with the settings of `overlap_vs_sgbm.py` (blockSize 5, P1 600,
     P2 2400, uniquenessRatio 10, disp12MaxDiff 1, speckleWindowSize 100, speckleRange 2)."""
     defaults = os.environ.get("PRESET") == "defaults"
+    sgbm_mode = {"3way": cv2.StereoSGBM_MODE_SGBM_3WAY, "sgbm": cv2.StereoSGBM_MODE_SGBM,
+                 "hh": cv2.StereoSGBM_MODE_HH}[os.environ.get("SGBM_MODE", "3way")]
     if mode == "bm" and defaults:
         return cv2.StereoBM_create(numDisparities=nd, blockSize=9)
     if defaults:
         return cv2.StereoSGBM_create(minDisparity=0, numDisparities=nd, blockSize=5, P1=8 * 3 * 25, P2=32 * 3 * 25,
                                      disp12MaxDiff=1, uniquenessRatio=10, speckleWindowSize=100, speckleRange=2,
-                                     mode={"3way": cv2.StereoSGBM_MODE_SGBM_3WAY, "sgbm": cv2.StereoSGBM_MODE_SGBM,
-                                           "hh": cv2.StereoSGBM_MODE_HH}[os.environ.get("SGBM_MODE", "3way")])
+                                     mode=sgbm_mode)
     if mode == "bm":
         m = cv2.StereoBM_create(numDisparities=nd, blockSize=9); m.setUniquenessRatio(0)
         return m
     return cv2.StereoSGBM_create(minDisparity=0, numDisparities=nd, blockSize=5, P1=200, P2=800, disp12MaxDiff=1,
                                  preFilterCap=63, uniquenessRatio=10, speckleWindowSize=0, speckleRange=0,
-                                 mode={"3way": cv2.StereoSGBM_MODE_SGBM_3WAY, "sgbm": cv2.StereoSGBM_MODE_SGBM,
-                                       "hh": cv2.StereoSGBM_MODE_HH}[os.environ.get("SGBM_MODE", "3way")])
+                                 mode=sgbm_mode)

@@ -249,19 +249,13 @@ impl BlockMatcher {
             Input::U8(..) => (&self.left, &self.right),
             Input::U16(l, r) => (l, r),
         };
-        match cfg.prefilter {
-            Prefilter::None | Prefilter::XSobel { .. } => {}
-            Prefilter::Rank { size } => {
-                let (pre_left, pre_right) = (&mut self.pre_left, &mut self.pre_right);
-                rayon::join(
-                    || rank_transform_into(raw_left, w, h, size, pre_left),
-                    || rank_transform_into(raw_right, w, h, size, pre_right),
-                );
-            }
-            Prefilter::NormalizedResponse { size, cap } => {
-                self.pre_left = normalized_response(raw_left, w, h, size, cap as u32 * scale);
-                self.pre_right = normalized_response(raw_right, w, h, size, cap as u32 * scale);
-            }
+        // (the x-Sobel planes were made with the texture above)
+        if matches!(cfg.prefilter, Prefilter::Rank { .. } | Prefilter::NormalizedResponse { .. }) {
+            let (pre_left, pre_right) = (&mut self.pre_left, &mut self.pre_right);
+            rayon::join(
+                || prefilter_plane(cfg.prefilter, raw_left, w, h, scale, pre_left),
+                || prefilter_plane(cfg.prefilter, raw_right, w, h, scale, pre_right),
+            );
         }
         let (left, right) = match cfg.prefilter {
             Prefilter::None => (raw_left, raw_right),

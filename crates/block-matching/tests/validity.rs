@@ -157,12 +157,17 @@ fn sgm_matches_synthetic_scenes_with_few_errors_and_fills_low_texture_better_tha
                 eb.bad_at(2.0).unwrap()
             );
             assert!(e.bad_returned_at(2.0).unwrap() < 2.0 && e.density > 90.0);
-            // the patch filled better than block matching by the default three paths and by five;
-            // eight paths' second pass rejects most of the patch at the left–right check
+            // the patch filled better than block matching by the default three paths and by five
+            // (with this preset's penalties eight paths leave more of it missing or wrong:
+            // measured 89–91 % against block matching's 87–91 %; the eight-path preset below)
             if paths != SgmPaths::Eight {
                 assert!(ep.bad_at(2.0).unwrap() < eb.bad_at(2.0).unwrap());
             }
         }
+        let d = BlockMatcher::new(cfg(MatcherConfig::sgm_accurate())).unwrap().compute(&s.left, &s.right).unwrap();
+        let ep = evaluate(&d, &s.disparity, Some(&patch), &[2.0]).unwrap();
+        println!("seed {seed} accurate (eight paths): low-texture patch bad-2 {:.1} %", ep.bad_at(2.0).unwrap());
+        assert!(ep.bad_at(2.0).unwrap() < eb.bad_at(2.0).unwrap());
     }
 }
 

@@ -64,11 +64,7 @@ impl StereoImages {
     /// Whether the pair looks swapped to `matcher` (see [`BlockMatcher::check_swap`]; colour
     /// on its grey conversion).
     pub fn check_swap(&self, matcher: &BlockMatcher) -> Result<SwapCheck> {
-        Ok(match self {
-            Self::U8(l, r) => matcher.check_swap(l, r)?,
-            Self::U16(l, r) => matcher.check_swap_u16(l, r)?,
-            Self::Rgb(l, r) => matcher.check_swap(&grey(l), &grey(r))?,
-        })
+        self.check_swap_with(&mut parallax_block_matching::SwapChecker::new(matcher)?)
     }
 
     /// The same check with a sequence's [`parallax_block_matching::SwapChecker`].
