@@ -20,7 +20,9 @@ use parallax_camera_model::Isometry3;
 use parallax_composition::poses;
 use parallax_composition::records::{HandEyeOutput, chosen_solution, hand_eye_calibration};
 use parallax_hand_eye::io::PoseFileFormat;
-use parallax_hand_eye::{ConsistencyConfig, HandEyeConfig, PairSelection, RefineConfig, Setup, calibrate};
+use parallax_hand_eye::{
+    ConsistencyConfig, HandEyeConfig, ObservabilityConfig, PairSelection, RefineConfig, Setup, calibrate,
+};
 use parallax_interop::{Calibration, Side};
 
 /// Format of a pose file.
@@ -121,6 +123,10 @@ pub struct Args {
     /// Report an unconverged refinement (`converged: false`) instead of failing.
     #[arg(long)]
     allow_unconverged: bool,
+    /// Return solutions that fit the data implausibly (a rotation far worse than the data allow,
+    /// translations that fit no transform) with a warning instead of refusing them.
+    #[arg(long)]
+    allow_poor_fit: bool,
 }
 
 impl PoseFormat {
@@ -227,6 +233,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             allow_board_behind_camera: args.allow_board_behind_camera,
             ..Default::default()
         },
+        observability: ObservabilityConfig { allow_poor_fit: args.allow_poor_fit, ..Default::default() },
         ..Default::default()
     };
     let what = if args.eye_to_hand { "base_from_camera" } else { "gripper_from_camera" };

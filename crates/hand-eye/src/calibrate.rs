@@ -279,7 +279,8 @@ pub fn calibrate(
     let motions_orig = motions_from_internal(&robot_orig, camera_from_board, config.pairs);
     let quality = quality(&robot_orig, camera_from_board, &motions_orig, &transform)?;
     let spread = axis_spread_deg(&motions, config.degeneracy.min_rotation_deg);
-    let warnings = warnings(&report, spread, refinement.as_ref(), l, config);
+    let mut warnings = warnings(&report, spread, refinement.as_ref(), l, config);
+    warnings.extend(check_fit(method, &motions, &transform, &report, &quality, l, config)?);
     Ok(HandEyeSolution {
         method,
         setup: config.setup,
@@ -293,6 +294,83 @@ pub fn calibrate(
         axis_spread_deg: spread,
         warnings,
     })
+}
+
+/// The plausibility checks of a solution (see [`ObservabilityConfig`]): its rotation against
+/// the data's lower bound on the axis misfit, and the motions' translation residual against the
+/// scene scale. A failure is [`HandEyeError::Implausible`], or a warning with
+/// `allow_poor_fit`; a translation fit between the warning and the refusal level is a warning.
+fn check_fit(
+    method: Method,
+    motions: &[Motion],
+    transform: &Isometry3,
+    report: &ConsistencyReport,
+    quality: &Quality,
+    l: f64,
+    config: &HandEyeConfig,
+) -> Result<Vec<HandEyeWarning>> {
+    let obs = &config.observability;
+    let valid = obs.max_rotation_excess_deg >= 0.0
+        && obs.warn_translation_fit_rel >= 0.0
+        && obs.max_translation_fit_rel >= obs.warn_translation_fit_rel
+        && obs.station_factor >= 1.0;
+    if !valid {
+        return Err(HandEyeError::InvalidConfig(format!("fit thresholds out of range: {obs:?}")));
+    }
+    let mut out = Vec::new();
+    let refuse = |message: String| HandEyeError::Implausible { method: method.name(), message };
+    let misfit = consistency::axis_misfit_deg(motions, transform.rotation_matrix(), &config.consistency);
+    if let (Some(misfit_deg), Some(bound_deg)) = (misfit, report.axis_mismatch_deg)
+        && misfit_deg > 3.0 * bound_deg + obs.max_rotation_excess_deg
+    {
+        if !obs.allow_poor_fit {
+            return Err(refuse(format!(
+                "its rotation leaves the robot and camera motion axes {misfit_deg:.2}° apart (median) where the \
+                 best common rotation leaves {bound_deg:.2}° (limit 3× that + {}°): the solver failed on these \
+                 data{}. Use another method (park or refined), or accept it with \
+                 observability.allow_poor_fit (--allow-poor-fit)",
+                obs.max_rotation_excess_deg,
+                if matches!(method, Method::Daniilidis | Method::Li) {
+                    " — it solves rotation and translation in one system, so noisy translations turn its rotation"
+                } else {
+                    ""
+                },
+            )));
+        }
+        out.push(HandEyeWarning::PoorRotationFit { misfit_deg, bound_deg });
+    }
+    let per: Vec<Option<f64>> = quality.station_rotation_deg.iter().map(|v| Some(*v)).collect();
+    let typical = crate::quality::median(quality.station_rotation_deg.clone()).unwrap_or(0.0);
+    let bad = consistency::out_of_line(&per, typical, obs.station_factor, config.consistency.min_station_mismatch_deg);
+    if !bad.is_empty() && !config.consistency.allow_rotation_mismatch {
+        return Err(consistency::mismatched_stations(
+            &bad,
+            per.len(),
+            &format!(
+                "board frames G·X·C turned from the other stations' by a median angle above {}× the median \
+                 station's {typical:.2}° (and above {}°) in the {method} solution",
+                obs.station_factor, config.consistency.min_station_mismatch_deg
+            ),
+        ));
+    }
+    // The quality was computed on the data as given: its lengths are in the data unit.
+    let relative_residual = quality.mean_translation / l;
+    if relative_residual > obs.max_translation_fit_rel && !obs.allow_poor_fit {
+        return Err(refuse(format!(
+            "the motions' translations fit it with a mean residual |t(AX) − t(XB)| of {:.6} (data unit), {:.1} % of \
+             the scene scale {l:.6} (limit {:.0} %): the robot or camera positions are far noisier than a \
+             calibration allows (a wrong length unit per station, poses from another session, or camera \
+             positions from a failed pose fit), and the translation of X would be off by as much. Check the \
+             translations, or accept it with observability.allow_poor_fit (--allow-poor-fit)",
+            quality.mean_translation,
+            100.0 * relative_residual,
+            100.0 * obs.max_translation_fit_rel,
+        )));
+    }
+    if relative_residual > obs.warn_translation_fit_rel {
+        out.push(HandEyeWarning::PoorTranslationFit { relative_residual, residual: quality.mean_translation });
+    }
+    Ok(out)
 }
 
 fn warnings(
@@ -324,11 +402,15 @@ fn warnings(
                 out.push(HandEyeWarning::ScaleUnchecked { correlation: c })
             }
             None => out.push(HandEyeWarning::ScaleUnchecked { correlation: 0.0 }),
-            Some(c) => {
-                if let Some(r) = report.scale_ratio.filter(|r| r.max(1.0 / r) > config.consistency.warn_scale_ratio) {
-                    out.push(HandEyeWarning::ScaleDisagreement { ratio: r, correlation: c });
+            Some(c) => match (report.scale_ratio, report.scale_sigma) {
+                (Some(ratio), Some(sigma)) if ratio.max(1.0 / ratio) > config.consistency.max_scale_ratio => {
+                    out.push(HandEyeWarning::ScaleUncertain { ratio, sigma, limit: config.consistency.max_scale_ratio })
                 }
-            }
+                (Some(r), _) if r.max(1.0 / r) > config.consistency.warn_scale_ratio => {
+                    out.push(HandEyeWarning::ScaleDisagreement { ratio: r, correlation: c })
+                }
+                _ => {}
+            },
         }
     }
     out

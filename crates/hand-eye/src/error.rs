@@ -40,6 +40,15 @@ pub enum HandEyeError {
         /// Figures, likely mistake and override.
         message: String,
     },
+    /// The solution fails a plausibility check (its rotation fits the motions far worse than
+    /// the data allow, or the translations fit no transform). The message gives the figures.
+    #[error("implausible {method} solution: {message}")]
+    Implausible {
+        /// The method whose solution was refused.
+        method: &'static str,
+        /// Figures, likely cause and override.
+        message: String,
+    },
     /// The refinement did not converge (and `refine.allow_unconverged` is not set).
     #[error("refinement did not converge: {0}")]
     NotConverged(String),

@@ -31,10 +31,15 @@
 //! axes related by one rotation (else: roll-pitch-yaw read as axis-angle, or one side inverted —
 //! robot poses `gripper_from_base`, eye-to-hand data solved as eye-in-hand or the reverse,
 //! camera poses `board_from_camera`), equal screw invariants with a length (else: a unit
-//! mismatch, with the factor named), and the board in front of every camera. Each message names
-//! the likely mistake and the [`ConsistencyConfig`] override. **Weak geometry** is a warning with
-//! the figure ([`HandEyeWarning`]): rotation axes spread less than 10° ([`axis_spread_deg`]) or
-//! a refined σ above the [`ObservabilityConfig`] thresholds.
+//! mismatch, with the factor named, decided only when the ratio's own uncertainty under the
+//! data's pose noise allows), the board in front of every camera, and every station in line with
+//! the others (swapped or mis-paired stations are named). Each message names the likely mistake
+//! and the [`ConsistencyConfig`] override. **Each solution is checked** too
+//! ([`HandEyeError::Implausible`]): a rotation that fits the motions' axes far worse than the
+//! data's lower bound (a failed solver), translations that fit no transform, a station whose
+//! implied board frame is out of line. **Weak geometry** is a warning with the figure
+//! ([`HandEyeWarning`]): rotation axes spread less than 10° ([`axis_spread_deg`]), a refined σ
+//! above the [`ObservabilityConfig`] thresholds, a length ratio the geometry cannot decide.
 //!
 //! [`io`] reads pose lists (RON, ViSP YAML, axis-angle or roll-pitch-yaw text); [`visp`] reads
 //! ViSP's camera XML (both perspective models, `kud` converted exactly to OpenCV's `k1`) and

@@ -43,6 +43,22 @@ pub struct Quality {
     pub board_spread_rotation_deg: f64,
     /// Mean distance of each station's board origin from the mean, scene length unit.
     pub board_spread_translation: f64,
+    /// Per station, the median rotation angle between its board frame and the other stations'
+    /// (degrees): a station far above the others' figures does not fit (swapped or mis-paired).
+    pub station_rotation_deg: Vec<f64>,
+    /// Per station, the median distance between its board origin and the other stations'
+    /// (scene length unit).
+    pub station_translation: Vec<f64>,
+}
+
+/// Median of `v` (the mean of the two middle values for an even count); `None` when empty.
+pub(crate) fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) })
 }
 
 /// Residual of one motion (see [`MotionResidual`]).
@@ -74,7 +90,23 @@ pub(crate) fn quality(
         sr += a.to_degrees();
         st += d;
     }
+    let (mut station_rotation_deg, mut station_translation) = (Vec::new(), Vec::new());
+    for (k, b) in boards.iter().enumerate() {
+        let (rot, tr): (Vec<f64>, Vec<f64>) = boards
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != k)
+            .map(|(_, o)| {
+                let (a, d) = b.distance(o);
+                (a.to_degrees(), d)
+            })
+            .unzip();
+        station_rotation_deg.push(median(rot).unwrap_or(0.0));
+        station_translation.push(median(tr).unwrap_or(0.0));
+    }
     Ok(Quality {
+        station_rotation_deg,
+        station_translation,
         mean_rotation_deg: res.iter().map(|r| r.rotation_deg).sum::<f64>() / n,
         mean_translation: res.iter().map(|r| r.translation).sum::<f64>() / n,
         mean_matrix_error: res.iter().map(|r| r.matrix_error).sum::<f64>() / n,

@@ -143,12 +143,30 @@ fn robot_in_metres_with_camera_in_millimetres_is_refused_naming_the_factor() {
             Inconsistency::UnitMismatch,
         );
         assert!(g_mm_msg.contains("robot in millimetres and camera in inches"), "{g_mm_msg}");
-        // The override solves anyway.
-        let cfg = HandEyeConfig {
+        // The override solves; the motions' translations, in two units, fit no X: the solution
+        // is refused for its translation fit, or carries the warning, unless let through too.
+        let mut cfg = HandEyeConfig {
             consistency: ConsistencyConfig { allow_scale_mismatch: true, ..Default::default() },
             ..Default::default()
         };
-        assert!(calibrate(&s.g, &c_mm, Method::Park, &cfg).is_ok());
+        match calibrate(&s.g, &c_mm, Method::Park, &cfg) {
+            Err(HandEyeError::Implausible { message, .. }) => {
+                assert!(message.contains("--allow-poor-fit"), "{message}")
+            }
+            Ok(sol) => assert!(
+                sol.warnings.iter().any(|w| matches!(w, HandEyeWarning::PoorTranslationFit { .. })),
+                "{trial}: {:?}",
+                sol.warnings
+            ),
+            Err(e) => panic!("{trial}: expected the translation fit refused or warned of, got {e}"),
+        }
+        cfg.observability.allow_poor_fit = true;
+        let sol = calibrate(&s.g, &c_mm, Method::Park, &cfg).unwrap();
+        assert!(
+            sol.warnings.iter().any(|w| matches!(w, HandEyeWarning::PoorTranslationFit { .. })),
+            "{:?}",
+            sol.warnings
+        );
     }
 }
 
@@ -173,10 +191,12 @@ fn a_square_size_fifteen_percent_off_is_a_warning() {
 fn inverted_robot_poses_are_refused() {
     let mut r = rng(22);
     let mut least = f64::INFINITY;
-    let allow = HandEyeConfig {
+    // The overrides solve anyway (the solution fits the translations poorly: allow_poor_fit).
+    let mut allow = HandEyeConfig {
         consistency: ConsistencyConfig { allow_rotation_mismatch: true, ..Default::default() },
         ..Default::default()
     };
+    allow.observability.allow_poor_fit = true;
     for trial in 0..20 {
         let s = with_noise(&realistic_scene(&mut r, 10), &mut r, 0.1, 0.001);
         let g_inv: Vec<Isometry3> = s.g.iter().map(Isometry3::inverse).collect();

@@ -451,7 +451,7 @@ fn a_disturbed_view_is_flagged_by_name() {
 /// row of the table is that method's solution against the refined one.
 #[test]
 fn handeye_station_bars_are_the_stations_board_frames() {
-    let cfg = parallax_synthetic::TrajectoryConfig { rot_noise_rad: 0.002, trans_noise: 0.5, ..Default::default() };
+    let cfg = parallax_synthetic::TrajectoryConfig { rot_noise_rad: 0.002, trans_noise: 0.0005, ..Default::default() };
     let traj = parallax_synthetic::hand_eye_trajectory(&cfg).unwrap();
     let he_cfg = parallax_hand_eye::HandEyeConfig::default();
     let sol = parallax_composition::hand_eye(
