@@ -384,6 +384,19 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 .into_stereo(&args.calib[0].display().to_string())?,
         )
     };
+    // images `rectify` wrote carry the rectification they went through: another is refused
+    if let Some(m) = stereo.as_ref().and_then(|s| s.rectification) {
+        for (side, path) in [("left", &args.left), ("right", &args.right)] {
+            let Some(stamp) = parallax_composition::images::read_stamp(path)? else { continue };
+            anyhow::ensure!(
+                stamp.side == side || args.allow_swapped,
+                "{} is the {} image of a rectified pair (recorded in it by `rectify`), given as --{side}",
+                path.display(),
+                stamp.side
+            );
+            stamp.check(&m, size, path, &args.calib[0].display().to_string())?;
+        }
+    }
     // a swapped pair gives a confident-looking wrong map: refuse it unless told otherwise
     if let Some(code) = refuse_swapped(&pair.check_swap(&matcher)?, args.allow_swapped) {
         return Ok(code);

@@ -92,6 +92,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mut loaded = Vec::new();
     for (side, path) in [("left", &args.left), ("right", &args.right)] {
         let Some(path) = path else { continue };
+        // measure triangulates raw pixels through the rig: a rectified image (its size may be
+        // the raw one) would give wrong points without a word
+        if let Some(stamp) = parallax_composition::images::read_stamp(path)? {
+            bail!(
+                "{} is a rectified image ({}, recorded in it by `rectify`): measure takes pixels of the raw \
+                 (distorted) images and triangulates them through the rig — give the original {side} image",
+                path.display(),
+                stamp.made
+            );
+        }
         loaded.push((side, path, parallax_composition::io::load_gray(path)?));
     }
     let size = loaded.first().map(|(_, _, img)| img.dimensions());

@@ -207,7 +207,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let t_remap = t1.elapsed();
     // images and rectification file are written as one set
     let mut files = OutputSet::new();
-    pair.add_to(&mut files, &args.out)?;
+    let made = match (wide, &stored) {
+        (_, Some(_)) => "the calibration file's R1 R2 P1 P2 Q".to_string(),
+        (None, None) => format!("alpha {}", config.alpha.map_or("-1 (OpenCV's default)".into(), |a| a.to_string())),
+        (Some(_), None) => format!("balance {}, fov_scale {}", config.balance, config.fov_scale),
+    };
+    pair.add_to(&mut files, &args.out, &made, &RectificationMatrices::from(&rect))?;
     files.add_png(args.out.join("side_by_side.png"), &side_by_side(&l, &r, rect.vertical, args.line_spacing))?;
     let calibration = StereoCalibration { rectification: Some(RectificationMatrices::from(&rect)), ..stereo };
     let native = RectifiedRecord::of(&calibration, &rect);

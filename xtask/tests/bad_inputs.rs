@@ -1049,3 +1049,88 @@ fn swapped_stations_are_refused_naming_them() {
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     assert!(out.exists());
 }
+
+#[test]
+fn a_rectification_that_is_not_the_images_own_is_refused_with_the_depth_error() {
+    // a pair rectified with --alpha 1, matched with --calib pointing at the alpha-0
+    // rectification: depths 22 % off with exit 0 (issue 51)
+    let dir = temp("foreign-rectification");
+    let calib = calibration_in(&dir);
+    let (left, right) = (fixture("stereo/left_00.png"), fixture("stereo/right_00.png"));
+    let rectify = |alpha: &str| {
+        let out = dir.join(format!("alpha{alpha}"));
+        let r = run(&[
+            "rectify",
+            "--calib",
+            calib.to_str().unwrap(),
+            "--left",
+            &left,
+            "--right",
+            &right,
+            "--out",
+            out.to_str().unwrap(),
+            "--alpha",
+            alpha,
+        ]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        out
+    };
+    let (zero, one) = (rectify("0"), rectify("1"));
+    let disparity = |images: &Path, calib: &Path, out: &Path| {
+        run(&[
+            "disparity",
+            "--left",
+            images.join("left_rectified.png").to_str().unwrap(),
+            "--right",
+            images.join("right_rectified.png").to_str().unwrap(),
+            "--calib",
+            calib.to_str().unwrap(),
+            "--disparities",
+            "64",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let out = dir.join("depth");
+    let r = disparity(&one, &zero.join("rectification.ron"), &out);
+    let err = fails_naming(&r, &["left_rectified.png", "alpha 1", "another rectification", "% off"]);
+    // the depth error it names is the ratio of the two files' f·B
+    let read_q = |d: &Path| {
+        let (c, _) = parallax_interop::read(&[d.join("rectification.ron")]).unwrap();
+        c.into_stereo("r").unwrap().rectification.unwrap().q
+    };
+    let (q0, q1) = (read_q(&zero), read_q(&one));
+    let off = 100.0 * ((q0[2][3] / q0[3][2]) / (q1[2][3] / q1[3][2]) - 1.0).abs();
+    assert!(off > 1.0 && err.contains(&format!("{off:.1} % off")), "{off:.1} %: {err}");
+    assert!(!out.exists());
+    // the images with their own file: depth computed
+    let r = disparity(&one, &one.join("rectification.ron"), &out);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(out.join("points.ply").exists());
+    // swapped, the recorded sides are named
+    let r = run(&[
+        "disparity",
+        "--left",
+        one.join("right_rectified.png").to_str().unwrap(),
+        "--right",
+        one.join("left_rectified.png").to_str().unwrap(),
+        "--calib",
+        one.join("rectification.ron").to_str().unwrap(),
+        "--out",
+        dir.join("swapped").to_str().unwrap(),
+    ]);
+    fails_naming(&r, &["right_rectified.png is the right image of a rectified pair", "--left"]);
+    // measure triangulates raw pixels: rectified images are refused
+    let r = run(&[
+        "measure",
+        "--calib",
+        calib.to_str().unwrap(),
+        "--left",
+        one.join("left_rectified.png").to_str().unwrap(),
+        "--right",
+        one.join("right_rectified.png").to_str().unwrap(),
+        "--points",
+        POINTS,
+    ]);
+    fails_naming(&r, &["left_rectified.png is a rectified image", "alpha 1", "original left image"]);
+}
