@@ -145,8 +145,8 @@ pub struct Args {
     /// Worker threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// Timed runs after one warm-up run; the median is reported.
-    #[arg(long, default_value_t = 5)]
+    /// Timed runs after one warm-up run; the median is reported (at most 1000).
+    #[arg(long, default_value_t = 5, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1000))]
     runs: usize,
     /// Output directory (disparity.pfm, disparity16.png at 1/256 px when the range lies within
     /// 0..=255.996 px, disparity_colour.png).

@@ -31,6 +31,9 @@ impl From<MethodArg> for Method {
     }
 }
 
+/// Largest `--pixel-sigma`, pixels per coordinate.
+const MAX_PIXEL_SIGMA: f64 = 100.0;
+
 /// Arguments of `cargo xtask measure`.
 #[derive(clap::Args)]
 pub struct Args {
@@ -62,7 +65,7 @@ pub struct Args {
     /// Triangulation method.
     #[arg(long, value_enum, default_value = "optimal")]
     method: MethodArg,
-    /// Pixel noise per coordinate used for the uncertainties, pixels.
+    /// Pixel noise per coordinate used for the uncertainties, pixels (at most 100).
     #[arg(long, default_value_t = 0.1)]
     pixel_sigma: f64,
     /// Flag a point whose RMS reprojection error is above this, pixels (its left and right
@@ -147,7 +150,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         ensure!(rig.left.contains(*l), "point {i}: left pixel ({}, {}) is outside the left image", l.x, l.y);
         ensure!(rig.right.contains(*r), "point {i}: right pixel ({}, {}) is outside the right image", r.x, r.y);
     }
-    ensure!(args.pixel_sigma.is_finite() && args.pixel_sigma >= 0.0, "--pixel-sigma must be ≥ 0");
+    // beyond 100 px per coordinate the first-order uncertainty measures nothing (and overflowed
+    // to inf: every distance then read "no covariance: a point behind a camera?")
+    ensure!(
+        (0.0..=MAX_PIXEL_SIGMA).contains(&args.pixel_sigma),
+        "--pixel-sigma must be within 0..={MAX_PIXEL_SIGMA} px, got {}",
+        args.pixel_sigma
+    );
     ensure!(args.max_reprojection_px > 0.0, "--max-reprojection-px must be > 0 (inf: no check)");
     let config = TriangulationConfig {
         method: args.method.into(),

@@ -1134,3 +1134,27 @@ fn a_rectification_that_is_not_the_images_own_is_refused_with_the_depth_error() 
     ]);
     fails_naming(&r, &["left_rectified.png is a rectified image", "alpha 1", "original left image"]);
 }
+
+#[test]
+fn numeric_options_beyond_their_bounds_are_refused_before_any_output() {
+    // `disparity --runs 1000000000` ran until killed; `measure --pixel-sigma 1e308` reported every
+    // σ as inf and every distance "no covariance"; `--gt-scale 4` with a PFM was ignored (issue 51)
+    let dir = temp("numeric-bounds");
+    let easy = |f: &str| fixture(&format!("stereo-scene-easy/{f}"));
+    let out = dir.join("d");
+    let disparity = |extra: &[&str]| {
+        let base = ["disparity", "--left", &easy("left.png"), "--right", &easy("right.png"), "--out"];
+        run(&[&base[..], &[out.to_str().unwrap()], extra].concat())
+    };
+    fails_naming(&disparity(&["--runs", "1000000000"]), &["--runs", "1..=1000"]);
+    fails_naming(&disparity(&["--runs", "0"]), &["--runs", "1..=1000"]);
+    fails_naming(
+        &disparity(&["--gt", &easy("disparity.pfm"), "--gt-scale", "4"]),
+        &["disparity.pfm", "PNG ground truth only"],
+    );
+    assert!(!out.exists());
+    let calib = calibration_in(&dir);
+    let r = run(&["measure", "--calib", calib.to_str().unwrap(), "--points", POINTS, "--pixel-sigma", "1e308"]);
+    fails_naming(&r, &["--pixel-sigma", "0..=100"]);
+    assert_eq!(files_below(&dir), ["c.ron"]);
+}

@@ -138,6 +138,13 @@ pub fn load_truth(path: &Path, scale: f32, size: (u32, u32)) -> Result<Disparity
 
 fn read_truth(path: &Path, scale: f32) -> Result<DisparityMap> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("pfm")) {
+        if scale != 1.0 {
+            // it was ignored: the evaluation then used other disparities than the user meant
+            return Err(PipelineError::Input(format!(
+                "ground truth {}: a PFM holds disparities in pixels, a scale ({scale}) applies to PNG ground truth only",
+                path.display()
+            )));
+        }
         // a PFM is 4 bytes a pixel plus its header: larger than the largest image, refused unread
         let bytes = parallax_interop::read_bounded(path, crate::io::MAX_IMAGE_BYTES)
             .map_err(|source| PipelineError::Io { what: "reading", path: path.to_path_buf(), source })?;
