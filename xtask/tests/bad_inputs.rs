@@ -800,29 +800,22 @@ fn a_stereo_calibration_in_millimetres_is_refused_for_ros_and_kalibr_files_and_o
     assert!(!String::from_utf8_lossy(&r.stderr).contains("in metres"), "{}", String::from_utf8_lossy(&r.stderr));
 }
 
+/// `rectify` of the stereo fixtures' first pair with `calib` into `out` at `--alpha`.
+fn rectify_first_pair(calib: &Path, out: &Path, alpha: &str) -> Output {
+    let (left, right) = (fixture("stereo/left_00.png"), fixture("stereo/right_00.png"));
+    let (calib, out) = (calib.to_str().unwrap(), out.to_str().unwrap());
+    run(&["rectify", "--calib", calib, "--left", &left, "--right", &right, "--out", out, &format!("--alpha={alpha}")])
+}
+
 #[test]
 fn a_calibration_that_rectifies_to_black_images_is_refused_with_the_figure() {
     // k1 = 1e300 rectified to a 0x0 valid region and two black images, exit 0
     let dir = temp("collapsed");
-    let (left, right) = (fixture("stereo/left_00.png"), fixture("stereo/right_00.png"));
     let file = common::opencv_stereo_yaml;
     let out = dir.join("out");
-    let rectify = |calib: &Path| {
-        run(&[
-            "rectify",
-            "--calib",
-            calib.to_str().unwrap(),
-            "--left",
-            &left,
-            "--right",
-            &right,
-            "--out",
-            out.to_str().unwrap(),
-            // without alpha scaling (OpenCV's default): alpha 0 and 1 refuse the absurd lens
-            // already, its extents being infinite
-            "--alpha=-1",
-        ])
-    };
+    // without alpha scaling (OpenCV's default): alpha 0 and 1 refuse the absurd lens already, its
+    // extents being infinite
+    let rectify = |calib: &Path| rectify_first_pair(calib, &out, "-1");
     let sane = dir.join("sane.yml");
     std::fs::write(&sane, file("-0.1")).unwrap();
     assert!(rectify(&sane).status.success());
@@ -1056,22 +1049,9 @@ fn a_rectification_that_is_not_the_images_own_is_refused_with_the_depth_error() 
     // rectification: depths 22 % off with exit 0 (issue 51)
     let dir = temp("foreign-rectification");
     let calib = calibration_in(&dir);
-    let (left, right) = (fixture("stereo/left_00.png"), fixture("stereo/right_00.png"));
     let rectify = |alpha: &str| {
         let out = dir.join(format!("alpha{alpha}"));
-        let r = run(&[
-            "rectify",
-            "--calib",
-            calib.to_str().unwrap(),
-            "--left",
-            &left,
-            "--right",
-            &right,
-            "--out",
-            out.to_str().unwrap(),
-            "--alpha",
-            alpha,
-        ]);
+        let r = rectify_first_pair(&calib, &out, alpha);
         assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
         out
     };
