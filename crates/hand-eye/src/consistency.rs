@@ -136,6 +136,7 @@ pub enum Inconsistency {
 
 /// Figures of the consistency checks (all unit-free).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
 pub struct ConsistencyReport {
     /// Median over the motions of `|θ_A − θ_B|`, degrees.
     pub angle_mismatch_deg: f64,
@@ -221,8 +222,9 @@ fn usable_axes(motions: &[Motion], cfg: &ConsistencyConfig) -> Vec<(DVec3, DVec3
 }
 
 /// Median angle between the robot axes and the camera axes turned by `rotation` (the rotation
-/// of a solution `X`), degrees — what [`ConsistencyReport::axis_mismatch_deg`] bounds from below
-/// over every `X`. `None` with fewer than two motions usable for axes.
+/// of a solution `X`), degrees: for the solution what [`ConsistencyReport::axis_mismatch_deg`]
+/// is for the best common rotation of the axes. `None` with fewer than two motions usable for
+/// axes.
 pub(crate) fn axis_misfit_deg(motions: &[Motion], rotation: DMat3, cfg: &ConsistencyConfig) -> Option<f64> {
     let usable = usable_axes(motions, cfg);
     if usable.len() < 2 {

@@ -23,12 +23,12 @@ pub struct ObservabilityConfig {
     /// scale (the RMS translation of the input poses, [`crate::HandEyeSolution::length_scale`]):
     /// unit-free; 0.01 is 5 mm for poses half a metre away.
     pub max_translation_sigma_rel: f64,
-    /// A solution whose rotation leaves the motions' axes this many degrees (plus twice the
-    /// bound) further apart than the best common rotation does
-    /// ([`crate::ConsistencyReport::axis_mismatch_deg`], a lower bound over every `X`) is refused
+    /// A solution whose rotation leaves the motions' axes (median angle) more than this many
+    /// degrees plus three times the best common rotation's figure apart
+    /// ([`crate::ConsistencyReport::axis_mismatch_deg`]) is refused
     /// as implausible: its solver failed on these data (Daniilidis and Li, which solve rotation
     /// and translation in one system, when the translations are noise). Correct synthetic sets
-    /// with 0.3° / 5 mm noise measured at most 0.85° above the bound for those solvers, 2.45°
+    /// with 0.3° / 5 mm noise measured at most 0.85° above that figure for those solvers, 2.45°
     /// for the Rodrigues-axis method.
     pub max_rotation_excess_deg: f64,
     /// Warn when the mean translation residual of the motions exceeds this fraction of the

@@ -45,9 +45,11 @@ pub struct Quality {
     pub board_spread_translation: f64,
     /// Per station, the median rotation angle between its board frame and the other stations'
     /// (degrees): a station far above the others' figures does not fit (swapped or mis-paired).
+    #[serde(default)]
     pub station_rotation_deg: Vec<f64>,
     /// Per station, the median distance between its board origin and the other stations'
     /// (scene length unit).
+    #[serde(default)]
     pub station_translation: Vec<f64>,
 }
 
