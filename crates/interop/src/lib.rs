@@ -408,8 +408,13 @@ fn read_inner<P: AsRef<Path>>(paths: &[P], size: Option<(u32, u32)>) -> Result<(
 /// record) as a stereo calibration, checked as any stereo file is.
 pub fn read_rig_pair(path: &Path, pair: (usize, usize)) -> Result<Calibration> {
     let what = path.display().to_string();
-    let (_, v) = detect(&read_text(path)?, &what)?;
-    rig::rig_pair(&v, pair, &what)
+    parse_rig_pair(&read_text(path)?, pair, &what)
+}
+
+/// [`read_rig_pair`] on text already in memory; `what` names it in errors.
+pub fn parse_rig_pair(text: &str, pair: (usize, usize), what: &str) -> Result<Calibration> {
+    let (_, v) = detect(text, what)?;
+    rig::rig_pair(&v, pair, what)
 }
 
 /// A native result file (RON or JSON, detected from the content) deserialised as `T`: for the

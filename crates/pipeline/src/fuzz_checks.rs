@@ -14,7 +14,7 @@
 //! | [`pose_text`] | `parallax_hand_eye::io::parse_pose_file` (axis-angle and roll-pitch-yaw lines, RON lists, ViSP YAML) |
 //! | [`visp_pose`] | `parallax_hand_eye::visp::parse_pose_yaml` (ViSP `vpPoseVector` / `vpHomogeneousMatrix` YAML) |
 //! | [`visp_camera`] | `parallax_hand_eye::visp::parse_camera_xml` (ViSP camera XML) |
-//! | [`calibration`] | `parallax_interop::parse` (RON, JSON, OpenCV YAML / XML, ROS, Kalibr, hand-eye records) |
+//! | [`calibration`] | `parallax_interop::parse` (RON, JSON, OpenCV YAML / XML, ROS, Kalibr, hand-eye records) and `parse_rig_pair` (Kalibr camchains of any size, OpenCV multiview, rig records) |
 //! | [`scene`] | `parallax_synthetic::SceneDescription::from_ron` (scene files) |
 //! | [`chessboard_image`] | [`crate::io::decode_image`] into `parallax_corner_detection::find_chessboard` |
 //! | [`point_list`] | [`crate::measurement::parse_pixel_pairs`] (`measure --points` / `--right-points`) |
@@ -170,7 +170,15 @@ pub fn visp_camera(data: &[u8]) {
 pub fn calibration(data: &[u8]) {
     use parallax_interop::{Calibration, Format};
     let Ok(text) = std::str::from_utf8(data) else { return };
-    let Ok((calib, _)) = parallax_interop::parse(text, "fuzz") else { return };
+    // a calibration file, else cameras 2 and 0 of a rig file (Kalibr camchain, OpenCV
+    // multiview, rig record)
+    let calib = match parallax_interop::parse(text, "fuzz") {
+        Ok((calib, _)) => calib,
+        Err(_) => match parallax_interop::parse_rig_pair(text, (2, 0), "fuzz") {
+            Ok(calib) => calib,
+            Err(_) => return,
+        },
+    };
     for format in [Format::Ron, Format::Json, Format::OpenCvYaml, Format::OpenCvXml] {
         // Writing may refuse (e.g. a value a format cannot hold); it must not panic.
         let Ok(files) = parallax_interop::render(&calib, format, Path::new("written.yml")) else { continue };
