@@ -296,9 +296,9 @@ pub fn calibrate(
     })
 }
 
-/// The plausibility checks of a solution (see [`ObservabilityConfig`]): its rotation against
-/// the data's lower bound on the axis misfit, and the motions' translation residual against the
-/// scene scale. A failure is [`HandEyeError::Implausible`], or a warning with
+/// The plausibility checks of a solution (see [`ObservabilityConfig`]): its axis misfit against
+/// the best common rotation's, each station's board frame against the others', and the motions'
+/// translation residual against the scene scale. A failure is [`HandEyeError::Implausible`], or a warning with
 /// `allow_poor_fit`; a translation fit between the warning and the refusal level is a warning.
 fn check_fit(
     method: Method,
