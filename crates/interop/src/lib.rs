@@ -98,6 +98,7 @@ mod model;
 pub mod opencv;
 mod rig;
 mod target;
+mod unique;
 mod write;
 
 use std::path::Path;
@@ -189,6 +190,7 @@ impl Format {
 /// RON as a value tree (struct names dropped, fields as map keys).
 fn ron_value(text: &str, what: &str) -> Result<Value> {
     let v: ron::Value = ron::from_str(text).map_err(|e| syntax(what, format!("RON: {e}")))?;
+    ron::from_str::<unique::UniqueKeys>(text).map_err(|e| syntax(what, format!("RON: {e}")))?;
     serde_json::to_value(v).map_err(|e| syntax(what, format!("RON value: {e}")))
 }
 
@@ -225,6 +227,7 @@ pub fn detect(text: &str, what: &str) -> Result<(Format, Value)> {
         return Ok((format, v));
     }
     if let Ok(v) = serde_json::from_str::<Value>(text) {
+        serde_json::from_str::<unique::UniqueKeys>(text).map_err(|e| syntax(what, format!("JSON: {e}")))?;
         return Ok((Format::Json, v));
     }
     let ron_result = ron_value(text, what);

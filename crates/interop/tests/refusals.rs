@@ -155,3 +155,21 @@ fn nesting_bombs_duplicate_keys_and_endless_files_are_refused() {
         println!("skipped the /dev/zero case: no /dev/zero on this system");
     }
 }
+
+/// A key given twice in a JSON or RON calibration: the readers kept the last without a word
+/// (issue 51; the YAML reader refused already, the XML reader since the last round).
+#[test]
+fn a_key_given_twice_in_json_or_ron_is_refused_naming_it() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data");
+    for (file, key, extra) in [
+        ("ours_stereo.json", "\"calibration\"", "\"calibration\": {},\n"),
+        ("ours_stereo.ron", "calibration:", "calibration: (),\n"),
+    ] {
+        let text = std::fs::read_to_string(format!("{dir}/{file}")).unwrap();
+        assert!(parse(&text, file).is_ok(), "{file}");
+        let i = text.find(key).unwrap();
+        let doubled = format!("{}{extra}{}", &text[..i], &text[i..]);
+        let err = parse(&doubled, file).unwrap_err().to_string();
+        assert!(err.contains(file) && err.contains("\"calibration\" appears twice"), "{file}: {err}");
+    }
+}
