@@ -16,7 +16,9 @@
 //! - [`detect_markers`]: ArUco / AprilTag markers of OpenCV's predefined dictionaries, decoded
 //!   with error correction; [`detect_single_marker`] refines a lone tag's corners (hand-eye).
 //! - [`detect_charuco`] (OpenCV's `CharucoBoard`), [`detect_aprilgrid`] (Kalibr's AprilGrid):
-//!   any visible subset of corners, ids in OpenCV's / Kalibr's numbering, saddle-refined.
+//!   any visible subset of corners, ids in OpenCV's / Kalibr's numbering, saddle-refined;
+//!   ChArUco corners are predicted from the decoded markers, so boards printed with outlined
+//!   black squares (no saddle beyond the frames) are found too, from the squares' edges.
 //! - [`detect_circle_grid`]: symmetric and asymmetric circle grids in `findCirclesGrid`'s order,
 //!   centres corrected for perspective bias.
 //!

@@ -43,6 +43,11 @@ pub struct RenderOptions {
     /// Replace the uniform background by random clutter (rectangles, bars, a smooth shading)
     /// around the board. Default false.
     pub clutter: bool,
+    /// Black squares printed as a dark frame this wide (a fraction of the square's side)
+    /// around a light interior of the white squares' grey: an outlined or hollow print, whose
+    /// corners are not saddles beyond the frame's width. 0 (the default) = solid squares.
+    /// In `[0, 0.5)`; chessboards and ChArUco boards only.
+    pub square_outline: f64,
     /// Seed of the noise, clutter and gradient direction.
     pub seed: u64,
 }
@@ -60,6 +65,7 @@ impl Default for RenderOptions {
             vignetting: 0.0,
             background: 128,
             clutter: false,
+            square_outline: 0.0,
             seed: 0,
         }
     }
@@ -90,6 +96,12 @@ impl RenderOptions {
             if !(0.0..=1.0).contains(&v) {
                 return Err(SyntheticError::config(field, format!("must be in [0, 1], got {v}")));
             }
+        }
+        if !(0.0..0.5).contains(&self.square_outline) {
+            return Err(SyntheticError::config(
+                "square_outline",
+                format!("must be in [0, 0.5) of a square (0 = solid squares), got {}", self.square_outline),
+            ));
         }
         if self.illumination_gradient > 1.0 {
             return Err(SyntheticError::config("illumination_gradient", "must be at most 1 (negative brightness)"));
@@ -213,13 +225,18 @@ impl Pattern {
     }
 
     fn new(board: &Chessboard, opts: &RenderOptions) -> Self {
-        let m = opts.margin_squares;
+        let (m, t) = (opts.margin_squares, opts.square_outline);
         let breaks = |n: usize| {
             let mut b = Vec::with_capacity(n + 4);
             if m > 0.0 {
                 b.push(-1.0 - m);
             }
             b.extend((0..=n + 1).map(|k| k as f64 - 1.0));
+            if t > 0.0 {
+                // The inner edges of the outlined squares' frames.
+                b.extend((0..=n).flat_map(|k| [k as f64 - 1.0 + t, k as f64 - t]));
+                b.sort_by(f64::total_cmp);
+            }
             if m > 0.0 {
                 b.push(n as f64 + m);
             }
@@ -234,8 +251,10 @@ impl Pattern {
                 let (x0, x1, y0, y1) = (xs[ix], xs[ix + 1], ys[iy], ys[iy + 1]);
                 let in_squares = x0 >= -1.0 && x1 <= board.cols as f64 && y0 >= -1.0 && y1 <= board.rows as f64;
                 let colour = if in_squares {
-                    let (i, j) = (x0.round() as i64, y0.round() as i64);
-                    if (i + j).rem_euclid(2) == 0 { black } else { white }
+                    let (i, j) = (x0.floor() as i64, y0.floor() as i64);
+                    let (fx, fy) = (0.5 * (x0 + x1) - i as f64, 0.5 * (y0 + y1) - j as f64);
+                    let frame = t == 0.0 || fx.min(fy).min(1.0 - fx).min(1.0 - fy) < t;
+                    if (i + j).rem_euclid(2) == 0 && frame { black } else { white }
                 } else {
                     white
                 };

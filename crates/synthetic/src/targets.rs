@@ -113,6 +113,14 @@ fn check_inputs(
     Ok(())
 }
 
+/// Refuses `square_outline` for a target without chessboard squares.
+fn solid_only(opts: &RenderOptions, target: &str) -> Result<(), SyntheticError> {
+    if opts.square_outline > 0.0 {
+        return Err(SyntheticError::config("square_outline", format!("{target} has no chessboard squares to outline")));
+    }
+    Ok(())
+}
+
 /// Renders a ChArUco board (OpenCV's layout, see [`CharucoBoard`]) with exact area coverage
 /// (as [`crate::render_chessboard`]: every square, marker border and marker bit is an
 /// axis-aligned cell of the board plane), a white margin of `opts.margin_squares` squares,
@@ -136,7 +144,7 @@ pub fn render_charuco(
     let n = dict.marker_size();
     let d = 0.5 * (sq - board.marker_length()) / sq;
     let cell = board.marker_length() / sq / (n + 2) as f64;
-    let m = opts.margin_squares;
+    let (m, t) = (opts.margin_squares, opts.square_outline);
     let breaks = |count: usize| {
         let mut b = Vec::new();
         if m > 0.0 {
@@ -145,10 +153,18 @@ pub fn render_charuco(
         for i in 0..count {
             let i = i as f64;
             b.push(i);
+            if t > 0.0 {
+                b.push(i + t);
+            }
             for k in 0..=n + 2 {
                 b.push(i + d + k as f64 * cell);
             }
+            if t > 0.0 {
+                b.push(i + 1.0 - t);
+            }
         }
+        b.sort_by(f64::total_cmp);
+        b.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
         b.push(count as f64);
         if m > 0.0 {
             b.push(count as f64 + m);
@@ -162,7 +178,9 @@ pub fn render_charuco(
         }
         let (i, j) = (x.floor() as usize, y.floor() as usize);
         if board.square_is_black(i, j) {
-            return black;
+            let (fx, fy) = (x - i as f64, y - j as f64);
+            let frame = t == 0.0 || fx.min(fy).min(1.0 - fx).min(1.0 - fy) < t;
+            return if frame { black } else { white };
         }
         let (cx, cy) = ((x - i as f64 - d) / cell, (y - j as f64 - d) / cell);
         if cx < 0.0 || cy < 0.0 || cx >= (n + 2) as f64 || cy >= (n + 2) as f64 {
@@ -197,6 +215,7 @@ pub fn render_circle_grid(
     margin_px: f64,
 ) -> Result<TargetView, SyntheticError> {
     check_inputs(opts, camera, camera_from_board, "camera_from_board")?;
+    solid_only(opts, "a circle grid")?;
     let s = grid.spacing();
     let r = 0.5 * grid.diameter() / s; // in grid units
     let centres: Vec<DVec2> =
@@ -247,6 +266,7 @@ pub fn render_aprilgrid(
     margin_px: f64,
 ) -> Result<TargetView, SyntheticError> {
     check_inputs(opts, camera, camera_from_target, "camera_from_target")?;
+    solid_only(opts, "an AprilGrid")?;
     let camera_from_print = *camera_from_target * grid.target_from_print();
     let (cols, rows) = (grid.tag_cols(), grid.tag_rows());
     let g = grid.tag_spacing();
@@ -309,6 +329,7 @@ pub fn render_marker(
     margin_px: f64,
 ) -> Result<TargetView, SyntheticError> {
     check_inputs(opts, camera, camera_from_marker, "camera_from_marker")?;
+    solid_only(opts, "a single marker")?;
     let s = marker.size();
     let marker_from_print = Isometry3::from_quat_translation(
         glam::DQuat::from_rotation_x(std::f64::consts::PI),

@@ -20,7 +20,10 @@ fn colour(x: f64, y: f64, cols: usize, rows: usize, margin: f64, o: &RenderOptio
         return Some(f64::from(o.white));
     }
     let (i, j) = (x.floor() as i64, y.floor() as i64);
-    Some(if (i + j).rem_euclid(2) == 0 { f64::from(o.black) } else { f64::from(o.white) })
+    // An outlined print: only the black squares' frame, `square_outline` wide, is black.
+    let (fx, fy) = (x - i as f64, y - j as f64);
+    let frame = o.square_outline == 0.0 || fx.min(fy).min(1.0 - fx).min(1.0 - fy) < o.square_outline;
+    Some(if (i + j).rem_euclid(2) == 0 && frame { f64::from(o.black) } else { f64::from(o.white) })
 }
 
 #[test]
@@ -112,18 +115,22 @@ fn tilted_distorted_view_matches_brute_force_supersampling() {
     let cam = distorted_camera();
     let board = Chessboard::new(9, 6, 25.0).unwrap();
     let poses = calibration_poses(&cam, &board, &ViewSetConfig { views: 2, seed: 9, ..Default::default() }).unwrap();
-    let o = opts_bw();
-    for pose in &poses {
+    // Solid squares, and squares printed as outlines (issue 49's hard prints).
+    for (pose, outline) in poses.iter().zip([0.0, 0.15]) {
+        let o = RenderOptions { square_outline: outline, ..opts_bw() };
         let view = render_chessboard(&cam, &board, pose, &o).unwrap();
         // Every 7th anti-aliased (mixed) pixel: these carry the edge positions.
         let mut diffs = vec![];
-        let mut k = 0;
+        let (mut k, mut outlined_pixels) = (0, 0);
         for (u, v, p) in view.image.enumerate_pixels() {
             let g = p.0[0];
             if g != 0 && g != 255 && g != 128 {
                 k += 1;
                 if k % 7 == 0 {
                     let bf = brute_force(&cam, pose, &board, &o, u, v, 48);
+                    if outline > 0.0 {
+                        outlined_pixels += 1;
+                    }
                     diffs.push((f64::from(g) - bf).abs());
                 }
             }
@@ -133,6 +140,10 @@ fn tilted_distorted_view_matches_brute_force_supersampling() {
         let max = diffs.iter().cloned().fold(0.0, f64::max);
         // 48x48 point samples resolve coverage to ~1/48 per row: a few grey levels at worst.
         assert!(mean < 0.9 && max < 6.0, "mean {mean} max {max} over {} pixels", diffs.len());
+        if outline > 0.0 {
+            // The frames' inner edges add edge pixels: about twice as many as solid squares have.
+            assert!(outlined_pixels > 400, "{outlined_pixels} edge pixels on the outlined print");
+        }
     }
 }
 
@@ -234,6 +245,12 @@ fn bad_render_inputs_are_errors() {
     assert!(huge.contains("blur_sigma") && huge.contains("above 50 px"), "{huge}");
     assert!(e(RenderOptions { salt_fraction: 1.5, ..Default::default() }).contains("salt_fraction"));
     assert!(e(RenderOptions { noise_sigma: f64::NAN, ..Default::default() }).contains("noise_sigma"));
+    assert!(e(RenderOptions { square_outline: 0.5, ..Default::default() }).contains("square_outline"));
+    // Outlines only for targets with chessboard squares.
+    let grid = parallax_camera_model::CircleGrid::new(4, 5, 20.0, 10.0, false).unwrap();
+    let o = RenderOptions { square_outline: 0.1, ..Default::default() };
+    let err = render_circle_grid(&cam, &grid, &pose, &o, &[], 2.0).unwrap_err().to_string();
+    assert!(err.contains("square_outline") && err.contains("circle grid"), "{err}");
     let behind = Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(0.0, 0.0, -500.0));
     assert!(render_chessboard(&cam, &board, &behind, &RenderOptions::default()).is_err());
     let nan = Isometry3::from_rvec_tvec(DVec3::new(f64::NAN, 0.0, 0.0), DVec3::new(0.0, 0.0, 500.0));
