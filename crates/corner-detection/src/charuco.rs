@@ -331,15 +331,7 @@ fn edge_lines(
     if !(lo.is_finite() && hi.is_finite()) || x0 < 0 || y0 < 0 || x1 >= w || y1 >= hgt {
         return None;
     }
-    let (pw, ph) = ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize);
-    let (patch, smoothed, blur) = scratch;
-    patch.clear();
-    for y in y0..=y1 {
-        let row = (y * w) as usize;
-        patch.extend(img.as_raw()[row + x0 as usize..=row + x1 as usize].iter().map(|&v| v as f32));
-    }
-    gaussian_blur_into(patch, pw, ph, SIGMA, blur, smoothed);
-    let f = ImageF32::from_raw(pw as u32, ph as u32, std::mem::take(smoothed)).expect("patch buffer");
+    let f = smoothed_patch(img, (x0, y0), (x1, y1), SIGMA, scratch);
     let origin = DVec2::new(x0 as f64, y0 as f64);
     let mut lines = Vec::with_capacity(2);
     for probes in &probes {
@@ -370,12 +362,12 @@ fn edge_lines(
         }
         let line = fit_line(&pts);
         let Some(line) = line else {
-            *smoothed = f.into_raw();
+            scratch.1 = f.into_raw();
             return None;
         };
         lines.push(line);
     }
-    *smoothed = f.into_raw();
+    scratch.1 = f.into_raw();
     let ((c0, d0), (c1, d1)) = (lines[0], lines[1]);
     let den = d0.perp_dot(d1);
     if den.abs() < 0.1 {
@@ -495,20 +487,30 @@ pub(crate) fn refine(
     if !p.is_finite() || cx - margin < 0 || cy - margin < 0 || cx + margin >= w || cy + margin >= h {
         return None;
     }
-    let side = (2 * margin + 1) as usize;
-    let (patch, smoothed, blur) = scratch;
-    patch.clear();
-    for y in cy - margin..=cy + margin {
-        let row = (y * w) as usize;
-        patch.extend(
-            img.as_raw()[row + (cx - margin) as usize..=row + (cx + margin) as usize].iter().map(|&v| v as f32),
-        );
-    }
-    gaussian_blur_into(patch, side, side, sigma, blur, smoothed);
-    let s = ImageF32::from_raw(side as u32, side as u32, std::mem::take(smoothed)).expect("patch buffer");
+    let s = smoothed_patch(img, (cx - margin, cy - margin), (cx + margin, cy + margin), sigma, scratch);
     let origin = DVec2::new((cx - margin) as f64, (cy - margin) as f64);
     let mut local = p - origin;
     let r = saddle_one(&s, &mut local, half, 20, 0.001);
-    *smoothed = s.into_raw();
+    scratch.1 = s.into_raw();
     Some((local + origin, r))
+}
+
+/// The image's pixels `from..=to` (inclusive corners, inside the image) smoothed by `sigma`,
+/// in the scratch buffers; the caller hands the result's buffer back to `scratch.1`.
+fn smoothed_patch(
+    img: &GrayImage,
+    from: (i64, i64),
+    to: (i64, i64),
+    sigma: f64,
+    scratch: &mut (Vec<f32>, Vec<f32>, BlurScratch),
+) -> ImageF32 {
+    let (w, h) = ((to.0 - from.0 + 1) as usize, (to.1 - from.1 + 1) as usize);
+    let (patch, smoothed, blur) = scratch;
+    patch.clear();
+    for y in from.1..=to.1 {
+        let row = y as usize * img.width() as usize;
+        patch.extend(img.as_raw()[row + from.0 as usize..=row + to.0 as usize].iter().map(|&v| f32::from(v)));
+    }
+    gaussian_blur_into(patch, w, h, sigma, blur, smoothed);
+    ImageF32::from_raw(w as u32, h as u32, std::mem::take(smoothed)).expect("patch buffer")
 }

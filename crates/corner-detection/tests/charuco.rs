@@ -39,6 +39,22 @@ fn poses(cam: &Camera, b: &CharucoBoard, views: usize, seed: u64) -> Vec<Isometr
     calibration_poses(cam, &chess, &cfg).unwrap().into_iter().map(|p| p * shift).collect()
 }
 
+/// With `CHARUCO_DUMP=DIR`: view `k` into `DIR/sub/viewKK.png` and its truth, `id u v visible`
+/// per corner with a projection, into `viewKK.truth.txt` (for OpenCV's script).
+fn dump(sub: &str, k: usize, view: &parallax_synthetic::TargetView) {
+    let Ok(dir) = std::env::var("CHARUCO_DUMP") else { return };
+    let dir = std::path::Path::new(&dir).join(sub);
+    std::fs::create_dir_all(&dir).unwrap();
+    view.image.save(dir.join(format!("view{k:02}.png"))).unwrap();
+    let truth: String = view
+        .points
+        .iter()
+        .enumerate()
+        .filter_map(|(id, p)| p.map(|p| format!("{id} {} {} {}\n", p.x, p.y, view.visible[id] as u8)))
+        .collect();
+    std::fs::write(dir.join(format!("view{k:02}.truth.txt")), truth).unwrap();
+}
+
 #[derive(Default, Debug)]
 struct Stats {
     views: usize,
@@ -73,17 +89,7 @@ fn fifty_views_zero_wrong_ids_and_exact_corners() {
         let view = render_charuco(&cam, &b, pose, &opts, &occluders, 4.0).unwrap();
         let det = detect_charuco(&view.image, &b, &CharucoConfig::default()).unwrap();
         assert_eq!(det.square_frame, None, "view {k}: a solid print taken for an outlined one");
-        if let Ok(dir) = std::env::var("CHARUCO_DUMP") {
-            view.image.save(format!("{dir}/view{k:02}.png")).unwrap();
-            // Truth: `id u v visible` per corner with a projection.
-            let truth: String = view
-                .points
-                .iter()
-                .enumerate()
-                .filter_map(|(id, p)| p.map(|p| format!("{id} {} {} {}\n", p.x, p.y, view.visible[id] as u8)))
-                .collect();
-            std::fs::write(format!("{dir}/view{k:02}.truth.txt"), truth).unwrap();
-        }
+        dump("", k, &view);
         s.views += 1;
         let visible = view.visible.iter().filter(|&&v| v).count();
         s.visible += visible;
@@ -168,18 +174,7 @@ fn outlined_squares_are_found_from_the_markers() {
                 ..Default::default()
             };
             let view = render_charuco(&cam, &b, pose, &opts, &[], 4.0).unwrap();
-            if let Ok(dir) = std::env::var("CHARUCO_DUMP") {
-                let dir = format!("{dir}/outlined-{frame}");
-                std::fs::create_dir_all(&dir).unwrap();
-                view.image.save(format!("{dir}/view{k:02}.png")).unwrap();
-                let truth: String = view
-                    .points
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(id, p)| p.map(|p| format!("{id} {} {} {}\n", p.x, p.y, view.visible[id] as u8)))
-                    .collect();
-                std::fs::write(format!("{dir}/view{k:02}.truth.txt"), truth).unwrap();
-            }
+            dump(&format!("outlined-{frame}"), k, &view);
             let det = detect_charuco(&view.image, &b, &CharucoConfig::default()).unwrap();
             let measured = det.square_frame.expect("an outlined print is recognised");
             assert!(
