@@ -164,7 +164,10 @@ pub fn detect_charuco(img: &GrayImage, board: &CharucoBoard, cfg: &CharucoConfig
             continue;
         }
         let own = board.marker_square(m.id).map(|(x, y)| (x as f64, y as f64));
-        if own != Some((sx, sy)) {
+        // A marker read only after correcting a bit, that no neighbour confirms, is a misread
+        // (blur merging cells): left out, it says nothing about the layout.
+        let misread = m.corrected_bits > 0 && !confirmed[k];
+        if own != Some((sx, sy)) && !misread {
             misplaced.push(m.id);
         }
     }

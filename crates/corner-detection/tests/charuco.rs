@@ -201,3 +201,62 @@ fn outlined_squares_are_found_from_the_markers() {
         assert!(rms <= 0.06, "frame {frame}: RMS {rms}");
     }
 }
+
+/// Issue 49: an outlined print (frame 0.06 of a square) photographed as the issue's: 720x540,
+/// farther away (squares of 15–30 px), blur 1.2 px, noise σ 3, light falling off across the
+/// image (gradient ±40 %, vignetting 30 %), 12 views. One marker is misread in two views (a
+/// bit corrected, no neighbour agreeing): it is left out, not taken for a layout mismatch that
+/// would reject the board. Found at least 70 % of the visible corners (406 of 517 when
+/// written; OpenCV 5.1's `CharucoDetector` on the same views: 175, 24 of them more than 1 px
+/// off, RMS 0.32 px), no wrong id, RMS within 0.08 px.
+#[test]
+fn outlined_print_under_uneven_light_and_blur() {
+    let cam = Camera {
+        intrinsics: Intrinsics::new(700.0, 700.0, 362.0, 268.0),
+        lens: Distortion::new(-0.15, 0.05, 0.0, 0.0, 0.0).into(),
+        width: 720,
+        height: 540,
+    };
+    let b = board();
+    let chess = Chessboard { cols: b.squares_x() - 1, rows: b.squares_y() - 1, square_size: b.square_length() };
+    let cfg = ViewSetConfig {
+        views: 12,
+        seed: 5,
+        allow_partial: true,
+        min_distance: 450.0,
+        max_distance: 750.0,
+        ..Default::default()
+    };
+    let shift = Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(-b.square_length(), -b.square_length(), 0.0));
+    let (mut found, mut visible, mut wrong, mut sum_sq) = (0, 0, 0, 0.0);
+    for (k, pose) in calibration_poses(&cam, &chess, &cfg).unwrap().into_iter().map(|p| p * shift).enumerate() {
+        let opts = RenderOptions {
+            blur_sigma: 1.2,
+            noise_sigma: 3.0,
+            square_outline: 0.06,
+            illumination_gradient: 0.4,
+            vignetting: 0.3,
+            seed: 77 + k as u64,
+            ..Default::default()
+        };
+        let view = render_charuco(&cam, &b, &pose, &opts, &[], 4.0).unwrap();
+        dump("outlined-uneven", k, &view);
+        let det = detect_charuco(&view.image, &b, &CharucoConfig::default()).unwrap();
+        assert!(det.misplaced.is_empty(), "view {k}: {:?} taken as misplaced", det.misplaced);
+        visible += view.visible.iter().filter(|&&v| v).count();
+        for (&id, &p) in det.observation.ids().iter().zip(det.observation.points()) {
+            let e = (p - view.points[id as usize].unwrap()).length();
+            if e > 1.0 {
+                wrong += 1;
+            } else {
+                found += 1;
+                sum_sq += e * e;
+            }
+        }
+    }
+    let rms = (sum_sq / found.max(1) as f64).sqrt();
+    println!("outlined print, uneven light: found {found} of {visible} visible, wrong ids {wrong}, RMS {rms:.4} px");
+    assert_eq!(wrong, 0);
+    assert!(found as f64 >= 0.7 * visible as f64, "{found} of {visible}");
+    assert!(rms <= 0.08, "RMS {rms}");
+}
