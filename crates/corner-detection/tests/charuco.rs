@@ -55,6 +55,34 @@ fn dump(sub: &str, k: usize, view: &parallax_synthetic::TargetView) {
     std::fs::write(dir.join(format!("view{k:02}.truth.txt")), truth).unwrap();
 }
 
+/// Corners against the truth: visible, found within 1 px of their id's truth, further off.
+#[derive(Default, Clone, Copy)]
+struct Tally {
+    visible: usize,
+    found: usize,
+    wrong: usize,
+    sum_sq: f64,
+}
+
+impl Tally {
+    fn add(&mut self, det: &parallax_corner_detection::CharucoDetection, view: &parallax_synthetic::TargetView) {
+        self.visible += view.visible.iter().filter(|&&v| v).count();
+        for (&id, &p) in det.observation.ids().iter().zip(det.observation.points()) {
+            let e = (p - view.points[id as usize].expect("a detected corner has a projection")).length();
+            if e > 1.0 {
+                self.wrong += 1;
+            } else {
+                self.found += 1;
+                self.sum_sq += e * e;
+            }
+        }
+    }
+
+    fn rms(&self) -> f64 {
+        (self.sum_sq / self.found.max(1) as f64).sqrt()
+    }
+}
+
 #[derive(Default, Debug)]
 struct Stats {
     views: usize,
@@ -164,7 +192,7 @@ fn outlined_squares_are_found_from_the_markers() {
     let cam = camera();
     let b = board();
     for frame in [0.03, 0.06, 0.12] {
-        let (mut visible, mut found, mut wrong, mut sum_sq) = (0, 0, 0, 0.0);
+        let mut tally = Tally::default();
         for (k, pose) in poses(&cam, &b, 20, 41).iter().enumerate() {
             let opts = RenderOptions {
                 blur_sigma: 0.8,
@@ -181,18 +209,10 @@ fn outlined_squares_are_found_from_the_markers() {
                 (measured - frame).abs() <= 0.01 + 0.25 * frame,
                 "view {k}: frame {measured:.3} measured for {frame}"
             );
-            visible += view.visible.iter().filter(|&&v| v).count();
-            for (&id, &p) in det.observation.ids().iter().zip(det.observation.points()) {
-                let e = (p - view.points[id as usize].unwrap()).length();
-                if e > 1.0 {
-                    wrong += 1;
-                } else {
-                    found += 1;
-                    sum_sq += e * e;
-                }
-            }
+            tally.add(&det, &view);
         }
-        let rms = (sum_sq / found.max(1) as f64).sqrt();
+        let Tally { visible, found, wrong, .. } = tally;
+        let rms = tally.rms();
         println!(
             "outlined squares, frame {frame}: found {found} of {visible} visible, wrong ids {wrong}, RMS {rms:.4} px"
         );
@@ -228,7 +248,7 @@ fn outlined_print_under_uneven_light_and_blur() {
         ..Default::default()
     };
     let shift = Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(-b.square_length(), -b.square_length(), 0.0));
-    let (mut found, mut visible, mut wrong, mut sum_sq) = (0, 0, 0, 0.0);
+    let mut tally = Tally::default();
     for (k, pose) in calibration_poses(&cam, &chess, &cfg).unwrap().into_iter().map(|p| p * shift).enumerate() {
         let opts = RenderOptions {
             blur_sigma: 1.2,
@@ -243,18 +263,10 @@ fn outlined_print_under_uneven_light_and_blur() {
         dump("outlined-uneven", k, &view);
         let det = detect_charuco(&view.image, &b, &CharucoConfig::default()).unwrap();
         assert!(det.misplaced.is_empty(), "view {k}: {:?} taken as misplaced", det.misplaced);
-        visible += view.visible.iter().filter(|&&v| v).count();
-        for (&id, &p) in det.observation.ids().iter().zip(det.observation.points()) {
-            let e = (p - view.points[id as usize].unwrap()).length();
-            if e > 1.0 {
-                wrong += 1;
-            } else {
-                found += 1;
-                sum_sq += e * e;
-            }
-        }
+        tally.add(&det, &view);
     }
-    let rms = (sum_sq / found.max(1) as f64).sqrt();
+    let Tally { visible, found, wrong, .. } = tally;
+    let rms = tally.rms();
     println!("outlined print, uneven light: found {found} of {visible} visible, wrong ids {wrong}, RMS {rms:.4} px");
     assert_eq!(wrong, 0);
     assert!(found as f64 >= 0.7 * visible as f64, "{found} of {visible}");
