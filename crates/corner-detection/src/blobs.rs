@@ -25,6 +25,10 @@ pub fn weighted_gray(img: &RgbImage, weights: [f64; 3]) -> Result<GrayImage> {
     }))
 }
 
+/// Smallest span between the brightest and the darkest pixel of a window for the local
+/// threshold ([`BlobConfig::local_radius`]) to mark anything in it, grey levels.
+pub const LOCAL_MIN_CONTRAST: u8 = 20;
+
 /// ITU-R BT.601 luma weights (R, G, B).
 pub const BT601: [f64; 3] = [0.299, 0.587, 0.114];
 
@@ -44,8 +48,16 @@ pub enum BlobPolarity {
 pub struct BlobConfig {
     /// Dark or bright marks.
     pub polarity: BlobPolarity,
-    /// Fixed threshold in grey levels; `None` = Otsu's threshold of the image.
+    /// Fixed threshold in grey levels; `None` = Otsu's threshold of the image (or the local
+    /// threshold, with `local_radius`).
     pub threshold: Option<u8>,
+    /// Threshold each pixel half way between the brightest and the darkest pixel within this
+    /// many pixels (a square window), instead of one threshold for the image: for light that
+    /// varies across the image or a highlight on the print. A pixel whose window spans fewer
+    /// than [`LOCAL_MIN_CONTRAST`] grey levels is background; each blob's sub-pixel centre then
+    /// uses the two levels at its centre. The radius must exceed the marks' radius. `None` (the
+    /// default) for one threshold; not with a fixed `threshold`.
+    pub local_radius: Option<u32>,
     /// Smallest blob area, pixels.
     pub min_area: usize,
     /// Largest blob area, pixels.
@@ -64,6 +76,7 @@ impl Default for BlobConfig {
         Self {
             polarity: BlobPolarity::Dark,
             threshold: None,
+            local_radius: None,
             min_area: 10,
             max_area: 100_000,
             max_aspect_ratio: 3.0,
@@ -77,8 +90,9 @@ impl Default for BlobConfig {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Blob {
     /// Sub-pixel centre: the centroid weighted by each pixel's coverage by the mark, estimated
-    /// from the two Otsu class means, over the blob and the pixels touching it (rim pixels
-    /// count by the part the mark covers).
+    /// from the paper's level around the blob (a plane fitted to it) and the mark's inside it,
+    /// over the blob and the pixels touching it (rim pixels count by the part the mark
+    /// covers).
     pub centroid: DVec2,
     /// Unweighted centroid of the binary component.
     pub binary_centroid: DVec2,
@@ -131,13 +145,31 @@ pub fn detect_blobs(img: &GrayImage, cfg: &BlobConfig) -> Result<BlobDetection> 
             cfg.max_aspect_ratio, cfg.min_fill
         )));
     }
+    if cfg.local_radius.is_some() && cfg.threshold.is_some() {
+        return Err(CornerError::InvalidConfig(
+            "BlobConfig takes a fixed threshold or a local_radius, not both".into(),
+        ));
+    }
     let t = cfg.threshold.unwrap_or_else(|| imageproc::contrast::otsu_level(img));
-    let is_mark = |v: u8| match cfg.polarity {
-        BlobPolarity::Dark => v <= t,
-        BlobPolarity::Bright => v > t,
+    // The local extremes (brightest, darkest) of every pixel's window, for the local threshold.
+    let local = cfg.local_radius.map(|r| {
+        let (w, h) = (img.width() as usize, img.height() as usize);
+        (window_extreme(img.as_raw(), w, h, r as usize, true), window_extreme(img.as_raw(), w, h, r as usize, false))
+    });
+    let is_mark = |i: usize, v: u8| {
+        let (t, contrast) = match &local {
+            Some((hi, lo)) => ((u16::from(hi[i]) + u16::from(lo[i])) / 2, hi[i] - lo[i] >= LOCAL_MIN_CONTRAST),
+            None => (u16::from(t), true),
+        };
+        contrast
+            && match cfg.polarity {
+                BlobPolarity::Dark => u16::from(v) <= t,
+                BlobPolarity::Bright => u16::from(v) > t,
+            }
     };
     let binary = GrayImage::from_fn(img.width(), img.height(), |x, y| {
-        Luma([if is_mark(img.get_pixel(x, y)[0]) { 255 } else { 0 }])
+        let i = y as usize * img.width() as usize + x as usize;
+        Luma([if is_mark(i, img.get_pixel(x, y)[0]) { 255 } else { 0 }])
     });
     let labels = connected_components(&binary, Connectivity::Eight, Luma([0u8]));
     let n = labels.iter().copied().max().unwrap_or(0) as usize;
@@ -237,6 +269,18 @@ pub fn detect_blobs(img: &GrayImage, cfg: &BlobConfig) -> Result<BlobDetection> 
             rejected += 1;
             continue;
         }
+        let (mark, background) = match &local {
+            // The levels at the blob's centre: the darkest and brightest of its window.
+            Some((hi, lo)) => {
+                let i = my.round() as usize * img.width() as usize + mx.round() as usize;
+                let (dark, bright) = (f64::from(lo[i]), f64::from(hi[i]));
+                match cfg.polarity {
+                    BlobPolarity::Dark => (dark, bright),
+                    BlobPolarity::Bright => (bright, dark),
+                }
+            }
+            None => (mark, background),
+        };
         let centroid = coverage_centroid(img, &labels, label as u32, a.bbox, mark, background)
             .unwrap_or(if a.w > 0.0 { DVec2::new(a.wx / a.w, a.wy / a.w) } else { DVec2::new(mx, my) });
         blobs.push(Blob {
@@ -252,9 +296,49 @@ pub fn detect_blobs(img: &GrayImage, cfg: &BlobConfig) -> Result<BlobDetection> 
     Ok(BlobDetection { threshold: t, blobs, rejected })
 }
 
+/// The brightest (`max`) or darkest pixel of every pixel's `(2r + 1)²` window (clamped at the
+/// image's border): two sliding passes (rows, then columns), each keeping the window's
+/// candidates in a monotonic queue, so the cost does not grow with `r`.
+fn window_extreme(values: &[u8], w: usize, h: usize, r: usize, max: bool) -> Vec<u8> {
+    let better = |a: u8, b: u8| if max { a >= b } else { a <= b };
+    // One line of `n` values `step` apart from `start`, into `out` at the same places.
+    let pass = |src: &[u8], out: &mut [u8], start: usize, step: usize, n: usize| {
+        let mut queue = std::collections::VecDeque::with_capacity(2 * r + 1);
+        for k in 0..n + r {
+            if k < n {
+                let v = src[start + k * step];
+                while queue.back().is_some_and(|&(_, b)| better(v, b)) {
+                    queue.pop_back();
+                }
+                queue.push_back((k, v));
+            }
+            if k >= r {
+                let centre = k - r;
+                while queue.front().is_some_and(|&(j, _)| j + r < centre) {
+                    queue.pop_front();
+                }
+                out[start + centre * step] = queue.front().expect("the window holds its centre").1;
+            }
+        }
+    };
+    let mut rows = vec![0u8; w * h];
+    for y in 0..h {
+        pass(values, &mut rows, y * w, 1, w);
+    }
+    let mut out = vec![0u8; w * h];
+    for x in 0..w {
+        pass(&rows, &mut out, x, w, h);
+    }
+    out
+}
+
 /// Centroid weighted by each pixel's estimated coverage `(background − v) / (background −
 /// mark)` (clamped to 0..1) over the blob and the ring of pixels touching it, so rim pixels that
 /// fell on the other side of the threshold still count by the part of them the mark covers.
+/// The levels are the blob's own ([`local_levels`]: the paper around it as a plane, the mark's
+/// median inside), so light that varies across the image or the blob does not pull the
+/// centre; `mark` and `background` (the image's) only where those cannot be measured (a blob
+/// too small for an inside, or crowded by others).
 fn coverage_centroid(
     img: &GrayImage,
     labels: &image::ImageBuffer<Luma<u32>, Vec<u32>>,
@@ -268,6 +352,7 @@ fn coverage_centroid(
         return None;
     }
     let (w, h) = (img.width() as i64, img.height() as i64);
+    let local = local_levels(img, labels, label, bbox);
     let (mut sw, mut sx, mut sy) = (0.0, 0.0, 0.0);
     for y in (bbox.1 as i64 - 1).max(0)..=(bbox.3 as i64 + 1).min(h - 1) {
         for x in (bbox.0 as i64 - 1).max(0)..=(bbox.2 as i64 + 1).min(w - 1) {
@@ -284,13 +369,61 @@ fn coverage_centroid(
                 continue;
             }
             let v = img.get_pixel(x as u32, y as u32)[0] as f64;
-            let cov = ((background - v) / span).clamp(0.0, 1.0);
+            let cov = match local {
+                Some((plane, m)) => {
+                    let b = plane[0] + plane[1] * x as f64 + plane[2] * y as f64;
+                    ((b - v) / (b - m)).clamp(0.0, 1.0)
+                }
+                None => ((background - v) / span).clamp(0.0, 1.0),
+            };
             sw += cov;
             sx += cov * x as f64;
             sy += cov * y as f64;
         }
     }
     (sw > 0.0).then(|| DVec2::new(sx / sw, sy / sw))
+}
+
+/// The paper around a blob as a plane `a + b·x + c·y` (least squares over the pixels 2 to 4 px
+/// outside its bounding box that no blob holds) and the mark's level inside it (the median of
+/// the blob's pixels whose four neighbours are in it too).
+fn local_levels(
+    img: &GrayImage,
+    labels: &image::ImageBuffer<Luma<u32>, Vec<u32>>,
+    label: u32,
+    bbox: (u32, u32, u32, u32),
+) -> Option<([f64; 3], f64)> {
+    let (w, h) = (img.width() as i64, img.height() as i64);
+    let (x0, y0, x1, y1) = (bbox.0 as i64, bbox.1 as i64, bbox.2 as i64, bbox.3 as i64);
+    let (mut ata, mut atb) = (glam::DMat3::ZERO, glam::DVec3::ZERO);
+    let mut n = 0;
+    let mut inner = Vec::new();
+    for y in (y0 - 4).max(0)..=(y1 + 4).min(h - 1) {
+        for x in (x0 - 4).max(0)..=(x1 + 4).min(w - 1) {
+            let l = labels.get_pixel(x as u32, y as u32)[0];
+            let v = f64::from(img.get_pixel(x as u32, y as u32)[0]);
+            let outside = x < x0 - 1 || x > x1 + 1 || y < y0 - 1 || y > y1 + 1;
+            if outside && l == 0 {
+                let r = glam::DVec3::new(1.0, x as f64, y as f64);
+                ata += glam::DMat3::from_cols(r * r.x, r * r.y, r * r.z);
+                atb += r * v;
+                n += 1;
+            } else if l == label
+                && [(1, 0), (-1, 0), (0, 1), (0, -1)].iter().all(|&(dx, dy)| {
+                    let (xx, yy) = (x + dx, y + dy);
+                    xx >= 0 && yy >= 0 && xx < w && yy < h && labels.get_pixel(xx as u32, yy as u32)[0] == label
+                })
+            {
+                inner.push(v);
+            }
+        }
+    }
+    if n < 12 || inner.is_empty() || ata.determinant().abs() < 1e-9 {
+        return None;
+    }
+    let p = ata.inverse() * atb;
+    inner.sort_by(f64::total_cmp);
+    Some(([p.x, p.y, p.z], inner[inner.len() / 2]))
 }
 
 #[cfg(test)]
@@ -371,6 +504,54 @@ mod tests {
         assert!((d.blobs[0].centroid - DVec2::new(20.0, 20.0)).length() < 1e-9);
         assert!(weighted_gray(&rgb, [0.0, 0.0, 0.0]).is_err());
         assert!(weighted_gray(&rgb, [f64::NAN, 1.0, 0.0]).is_err());
+    }
+
+    #[test]
+    fn window_extremes_equal_brute_force() {
+        let (w, h) = (37usize, 23usize);
+        let v: Vec<u8> = (0..w * h).map(|k| ((k * 7919 + k / 5 * 104_729) % 251) as u8).collect();
+        for r in [0usize, 1, 3, 8, 30] {
+            for max in [true, false] {
+                let got = window_extreme(&v, w, h, r, max);
+                for y in 0..h {
+                    for x in 0..w {
+                        let mut want = if max { 0 } else { 255 };
+                        for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
+                            for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
+                                let p = v[yy * w + xx];
+                                want = if max { want.max(p) } else { want.min(p) };
+                            }
+                        }
+                        assert_eq!(got[y * w + x], want, "r {r} max {max} at ({x}, {y})");
+                    }
+                }
+            }
+        }
+    }
+
+    /// Discs under light that falls from 1.0 to 0.3 across the image (25 on 225 at the bright
+    /// end, 7.5 on 67.5 at the dark end): one Otsu threshold loses the discs on the dark side;
+    /// the local threshold finds all four, and each blob's own levels put every centre within
+    /// 0.03 px. A fixed threshold with a local one is refused.
+    #[test]
+    fn local_threshold_and_levels_follow_uneven_light() {
+        let truth = [(20.3, 25.7, 6.0), (60.62, 26.1, 6.5), (100.1, 24.45, 6.2), (140.0, 25.0, 6.0)];
+        let lit = discs(160, 50, &truth);
+        let img = GrayImage::from_fn(160, 50, |x, y| {
+            let light = 1.0 - 0.7 * f64::from(x) / 159.0;
+            Luma([(f64::from(lit.get_pixel(x, y)[0]) * light).round() as u8])
+        });
+        let global = detect_blobs(&img, &BlobConfig::default()).unwrap();
+        assert!(global.blobs.len() < 4, "{} blobs with one threshold", global.blobs.len());
+        let local = detect_blobs(&img, &BlobConfig { local_radius: Some(13), ..Default::default() }).unwrap();
+        assert_eq!(local.blobs.len(), 4, "{:?}", local.blobs);
+        for &(cx, cy, _) in &truth {
+            let b = local.blobs.iter().find(|b| (b.centroid - DVec2::new(cx, cy)).length() < 1.0).expect("blob");
+            let err = (b.centroid - DVec2::new(cx, cy)).length();
+            assert!(err < 0.03, "disc at ({cx}, {cy}): error {err}");
+        }
+        let both = BlobConfig { local_radius: Some(5), threshold: Some(100), ..Default::default() };
+        assert!(matches!(detect_blobs(&img, &both), Err(CornerError::InvalidConfig(_))));
     }
 
     #[test]

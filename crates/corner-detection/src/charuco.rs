@@ -214,34 +214,37 @@ pub fn detect_charuco(img: &GrayImage, board: &CharucoBoard, cfg: &CharucoConfig
         let Some((p, r)) = refined.filter(|(_, r)| r.shift <= 0.5 * gap_px.max(2.0)) else {
             continue;
         };
-        // Colours: the white squares 0.7 gap from the corner along the diagonals (inside the
-        // white gap before the markers), the black squares there and at their centres (near
-        // the corner only, on an outlined print). Both
-        // colours must be uniform (an occluder or a shadow over part of the corner changes one
-        // of the samples) and differ by `min_contrast`.
+        // Colours (see `colours_agree`): the white squares 0.35 and 0.7 gap from the corner
+        // along the diagonals (inside the white gap before the markers), the black squares at
+        // 0.7 gap, 0.3 and 0.5 along the diagonals and at two points off them (near the corner
+        // only, on an outlined print).
         let (xi, yi) = (id as usize % n, id as usize / n);
-        let at = |dx: f64, dy: f64, r: f64| sample_u8(img, apply(&h, b + DVec2::new(dx, dy) * r) - apply(&h, b) + p);
-        let (mut blacks, mut whites) = (Vec::with_capacity(4), Vec::with_capacity(2));
+        let offset = |dx: f64, dy: f64, r: f64| apply(&h, b + DVec2::new(dx, dy) * r) - apply(&h, b);
+        let mut samples = Vec::with_capacity(14);
         for (dx, dy, sx, sy) in
             [(-1.0, -1.0, xi, yi), (1.0, -1.0, xi + 1, yi), (-1.0, 1.0, xi, yi + 1), (1.0, 1.0, xi + 1, yi + 1)]
         {
-            if !board.square_is_black(sx, sy) {
-                whites.push(at(dx, dy, 0.7 * gap));
-            } else if let Some(t) = frame {
+            let black = board.square_is_black(sx, sy);
+            // (radius along the diagonal, in squares; whether the uniform test reads it)
+            let radii: &[(f64, bool)] = match (black, frame) {
+                (false, _) => &[(0.7 * gap, true), (0.35 * gap, false)],
                 // Only the frame is dark: its corner square, half its width along the diagonal.
-                blacks.push(at(dx, dy, 0.5 * t));
-            } else {
-                blacks.push(at(dx, dy, 0.7 * gap));
-                blacks.push(at(dx, dy, 0.5));
+                (true, Some(t)) => &[(0.5 * t, true)],
+                (true, None) => &[(0.7 * gap, true), (0.5, true), (0.3, false)],
+            };
+            let mut at = |o: DVec2, uniform: bool| {
+                samples.push(Sample { offset: o, black, uniform, value: sample_u8(img, p + o) })
+            };
+            for &(r, uniform) in radii {
+                at(offset(dx, dy, r), uniform);
+            }
+            if black && frame.is_none() {
+                // Off the diagonal too, so that a trend across it shows on both colours.
+                at(apply(&h, b + DVec2::new(0.45 * dx, 0.15 * dy)) - apply(&h, b), false);
+                at(apply(&h, b + DVec2::new(0.15 * dx, 0.45 * dy)) - apply(&h, b), false);
             }
         }
-        let span = |v: &[f64]| v.iter().fold(f64::MIN, |m, &x| m.max(x)) - v.iter().fold(f64::MAX, |m, &x| m.min(x));
-        let contrast = whites.iter().fold(f64::MAX, |m, &x| m.min(x)) - blacks.iter().fold(f64::MIN, |m, &x| m.max(x));
-        if contrast.is_nan()
-            || contrast < cfg.min_contrast
-            || span(&blacks) > 0.25 * contrast
-            || span(&whites) > 0.25 * contrast
-        {
+        if !colours_agree(&samples, cfg.min_contrast) {
             continue;
         }
         ids.push(id);
@@ -250,6 +253,64 @@ pub fn detect_charuco(img: &GrayImage, board: &CharucoBoard, cfg: &CharucoConfig
     }
     let observation = TargetObservation::new(ids, points).expect("ascending unique ids, finite points");
     Ok(CharucoDetection { observation, markers, refinement, square_frame: frame, misplaced })
+}
+
+/// One colour sample around a corner: its offset from the corner in the image, pixels, whether
+/// it is on a black square, and its grey level (NaN outside the image).
+struct Sample {
+    offset: DVec2,
+    black: bool,
+    /// Read by the test without a trend (the others only by the test with one).
+    uniform: bool,
+    value: f64,
+}
+
+/// Whether the samples around a corner show its two colours: both colours uniform (an occluder
+/// or a shadow over part of the corner changes some samples) and apart by `min_contrast`.
+/// First as they are: every black sample darker than every white one by `min_contrast`, each
+/// colour within 25 % of that. Failing that, up to a linear trend of the light across the
+/// corner (a highlight, a light fall-off), when there are samples enough (a solid print's
+/// fourteen, the black squares' also off the diagonals, so that a trend along either shows on
+/// both colours; the two levels and the two slopes leave ten to check): every sample within 10 % of
+/// the contrast of the fitted levels and trend, the contrast at least `min_contrast`. Samples
+/// outside the image are left out.
+fn colours_agree(samples: &[Sample], min_contrast: f64) -> bool {
+    let samples: Vec<&Sample> = samples.iter().filter(|s| s.value.is_finite()).collect();
+    let lo_hi = |black: bool| {
+        samples
+            .iter()
+            .filter(|s| s.uniform && s.black == black)
+            .fold((f64::MAX, f64::MIN), |(lo, hi), s| (lo.min(s.value), hi.max(s.value)))
+    };
+    let ((b_lo, b_hi), (w_lo, w_hi)) = (lo_hi(true), lo_hi(false));
+    let contrast = w_lo - b_hi;
+    if b_lo <= b_hi
+        && w_lo <= w_hi
+        && contrast >= min_contrast
+        && b_hi - b_lo <= 0.25 * contrast
+        && w_hi - w_lo <= 0.25 * contrast
+    {
+        return true;
+    }
+    if samples.len() < 14 {
+        return false;
+    }
+    // Least squares for [black level, white level, slope along u, slope along v].
+    let row = |s: &Sample| {
+        glam::DVec4::new(f64::from(u8::from(s.black)), f64::from(u8::from(!s.black)), s.offset.x, s.offset.y)
+    };
+    let (mut ata, mut atb) = (glam::DMat4::ZERO, glam::DVec4::ZERO);
+    for s in &samples {
+        let r = row(s);
+        ata += glam::DMat4::from_cols(r * r.x, r * r.y, r * r.z, r * r.w);
+        atb += r * s.value;
+    }
+    if ata.determinant().abs() < 1e-9 {
+        return false;
+    }
+    let x = ata.inverse() * atb;
+    let contrast = x.y - x.x;
+    contrast >= min_contrast && samples.iter().all(|s| (s.value - row(s).dot(x)).abs() <= 0.1 * contrast)
 }
 
 /// One edge profile of [`edge_lines`].

@@ -17,7 +17,7 @@ use image::GrayImage;
 use parallax_camera_model::{CircleGrid, TargetObservation};
 use serde::{Deserialize, Serialize};
 
-use crate::{BlobConfig, Result, detect_blobs};
+use crate::{Blob, BlobConfig, BlobPolarity, Result, detect_blobs};
 
 /// Configuration of [`detect_circle_grid`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -57,6 +57,10 @@ pub struct CircleGridDetection {
 /// OpenCV's `findCirclesGrid` order, except for a symmetric grid turned by about 90°, which
 /// OpenCV orders mirrored (the board's frame seen from behind); this order keeps the board's
 /// handedness in every view (`tests/circles_opencv.rs`, on grids OpenCV ordered).
+///
+/// The marks are found with one threshold for the image (`cfg.blobs`), then, when the grid is
+/// not among them, with a local threshold (light varying across the print, a highlight on it),
+/// and then both again with the other polarity (light circles on dark paper).
 pub fn detect_circle_grid(
     img: &GrayImage,
     grid: &CircleGrid,
@@ -68,11 +72,41 @@ pub fn detect_circle_grid(
             cfg.search_fraction
         )));
     }
-    let blobs = detect_blobs(img, &cfg.blobs)?;
-    let pts: Vec<DVec2> = blobs.blobs.iter().map(|b| b.centroid).collect();
+    // The marks as configured (dark on light paper by default), then the other way round (a
+    // print with light circles on dark paper): the lattice, not the colour, identifies the grid.
+    let other = match cfg.blobs.polarity {
+        BlobPolarity::Dark => BlobPolarity::Bright,
+        BlobPolarity::Bright => BlobPolarity::Dark,
+    };
+    for polarity in [cfg.blobs.polarity, other] {
+        let blobs_cfg = BlobConfig { polarity, ..cfg.blobs };
+        let blobs = detect_blobs(img, &blobs_cfg)?;
+        if let Some(found) = find_grid(&blobs.blobs, grid, cfg) {
+            return Ok(Some(found));
+        }
+        // One threshold for the image splits its light rather than the marks from the paper
+        // when the light varies across it or a highlight lies on the print: then a local
+        // threshold, over windows as wide as the marks the first pass found (so that every
+        // window around a mark also holds paper).
+        if blobs_cfg.threshold.is_none() && blobs_cfg.local_radius.is_none() && !blobs.blobs.is_empty() {
+            let mut areas: Vec<usize> = blobs.blobs.iter().map(|b| b.area).collect();
+            areas.sort_unstable();
+            let diameter = (4.0 * areas[areas.len() / 2] as f64 / std::f64::consts::PI).sqrt();
+            let local = BlobConfig { local_radius: Some((diameter.ceil() as u32).max(3)), ..blobs_cfg };
+            if let Some(found) = find_grid(&detect_blobs(img, &local)?.blobs, grid, cfg) {
+                return Ok(Some(found));
+            }
+        }
+    }
+    Ok(None)
+}
+
+/// The grid among `blobs`, labelled from the blobs nearest their median position.
+fn find_grid(blobs: &[Blob], grid: &CircleGrid, cfg: &CircleGridConfig) -> Option<CircleGridDetection> {
+    let pts: Vec<DVec2> = blobs.iter().map(|b| b.centroid).collect();
     let n = grid.len();
     if pts.len() < n {
-        return Ok(None);
+        return None;
     }
     // Start from the blob nearest the blobs' median position, the likeliest on the grid.
     let mut xs: Vec<f64> = pts.iter().map(|p| p.x).collect();
@@ -102,12 +136,12 @@ pub fn detect_circle_grid(
                     let ellipse: Vec<DVec2> = ids.iter().map(|&k| pts[k]).collect();
                     let centres = if cfg.perspective_correction { correct(grid, &ellipse) } else { ellipse.clone() };
                     let observation = TargetObservation::whole(centres).expect("finite centroids");
-                    return Ok(Some(CircleGridDetection { observation, ellipse_centres: ellipse }));
+                    return Some(CircleGridDetection { observation, ellipse_centres: ellipse });
                 }
             }
         }
     }
-    Ok(None)
+    None
 }
 
 /// Integer lattice coordinates of the blobs connected to `start`, stepping along `e1`, `e2`

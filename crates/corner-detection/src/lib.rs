@@ -22,10 +22,9 @@
 //! - [`detect_circle_grid`]: symmetric and asymmetric circle grids in `findCirclesGrid`'s order,
 //!   centres corrected for perspective bias.
 //!
-//! Accuracy on the synthetic acceptance sets (800x600, blur 0.8 px, noise σ 2, 50 views each,
-//! partial and occluded views included): ChArUco corner RMS 0.021 px with 0 wrong ids (OpenCV
-//! 5's `CharucoDetector` on the same views: 0.075 px, 2 wrong ids); AprilGrid 0.017 px, 0 wrong
-//! ids; circle grids 0.016–0.018 px with the perspective correction (0.049–0.074 px without).
+//! Accuracy on the synthetic acceptance sets and on the hard-print / hard-photo set (outlined
+//! squares, glare, blur, JPEG, uneven light, …), side by side with OpenCV on the same images:
+//! the crate's README and the repository's performance journal, `benches/RESULTS.md`.
 //!
 //! Pixel convention as OpenCV: `(u, v)`, `u` right, `v` down, `(0, 0)` the centre of the
 //! top-left pixel.

@@ -52,7 +52,7 @@ pub use parallax_least_squares;
 
 pub use error::SyntheticError;
 pub use noise::{add_pixel_noise, perturb_pose, rng};
-pub use render::{RenderOptions, RenderedView, render_chessboard};
+pub use render::{Glare, MAX_KERNEL_PX, RenderOptions, RenderedView, render_chessboard};
 pub use scene::{SceneDescription, Tolerances};
 pub use stereo::{StereoScene, StereoSceneConfig, render_stereo_scene};
 pub use targets::{Occluder, TargetView, render_aprilgrid, render_charuco, render_circle_grid, render_marker};

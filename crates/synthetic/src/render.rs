@@ -47,10 +47,51 @@ pub struct RenderOptions {
     /// around a light interior of the white squares' grey: an outlined or hollow print, whose
     /// corners are not saddles beyond the frame's width. 0 (the default) = solid squares.
     /// In `[0, 0.5)`; chessboards and ChArUco boards only.
+    #[serde(skip_serializing_if = "is_zero")]
     pub square_outline: f64,
+    /// A specular highlight on the print (light reflected towards the camera), added to the
+    /// image before the blur; `None` (the default) for none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glare: Option<Glare>,
+    /// Defocus: the image convolved with a uniform disc of this radius, pixels (after the
+    /// Gaussian blur). Default 0; at most [`MAX_KERNEL_PX`].
+    #[serde(skip_serializing_if = "is_zero")]
+    pub defocus_radius: f64,
+    /// Motion blur: the image smeared along a line of this length, pixels (after the defocus).
+    /// Default 0; at most [`MAX_KERNEL_PX`].
+    #[serde(skip_serializing_if = "is_zero")]
+    pub motion_blur: f64,
+    /// Direction of the motion blur, radians from the image's `u` axis towards `v`.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub motion_angle: f64,
+    /// Saves the final 8-bit image as a baseline JPEG of this quality (1–100) and decodes it
+    /// again: a camera's or a phone's compression artefacts. `None` (the default) for none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub jpeg_quality: Option<u8>,
     /// Seed of the noise, clutter and gradient direction.
     pub seed: u64,
 }
+
+/// Fields of the hard-photo effects are written only when set, so that descriptions without
+/// them read as they always did.
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
+/// A specular highlight: `strength` grey levels added at `centre` (pixels), falling off as a
+/// Gaussian of standard deviation `radius` pixels (the sum clips at 255, as a sensor does).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Glare {
+    /// Centre of the highlight, pixels.
+    pub centre: DVec2,
+    /// Standard deviation of its fall-off, pixels.
+    pub radius: f64,
+    /// Grey levels added at its centre.
+    pub strength: f64,
+}
+
+/// Largest defocus radius and motion-blur length a render accepts, pixels.
+pub const MAX_KERNEL_PX: f64 = 30.0;
 
 impl Default for RenderOptions {
     fn default() -> Self {
@@ -66,6 +107,11 @@ impl Default for RenderOptions {
             background: 128,
             clutter: false,
             square_outline: 0.0,
+            glare: None,
+            defocus_radius: 0.0,
+            motion_blur: 0.0,
+            motion_angle: 0.0,
+            jpeg_quality: None,
             seed: 0,
         }
     }
@@ -102,6 +148,27 @@ impl RenderOptions {
                 "square_outline",
                 format!("must be in [0, 0.5) of a square (0 = solid squares), got {}", self.square_outline),
             ));
+        }
+        for (field, v) in [("defocus_radius", self.defocus_radius), ("motion_blur", self.motion_blur)] {
+            non_negative(field, v)?;
+            if v > MAX_KERNEL_PX {
+                return Err(SyntheticError::config(field, format!("{v} px is above {MAX_KERNEL_PX} px")));
+            }
+        }
+        if !self.motion_angle.is_finite() {
+            return Err(SyntheticError::config("motion_angle", "must be finite"));
+        }
+        if let Some(g) = &self.glare
+            && !(g.centre.is_finite()
+                && g.radius.is_finite()
+                && g.radius > 0.0
+                && g.strength.is_finite()
+                && g.strength >= 0.0)
+        {
+            return Err(SyntheticError::config("glare", "needs a finite centre, a radius > 0 and a strength >= 0"));
+        }
+        if self.jpeg_quality.is_some_and(|q| !(1..=100).contains(&q)) {
+            return Err(SyntheticError::config("jpeg_quality", "must be in 1..=100"));
         }
         if self.illumination_gradient > 1.0 {
             return Err(SyntheticError::config("illumination_gradient", "must be at most 1 (negative brightness)"));
@@ -195,12 +262,110 @@ pub(crate) fn render_pattern<C: CameraModel + Sync>(
         o.paint(&mut radiance, w, h);
     }
     apply_lighting(&mut radiance, camera, opts, &mut rng);
+    if let Some(g) = &opts.glare {
+        radiance.par_chunks_mut(w).enumerate().for_each(|(v, row)| {
+            for (u, out) in row.iter_mut().enumerate() {
+                let d2 = (DVec2::new(u as f64, v as f64) - g.centre).length_squared();
+                *out += (g.strength * (-0.5 * d2 / (g.radius * g.radius)).exp()) as f32;
+            }
+        });
+    }
     let mut img =
         ImageBuffer::<Luma<f32>, Vec<f32>>::from_raw(w as u32, h as u32, radiance).expect("buffer of width x height");
     if opts.blur_sigma > 0.0 {
         img = imageproc::filter::gaussian_blur_f32(&img, opts.blur_sigma as f32);
     }
-    quantise(img.into_raw(), w, h, opts, &mut rng)
+    let mut values = img.into_raw();
+    if opts.defocus_radius > 0.0 {
+        values = convolve(&values, w, h, &disc_kernel(opts.defocus_radius));
+    }
+    if opts.motion_blur > 0.0 {
+        values = convolve(&values, w, h, &line_kernel(opts.motion_blur, opts.motion_angle));
+    }
+    let img = quantise(values, w, h, opts, &mut rng);
+    match opts.jpeg_quality {
+        Some(q) => jpeg_round_trip(&img, q),
+        None => img,
+    }
+}
+
+/// A kernel: offsets `(du, dv)` and weights summing to 1.
+type Kernel = Vec<(i64, i64, f32)>;
+
+/// A uniform disc of radius `r` pixels, each tap weighted by the share of its pixel the disc
+/// covers (16x16 samples per pixel).
+fn disc_kernel(r: f64) -> Kernel {
+    let n = r.ceil() as i64 + 1;
+    let mut taps = Vec::new();
+    for dv in -n..=n {
+        for du in -n..=n {
+            let mut inside = 0;
+            for s in 0..256 {
+                let x = du as f64 - 0.5 + ((s % 16) as f64 + 0.5) / 16.0;
+                let y = dv as f64 - 0.5 + ((s / 16) as f64 + 0.5) / 16.0;
+                if x * x + y * y <= r * r {
+                    inside += 1;
+                }
+            }
+            if inside > 0 {
+                taps.push((du, dv, inside as f32));
+            }
+        }
+    }
+    normalise(taps)
+}
+
+/// A line of `length` pixels through the origin at `angle`: 32 points per pixel of length,
+/// each spread over its four nearest taps (bilinear weights).
+fn line_kernel(length: f64, angle: f64) -> Kernel {
+    let dir = DVec2::new(angle.cos(), angle.sin());
+    let samples = ((length * 32.0).ceil() as usize).max(1);
+    let mut weights = std::collections::BTreeMap::new();
+    for k in 0..samples {
+        let p = dir * (length * ((k as f64 + 0.5) / samples as f64 - 0.5));
+        let (x0, y0) = (p.x.floor(), p.y.floor());
+        let (fx, fy) = (p.x - x0, p.y - y0);
+        for (dx, dy, wgt) in
+            [(0, 0, (1.0 - fx) * (1.0 - fy)), (1, 0, fx * (1.0 - fy)), (0, 1, (1.0 - fx) * fy), (1, 1, fx * fy)]
+        {
+            *weights.entry((x0 as i64 + dx, y0 as i64 + dy)).or_insert(0.0) += wgt;
+        }
+    }
+    normalise(weights.into_iter().map(|((du, dv), wgt)| (du, dv, wgt as f32)).collect())
+}
+
+fn normalise(mut taps: Kernel) -> Kernel {
+    let sum: f32 = taps.iter().map(|t| t.2).sum();
+    for t in &mut taps {
+        t.2 /= sum;
+    }
+    taps
+}
+
+/// `values` (`w x h`) convolved with `kernel`, the image's border pixels repeated outwards.
+fn convolve(values: &[f32], w: usize, h: usize, kernel: &Kernel) -> Vec<f32> {
+    let mut out = vec![0f32; w * h];
+    out.par_chunks_mut(w).enumerate().for_each(|(v, row)| {
+        for (u, o) in row.iter_mut().enumerate() {
+            let mut acc = 0f32;
+            for &(du, dv, wgt) in kernel {
+                let x = (u as i64 + du).clamp(0, w as i64 - 1) as usize;
+                let y = (v as i64 + dv).clamp(0, h as i64 - 1) as usize;
+                acc += wgt * values[y * w + x];
+            }
+            *o = acc;
+        }
+    });
+    out
+}
+
+/// `img` saved as a baseline JPEG of `quality` and decoded again (in memory).
+fn jpeg_round_trip(img: &GrayImage, quality: u8) -> GrayImage {
+    let mut bytes = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, quality)
+        .encode_image(img)
+        .expect("an 8-bit grey image encodes");
+    image::load_from_memory_with_format(&bytes, image::ImageFormat::Jpeg).expect("our own JPEG decodes").to_luma8()
 }
 
 /// Piecewise-constant board colour on a grid of intervals (in squares).

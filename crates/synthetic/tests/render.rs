@@ -246,6 +246,12 @@ fn bad_render_inputs_are_errors() {
     assert!(e(RenderOptions { salt_fraction: 1.5, ..Default::default() }).contains("salt_fraction"));
     assert!(e(RenderOptions { noise_sigma: f64::NAN, ..Default::default() }).contains("noise_sigma"));
     assert!(e(RenderOptions { square_outline: 0.5, ..Default::default() }).contains("square_outline"));
+    assert!(e(RenderOptions { defocus_radius: 31.0, ..Default::default() }).contains("defocus_radius"));
+    assert!(e(RenderOptions { motion_blur: -1.0, ..Default::default() }).contains("motion_blur"));
+    assert!(e(RenderOptions { motion_angle: f64::NAN, ..Default::default() }).contains("motion_angle"));
+    assert!(e(RenderOptions { jpeg_quality: Some(0), ..Default::default() }).contains("jpeg_quality"));
+    let no_radius = Glare { centre: DVec2::ZERO, radius: 0.0, strength: 10.0 };
+    assert!(e(RenderOptions { glare: Some(no_radius), ..Default::default() }).contains("glare"));
     // Outlines only for targets with chessboard squares.
     let grid = parallax_camera_model::CircleGrid::new(4, 5, 20.0, 10.0, false).unwrap();
     let o = RenderOptions { square_outline: 0.1, ..Default::default() };
@@ -281,4 +287,77 @@ fn report_render_time_640x480() {
         "render_chessboard 640x480 (distortion, clutter, blur, noise): {:.1} ms per view",
         t.elapsed().as_secs_f64() * 1e3 / n as f64
     );
+}
+
+/// Issue 49's hard-photo effects against independent computations: on a fronto-parallel board
+/// with 20 px squares, the row through the middle of a square row crosses a vertical
+/// black-to-white edge at u = 340.4 with no other edge within 9 px. Its rendered profile under
+/// defocus (a disc of radius 3) and motion blur (6 px along u) equals the step integrated over
+/// each pixel and the disc's or the segment's points (brute-force sums here) within 2 grey
+/// levels; motion along v, parallel to the edge, leaves the row as it was. Glare adds
+/// `strength · exp(−d²/2r²)`; a JPEG round trip changes the image by compression-sized amounts.
+#[test]
+fn hard_photo_effects_have_their_size() {
+    let cam = Camera::new(Intrinsics::new(800.0, 800.0, 320.0, 240.0), Distortion::default(), 640, 480).unwrap();
+    let board = Chessboard::new(7, 5, 25.0).unwrap();
+    let pose = Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(0.5, 0.5, 1000.0));
+    let row = |o: &RenderOptions| {
+        let img = render_chessboard(&cam, &board, &pose, o).unwrap().image;
+        (334..348).map(|u| f64::from(img.get_pixel(u, 250).0[0])).collect::<Vec<f64>>()
+    };
+    // The step (square (0, 0) black left of the edge, (1, 0) white right of it), integrated over
+    // each pixel (100 samples) and the kernel's points.
+    let expected = |kernel: &[f64]| -> Vec<f64> {
+        (334..348)
+            .map(|u| {
+                let mut sum = 0.0;
+                for s in 0..100 {
+                    let x = u as f64 - 0.5 + (s as f64 + 0.5) / 100.0;
+                    sum += kernel.iter().map(|q| if x + q < 340.4 { 0.0 } else { 255.0 }).sum::<f64>()
+                        / kernel.len() as f64;
+                }
+                sum / 100.0
+            })
+            .collect()
+    };
+    let close = |got: &[f64], want: &[f64], what: &str| {
+        let worst = got.iter().zip(want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        assert!(worst <= 2.0, "{what}: worst {worst} grey levels\n got  {got:?}\n want {want:?}");
+    };
+    // The disc's points' u offsets (a 100x100 grid over the disc).
+    let disc: Vec<f64> = (0..100 * 100)
+        .map(|k| (-3.0 + 6.0 * ((k % 100) as f64 + 0.5) / 100.0, -3.0 + 6.0 * ((k / 100) as f64 + 0.5) / 100.0))
+        .filter(|(x, y)| x * x + y * y <= 9.0)
+        .map(|(x, _)| x)
+        .collect();
+    let sharp = row(&opts_bw());
+    close(&sharp, &expected(&[0.0]), "no blur");
+    close(&row(&RenderOptions { defocus_radius: 3.0, ..opts_bw() }), &expected(&disc), "defocus 3 px");
+    let segment: Vec<f64> = (0..600).map(|k| 6.0 * ((k as f64 + 0.5) / 600.0 - 0.5)).collect();
+    close(&row(&RenderOptions { motion_blur: 6.0, ..opts_bw() }), &expected(&segment), "motion 6 px along u");
+    let along_v = RenderOptions { motion_blur: 6.0, motion_angle: std::f64::consts::FRAC_PI_2, ..opts_bw() };
+    close(&row(&along_v), &sharp, "motion 6 px along v");
+
+    // Glare on a flat background: 100 + 50·exp(−d²/(2·30²)) at distance d from its centre.
+    let away = Isometry3::from_rvec_tvec(DVec3::ZERO, DVec3::new(1e5, 0.0, 1000.0));
+    let glare = Glare { centre: DVec2::new(300.0, 200.0), radius: 30.0, strength: 50.0 };
+    let o = RenderOptions { background: 100, glare: Some(glare), ..Default::default() };
+    let img = render_chessboard(&cam, &board, &away, &o).unwrap().image;
+    for (u, v) in [(300u32, 200u32), (330, 200), (300, 260), (345, 245), (500, 400)] {
+        let d2 = (f64::from(u) - 300.0).powi(2) + (f64::from(v) - 200.0).powi(2);
+        let want = 100.0 + 50.0 * (-0.5 * d2 / 900.0).exp();
+        let got = f64::from(img.get_pixel(u, v).0[0]);
+        assert!((got - want).abs() <= 0.5 + 1e-9, "glare at ({u}, {v}): {got} vs {want}");
+    }
+
+    // JPEG: quality 30 moves pixels (mostly along the edges), quality 100 ten times less.
+    let plain = render_chessboard(&cam, &board, &pose, &opts_bw()).unwrap().image;
+    let mean_diff = |q: u8| {
+        let j = render_chessboard(&cam, &board, &pose, &RenderOptions { jpeg_quality: Some(q), ..opts_bw() }).unwrap();
+        let sum: f64 =
+            j.image.as_raw().iter().zip(plain.as_raw()).map(|(a, b)| (f64::from(*a) - f64::from(*b)).abs()).sum();
+        sum / plain.as_raw().len() as f64
+    };
+    let (low, high) = (mean_diff(30), mean_diff(100));
+    assert!(low > 0.1 && low < 8.0 && high < 0.1 * low, "JPEG mean differences: q30 {low}, q100 {high}");
 }
