@@ -207,4 +207,32 @@ fn a_board_not_found_says_why() {
         chess.lines().any(|l| l.starts_with("why: ") && l.contains("X-junction candidates for the 54 inner corners")),
         "{chess}"
     );
+
+    // Two columns of the board's squares: too few corners, and the why line lists the markers
+    // that were decoded.
+    let dir = common::Temp::new("why", "few");
+    let strip = image::open(png).unwrap().to_luma8();
+    let strip = image::imageops::crop_imm(&strip, 0, 0, 150, strip.height()).to_image();
+    let cut = dir.join("strip.png");
+    strip.save(&cut).unwrap();
+    let out =
+        xtask(&["corners", "--images", cut.to_str().unwrap(), "--board", "charuco:5x4:64:48:DICT_6X6_250:legacy"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.lines().any(|l| l.starts_with("why: ") && l.contains("corners found from the markers decoded (")),
+        "{text}"
+    );
+
+    // A chessboard of 9x6 inner corners described with a row too many: the why line names the
+    // grid that was linked.
+    let dir = common::Temp::new("why", "rows");
+    let board = parallax_camera_model::Chessboard::new(9, 6, 25.0).unwrap();
+    let pose = Isometry3::from_rvec_tvec(DVec3::new(0.1, -0.15, 0.05), DVec3::new(-110.0, -60.0, 420.0));
+    let view = parallax_synthetic::render_chessboard(&camera(), &board, &pose, &RenderOptions::default()).unwrap();
+    let board_png = dir.join("board.png");
+    view.image.save(&board_png).unwrap();
+    let out = xtask(&["corners", "--images", board_png.to_str().unwrap(), "--board", "9x7"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(text.lines().any(|l| l.starts_with("why: ") && l.contains("the largest grid linked is 9x6")), "{text}");
 }

@@ -203,7 +203,7 @@ pub fn detect_chessboard(
     }
     cfg.validate()?;
     SCRATCH.with(|s| {
-        let mut det = ChessboardDetector { cfg: *cfg, scratch: std::mem::take(&mut *s.borrow_mut()) };
+        let mut det = ChessboardDetector { cfg: *cfg, scratch: std::mem::take(&mut *s.borrow_mut()), largest: None };
         let out = det.detect(img, cols, rows);
         *s.borrow_mut() = det.scratch;
         out
@@ -233,6 +233,8 @@ pub fn detect_chessboard(
 pub struct ChessboardDetector {
     cfg: ChessboardConfig,
     scratch: Scratch,
+    /// The largest grid of linked X-junctions of the last `detect`, (columns, rows).
+    largest: Option<(usize, usize)>,
 }
 
 /// Buffers reused across images.
@@ -254,7 +256,7 @@ impl ChessboardDetector {
     /// A detector with a checked configuration.
     pub fn new(cfg: ChessboardConfig) -> Result<Self> {
         cfg.validate()?;
-        Ok(Self { cfg, scratch: Scratch::default() })
+        Ok(Self { cfg, scratch: Scratch::default(), largest: None })
     }
 
     /// The configuration.
@@ -289,6 +291,7 @@ impl ChessboardDetector {
             return Err(CornerError::InvalidBoardSize { cols, rows });
         }
         crate::imageops::check_size(img, 16, "find_chessboard")?;
+        self.largest = None;
         let levels = self.levels(img.width(), img.height());
         let top = levels[0] as usize;
         self.build_pyramid(img, top);
@@ -298,6 +301,14 @@ impl ChessboardDetector {
             }
         }
         Ok(None)
+    }
+
+    /// After a [`Self::detect`]: the largest grid of X-junctions it linked on any pyramid level,
+    /// `(columns, rows)` (oriented as the board asked for when it fits in it, else the larger
+    /// count first), whether or not it became the board: what to report when the board was not found ("a 9x5 grid of a
+    /// 9x6 board: a row is cut off or hidden"). `None` when no three-by-three grid was linked.
+    pub fn largest_grid(&self) -> Option<(usize, usize)> {
+        self.largest
     }
 
     /// Fills pyramid levels 1..=top (level 0 is converted lazily in `detect_at`).
@@ -353,9 +364,8 @@ impl ChessboardDetector {
     ) -> Option<ChessboardDetection> {
         let cfg = self.cfg;
         let n_cands = cands.len();
-        if n_cands < cols * rows {
-            return None;
-        }
+        // Too few candidates for the board: still linked, for `largest_grid`.
+        let possible = n_cands >= cols * rows;
         let mut used = vec![false; n_cands];
         let mut seeds_tried = 0;
         let scale = f64::from(1u32 << level);
@@ -377,7 +387,18 @@ impl ChessboardDetector {
                 }
             }
             let (nr, nc) = (grid.len(), grid[0].len());
-            if !((nr == rows && nc == cols) || (nr == cols && nc == rows)) {
+            // Oriented as the board asked for when it fits in it.
+            let shape = if nc <= cols && nr <= rows {
+                (nc, nr)
+            } else if nr <= cols && nc <= rows {
+                (nr, nc)
+            } else {
+                (nc.max(nr), nc.min(nr))
+            };
+            if self.largest.is_none_or(|(c, r)| c * r < nr * nc) {
+                self.largest = Some(shape);
+            }
+            if !possible || !((nr == rows && nc == cols) || (nr == cols && nc == rows)) {
                 continue;
             }
             let pos: Vec<Vec<DVec2>> = grid.iter().map(|r| r.iter().map(|&i| cands[i].p).collect()).collect();
@@ -1125,6 +1146,24 @@ mod tests {
             let g = find_chessboard(&img, 8, 6, &cfg).unwrap().expect("8x6 found");
             assert!((g.at(7, 0) - g.at(0, 0)).x > 0.0 && (g.at(0, 5) - g.at(0, 0)).y > 0.0, "angle {angle}");
         }
+    }
+
+    /// A 9x6 board asked for with a row or a column too many is not found, and the detector says
+    /// what it linked: the whole 9x6 grid, oriented as the request; asked for a smaller board, the
+    /// grid it linked is larger than the board (growth stops one past the requested side).
+    #[test]
+    fn the_largest_grid_linked_is_reported() {
+        let hom = homography(30.0, 0.3, 0.0003, 0.0, DVec2::new(320.0, 240.0), 9, 6);
+        let (img, _) = render(640, 480, 9, 6, hom, 90);
+        let mut det = ChessboardDetector::new(ChessboardConfig::default()).unwrap();
+        for (c, r, want) in [(9, 7, (9, 6)), (10, 6, (9, 6)), (7, 10, (6, 9))] {
+            assert!(det.detect(&img, c, r).unwrap().is_none(), "{c}x{r}");
+            assert_eq!(det.largest_grid(), Some(want), "asked for {c}x{r}");
+        }
+        assert!(det.detect(&img, 9, 6).unwrap().is_some());
+        let blank = GrayImage::from_pixel(320, 240, Luma([128]));
+        assert!(det.detect(&blank, 9, 6).unwrap().is_none());
+        assert_eq!(det.largest_grid(), None, "nothing linked on a blank image");
     }
 
     #[test]

@@ -304,16 +304,30 @@ pub fn search_corners(
                 Some(_) => Vec::new(),
                 None => cd::chessboard_candidates(&img, config).map_err(|e| context(e.into()))?,
             };
+            // and the largest grid of them the detector linked (a second search, only for a board
+            // not found)
+            let largest = match &det {
+                Some(_) => None,
+                None => {
+                    let mut detector = cd::ChessboardDetector::new(*config).map_err(|e| context(e.into()))?;
+                    detector.detect(&img, b.cols, b.rows).map_err(|e| context(e.into()))?;
+                    detector.largest_grid()
+                }
+            };
             let why = det.is_none().then(|| {
                 let (n, need) = (candidates.len(), b.cols * b.rows);
+                let linked = match largest {
+                    Some((c, r)) => format!("; the largest grid linked is {c}x{r}"),
+                    None => String::new(),
+                };
                 if n < need {
                     format!(
-                        "{n} X-junction candidates for the {need} inner corners of a {}x{} board: is the whole board in the image, in focus and lit evenly?",
+                        "{n} X-junction candidates for the {need} inner corners of a {}x{} board{linked}: is the whole board in the image, in focus and lit evenly?",
                         b.cols, b.rows
                     )
                 } else {
                     format!(
-                        "no {}x{} grid among {n} X-junction candidates: the size counts inner corners (a board of 10x7 squares is 9x6); is all of it in the image?",
+                        "no {}x{} grid among {n} X-junction candidates{linked}: the size counts inner corners (a board of 10x7 squares is 9x6); is all of it in the image?",
                         b.cols, b.rows
                     )
                 }

@@ -473,9 +473,16 @@ pub fn search_target(
 ) -> Result<TargetSearch> {
     use parallax_camera_model::{TargetDescription as T, TargetObservation};
     use parallax_corner_detection as cd;
-    // too few points to use (a pose or a calibration needs 4)
-    let few = |n: usize, what: &str| {
-        format!("{n} {what} found, 4 are needed: is most of the target hidden, out of focus or too small?")
+    // too few points to use (a pose or a calibration needs 4), with the markers that were decoded
+    // (`kind` ids, ascending)
+    let few_from = |n: usize, kind: &str, decoded: &mut dyn Iterator<Item = u32>| {
+        let mut v: Vec<u32> = decoded.collect();
+        v.sort_unstable();
+        let ids = v.iter().map(u32::to_string).collect::<Vec<_>>().join(", ");
+        format!(
+            "{n} corners found from the {kind} decoded ({ids}), 4 are needed: is most of the target hidden, out of \
+             focus or too small?"
+        )
     };
     let mut outlines = Vec::new();
     let (observation, markers, why) = match target {
@@ -504,7 +511,7 @@ pub fn search_target(
                     b.dictionary().name()
                 ))
             } else {
-                (n < 4).then(|| few(n, "corners"))
+                (n < 4).then(|| few_from(n, "markers", &mut d.markers.iter().map(|m| m.id)))
             };
             (Some(d.observation), Some(d.markers.len()), why)
         }
@@ -527,7 +534,7 @@ pub fn search_target(
                         .to_string(),
                 )
             } else {
-                (n < 4).then(|| few(n, "corners"))
+                (n < 4).then(|| few_from(n, "tags", &mut d.tags.iter().map(|m| m.id)))
             };
             (Some(d.observation), Some(d.tags.len()), why)
         }
