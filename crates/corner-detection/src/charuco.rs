@@ -60,6 +60,10 @@ pub struct CharucoDetection {
     /// then located from the squares' edges, not as saddles); `None` for solid squares.
     #[serde(default)]
     pub square_frame: Option<f64>,
+    /// The board was found in inverted colours (light squares and markers on dark): no marker
+    /// decoded as printed, the board's markers in the negative image.
+    #[serde(default)]
+    pub inverted: bool,
     /// Ids of decoded markers of this board that sit, as their confirmed neighbours place them,
     /// on or next to the board in a square where the board as described has another marker or
     /// none. Not empty: the description does not match the print (most often the legacy layout
@@ -92,6 +96,24 @@ pub fn detect_charuco(img: &GrayImage, board: &CharucoBoard, cfg: &CharucoConfig
             "CharucoConfig needs smoothing_sigma >= 0, min_contrast > 0 and max_half_window >= 2".into(),
         ));
     }
+    let found = detect_charuco_in(img, board, cfg)?;
+    if !found.markers.is_empty() || !found.misplaced.is_empty() {
+        return Ok(found);
+    }
+    // No marker of the board: perhaps a print in inverted colours (light markers and squares on
+    // dark, as OpenCV's `detectInvertedMarker` reads them), which the image turned negative
+    // shows as an ordinary board, corners where they were.
+    let mut negative = img.clone();
+    image::imageops::invert(&mut negative);
+    let inverted = detect_charuco_in(&negative, board, cfg)?;
+    if inverted.markers.is_empty() && inverted.misplaced.is_empty() {
+        return Ok(found);
+    }
+    Ok(CharucoDetection { inverted: true, ..inverted })
+}
+
+/// [`detect_charuco`] on the image as it is.
+fn detect_charuco_in(img: &GrayImage, board: &CharucoBoard, cfg: &CharucoConfig) -> Result<CharucoDetection> {
     let dict = board.dictionary();
     let found = detect_markers(img, &dict, &cfg.markers)?;
     let on_board: Vec<DetectedMarker> = found.into_iter().filter(|m| (m.id as usize) < board.marker_count()).collect();
@@ -175,7 +197,14 @@ pub fn detect_charuco(img: &GrayImage, board: &CharucoBoard, cfg: &CharucoConfig
         misplaced.sort_unstable();
         misplaced.dedup();
         let observation = TargetObservation::new(Vec::new(), Vec::new()).expect("empty");
-        return Ok(CharucoDetection { observation, markers, refinement: Vec::new(), square_frame: None, misplaced });
+        return Ok(CharucoDetection {
+            observation,
+            markers,
+            refinement: Vec::new(),
+            square_frame: None,
+            inverted: false,
+            misplaced,
+        });
     }
     let mut ids = Vec::new();
     let mut points = Vec::new();
@@ -252,7 +281,7 @@ pub fn detect_charuco(img: &GrayImage, board: &CharucoBoard, cfg: &CharucoConfig
         refinement.push(r);
     }
     let observation = TargetObservation::new(ids, points).expect("ascending unique ids, finite points");
-    Ok(CharucoDetection { observation, markers, refinement, square_frame: frame, misplaced })
+    Ok(CharucoDetection { observation, markers, refinement, square_frame: frame, inverted: false, misplaced })
 }
 
 /// One colour sample around a corner: its offset from the corner in the image, pixels, whether

@@ -272,3 +272,36 @@ fn outlined_print_under_uneven_light_and_blur() {
     assert!(found as f64 >= 0.7 * visible as f64, "{found} of {visible}");
     assert!(rms <= 0.08, "RMS {rms}");
 }
+
+/// A board printed in inverted colours (light squares and markers on dark paper; OpenCV reads
+/// such markers only with `detectInvertedMarker`): found from the negative image, said so, every
+/// corner within 0.1 px of its truth; the ordinary print is not reported as inverted.
+#[test]
+fn inverted_print_is_found_and_said_so() {
+    let cam = camera();
+    let b = board();
+    let mut tally = Tally::default();
+    for (k, pose) in poses(&cam, &b, 4, 43).iter().enumerate() {
+        let opts = RenderOptions {
+            blur_sigma: 0.8,
+            noise_sigma: 2.0,
+            black: 220,
+            white: 30,
+            seed: k as u64,
+            ..Default::default()
+        };
+        let view = render_charuco(&cam, &b, pose, &opts, &[], 4.0).unwrap();
+        let det = detect_charuco(&view.image, &b, &CharucoConfig::default()).unwrap();
+        assert!(det.inverted, "view {k}");
+        tally.add(&det, &view);
+        for (&id, &p) in det.observation.ids().iter().zip(det.observation.points()) {
+            let e = (p - view.points[id as usize].unwrap()).length();
+            assert!(e < 0.1, "view {k}: corner {id} {e:.3} px off");
+        }
+        let plain = RenderOptions { black: 30, white: 220, ..opts };
+        let view = render_charuco(&cam, &b, pose, &plain, &[], 4.0).unwrap();
+        assert!(!detect_charuco(&view.image, &b, &CharucoConfig::default()).unwrap().inverted);
+    }
+    println!("inverted print: found {} of {} visible, RMS {:.4} px", tally.found, tally.visible, tally.rms());
+    assert!(tally.found as f64 >= 0.9 * tally.visible as f64, "{} of {}", tally.found, tally.visible);
+}
