@@ -53,7 +53,8 @@ pub struct CharucoDetection {
     pub observation: TargetObservation,
     /// The board's markers that were decoded and confirmed.
     pub markers: Vec<DetectedMarker>,
-    /// Per corner (same order): the saddle refinement's report.
+    /// Per corner (same order): the refinement's report (for a corner located by the edge
+    /// lines: half window 0, one iteration, the shift from the prediction).
     pub refinement: Vec<Refinement>,
     /// The width of the dark frame of the black squares, as a fraction of the square's side,
     /// when the print outlines them (a dark frame around a light interior: the corners are
@@ -84,8 +85,10 @@ pub struct CharucoDetection {
 /// confirmed by a neighbouring marker), a fit that stays inside the image and the white gap
 /// around the corner (the saddle fit converged; the edge lines with at least six edge points
 /// on each side of the corner, 0.5 px RMS from them), and the right colours on its four
-/// squares (both black squares darker than both white ones by `min_contrast`). A corner of a
-/// square that an object partly covers fails the colour test and is left out.
+/// squares (both black squares darker than both white ones by `min_contrast`, each colour
+/// uniform up to a linear trend of the light). A corner of a square that an object partly
+/// covers fails the colour test and is left out. A board whose markers decode only in the
+/// negative image (a print in inverted colours) is found there ([`CharucoDetection::inverted`]).
 pub fn detect_charuco(img: &GrayImage, board: &CharucoBoard, cfg: &CharucoConfig) -> Result<CharucoDetection> {
     if !(cfg.smoothing_sigma.is_finite()
         && cfg.smoothing_sigma >= 0.0
