@@ -66,7 +66,9 @@ pub use parallax_camera_model;
 pub use parallax_least_squares;
 
 pub use aprilgrid::{AprilGridConfig, AprilGridDetection, detect_aprilgrid};
-pub use blobs::{BT601, Blob, BlobConfig, BlobDetection, BlobPolarity, detect_blobs, weighted_gray};
+pub use blobs::{
+    BT601, Blob, BlobConfig, BlobDetection, BlobPolarity, LOCAL_MIN_CONTRAST, detect_blobs, weighted_gray,
+};
 pub use charuco::{CharucoConfig, CharucoDetection, detect_charuco};
 pub use chessboard::{
     ChessboardConfig, ChessboardDetection, ChessboardDetector, CornerRefinement, chessboard_candidates,
