@@ -522,19 +522,18 @@ fn outlined_frame(img: &GrayImage, board: &CharucoBoard, by_id: &[Option<DMat3>]
     const STEPS: usize = 100; // profile samples over the half square, 0.005 square apart
     let gap = 0.5 * (board.square_length() - board.marker_length()) / board.square_length();
     let cell = board.marker_length() / board.square_length() / (board.dictionary().marker_size() + 2) as f64;
-    let (mut profiles, mut borders, mut paper) = (vec![Vec::new(); STEPS + 1], Vec::new(), Vec::new());
+    // From each marker's centre towards its four sides: its border cell, the white gap, and the
+    // black square beyond (when on the board), as (homography, centre, direction).
+    let (mut borders, mut paper, mut beyond) = (Vec::new(), Vec::new(), Vec::new());
     for (id, h) in by_id.iter().enumerate() {
         let (Some(h), Some((x, y))) = (h, board.marker_square(id as u32)) else { continue };
         let centre = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
         for dir in [DVec2::X, DVec2::NEG_X, DVec2::Y, DVec2::NEG_Y] {
-            // From the marker's centre: its border cell, the white gap, then the neighbour.
             borders.push(sample_u8(img, apply(h, centre + dir * (0.5 - gap - 0.5 * cell))));
             paper.push(sample_u8(img, apply(h, centre + dir * (0.5 - 0.5 * gap))));
             let n = centre + dir;
             if n.x > 0.0 && n.y > 0.0 && n.x < board.squares_x() as f64 && n.y < board.squares_y() as f64 {
-                for (k, profile) in profiles.iter_mut().enumerate() {
-                    profile.push(sample_u8(img, apply(h, centre + dir * (0.5 + 0.5 * k as f64 / STEPS as f64))));
-                }
+                beyond.push((h, centre, dir));
             }
         }
     }
@@ -543,11 +542,20 @@ fn outlined_frame(img: &GrayImage, board: &CharucoBoard, by_id: &[Option<DMat3>]
         v.sort_by(f64::total_cmp);
         v.get(v.len() / 2).copied()
     };
+    // The black square's profile inward from its edge, at `k` steps (`STEPS` = its centre).
+    let at = |k: usize| {
+        let mut v: Vec<f64> = beyond
+            .iter()
+            .map(|&(h, centre, dir)| sample_u8(img, apply(h, centre + dir * (0.5 + 0.5 * k as f64 / STEPS as f64))))
+            .collect();
+        median(&mut v)
+    };
     let (dark, light) = (median(&mut borders)?, median(&mut paper)?);
-    let profile: Vec<f64> = profiles.iter_mut().map(median).collect::<Option<_>>()?;
-    if profile[STEPS] <= 0.5 * (dark + light) {
+    // Solid squares (the common case) are told by their centres alone.
+    if at(STEPS)? <= 0.5 * (dark + light) {
         return None;
     }
+    let profile: Vec<f64> = (0..=STEPS).map(at).collect::<Option<_>>()?;
     // The frame's inner edge: where the profile, past its darkest point, is back half way
     // from there to the paper (a thin frame, blurred, never reaches the border's black).
     let (low, darkest) = profile.iter().enumerate().fold((0, f64::MAX), |m, (k, &v)| if v < m.1 { (k, v) } else { m });
