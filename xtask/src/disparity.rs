@@ -57,10 +57,12 @@ pub struct Args {
     /// rejected_lr).
     #[arg(long)]
     accurate: bool,
-    /// With --method sgm: match 8-bit colour images in colour, the pixel cost summed over the
-    /// three channels (each prefiltered) with the penalties multiplied by 3 (as OpenCV's
-    /// P1 = 8·channels·blockSize²); the texture and the adaptive P2 read the grey conversion.
-    /// Measured on Middlebury, grey matched better (`benches/RESULTS.md`, 2026-12-06).
+    /// Match 8-bit colour images in colour, the cost summed over the three channels (each
+    /// prefiltered): with --method sgm the pixel cost, with the penalties multiplied by 3 (as
+    /// OpenCV's P1 = 8·channels·blockSize²); with --method bm the window cost of --cost sad or
+    /// ssd (ncc is refused: it matches grey pairs only). The texture and the adaptive P2 read
+    /// the grey conversion. Measured on Middlebury, grey matched better (SGM on all three
+    /// pairs, block matching on two; `benches/RESULTS.md`, 2026-12-06 and 2026-12-07).
     #[arg(long)]
     colour: bool,
     /// Semi-global matching's pixel difference: sad (|L − R| on the prefilter), bt
@@ -286,8 +288,11 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
              choose one"
         );
     }
-    if args.colour && !sgm {
-        anyhow::bail!("--colour is semi-global matching's (with --method sgm): block matching reads grey");
+    if args.colour && !sgm && cost == CostFunction::Ncc {
+        anyhow::bail!(
+            "--colour with --method bm sums --cost sad or ssd over the three channels: --cost ncc matches grey \
+             pairs only (drop --colour, or choose sad or ssd)"
+        );
     }
     let d = match (sgm, args.fill, args.accurate) {
         (false, false, _) => MatcherConfig::default(),
@@ -468,6 +473,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                     (false, false) => "",
                 }
             )
+        } else if args.colour {
+            " cost over 3 channels".to_string()
         } else {
             String::new()
         },

@@ -918,7 +918,7 @@ fn a_rerun_into_the_same_folder_leaves_no_file_of_the_earlier_run() {
 }
 
 #[test]
-fn colour_matching_is_the_librarys_with_three_times_the_penalties_and_refused_where_it_does_not_apply() {
+fn colour_matching_is_the_librarys_for_sgm_and_block_matching_and_refused_where_it_does_not_apply() {
     use parallax_block_matching::{BlockMatcher, MatcherConfig, SgmConfig};
     let dir = temp("colour");
     let out = dir.join("out");
@@ -969,10 +969,29 @@ fn colour_matching_is_the_librarys_with_three_times_the_penalties_and_refused_wh
         valid > n * 9 / 10 && right_shift > valid * 99 / 100,
         "{valid} of {n} returned, {right_shift} at the shift"
     );
-    // block matching reads grey: refused, nothing written
+    // block matching in colour: the library's map (SAD summed over the channels), bit for bit
+    let out_bm = dir.join("out-bm");
+    let bm_args = ["disparity", "--left", ls, "--right", rs, "--disparities", "16", "--runs", "1", "--colour"];
+    let r = run(&[&bm_args[..], &["--method", "bm", "--out", out_bm.to_str().unwrap()]].concat());
+    let stdout = String::from_utf8_lossy(&r.stdout);
+    assert!(r.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&r.stderr));
+    assert!(stdout.contains("cost Sad block 9 cost over 3 channels"), "{stdout}");
+    let cli_bm =
+        parallax_block_matching::from_pfm(&std::fs::read(out_bm.join("disparity.pfm")).unwrap(), "cli").unwrap();
+    let bm_cfg = MatcherConfig { num_disparities: 16, ..MatcherConfig::default() };
+    let lib_bm = BlockMatcher::new(bm_cfg.clone()).unwrap().compute_rgb(&left, &right).unwrap();
+    assert_eq!(bits(&cli_bm), bits(&lib_bm), "the CLI's colour block-matching map is not the library's");
+    // (and not the grey conversion's: the colour path ran)
+    let grey = |i: &image::RgbImage| image::imageops::grayscale(i);
+    let lib_grey = BlockMatcher::new(bm_cfg).unwrap().compute(&grey(&left), &grey(&right)).unwrap();
+    assert_ne!(bits(&cli_bm), bits(&lib_grey), "colour block matching gave the grey map");
+    let at_shift = cli_bm.data().iter().filter(|v| v.is_finite() && (*v - shift as f32).abs() < 0.5).count();
+    assert!(at_shift > cli_bm.data().len() * 8 / 10, "{at_shift} pixels at the shift");
+    // NCC is not summed over channels: refused, naming it, nothing written
     let out2 = dir.join("out2");
-    let r = run(&["disparity", "--left", ls, "--right", rs, "--out", out2.to_str().unwrap(), "--colour"]);
-    fails_naming(&r, &["--colour", "--method sgm"]);
+    let r =
+        run(&["disparity", "--left", ls, "--right", rs, "--out", out2.to_str().unwrap(), "--colour", "--cost", "ncc"]);
+    fails_naming(&r, &["--colour", "--cost ncc", "sad or ssd"]);
     assert!(!out2.exists());
     // 16-bit images are matched as grey only
     let l16 = image::ImageBuffer::<image::Rgb<u16>, _>::from_fn(w, h, |x, y| {

@@ -1,10 +1,11 @@
-//! The generic band: any cost (SAD, SSD, NCC) in `u32`, `u64` or `f64` sums, running box sums
+//! The generic band: any cost (SAD, SSD, NCC) in `u32`, `u64` or `f64` sums (SAD and SSD also
+//! summed over a colour pair's channels, `Shared::extra`), running box sums
 //! over disparity-major column sums, with the shared decisions per row. Runs where the fused
 //! vector kernels (`simd.rs`) do not: NCC, sums past `u32`, and the scalar level.
 
 use crate::config::CostFunction;
 use crate::decide::{Cost, Decision, WinnersBy, decide, finish_row, right_update};
-use crate::frame::{MatchStats, Shared, conf_row, for_each_band, load_rows};
+use crate::frame::{MatchStats, Shared, conf_row, for_each_band, load_plane_rows};
 use crate::prefilter::TextureRows;
 use parallax_simd::{Avx2, Level, SimdLevel};
 
@@ -217,16 +218,21 @@ fn band<A: Acc, const K: u8>(
         if y == y0 {
             sc.colsum.fill(A::default());
             for j in (y0 as i64 - r as i64)..=(y0 + r) as i64 {
-                load_rows(sh, clamp_y(j), &mut sc.l_in, &mut sc.r_in);
-                vertical::<A, K>(sc, nd, false);
+                // (each channel's terms added to the same column sums)
+                for [left, right] in sh.planes() {
+                    load_plane_rows(sh, left, right, clamp_y(j), &mut sc.l_in, &mut sc.r_in);
+                    vertical::<A, K>(sc, nd, false);
+                }
             }
         } else {
             let yi = clamp_y(y as i64 + r as i64);
             let yo = clamp_y(y as i64 - r as i64 - 1);
             if yi != yo {
-                load_rows(sh, yi, &mut sc.l_in, &mut sc.r_in);
-                load_rows(sh, yo, &mut sc.l_out, &mut sc.r_out);
-                vertical::<A, K>(sc, nd, true);
+                for [left, right] in sh.planes() {
+                    load_plane_rows(sh, left, right, yi, &mut sc.l_in, &mut sc.r_in);
+                    load_plane_rows(sh, left, right, yo, &mut sc.l_out, &mut sc.r_out);
+                    vertical::<A, K>(sc, nd, true);
+                }
             }
         }
         row_decisions::<A, K>(sh, sc, y, &mut out[(y - y0) * w..][..w], conf_row(sh, conf, y, y0), &mut st);

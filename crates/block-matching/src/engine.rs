@@ -139,10 +139,16 @@ impl BlockMatcher {
         self.run(w, h, Input::U8(left.as_raw(), right.as_raw()), None, out)
     }
 
-    /// Disparity of the left image of a rectified 8-bit colour pair. Semi-global matching sums
-    /// its pixel cost over the three channels, each prefiltered as the configuration says;
-    /// block matching and every grey-level measure (texture, adaptive P2) read the grey
-    /// conversion (`image::imageops::grayscale`).
+    /// Disparity of the left image of a rectified 8-bit colour pair. The cost is summed over the
+    /// three channels, each prefiltered as the configuration says: semi-global matching's pixel
+    /// cost, block matching's window cost (SAD or SSD: each channel's window sum, added; the
+    /// sums' range is three times the grey one's, so a window whose grey sums fit the 16-bit
+    /// kernel may run the 32-bit one). Every grey-level measure (texture, adaptive P2) reads the
+    /// grey conversion (`image::imageops::grayscale`).
+    ///
+    /// Block matching with [`CostFunction::Ncc`] on a colour pair is refused
+    /// ([`BlockMatchingError::InvalidConfig`] naming the cost): the correlation of a sum over
+    /// channels is not defined here; match the grey pair with [`BlockMatcher::compute`].
     pub fn compute_rgb(&mut self, left: &RgbImage, right: &RgbImage) -> Result<DisparityMap> {
         let mut out = DisparityMap::new_invalid(0, 0);
         self.compute_rgb_into(left, right, &mut out)?;
@@ -151,9 +157,16 @@ impl BlockMatcher {
 
     /// As [`BlockMatcher::compute_rgb`], writing into `out` (resized as needed).
     pub fn compute_rgb_into(&mut self, left: &RgbImage, right: &RgbImage, out: &mut DisparityMap) -> Result<()> {
+        if self.config.method == Method::BlockMatching && self.config.cost == CostFunction::Ncc {
+            return Err(BlockMatchingError::InvalidConfig {
+                field: "cost",
+                value: "Ncc".into(),
+                reason: "colour block matching sums SAD or SSD over the channels; NCC matches grey pairs only",
+            });
+        }
         let (w, h) = check_pair(left.width(), left.height(), right.width(), right.height())?;
         let (gl, gr) = (image::imageops::grayscale(left), image::imageops::grayscale(right));
-        let colour = (self.config.method == Method::Sgm).then_some([left.as_raw().as_slice(), right.as_raw()]);
+        let colour = Some([left.as_raw().as_slice(), right.as_raw()]);
         self.run(w, h, Input::U8(gl.as_raw(), gr.as_raw()), colour, out)
     }
 
@@ -261,6 +274,24 @@ impl BlockMatcher {
             Prefilter::None => (raw_left, raw_right),
             _ => (&self.pre_left[..], &self.pre_right[..]),
         };
+        if let Some(rgb) = colour {
+            // each channel widened and prefiltered as the grey planes
+            self.channels.resize_with(3, Default::default);
+            self.channels.par_iter_mut().enumerate().for_each(|(c, [rl, rr, pl, pr])| {
+                for (src, raw, pre) in [(rgb[0], &mut *rl, &mut *pl), (rgb[1], &mut *rr, &mut *pr)] {
+                    raw.clear();
+                    raw.extend(src.iter().skip(c).step_by(3).map(|&v| v as u16));
+                    prefilter_plane(cfg.prefilter, raw, w, h, scale, pre);
+                }
+            });
+        }
+        // per channel the left and right planes: prefiltered, and as read
+        let ch = |i: usize| self.channels.iter().map(move |c| [&c[i][..], &c[i + 1][..]]);
+        let (pre, raw): (Vec<_>, Vec<_>) = if colour.is_some() {
+            (ch(2).collect(), ch(0).collect())
+        } else {
+            (vec![[left, right]], vec![[raw_left, raw_right]])
+        };
         let n = (cfg.block_size * cfg.block_size) as u64;
         if cfg.cost == CostFunction::Ncc {
             let stats = |img: &[u16]| {
@@ -276,9 +307,11 @@ impl BlockMatcher {
             // the prefilters' output range
             Prefilter::XSobel { cap } | Prefilter::NormalizedResponse { cap, .. } => 2 * cap as u64 * scale as u64,
             Prefilter::Rank { size } => (size * size - 1) as u64,
-            Prefilter::None => left.iter().chain(right).copied().max().unwrap_or(0) as u64,
+            // (raw channels may exceed the grey planes' largest value)
+            Prefilter::None => pre.iter().flatten().flat_map(|p| p.iter()).copied().max().unwrap_or(0) as u64,
         };
-        let max_term = if cfg.cost == CostFunction::Sad { maxv } else { maxv * maxv };
+        // a window's cost sums its terms over every channel
+        let max_term = pre.len() as u64 * if cfg.cost == CostFunction::Sad { maxv } else { maxv * maxv };
         let wide = n * max_term > u32::MAX as u64;
 
         if out.width() != w || out.height() != h || out.data().len() != w * h {
@@ -308,6 +341,11 @@ impl BlockMatcher {
             threshold: cfg.texture_threshold * scale,
             frame: self.frame,
         });
+        // block matching's planes (semi-global matching reads its own, prepared below)
+        let (left, right, extra) = match &pre[..] {
+            [[left, right], extra @ ..] if !sgm => (*left, *right, extra),
+            _ => (left, right, &[][..]),
+        };
         let shared = Shared {
             w,
             h,
@@ -317,6 +355,7 @@ impl BlockMatcher {
             dmin: cfg.min_disparity as i64,
             left,
             right,
+            extra,
             texture,
             ncc: &self.ncc,
             n: n as f64,
@@ -348,33 +387,8 @@ impl BlockMatcher {
         let mut stats = MatchStats::default();
         if sgm {
             let (intensity, iscale) = (raw_left, scale);
-            if let Some(rgb) = colour {
-                // each channel widened and prefiltered as the grey planes
-                self.channels.resize_with(3, Default::default);
-                self.channels.par_iter_mut().enumerate().for_each(|(c, [rl, rr, pl, pr])| {
-                    for (src, raw, pre) in [(rgb[0], &mut *rl, &mut *pl), (rgb[1], &mut *rr, &mut *pr)] {
-                        raw.clear();
-                        raw.extend(src.iter().skip(c).step_by(3).map(|&v| v as u16));
-                        prefilter_plane(cfg.prefilter, raw, w, h, scale, pre);
-                    }
-                });
-            }
-            let ch = |i: usize| self.channels.iter().map(move |c| [&c[i][..], &c[i + 1][..]]);
-            // per channel the left and right planes: prefiltered, and as read
-            let (pre, raw): (Vec<_>, Vec<_>) = if colour.is_some() {
-                (ch(2).collect(), ch(0).collect())
-            } else {
-                (vec![[left, right]], vec![[raw_left, raw_right]])
-            };
             self.sgm_planes.prepare(&cfg.sgm, &pre, &raw, scale, w, h);
-            // (raw channels may exceed the grey planes' largest value)
-            let maxc = match cfg.prefilter {
-                Prefilter::None if colour.is_some() => {
-                    pre.iter().flatten().flat_map(|p| p.iter()).copied().max().unwrap_or(0) as u64
-                }
-                _ => maxv,
-            };
-            let pp = crate::sgm::SgmParams::new(&cfg.sgm, maxc, maxc < 128, &pre, intensity, iscale, &self.sgm_planes)?;
+            let pp = crate::sgm::SgmParams::new(&cfg.sgm, maxv, maxv < 128, &pre, intensity, iscale, &self.sgm_planes)?;
             let per_band =
                 for_each_band(&shared, &mut self.sgm, nbands, band_rows, data, conf_plane, |sc, rows, conf, y0, y1| {
                     crate::sgm::run_strip(&shared, &pp, sc, rows, conf, y0, y1, simd)

@@ -73,8 +73,14 @@ pub(crate) struct Shared<'a> {
     pub(crate) r: usize,
     pub(crate) nd: usize,
     pub(crate) dmin: i64,
+    /// The matched planes (prefiltered), left and right: the grey ones, or a colour pair's first
+    /// channel.
     pub(crate) left: &'a [u16],
     pub(crate) right: &'a [u16],
+    /// Block matching on a colour pair: the other channels' planes (prefiltered as `left` and
+    /// `right`), each left and right; the window cost is the sum of every channel's. Empty for
+    /// grey (and for semi-global matching, whose planes are its own).
+    pub(crate) extra: &'a [[&'a [u16]; 2]],
     /// The texture measure's input, when it is on (each band computes its own rows).
     pub(crate) texture: Option<TextureSource<'a>>,
     pub(crate) ncc: &'a NccPlanes,
@@ -98,6 +104,13 @@ pub(crate) struct Shared<'a> {
     /// Every matched (prefiltered) pixel is below 128: the vector SAD kernels may take the
     /// column-sum update's differences on bytes (see `simd::Scratch::pairs`).
     pub(crate) small_px: bool,
+}
+
+impl<'a> Shared<'a> {
+    /// Every channel's planes, left and right: `left` and `right`, then [`Shared::extra`].
+    pub(crate) fn planes(&self) -> impl Iterator<Item = [&'a [u16]; 2]> + '_ {
+        std::iter::once([self.left, self.right]).chain(self.extra.iter().copied())
+    }
 }
 
 /// The finite values of `v` (as `DisparityMap::valid_count`), summed in `u32` lanes a block at a

@@ -14,8 +14,9 @@
 //! left–right agreement), [`BlockMatcher::check_swap`] says whether the pair looks swapped, and
 //! [`evaluate`] reports bad-N both with missing = bad and among the returned pixels.
 //! Defaults: 9x9 SAD on the x-Sobel prefilter (cap 31), no uniqueness margin, left–right 1 px,
-//! speckle 100 px. Colour pairs: [`BlockMatcher::compute_rgb`] (grey for block matching; the
-//! semi-global cost summed over the three channels).
+//! speckle 100 px. Colour pairs: [`BlockMatcher::compute_rgb`] (block matching's SAD or SSD
+//! window cost and the semi-global pixel cost summed over the three channels, each prefiltered;
+//! NCC refused on colour).
 //!
 //! Semi-global matching ([`Method::Sgm`], presets [`MatcherConfig::sgm`] (the default: three
 //! paths, OpenCV SGBM's pixel cost and left–right rule), [`MatcherConfig::sgm_accurate`] and

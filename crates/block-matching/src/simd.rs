@@ -1,12 +1,14 @@
 //! The vectorised kernels: SAD and SSD with window sums in explicit 256-bit SIMD (AVX2), in
-//! 16-bit lanes when every sum fits (`block² · max pixel ≤
-//! 65534`: SAD with OpenCV's default x-Sobel prefilter, pixels `0..=62`, or the rank prefilter,
-//! any window) and in 32-bit lanes otherwise while the sums fit in `u32` (SSD, SAD on raw or
+//! 16-bit lanes when every sum fits (`channels · block² · max pixel ≤
+//! 65534`: grey SAD with OpenCV's default x-Sobel prefilter, pixels `0..=62`, or the rank
+//! prefilter, any window; colour SAD on the default x-Sobel up to 17x17) and in 32-bit lanes otherwise while the sums fit in `u32` (SSD, SAD on raw or
 //! 16-bit intensities). The generic engine keeps several passes per pixel; here one fused loop
 //! over disparity chunks does, for each pixel `x` of a row:
 //!
 //! 1. the vertical update of the column sums of the entering column (`+term` of the row that
-//!    enters the window, `−term` of the row that leaves it),
+//!    enters the window, `−term` of the row that leaves it; on a colour pair the first
+//!    channel's, the other channels' terms added to the column sums by a pass of their own
+//!    before the row: the window cost is the sum of the three channels'),
 //! 2. the horizontal running box sum (`+` entering column, `−` leaving column),
 //! 3. the left winner-take-all as a per-lane running minimum and arg-minimum (16-bit lanes: the
 //!    minimum of `(cost << 16) | d` keys; one horizontal reduction per pixel; ties go to the
@@ -36,7 +38,7 @@ use crate::prefilter::TextureRows;
 use parallax_simd::{Avx2, Avx512, CacheAligned, Lanes, Level, U16x16, U32x8};
 
 use crate::decide::{WinnersBy, finish_row};
-use crate::frame::{conf_row, load_row_pairs, load_rows};
+use crate::frame::{conf_row, load_plane_rows, load_row_pairs, load_rows};
 
 /// A lane type of the kernels: window sums, costs and disparity indices.
 pub(crate) trait Lane: Cost + Copy + Default + PartialOrd + Send + Sync + 'static {
@@ -411,17 +413,32 @@ fn band<E: Lane, V: KernelLanes<E>, A: Level, const SQ: bool>(
         if y == y0 {
             sc.colsum.fill(E::ZERO);
             for j in (y0 as i64 - r as i64)..=(y0 + r) as i64 {
-                load_rows(sh, clamp_y(j), &mut sc.l_in, &mut sc.r_in);
-                a.vectorize(
-                    #[inline(always)]
-                    || add_row::<E, V, SQ>(a.avx2(), sh, sc),
-                );
+                // (each channel's terms added to the same column sums)
+                for [left, right] in sh.planes() {
+                    load_plane_rows(sh, left, right, clamp_y(j), &mut sc.l_in, &mut sc.r_in);
+                    a.vectorize(
+                        #[inline(always)]
+                        || add_row::<E, V, SQ, false>(a.avx2(), sh, sc),
+                    );
+                }
             }
             row_n::<E, V, A, false, SQ, false>(a, sh, sc, y, orow, crow, &mut st);
         } else {
             let yi = clamp_y(y as i64 + r as i64);
             let yo = clamp_y(y as i64 - r as i64 - 1);
             if yi != yo {
+                // a colour pair's other channels update the column sums first, each in a pass
+                // of its own; the fused row below adds the first channel's (the sums are exact
+                // once the row's last term is in, whatever the order, and each column's sums are
+                // read only after the fused step has updated it)
+                for &[left, right] in sh.extra {
+                    load_plane_rows(sh, left, right, yi, &mut sc.l_in, &mut sc.r_in);
+                    load_plane_rows(sh, left, right, yo, &mut sc.l_out, &mut sc.r_out);
+                    a.vectorize(
+                        #[inline(always)]
+                        || add_row::<E, V, SQ, true>(a.avx2(), sh, sc),
+                    );
+                }
                 if !SQ && sh.small_px {
                     // below 128 (`small_px`)
                     load_row_pairs(sh, yi, yo, &mut sc.l_pairs, &mut sc.pairs);
@@ -482,23 +499,30 @@ fn row_n<E: Lane, V: KernelLanes<E>, A: Level, const VERT: bool, const SQ: bool,
     }
 }
 
-/// Adds `|L − R|` of the row in `l_in` / `r_in` to every column sum.
+/// Adds the cost terms of the row in `l_in` / `r_in` to every column sum, and when `OUT`
+/// subtracts those of the row in `l_out` / `r_out` (the chunks no pixel reads, see [`needed`],
+/// stay 0 as the fused step leaves them).
 #[cfg_attr(not(opt_level_zero), inline(always))]
-fn add_row<E: Lane, V: KernelLanes<E>, const SQ: bool>(t: Avx2, sh: &Shared, sc: &mut Scratch<E>) {
+fn add_row<E: Lane, V: KernelLanes<E>, const SQ: bool, const OUT: bool>(t: Avx2, sh: &Shared, sc: &mut Scratch<E>) {
     sc.assert_sized(sh, V::LANES);
     let wp = sh.w + 2 * sh.r;
     let ndp = sc.ndp;
     let cs = sc.colsum.as_mut_ptr();
-    let rin = sc.r_in.as_ptr();
+    let (rin, rout) = (sc.r_in.as_ptr(), sc.r_out.as_ptr());
     for xp in 0..wp {
         let li = V::splat_u16(t, sc.l_in[xp]);
+        let lo = if OUT { V::splat_u16(t, sc.l_out[xp]) } else { li };
         let base = wp - 1 - xp;
         for c in (0..ndp).step_by(V::LANES).take_while(|&c| needed(c, xp, sh.dmin)) {
             // SAFETY: xp·ndp + c + L ≤ wp·ndp column sums; base + c + L ≤ wp − 1 + ndp right
-            // pixels (`assert_sized`).
+            // pixels, in both reversed rows (`assert_sized`).
             unsafe {
                 let p = cs.add(xp * ndp + c);
-                V::load_ptr(t, p).wrapping_add(V::term::<SQ>(li, V::load_u16_ptr(t, rin.add(base + c)))).store_ptr(p);
+                let mut v = V::load_ptr(t, p).wrapping_add(V::term::<SQ>(li, V::load_u16_ptr(t, rin.add(base + c))));
+                if OUT {
+                    v = v.wrapping_sub(V::term::<SQ>(lo, V::load_u16_ptr(t, rout.add(base + c))));
+                }
+                v.store_ptr(p);
             }
         }
     }

@@ -2,9 +2,10 @@
 //! with clamp-to-edge borders, the full cost volume, first-minimum winner-take-all, OpenCV's
 //! uniqueness rule, sub-pixel fits, the left–right check, the confidence (ratio of the best to
 //! the best non-adjacent cost, times the left–right agreement) with its threshold, and the fill.
-//! Property test with a fixed seed.
+//! Colour pairs: the window cost is the sum of each channel's (each prefiltered), the texture
+//! measure the grey conversion's. Property test with a fixed seed.
 
-use image::{GrayImage, Luma};
+use image::{GrayImage, Luma, Rgb, RgbImage};
 use parallax_block_matching::{BlockMatcher, CostFunction, Gray16Image, MatcherConfig, Prefilter, SimdLevel, Subpixel};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
@@ -66,14 +67,23 @@ fn rank_naive(src: &[u16], w: usize, h: usize, size: usize) -> Vec<u16> {
     out
 }
 
-/// Naive matcher: returns the disparity map (NaN invalid) and the confidence map (0 where
-/// invalid or filled), without speckle filtering.
-fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, scale: i64) -> (Vec<f32>, Vec<f32>) {
+/// Naive matcher over the channels `planes` (each left and right; one for grey), the texture
+/// measured on `grey_left`: returns the disparity map (NaN invalid) and the confidence map (0
+/// where invalid or filled), without speckle filtering.
+fn naive(
+    planes: &[[&[u16]; 2]],
+    grey_left: &[u16],
+    w: usize,
+    h: usize,
+    cfg: &MatcherConfig,
+    scale: i64,
+) -> (Vec<f32>, Vec<f32>) {
+    assert!(planes.len() == 1 || cfg.cost != CostFunction::Ncc, "NCC matches one channel");
     let r = (cfg.block_size / 2) as i64;
     let nd = cfg.num_disparities;
     let dmin = cfg.min_disparity as i64;
     let texture_ok: Vec<bool> = if cfg.texture_threshold > 0 {
-        let s = sobel_naive(left, w, h, 31 * scale);
+        let s = sobel_naive(grey_left, w, h, 31 * scale);
         (0..w * h)
             .map(|i| {
                 let (x, y) = ((i % w) as i64, (i / w) as i64);
@@ -89,18 +99,13 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
     } else {
         vec![true; w * h]
     };
-    let (l, rt) = match cfg.prefilter {
-        Prefilter::None => (left.to_vec(), right.to_vec()),
-        Prefilter::XSobel { cap } => {
-            (sobel_naive(left, w, h, cap as i64 * scale), sobel_naive(right, w, h, cap as i64 * scale))
-        }
-        Prefilter::NormalizedResponse { size, cap } => {
-            (norm_naive(left, w, h, size, cap as i64 * scale), norm_naive(right, w, h, size, cap as i64 * scale))
-        }
-        Prefilter::Rank { size } => (rank_naive(left, w, h, size), rank_naive(right, w, h, size)),
+    let prefiltered = |img: &[u16]| match cfg.prefilter {
+        Prefilter::None => img.to_vec(),
+        Prefilter::XSobel { cap } => sobel_naive(img, w, h, cap as i64 * scale),
+        Prefilter::NormalizedResponse { size, cap } => norm_naive(img, w, h, size, cap as i64 * scale),
+        Prefilter::Rank { size } => rank_naive(img, w, h, size),
     };
-    let pl = |x: i64, y: i64| l[clampi(y, h) * w + clampi(x, w)] as i64;
-    let pr = |x: i64, y: i64| rt[clampi(y, h) * w + clampi(x, w)] as i64;
+    let channels: Vec<[Vec<u16>; 2]> = planes.iter().map(|[l, r]| [prefiltered(l), prefiltered(r)]).collect();
     let n = (cfg.block_size * cfg.block_size) as i64;
     let inv = |s: i64, ss: i64| {
         let den = n * ss - s * s;
@@ -117,17 +122,22 @@ fn naive(left: &[u16], right: &[u16], w: usize, h: usize, cfg: &MatcherConfig, s
                 }
                 let (mut sad, mut ssd, mut sl, mut sr, mut sll, mut srr, mut slr) =
                     (0i64, 0i64, 0i64, 0i64, 0i64, 0i64, 0i64);
-                for dy in -r..=r {
-                    for dx in -r..=r {
-                        let a = pl(x + dx, y + dy);
-                        let b = pr(x + dx - dmin - k, y + dy);
-                        sad += (a - b).abs();
-                        ssd += (a - b) * (a - b);
-                        sl += a;
-                        sr += pr(u + dx, y + dy);
-                        sll += a * a;
-                        srr += pr(u + dx, y + dy) * pr(u + dx, y + dy);
-                        slr += a * b;
+                // every channel's window, summed
+                for [l, rt] in &channels {
+                    let pl = |x: i64, y: i64| l[clampi(y, h) * w + clampi(x, w)] as i64;
+                    let pr = |x: i64, y: i64| rt[clampi(y, h) * w + clampi(x, w)] as i64;
+                    for dy in -r..=r {
+                        for dx in -r..=r {
+                            let a = pl(x + dx, y + dy);
+                            let b = pr(x + dx - dmin - k, y + dy);
+                            sad += (a - b).abs();
+                            ssd += (a - b) * (a - b);
+                            sl += a;
+                            sr += pr(u + dx, y + dy);
+                            sll += a * a;
+                            srr += pr(u + dx, y + dy) * pr(u + dx, y + dy);
+                            slr += a * b;
+                        }
                     }
                 }
                 let c = match cfg.cost {
@@ -250,17 +260,22 @@ fn compare(fast: &[f32], slow: &[f32], w: usize, tol: f32, what: &str) {
     }
 }
 
-/// A pair with structure: right = left shifted by a random disparity field plus noise.
-fn make_pair(seed: u64, w: usize, h: usize, maxv: u32) -> (Vec<u16>, Vec<u16>) {
+/// A pair with structure: right = left shifted by a random disparity field plus noise, of `ch`
+/// interleaved channels (each its own texture).
+fn make_pair(seed: u64, w: usize, h: usize, maxv: u32, ch: usize) -> (Vec<u16>, Vec<u16>) {
     let mut rnd = common::rng(seed);
     let big = w + 40;
-    let tex: Vec<u16> = (0..big * h).map(|_| (rnd() % (maxv as u64 + 1)) as u16).collect();
+    let tex: Vec<u16> = (0..big * h * ch).map(|_| (rnd() % (maxv as u64 + 1)) as u16).collect();
     let shift = (rnd() % 8) as usize;
     let noise = (rnd() % 3) as u16;
-    let left: Vec<u16> = (0..w * h).map(|i| tex[(i / w) * big + i % w + 20]).collect();
-    let right: Vec<u16> = (0..w * h)
+    let at = |i: usize, shift: usize| {
+        let (p, c) = (i / ch, i % ch);
+        tex[((p / w) * big + p % w + 20 + shift) * ch + c]
+    };
+    let left: Vec<u16> = (0..w * h * ch).map(|i| at(i, 0)).collect();
+    let right: Vec<u16> = (0..w * h * ch)
         .map(|i| {
-            let v = tex[(i / w) * big + i % w + 20 + shift];
+            let v = at(i, shift);
             if noise > 0 && rnd().is_multiple_of(4) {
                 v.saturating_add((rnd() % noise as u64) as u16).min(maxv as u16)
             } else {
@@ -271,10 +286,35 @@ fn make_pair(seed: u64, w: usize, h: usize, maxv: u32) -> (Vec<u16>, Vec<u16>) {
     (left, right)
 }
 
-fn run_case(seed: u64, w: usize, h: usize, maxv: u32, sixteen: bool, cfg: MatcherConfig, threads: usize) {
-    let (l, r) = make_pair(seed, w, h, maxv);
+/// What a case matches: an 8-bit grey pair, a 16-bit grey pair or an 8-bit colour pair.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Input {
+    Grey8,
+    Grey16,
+    Colour,
+}
+
+fn run_case(seed: u64, w: usize, h: usize, maxv: u32, input: Input, cfg: MatcherConfig, threads: usize) {
+    let sixteen = input == Input::Grey16;
+    let ch = if input == Input::Colour { 3 } else { 1 };
+    let (l, r) = make_pair(seed, w, h, maxv, ch);
     let scale = if sixteen { 257 } else { 1 };
-    let (expect, expect_conf) = naive(&l, &r, w, h, &cfg, scale);
+    let rgb = |v: &[u16]| {
+        RgbImage::from_fn(w as u32, h as u32, |x, y| {
+            let i = 3 * (y as usize * w + x as usize);
+            Rgb([v[i] as u8, v[i + 1] as u8, v[i + 2] as u8])
+        })
+    };
+    let (expect, expect_conf) = if input == Input::Colour {
+        let channel = |v: &[u16], c: usize| v.iter().skip(c).step_by(3).copied().collect::<Vec<u16>>();
+        let planes: Vec<[Vec<u16>; 2]> = (0..3).map(|c| [channel(&l, c), channel(&r, c)]).collect();
+        let planes: Vec<[&[u16]; 2]> = planes.iter().map(|[a, b]| [&a[..], &b[..]]).collect();
+        // the texture of the grey conversion, as `compute_rgb` documents
+        let grey: Vec<u16> = image::imageops::grayscale(&rgb(&l)).pixels().map(|p| p[0] as u16).collect();
+        naive(&planes, &grey, w, h, &cfg, scale)
+    } else {
+        naive(&[[&l, &r]], &l, w, h, &cfg, scale)
+    };
     let tol = if cfg.cost == CostFunction::Ncc { 1e-5 } else { 1e-6 };
     for level in [SimdLevel::Scalar, SimdLevel::Avx2, SimdLevel::Avx512] {
         let mut m = BlockMatcher::new(MatcherConfig { threads, ..cfg.clone() }).unwrap();
@@ -286,6 +326,10 @@ fn run_case(seed: u64, w: usize, h: usize, maxv: u32, sixteen: bool, cfg: Matche
             let li = Gray16Image::from_raw(w as u32, h as u32, l.clone()).unwrap();
             let ri = Gray16Image::from_raw(w as u32, h as u32, r.clone()).unwrap();
             m.compute_u16(&li, &ri).unwrap()
+        } else if input == Input::Colour {
+            // twice: the second call reuses the buffers
+            m.compute_rgb(&rgb(&l), &rgb(&r)).unwrap();
+            m.compute_rgb(&rgb(&l), &rgb(&r)).unwrap()
         } else {
             let li = GrayImage::from_fn(w as u32, h as u32, |x, y| Luma([l[y as usize * w + x as usize] as u8]));
             let ri = GrayImage::from_fn(w as u32, h as u32, |x, y| Luma([r[y as usize * w + x as usize] as u8]));
@@ -293,7 +337,7 @@ fn run_case(seed: u64, w: usize, h: usize, maxv: u32, sixteen: bool, cfg: Matche
             m.compute(&li, &ri).unwrap();
             m.compute(&li, &ri).unwrap()
         };
-        let what = format!("{level:?} seed {seed} {w}x{h} maxv {maxv} {cfg:?}");
+        let what = format!("{level:?} {input:?} seed {seed} {w}x{h} maxv {maxv} {cfg:?}");
         compare(got.data(), &expect, w, tol, &what);
         match m.confidence() {
             Some(c) => compare(c, &expect_conf, w, tol, &format!("confidence, {what}")),
@@ -302,9 +346,15 @@ fn run_case(seed: u64, w: usize, h: usize, maxv: u32, sixteen: bool, cfg: Matche
     }
 }
 
-fn config_strategy() -> impl Strategy<Value = MatcherConfig> {
+/// Configurations of every option; with `ncc` false, SAD and SSD only (colour pairs).
+fn config_strategy(ncc: bool) -> impl Strategy<Value = MatcherConfig> {
+    let costs = if ncc {
+        prop_oneof![Just(CostFunction::Sad), Just(CostFunction::Ssd), Just(CostFunction::Ncc)].boxed()
+    } else {
+        prop_oneof![Just(CostFunction::Sad), Just(CostFunction::Ssd)].boxed()
+    };
     (
-        prop_oneof![Just(CostFunction::Sad), Just(CostFunction::Ssd), Just(CostFunction::Ncc)],
+        costs,
         (1usize..=5).prop_map(|k| 2 * k + 1),
         -4i32..6,
         1usize..40,
@@ -361,25 +411,91 @@ proptest! {
 
     #[test]
     fn fast_equals_naive_on_8_bit_images(
-        cfg in config_strategy(),
+        cfg in config_strategy(true),
         seed in any::<u64>(),
         w in 6usize..40,
         h in 3usize..24,
         maxv in prop_oneof![Just(3u32), Just(40), Just(255)],
         threads in 1usize..=2,
     ) {
-        run_case(seed, w, h, maxv, false, cfg, threads);
+        run_case(seed, w, h, maxv, Input::Grey8, cfg, threads);
     }
 
     #[test]
     fn fast_equals_naive_on_16_bit_images(
-        cfg in config_strategy(),
+        cfg in config_strategy(true),
         seed in any::<u64>(),
         w in 6usize..30,
         h in 3usize..16,
         maxv in prop_oneof![Just(4095u32), Just(65535)],
     ) {
-        run_case(seed, w, h, maxv, true, cfg, 2);
+        run_case(seed, w, h, maxv, Input::Grey16, cfg, 2);
+    }
+
+    #[test]
+    fn fast_equals_naive_on_colour_images(
+        cfg in config_strategy(false),
+        seed in any::<u64>(),
+        w in 6usize..32,
+        h in 3usize..20,
+        maxv in prop_oneof![Just(3u32), Just(40), Just(255)],
+        threads in 1usize..=2,
+    ) {
+        run_case(seed, w, h, maxv, Input::Colour, cfg, threads);
+    }
+}
+
+#[test]
+fn fast_equals_naive_on_colour_in_16_and_32_bit_lanes() {
+    // the window cost of a colour pair sums three channels: SAD runs in 16-bit lanes while
+    // 3 · block² · (2 · cap) ≤ 65534 and in 32-bit lanes past it, where the same window on grey
+    // still fits 16 bits (a 16-bit kernel chosen there would wrap the sums and lose the match);
+    // cap 31 (the default x-Sobel) and 63 (pixels up to 126: both below 128, the byte-pair
+    // column update), 1 to 4 chunks, with and without the left–right check; SSD (32-bit lanes)
+    // on the same windows
+    let mut case = 0;
+    // (windows far past the bound, 31x31 and 21x21 at cap 63, give most candidates sums past
+    // 65535: there wrapped sums would change the winners and the sub-pixel fits)
+    let windows =
+        [(31u16, 9usize, true), (31, 17, true), (31, 19, false), (31, 31, false), (63, 13, true), (63, 21, false)];
+    for (cap, block, sixteen) in windows {
+        let sum = |channels: usize| channels * block * block * 2 * cap as usize;
+        assert_eq!(sum(3) <= 65534, sixteen, "cap {cap} block {block}");
+        assert!(sum(1) <= 65534, "cap {cap} block {block}: grey fits 16 bits");
+        for (nd, lr, uniq) in [(16, Some(1), 0), (40, None, 10), (64, Some(0), 5)] {
+            for cost in [CostFunction::Sad, CostFunction::Ssd] {
+                let cfg = MatcherConfig {
+                    cost,
+                    block_size: block,
+                    num_disparities: nd,
+                    prefilter: Prefilter::XSobel { cap },
+                    uniqueness_ratio: uniq,
+                    lr_max_diff: lr,
+                    confidence_map: case % 2 == 0,
+                    speckle_window_size: 0,
+                    ..MatcherConfig::default()
+                };
+                run_case(500 + case, 80, 26, 255, Input::Colour, cfg, 2);
+                case += 1;
+            }
+        }
+    }
+}
+
+#[test]
+fn fast_equals_naive_on_colour_with_several_bands_and_prefilters() {
+    // many bands (one per thread: 4), the default option set and the dense preset, each
+    // prefilter (raw channels: 32-bit lanes)
+    for prefilter in [
+        Prefilter::default(),
+        Prefilter::Rank { size: 5 },
+        Prefilter::NormalizedResponse { size: 7, cap: 20 },
+        Prefilter::None,
+    ] {
+        for preset in [MatcherConfig { confidence_map: true, ..MatcherConfig::default() }, MatcherConfig::dense()] {
+            let cfg = MatcherConfig { prefilter, num_disparities: 24, speckle_window_size: 0, ..preset };
+            run_case(9, 64, 120, 255, Input::Colour, cfg, 4);
+        }
     }
 }
 
@@ -398,7 +514,7 @@ fn fast_equals_naive_on_a_larger_image_with_many_bands() {
             for preset in &presets {
                 let cfg =
                     MatcherConfig { cost, prefilter, num_disparities: 24, speckle_window_size: 0, ..preset.clone() };
-                run_case(7, 64, 160, 255, false, cfg, 4);
+                run_case(7, 64, 160, 255, Input::Grey8, cfg, 4);
             }
         }
     }
@@ -444,7 +560,7 @@ fn fast_equals_naive_with_several_disparity_chunks() {
                     speckle_window_size: 0,
                     ..MatcherConfig::default()
                 };
-                run_case(100 + case, 112, 20, 255, false, cfg, 2);
+                run_case(100 + case, 112, 20, 255, Input::Grey8, cfg, 2);
                 case += 1;
             }
         }
@@ -474,7 +590,7 @@ fn fast_equals_naive_on_ties_across_chunks() {
                     speckle_window_size: 0,
                     ..MatcherConfig::default()
                 };
-                run_case(300 + case, nd + 40, 12, maxv, false, cfg, 1);
+                run_case(300 + case, nd + 40, 12, maxv, Input::Grey8, cfg, 1);
                 case += 1;
             }
         }
@@ -497,7 +613,7 @@ fn fast_equals_naive_with_32_bit_sums_of_small_pixels() {
                 speckle_window_size: 0,
                 ..MatcherConfig::default()
             };
-            run_case(400 + case as u64, 60, 30, 255, false, cfg, 2);
+            run_case(400 + case as u64, 60, 30, 255, Input::Grey8, cfg, 2);
         }
     }
 }

@@ -18,8 +18,8 @@ pub enum StereoImages {
     U8(image::GrayImage, image::GrayImage),
     /// 16-bit grey.
     U16(Gray16Image, Gray16Image),
-    /// 8-bit colour, matched by [`BlockMatcher::compute_rgb`] (semi-global matching sums its
-    /// cost over the channels; block matching and the checks read the grey conversion).
+    /// 8-bit colour, matched by [`BlockMatcher::compute_rgb`] (semi-global matching and block
+    /// matching sum their cost over the channels; the checks read the grey conversion).
     Rgb(image::RgbImage, image::RgbImage),
 }
 
