@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::imageops::{BlurScratch, ImageF32, gaussian_blur_into, sample_bilinear};
 use crate::markers::{DetectedMarker, MarkerConfig, apply, detect_markers, homography_4};
-use crate::subpix::saddle_one;
+use crate::subpix::{line_intersection, saddle_one, tls_line};
 use crate::{Refinement, Result};
 
 /// Configuration of [`detect_charuco`].
@@ -464,12 +464,7 @@ fn edge_lines(
         lines.push(line);
     }
     scratch.1 = f.into_raw();
-    let ((c0, d0), (c1, d1)) = (lines[0], lines[1]);
-    let den = d0.perp_dot(d1);
-    if den.abs() < 0.1 {
-        return None;
-    }
-    let p = c0 + d0 * ((c1 - c0).perp_dot(d1) / den);
+    let p = line_intersection(lines[0], lines[1], 0.1)?;
     let r = Refinement { half_window: 0, iterations: 1, shift: (p - pred).length(), converged: true };
     Some((p, r))
 }
@@ -480,15 +475,7 @@ fn edge_lines(
 /// stray from the line by more than 0.5 px RMS (an occluder, a shadow edge or a fold across
 /// it).
 fn fit_line(pts: &[(DVec2, bool)]) -> Option<(DVec2, DVec2)> {
-    let tls = |pts: &[(DVec2, bool)]| {
-        let c = pts.iter().fold(DVec2::ZERO, |a, p| a + p.0) / pts.len() as f64;
-        let (sxx, sxy, syy) = pts.iter().fold((0.0, 0.0, 0.0), |(a, b, cc), p| {
-            let d = p.0 - c;
-            (a + d.x * d.x, b + d.x * d.y, cc + d.y * d.y)
-        });
-        let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
-        (c, DVec2::new(angle.cos(), angle.sin()))
-    };
+    let tls = |pts: &[(DVec2, bool)]| tls_line(pts.iter().map(|p| p.0)).expect("enough points");
     let enough = |pts: &[(DVec2, bool)]| {
         let near = pts.iter().filter(|p| p.1).count();
         near >= 6 && pts.len() - near >= 6

@@ -18,6 +18,7 @@ use parallax_camera_model::{SingleMarker, TargetObservation};
 use crate::Result;
 use crate::charuco::sample_u8;
 use crate::markers::{DetectedMarker, MarkerConfig, detect_markers};
+use crate::subpix::{line_intersection, tls_line};
 
 /// Finds `marker` in `img` and returns its four corners (ids 0..3 as [`SingleMarker::point`]
 /// numbers them) refined to sub-pixel, or `Ok(None)` when it is not seen (or seen twice).
@@ -82,20 +83,11 @@ pub fn refine_marker_corners(img: &GrayImage, m: &DetectedMarker, cells: usize, 
     }
     // Total-least-squares line through the edge points of side `s` with t in `range`.
     let fit = |s: usize, range: std::ops::Range<f64>| -> Option<(DVec2, DVec2)> {
-        let pts: Vec<DVec2> = edges[s].iter().filter(|(t, _)| range.contains(t)).map(|e| e.1).collect();
-        if pts.len() < 4 {
+        let pts = edges[s].iter().filter(|(t, _)| range.contains(t)).map(|e| e.1);
+        if pts.clone().count() < 4 {
             return None;
         }
-        let c = pts.iter().fold(DVec2::ZERO, |acc, p| acc + *p) / pts.len() as f64;
-        let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
-        for p in &pts {
-            let d = *p - c;
-            sxx += d.x * d.x;
-            sxy += d.x * d.y;
-            syy += d.y * d.y;
-        }
-        let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
-        Some((c, DVec2::new(angle.cos(), angle.sin())))
+        tls_line(pts)
     };
     // Each corner from the halves of its two sides next to it (lens distortion bends the
     // sides; the half next to the corner is straighter than the whole side).
@@ -105,12 +97,8 @@ pub fn refine_marker_corners(img: &GrayImage, m: &DetectedMarker, cells: usize, 
     }
     let mut out = [DVec2::ZERO; 4];
     for s in 0..4 {
-        let [(p1, d1), (p2, d2)] = lines[s];
-        let den = d1.perp_dot(d2);
-        if den.abs() < 1e-6 {
-            return None;
-        }
-        out[s] = p1 + d1 * ((p2 - p1).perp_dot(d2) / den);
+        let [a, b] = lines[s];
+        out[s] = line_intersection(a, b, 1e-6)?;
         let cell = (q[(s + 1) % 4] - q[s]).length() / cells as f64;
         if !out[s].is_finite() || (out[s] - q[s]).length() > cell.max(1.5) {
             return None;

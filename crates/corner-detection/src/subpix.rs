@@ -200,6 +200,32 @@ pub fn refine_corners_subpix(img: &GrayImage, corners: &mut [DVec2], cfg: &SubPi
         .collect())
 }
 
+/// The total-least-squares line through `pts` (the principal axis of their scatter): a point on
+/// it (the centroid) and its unit direction; `None` for no point.
+pub(crate) fn tls_line(pts: impl Iterator<Item = DVec2> + Clone) -> Option<(DVec2, DVec2)> {
+    let n = pts.clone().count();
+    if n == 0 {
+        return None;
+    }
+    let c = pts.clone().fold(DVec2::ZERO, |acc, p| acc + p) / n as f64;
+    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+    for p in pts {
+        let d = p - c;
+        sxx += d.x * d.x;
+        sxy += d.x * d.y;
+        syy += d.y * d.y;
+    }
+    let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+    Some((c, DVec2::new(angle.cos(), angle.sin())))
+}
+
+/// Where two lines (a point and a unit direction each) cross; `None` when the sine of the
+/// angle between them is below `min_sin`.
+pub(crate) fn line_intersection((p1, d1): (DVec2, DVec2), (p2, d2): (DVec2, DVec2), min_sin: f64) -> Option<DVec2> {
+    let den = d1.perp_dot(d2);
+    (den.abs() >= min_sin).then(|| p1 + d1 * ((p2 - p1).perp_dot(d2) / den))
+}
+
 /// Smooth compact weight `(1 − (d/R)²)²` for `|d| < R`, else 0: continuous with a continuous
 /// derivative, so pixels entering or leaving the window as the estimate moves do not bias it.
 #[inline]
