@@ -277,10 +277,10 @@ pub(crate) fn render_pattern<C: CameraModel + Sync>(
     }
     let mut values = img.into_raw();
     if opts.defocus_radius > 0.0 {
-        values = convolve(&values, w, h, &disc_kernel(opts.defocus_radius));
+        values = disc_kernel(opts.defocus_radius).apply(values, w, h);
     }
     if opts.motion_blur > 0.0 {
-        values = convolve(&values, w, h, &line_kernel(opts.motion_blur, opts.motion_angle));
+        values = line_kernel(opts.motion_blur, opts.motion_angle).apply(values, w, h);
     }
     let img = quantise(values, w, h, opts, &mut rng);
     match opts.jpeg_quality {
@@ -289,30 +289,48 @@ pub(crate) fn render_pattern<C: CameraModel + Sync>(
     }
 }
 
-/// A kernel: offsets `(du, dv)` and weights summing to 1.
-type Kernel = Vec<(i64, i64, f32)>;
+/// A square kernel of side `2n + 1` centred on the pixel, row-major, weights summing to 1.
+struct Kernel {
+    n: i64,
+    weights: Vec<f32>,
+}
+
+impl Kernel {
+    /// The kernel of half-side `n` whose weight at offset `(du, dv)` is `weight(du, dv)`,
+    /// normalised.
+    fn from_fn(n: i64, mut weight: impl FnMut(i64, i64) -> f64) -> Self {
+        let mut weights: Vec<f32> =
+            (-n..=n).flat_map(|dv| (-n..=n).map(move |du| (du, dv))).map(|(du, dv)| weight(du, dv) as f32).collect();
+        let sum: f32 = weights.iter().sum();
+        for w in &mut weights {
+            *w /= sum;
+        }
+        Self { n, weights }
+    }
+
+    /// `values` (`w x h`) filtered with the kernel, the image's border pixels repeated
+    /// outwards (imageproc's correlation).
+    fn apply(&self, values: Vec<f32>, w: usize, h: usize) -> Vec<f32> {
+        let side = (2 * self.n + 1) as u32;
+        let img = ImageBuffer::<Luma<f32>, Vec<f32>>::from_raw(w as u32, h as u32, values).expect("w x h values");
+        let kernel = imageproc::kernel::Kernel::new(&self.weights, side, side);
+        imageproc::filter::filter_parallel::<_, f32, _, Luma<f32>>(&img, kernel, |v| v).into_raw()
+    }
+}
 
 /// A uniform disc of radius `r` pixels, each tap weighted by the share of its pixel the disc
 /// covers (16x16 samples per pixel).
 fn disc_kernel(r: f64) -> Kernel {
-    let n = r.ceil() as i64 + 1;
-    let mut taps = Vec::new();
-    for dv in -n..=n {
-        for du in -n..=n {
-            let mut inside = 0;
-            for s in 0..256 {
+    Kernel::from_fn(r.ceil() as i64 + 1, |du, dv| {
+        let inside = (0..256)
+            .filter(|s| {
                 let x = du as f64 - 0.5 + ((s % 16) as f64 + 0.5) / 16.0;
                 let y = dv as f64 - 0.5 + ((s / 16) as f64 + 0.5) / 16.0;
-                if x * x + y * y <= r * r {
-                    inside += 1;
-                }
-            }
-            if inside > 0 {
-                taps.push((du, dv, inside as f32));
-            }
-        }
-    }
-    normalise(taps)
+                x * x + y * y <= r * r
+            })
+            .count();
+        inside as f64
+    })
 }
 
 /// A line of `length` pixels through the origin at `angle`: 32 points per pixel of length,
@@ -320,7 +338,9 @@ fn disc_kernel(r: f64) -> Kernel {
 fn line_kernel(length: f64, angle: f64) -> Kernel {
     let dir = DVec2::new(angle.cos(), angle.sin());
     let samples = ((length * 32.0).ceil() as usize).max(1);
-    let mut weights = std::collections::BTreeMap::new();
+    let n = (0.5 * length).ceil() as i64 + 1;
+    let side = (2 * n + 1) as usize;
+    let mut weights = vec![0.0; side * side];
     for k in 0..samples {
         let p = dir * (length * ((k as f64 + 0.5) / samples as f64 - 0.5));
         let (x0, y0) = (p.x.floor(), p.y.floor());
@@ -328,35 +348,11 @@ fn line_kernel(length: f64, angle: f64) -> Kernel {
         for (dx, dy, wgt) in
             [(0, 0, (1.0 - fx) * (1.0 - fy)), (1, 0, fx * (1.0 - fy)), (0, 1, (1.0 - fx) * fy), (1, 1, fx * fy)]
         {
-            *weights.entry((x0 as i64 + dx, y0 as i64 + dy)).or_insert(0.0) += wgt;
+            let (u, v) = (x0 as i64 + dx + n, y0 as i64 + dy + n);
+            weights[v as usize * side + u as usize] += wgt;
         }
     }
-    normalise(weights.into_iter().map(|((du, dv), wgt)| (du, dv, wgt as f32)).collect())
-}
-
-fn normalise(mut taps: Kernel) -> Kernel {
-    let sum: f32 = taps.iter().map(|t| t.2).sum();
-    for t in &mut taps {
-        t.2 /= sum;
-    }
-    taps
-}
-
-/// `values` (`w x h`) convolved with `kernel`, the image's border pixels repeated outwards.
-fn convolve(values: &[f32], w: usize, h: usize, kernel: &Kernel) -> Vec<f32> {
-    let mut out = vec![0f32; w * h];
-    out.par_chunks_mut(w).enumerate().for_each(|(v, row)| {
-        for (u, o) in row.iter_mut().enumerate() {
-            let mut acc = 0f32;
-            for &(du, dv, wgt) in kernel {
-                let x = (u as i64 + du).clamp(0, w as i64 - 1) as usize;
-                let y = (v as i64 + dv).clamp(0, h as i64 - 1) as usize;
-                acc += wgt * values[y * w + x];
-            }
-            *o = acc;
-        }
-    });
-    out
+    Kernel::from_fn(n, |du, dv| weights[(dv + n) as usize * side + (du + n) as usize])
 }
 
 /// `img` saved as a baseline JPEG of `quality` and decoded again (in memory).
