@@ -67,9 +67,9 @@ impl OutputSet {
         // a killed run's commit is finished before its staged files would count as leftovers
         if !self.finished.contains(&dir) {
             finish_killed_commits(&dir);
+            remove_dead_runs_temps(&dir);
             self.finished.push(dir.clone());
         }
-        remove_dead_runs_temps(&dir, &name);
         let k = match self.files.iter().position(|(p, _)| *p == path) {
             Some(k) => k,
             None => {
@@ -274,23 +274,26 @@ pub fn finish_killed_commits(dir: &Path) {
     }
 }
 
-/// Removes the temporary files an earlier run killed while staging `name` left in `dir`
-/// (`.{name}.tmp{pid}-{k}` whose process no longer exists): `kill -9` skips the cleanup of
-/// [`OutputSet`]'s `Drop`. A process is known to be gone only where `/proc` lists the living
-/// ones (Linux); elsewhere nothing is removed, since the file may be another live run's.
-fn remove_dead_runs_temps(dir: &Path, name: &str) {
+/// Removes the temporary files that runs killed while staging left in `dir`
+/// (`.{name}.tmp{pid}-{k}` whose process no longer exists), whatever output they were for:
+/// `kill -9` skips the cleanup of [`OutputSet`]'s `Drop`, and the next run need not write the
+/// same outputs (a run with `--confidence` killed, then one without). A process is known to be
+/// gone only where `/proc` lists the living ones (Linux); elsewhere nothing is removed, since
+/// the file may be another live run's.
+fn remove_dead_runs_temps(dir: &Path) {
     let proc_fs = Path::new("/proc/self");
     if !proc_fs.exists() {
         return;
     }
-    let prefix = format!(".{name}.tmp");
     let Ok(entries) = std::fs::read_dir(dir) else { return };
     for e in entries.flatten() {
         let file = e.file_name();
-        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix(&prefix)) else { continue };
-        let Some((pid, k)) = rest.split_once('-') else { continue };
+        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix('.')).and_then(|f| f.rsplit_once(".tmp")) else {
+            continue;
+        };
+        let Some((pid, k)) = rest.1.split_once('-') else { continue };
         let (Ok(pid), Ok(_)) = (pid.parse::<u32>(), k.parse::<usize>()) else { continue };
-        if pid != std::process::id() && !Path::new("/proc").join(pid.to_string()).exists() {
+        if !rest.0.is_empty() && pid != std::process::id() && !Path::new("/proc").join(pid.to_string()).exists() {
             let _ = std::fs::remove_file(e.path());
         }
     }
@@ -579,15 +582,17 @@ mod tests {
         // a pid above pid_max never belongs to a process
         let dead = dir.join(format!(".c.ron.tmp{}-0", pid_max + 1));
         let live = dir.join(format!(".c.ron.tmp{}-3", 1)); // pid 1 is always alive
-        let other = dir.join(format!(".d.ron.tmp{}-0", pid_max + 1)); // another output's
-        for f in [&dead, &live, &other] {
+        // another output's, which this run does not write (a killed `--confidence` run's)
+        let other = dir.join(format!(".d.ron.tmp{}-0", pid_max + 1));
+        let unrelated = dir.join(".notes.txt"); // no run's temporary
+        for f in [&dead, &live, &other, &unrelated] {
             std::fs::write(f, b"half").unwrap();
         }
         let mut set = OutputSet::new();
         set.add(dir.join("c.ron"), b"new").unwrap();
         set.commit().unwrap();
-        assert!(!dead.exists(), "the dead run's temporary is left");
-        assert!(live.exists() && other.exists(), "a live run's or another output's temporary was removed");
+        assert!(!dead.exists() && !other.exists(), "a dead run's temporary is left");
+        assert!(live.exists() && unrelated.exists(), "a live run's temporary or another file was removed");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
