@@ -17,6 +17,7 @@ use parallax_block_matching::{BlockMatcher, CostFunction, MatcherConfig, Prefilt
 use parallax_composition::disparity::{self, FrameEvent};
 use parallax_composition::io::OutputSet;
 use parallax_composition::summary;
+use parallax_composition::tune::DisparityConfig;
 
 /// Arguments of `cargo xtask disparity`.
 #[derive(clap::Args)]
@@ -144,6 +145,14 @@ pub struct Args {
     /// Evaluation mask (pixels > 128 are evaluated), e.g. Middlebury nonocc.png.
     #[arg(long)]
     mask: Option<PathBuf>,
+    /// A matcher configuration file (`tune`'s config.ron, RON or JSON): every matching option
+    /// comes from it (and colour images are matched in colour when it says so); the range,
+    /// --threads and the outputs stay this command's. The matching options are refused with it.
+    #[arg(long, conflicts_with_all = [
+        "method", "sgm_paths", "accurate", "colour", "sgm_cost", "lr_rule", "cost", "block", "prefilter",
+        "uniqueness", "texture", "lr_max_diff", "speckle_window", "min_confidence", "fill",
+    ])]
+    config: Option<PathBuf>,
     /// Worker threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -267,7 +276,27 @@ fn parse_prefilter(p: &str) -> anyhow::Result<Prefilter> {
     })
 }
 
-pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+pub fn run(mut args: Args) -> anyhow::Result<ExitCode> {
+    let file = args.config.as_deref().map(DisparityConfig::read).transpose()?;
+    // colour files are matched in colour when the configuration says so; grey ones in grey
+    let colour_input = match &file {
+        Some(f) => f.colour() && disparity::stored_in_colour(&args.left)?,
+        None => args.colour,
+    };
+    args.colour = colour_input;
+    let cfg = match &file {
+        Some(f) => MatcherConfig {
+            confidence_map: args.confidence,
+            ..f.matcher_for(colour_input, (args.min_disparity, args.disparities), args.threads)
+        },
+        None => matcher_config(&args)?,
+    };
+    let sgm = cfg.method == parallax_block_matching::Method::Sgm;
+    run_with(args, cfg, sgm)
+}
+
+/// The matcher configuration of the command-line options.
+fn matcher_config(args: &Args) -> anyhow::Result<MatcherConfig> {
     let cost = match args.cost.to_ascii_lowercase().as_str() {
         "sad" => CostFunction::Sad,
         "ssd" => CostFunction::Ssd,
@@ -364,11 +393,20 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         },
         ..d
     };
+    Ok(cfg)
+}
+
+fn run_with(args: Args, cfg: MatcherConfig, sgm: bool) -> anyhow::Result<ExitCode> {
     let mut matcher = BlockMatcher::new(cfg.clone()).context("block-matching configuration")?;
     let outputs = ["disparity.pfm", "disparity16.png", "disparity_colour.png", "confidence.pfm", "points.ply"]
         .map(|n| args.out.join(n));
-    let inputs: Vec<&PathBuf> =
-        [&args.left, &args.right].into_iter().chain(&args.gt).chain(&args.mask).chain(&args.calib).collect();
+    let inputs: Vec<&PathBuf> = [&args.left, &args.right]
+        .into_iter()
+        .chain(&args.config)
+        .chain(&args.gt)
+        .chain(&args.mask)
+        .chain(&args.calib)
+        .collect();
     parallax_composition::io::refuse_overwriting_inputs(&outputs, &inputs)?;
     if let Some((lefts, rights)) = disparity::image_sequence(&args.left, &args.right, args.pair_by_order)? {
         return run_sequence(&args, matcher, lefts, rights);

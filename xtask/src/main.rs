@@ -14,6 +14,8 @@ mod measure;
 mod pipeline;
 mod progress;
 mod rectify;
+mod scenes;
+mod tune;
 mod util;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
@@ -56,6 +58,17 @@ enum Command {
     Measure(measure::Args),
     /// Hand-eye calibration from robot poses and board images (or camera poses).
     Handeye(handeye::Args),
+    /// List the stereo worlds of a scene set (the zoo by default) and render them with their truth.
+    ///
+    /// One line per scene: `scene: NAME size: WxH disparities: D factors: LIST`.
+    Scenes(scenes::Args),
+    /// Search the matcher's parameters over a scene set against its ground truth.
+    ///
+    /// One line per configuration: `config: N method: M bad2: X bad2_overlap: Y density: Z ms:
+    /// T pareto: yes|no` (bad2 with missing = bad, density, in percent of the scored pixels;
+    /// bad2_overlap where OpenCV's matchers also answer; ms per scene), then `best: N`; with
+    /// --realism also `real: …` lines and `rank_correlation: R`.
+    Tune(tune::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -73,6 +86,8 @@ fn main() -> std::process::ExitCode {
         Command::Disparity(a) => disparity::run(a),
         Command::Measure(a) => measure::run(a),
         Command::Handeye(a) => handeye::run(a),
+        Command::Scenes(a) => scenes::run(a),
+        Command::Tune(a) => tune::run(a),
     };
     match result {
         Ok(code) => code,

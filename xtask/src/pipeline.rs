@@ -27,6 +27,12 @@ pub struct Args {
     /// Scene description (RON, `parallax_synthetic::SceneDescription`); the built-in scene when absent.
     #[arg(long, conflicts_with = "real")]
     scene: Option<PathBuf>,
+    /// A stereo world (RON, `parallax_synthetic::StereoWorld`, e.g. `fixtures/zoo/clutter.ron`)
+    /// that replaces the scene's stereo scene: rendered through the scene's rig with its lenses
+    /// (scaled to its baseline), rectified by the chain with the rig it calibrated, and scored
+    /// against the world's truth in the true rig's rectification.
+    #[arg(long, conflicts_with = "real")]
+    world: Option<PathBuf>,
     /// Directory for the artifacts (RON results, overlays, rectified pair, disparity PNG/PFM,
     /// PLY, report.md / report.html / report.ron). Default `target/pipeline/<scene>/`.
     #[arg(long)]
@@ -115,6 +121,19 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             (name, scene)
         }
         None => ("builtin".to_string(), parallax_synthetic::SceneDescription::builtin()),
+    };
+    let (name, scene) = match &args.world {
+        Some(path) => {
+            let text =
+                parallax_interop::read_text_file(path).with_context(|| format!("reading world {}", path.display()))?;
+            let world = parallax_synthetic::StereoWorld::from_ron(&text)
+                .with_context(|| format!("parsing world {}", path.display()))?;
+            let stem = path.file_stem().map_or("world".into(), |s| s.to_string_lossy().into_owned());
+            let scene = parallax_synthetic::SceneDescription { stereo_world: Some(world), ..scene };
+            scene.validate().with_context(|| format!("the scene with the world {}", path.display()))?;
+            (format!("{name}-{stem}"), scene)
+        }
+        None => (name, scene),
     };
     let (name, scene) = match args.seed {
         Some(seed) => (format!("{name}-seed{seed}"), scene.with_seed(seed)),

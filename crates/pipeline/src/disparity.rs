@@ -117,6 +117,32 @@ pub fn load_pair(left: &Path, right: &Path, colour: bool) -> Result<StereoImages
     })
 }
 
+/// Whether an image file holds colour (three or more channels; an image sequence's folder or
+/// pattern: its first file), read from its header.
+pub fn stored_in_colour(path: &Path) -> Result<bool> {
+    let first = if path.is_file() {
+        path.to_path_buf()
+    } else if path.is_dir() {
+        let mut files: Vec<PathBuf> = std::fs::read_dir(path)
+            .map_err(|e| PipelineError::Input(format!("reading {}: {e}", path.display())))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.is_file())
+            .collect();
+        files.sort();
+        files.into_iter().next().ok_or_else(|| PipelineError::Input(format!("{} holds no image", path.display())))?
+    } else {
+        crate::io::expand_glob(&path.display().to_string())?.remove(0)
+    };
+    let fail = |e: &dyn std::fmt::Display| PipelineError::Input(format!("reading {}: {e}", first.display()));
+    let decoder = image::ImageReader::open(&first)
+        .and_then(|r| r.with_guessed_format())
+        .map_err(|e| fail(&e))?
+        .into_decoder()
+        .map_err(|e| fail(&e))?;
+    let colour = image::ImageDecoder::color_type(&decoder).channel_count() >= 3;
+    Ok(colour)
+}
+
 /// Loads a ground-truth disparity: PFM, or a PNG of disparity x `scale` with 0 = unknown
 /// (Middlebury's `info.txt` gives the scale).
 ///

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use crate::{PipelineError, Result};
 
-fn io_err<'a>(what: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -> PipelineError + 'a {
+pub(crate) fn io_err<'a>(what: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -> PipelineError + 'a {
     move |source| PipelineError::Io { what, path: path.to_path_buf(), source }
 }
 

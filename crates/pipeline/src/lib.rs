@@ -61,6 +61,7 @@ pub mod session;
 pub mod stages;
 pub mod stats;
 pub mod summary;
+pub mod tune;
 
 pub use chain::{ChainInput, ChainOutput, MatchPair, StageFailure, StageResult, Station, run_chain};
 pub use error::{PipelineError, Result};

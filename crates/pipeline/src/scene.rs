@@ -85,7 +85,8 @@ pub fn run_scene(name: &str, scene: &SceneDescription, out: &Path, corrupt: Opti
     eprintln!("[0/8] rendering the calibration session, the stereo scene and the robot stations…");
     let session_poses = scene.stereo_poses()?;
     let session = render_views(scene, &session_poses, 1000)?;
-    let stereo_scene = parallax_synthetic::render_stereo_scene(&scene.stereo_scene)?;
+    let rectify_config = parallax_stereo_rectify::RectifyConfig::default();
+    let stereo = stereo_truth(scene, &rectify_config)?;
     let traj_cfg = parallax_synthetic::TrajectoryConfig { rot_noise_rad: 0.0, trans_noise: 0.0, ..scene.trajectory };
     let trajectory = parallax_synthetic::hand_eye_trajectory(&traj_cfg)?;
     let mut noise = parallax_synthetic::rng(scene.trajectory.seed ^ 0xa11ce);
@@ -112,8 +113,8 @@ pub fn run_scene(name: &str, scene: &SceneDescription, out: &Path, corrupt: Opti
     };
     let truth = Truth {
         corners: session.iter().map(|[l, r]| [l.corners.clone(), r.corners.clone()]).collect(),
-        visible: stereo_scene.occluded.iter().map(|o| !o).collect(),
-        stereo_disparity: stereo_scene.disparity,
+        visible: stereo.visible,
+        stereo_disparity: stereo.disparity,
         trajectory,
     };
     let mut calibration: Vec<[image::GrayImage; 2]> = session.into_iter().map(|[l, r]| [l.image, r.image]).collect();
@@ -122,7 +123,8 @@ pub fn run_scene(name: &str, scene: &SceneDescription, out: &Path, corrupt: Opti
         report.note("corruption", "left and right images of the calibration session swapped");
     }
     let mut input = ChainInput::new(board, calibration);
-    input.match_pair = Some(MatchPair::Rectified(stereo_scene.left, stereo_scene.right));
+    input.match_pair = Some(stereo.pair);
+    input.rectify = rectify_config;
     input.stations = station_views
         .into_iter()
         .zip(&robot)
@@ -132,10 +134,8 @@ pub fn run_scene(name: &str, scene: &SceneDescription, out: &Path, corrupt: Opti
     // The lens models the scene was rendered through are the ones calibrated.
     input.stereo.left.lens = scene.rig.left.lens_model();
     input.stereo.right.lens = scene.rig.right.lens_model();
-    input.matcher = parallax_block_matching::MatcherConfig {
-        num_disparities: (scene.stereo_scene.max_disparity.ceil() as usize + 16) & !15,
-        ..Default::default()
-    };
+    input.matcher =
+        parallax_block_matching::MatcherConfig { num_disparities: stereo.disparities, ..Default::default() };
     // Noise model of the refinement in the scene's units: the robot's from the scene (known here,
     // so not estimated), the camera poses (from PnP on detected corners) taken as no better than
     // the robot's.
@@ -167,6 +167,81 @@ pub fn run_scene(name: &str, scene: &SceneDescription, out: &Path, corrupt: Opti
     report.add_to(&mut files, out)?;
     files.commit()?;
     Ok(report)
+}
+
+/// A rig's rectification as the pair [`parallax_synthetic::world_truth_rectified`] takes.
+pub fn rectified_pair(
+    rig: &parallax_camera_model::StereoRig,
+    rect: &parallax_stereo_rectify::Rectification,
+) -> parallax_synthetic::RectifiedPair {
+    parallax_synthetic::RectifiedPair {
+        width: rect.width,
+        height: rect.height,
+        p1: rect.p1.rows,
+        p2: rect.p2.rows,
+        r1: rect.r1,
+        right_centre: rig.right_from_left.inverse().translation,
+    }
+}
+
+/// The pair the disparity stage matches and its truth.
+struct StereoTruth {
+    pair: MatchPair,
+    disparity: DisparityMap,
+    /// Pixels scored: not occluded (and, for a world, seen by the left camera).
+    visible: Vec<bool>,
+    /// Disparities searched: the largest true one rounded up past a multiple of 16.
+    disparities: usize,
+}
+
+/// Renders the scene's stereo pair: the planar stereo scene, rectified as given; or the stereo
+/// world through the scene's rig (raw images the chain rectifies with its own calibration), its
+/// truth in the true rig's rectification under `rectify`.
+fn stereo_truth(scene: &SceneDescription, rectify: &parallax_stereo_rectify::RectifyConfig) -> Result<StereoTruth> {
+    let round_up = |max: f64| (max.ceil() as usize + 16) & !15;
+    let Some(world) = &scene.stereo_world else {
+        let s = parallax_synthetic::render_stereo_scene(&scene.stereo_scene)?;
+        return Ok(StereoTruth {
+            pair: MatchPair::Rectified(s.left, s.right),
+            disparity: s.disparity,
+            visible: s.occluded.iter().map(|o| !o).collect(),
+            disparities: round_up(scene.stereo_scene.max_disparity),
+        });
+    };
+    let rig = &scene.rig;
+    let world = world.scaled(rig.baseline() / world.baseline);
+    let (left, right) = parallax_synthetic::render_world_through(&world, rig)?;
+    let rect = parallax_stereo_rectify::stereo_rectify(rig, rectify)?;
+    let (disparity, occluded) = parallax_synthetic::world_truth_rectified(&world, &rectified_pair(rig, &rect))?;
+    // a rectified pixel whose source lies outside either raw image is black, not scored
+    let white = |c: &parallax_camera_model::Camera| image::GrayImage::from_pixel(c.width, c.height, image::Luma([255]));
+    let (inside_left, inside_right) = crate::stages::rectify_images(rig, &rect, &white(&rig.left), &white(&rig.right))?;
+    let w = rect.width as usize;
+    let visible: Vec<bool> = (0..disparity.data().len())
+        .map(|i| {
+            let d = disparity.data()[i];
+            let (u, v) = ((i % w) as f64, (i / w) as u32);
+            let u_right = (u - f64::from(d)).round();
+            d.is_finite()
+                && !occluded[i]
+                && inside_left.as_raw()[i] == 255
+                && u_right >= 0.0
+                && inside_right.get_pixel(u_right as u32, v).0[0] == 255
+        })
+        .collect();
+    let largest = disparity.data().iter().copied().filter(|d| d.is_finite()).fold(0f32, f32::max);
+    if largest <= 0.0 || disparity.data().iter().any(|d| d.is_finite() && *d <= 0.0) {
+        return Err(crate::PipelineError::Input(format!(
+            "the stereo world seen through the rig has disparities outside (0, {largest:.1}] px: every surface must lie \
+             in front of both cameras"
+        )));
+    }
+    Ok(StereoTruth {
+        pair: MatchPair::Raw(left.to_luma8(), right.to_luma8()),
+        disparity,
+        visible,
+        disparities: round_up(f64::from(largest)),
+    })
 }
 
 /// Adds one failing row per figure of a stage that has no result, and a note saying why.

@@ -15,6 +15,12 @@
 //!   with exact disc coverage and the projected centres as truth ([`render_circle_grid`]), Kalibr
 //!   AprilGrids ([`render_aprilgrid`]) and single markers ([`render_marker`]);
 //! - rectified stereo pairs with exact disparity and occlusion masks ([`render_stereo_scene`]);
+//! - 3D stereo worlds (planes at any slant, spheres, cylinders down to sub-pixel wires, height
+//!   fields; 1/f, repetitive and uniform textures; camera gain, gamma, vignetting, noise, blur;
+//!   grey or colour) ray-cast with the exact disparity and occlusion of both views
+//!   ([`StereoWorld`], [`render_world`]), through a calibrated rig with its distortion
+//!   ([`render_world_through`]) and with the truth of any rectification of it
+//!   ([`world_truth_rectified`]); worlds drawn from a distribution ([`WorldDistribution`]);
 //! - robot trajectories for hand-eye calibration ([`hand_eye_trajectory`]);
 //! - scene descriptions in RON with the pipeline's tolerances ([`SceneDescription`]).
 //!
@@ -42,6 +48,7 @@ mod targets;
 mod trajectory;
 mod views;
 mod wide;
+mod world;
 
 // The crates whose types this crate's public API uses, re-exported so that a caller needs no
 // version match with them (`parallax_x::glam::DVec3` is the `DVec3` this crate takes).
@@ -60,4 +67,8 @@ pub use trajectory::{HandEyeTruth, Trajectory, TrajectoryConfig, hand_eye_trajec
 pub use views::{ViewSetConfig, calibration_poses, project_corners, stereo_calibration_poses};
 pub use wide::{
     TexturedRoom, WideViewSetConfig, render_room, wide_angle_calibration_poses, wide_angle_stereo_calibration_poses,
+};
+pub use world::{
+    ObjectKind, Pattern, Photometry, RectifiedPair, Shape, StereoWorld, Surface, Texture, Vec3, WorldDistribution,
+    WorldViews, render_world, render_world_through, world_truth_rectified,
 };

@@ -5,6 +5,7 @@ use glam::DVec3;
 use parallax_camera_model::{Camera, Chessboard, Distortion, Intrinsics, Isometry3, StereoRig};
 use serde::{Deserialize, Serialize};
 
+use crate::world::StereoWorld;
 use crate::{
     RenderOptions, RenderedView, StereoSceneConfig, SyntheticError, TrajectoryConfig, ViewSetConfig, WideViewSetConfig,
     calibration_poses, render_chessboard, stereo_calibration_poses, wide_angle_stereo_calibration_poses,
@@ -146,6 +147,15 @@ pub struct SceneDescription {
     /// Brown–Conrady rig, whose session comes from `stereo_views`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub wide_views: Option<WideViewSetConfig>,
+    /// A 3D stereo world that replaces `stereo_scene` in the disparity stage (`None`: the
+    /// planar stereo scene), seen through the scene's rig: rendered by each camera with its lens
+    /// ([`crate::render_world_through`]) after scaling the world so that its baseline becomes
+    /// the rig's ([`StereoWorld::scaled`]); the pipeline rectifies the raw pair with the rig it
+    /// calibrated, and the truth is the world's in the true rig's rectification
+    /// ([`crate::world_truth_rectified`]) — calibration, rectification and matching judged
+    /// together.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stereo_world: Option<StereoWorld>,
 }
 
 /// A scene as files hold it: today's form, or the earlier one with the wide rig under
@@ -172,6 +182,8 @@ struct SceneFile {
     wide_views: Option<WideViewSetConfig>,
     #[serde(default)]
     fisheye: Option<WideRigFile>,
+    #[serde(default)]
+    stereo_world: Option<StereoWorld>,
 }
 
 /// The earlier form's wide rig and its generator.
@@ -202,6 +214,7 @@ impl From<SceneFile> for SceneDescription {
             trajectory: f.trajectory,
             tolerances: f.tolerances,
             wide_views,
+            stereo_world: f.stereo_world,
         }
     }
 }
@@ -285,6 +298,7 @@ impl SceneDescription {
                 base_point_error: 12.0,
             },
             wide_views: None,
+            stereo_world: None,
         }
     }
 
@@ -402,6 +416,9 @@ impl SceneDescription {
             poses.iter_mut().for_each(|p| *p = scale_pose(p));
         }
         s.stereo_scene.baseline *= factor;
+        if let Some(w) = &mut s.stereo_world {
+            *w = w.scaled(factor);
+        }
         let t = &mut s.trajectory;
         t.min_distance *= factor;
         t.max_distance *= factor;
@@ -431,6 +448,9 @@ impl SceneDescription {
         s.trajectory.seed = mix(5);
         if let Some(v) = &mut s.wide_views {
             v.seed = mix(6);
+        }
+        if let Some(w) = &mut s.stereo_world {
+            w.seed = mix(7);
         }
         s
     }
@@ -467,9 +487,14 @@ impl SceneDescription {
             .saturating_add(stations.saturating_mul(pixels(&self.rig.left).max(pixels(&self.camera))));
         let largest_camera = pixels(&self.camera).max(pixels(&self.rig.left)).max(pixels(&self.rig.right));
         let scene_pixels = u64::from(self.stereo_scene.width) * u64::from(self.stereo_scene.height);
+        // a world is rendered at the rig's size
+        let world = self.stereo_world.as_ref().map_or(0, |_| {
+            largest_camera.saturating_mul(StereoWorld::BYTES_PER_PIXEL + Self::BYTES_PER_STEREO_SCENE_PIXEL)
+        });
         let working = largest_camera
             .saturating_mul(Self::BYTES_PER_RENDERED_PIXEL)
-            .max(scene_pixels.saturating_mul(Self::BYTES_PER_STEREO_SCENE_PIXEL));
+            .max(scene_pixels.saturating_mul(Self::BYTES_PER_STEREO_SCENE_PIXEL))
+            .max(world);
         kept.saturating_add(working)
     }
 
@@ -506,6 +531,9 @@ impl SceneDescription {
         self.tolerances.validate()?;
         if let Some(v) = &self.wide_views {
             v.validate()?;
+        }
+        if let Some(w) = &self.stereo_world {
+            w.validate()?;
         }
         for (field, poses) in [("mono_poses", &self.mono_poses), ("stereo_poses", &self.stereo_poses)] {
             if let Some(p) = poses {

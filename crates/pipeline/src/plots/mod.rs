@@ -17,6 +17,7 @@ pub mod disparity;
 pub mod handeye;
 pub mod rectification;
 pub mod rig;
+pub mod tune;
 pub mod uncertainty;
 
 use std::fmt::Write as _;
