@@ -13,7 +13,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
-use parallax_block_matching::{BlockMatcher, CostFunction, MatcherConfig, Prefilter, SgmConfig, SgmPaths, SwapCheck};
+use parallax_block_matching::{BlockMatcher, MatcherConfig, SgmPaths, SwapCheck};
 use parallax_composition::disparity::{self, FrameEvent};
 use parallax_composition::io::OutputSet;
 use parallax_composition::summary;
@@ -260,22 +260,6 @@ fn run_sequence(
     Ok(if s.failed > 0 { ExitCode::FAILURE } else { ExitCode::SUCCESS })
 }
 
-fn parse_prefilter(p: &str) -> anyhow::Result<Prefilter> {
-    Ok(match p {
-        p if p.starts_with("rank:") => {
-            let size = p["rank:".len()..]
-                .parse()
-                .map_err(|_| anyhow::anyhow!("--prefilter rank:N needs an odd N in 3..=15 (got {p:?})"))?;
-            Prefilter::Rank { size }
-        }
-        "xsobel" => Prefilter::XSobel { cap: 31 },
-        "norm" => Prefilter::NormalizedResponse { size: 9, cap: 31 },
-        "rank" => Prefilter::Rank { size: 9 },
-        "none" => Prefilter::None,
-        other => anyhow::bail!("--prefilter must be xsobel, norm, rank, rank:N or none (got {other:?})"),
-    })
-}
-
 pub fn run(mut args: Args) -> anyhow::Result<ExitCode> {
     let file = args.config.as_deref().map(DisparityConfig::read).transpose()?;
     // colour files are matched in colour when the configuration says so; grey ones in grey
@@ -289,111 +273,35 @@ pub fn run(mut args: Args) -> anyhow::Result<ExitCode> {
             confidence_map: args.confidence,
             ..f.matcher_for(colour_input, (args.min_disparity, args.disparities), args.threads)
         },
-        None => matcher_config(&args)?,
+        None => matcher_options(&args).config()?,
     };
     let sgm = cfg.method == parallax_block_matching::Method::Sgm;
     run_with(args, cfg, sgm)
 }
 
-/// The matcher configuration of the command-line options.
-fn matcher_config(args: &Args) -> anyhow::Result<MatcherConfig> {
-    let cost = match args.cost.to_ascii_lowercase().as_str() {
-        "sad" => CostFunction::Sad,
-        "ssd" => CostFunction::Ssd,
-        "ncc" => CostFunction::Ncc,
-        other => anyhow::bail!("--cost must be sad, ssd or ncc (got {other:?})"),
-    };
-    let sgm = match args.method.to_ascii_lowercase().as_str() {
-        "bm" => false,
-        "sgm" => true,
-        other => anyhow::bail!("--method must be bm or sgm (got {other:?})"),
-    };
-    if !sgm && (args.accurate || args.sgm_cost.is_some() || args.sgm_paths.is_some()) {
-        anyhow::bail!("--accurate, --sgm-cost and --sgm-paths are options of --method sgm");
-    }
-    if args.accurate && args.fill {
-        anyhow::bail!(
-            "--accurate (measurement: nothing filled) and --fill (the dense benchmark preset) are two presets: \
-             choose one"
-        );
-    }
-    if args.colour && !sgm && cost == CostFunction::Ncc {
-        anyhow::bail!(
-            "--colour with --method bm sums --cost sad or ssd over the three channels: --cost ncc matches grey \
-             pairs only (drop --colour, or choose sad or ssd)"
-        );
-    }
-    let d = match (sgm, args.fill, args.accurate) {
-        (false, false, _) => MatcherConfig::default(),
-        (false, true, _) => MatcherConfig::dense(),
-        (true, false, false) => MatcherConfig::sgm(),
-        (true, false, true) => MatcherConfig::sgm_accurate(),
-        (true, true, _) => MatcherConfig::sgm_dense(),
-    };
-    let paths = match args.sgm_paths {
-        None => d.sgm.paths,
-        Some(3) => SgmPaths::Three,
-        Some(5) => SgmPaths::Five,
-        Some(8) => SgmPaths::Eight,
-        Some(n) => anyhow::bail!("--sgm-paths must be 3, 5 or 8 (got {n})"),
-    };
-    let (sampling_insensitive, intensity_cost) = match args.sgm_cost.as_deref().map(str::to_ascii_lowercase) {
-        None => (d.sgm.sampling_insensitive, d.sgm.intensity_cost),
-        Some(c) => match c.as_str() {
-            "sad" => (false, false),
-            "bt" => (true, false),
-            "sad+intensity" => (false, true),
-            "bt+intensity" => (true, true),
-            other => anyhow::bail!("--sgm-cost must be sad, bt, sad+intensity or bt+intensity (got {other:?})"),
-        },
-    };
-    let (lr_subpixel, lr_winners) = match args.lr_rule.as_deref().map(str::to_ascii_lowercase) {
-        None => (d.lr_subpixel, d.lr_winners),
-        Some(r) => match r.as_str() {
-            "integer" => (false, false),
-            "subpixel" => (true, false),
-            "sgbm" if sgm => (true, true),
-            "sgbm" => anyhow::bail!("--lr-rule sgbm is semi-global matching's (with --method sgm)"),
-            other => anyhow::bail!("--lr-rule must be integer, subpixel or sgbm (got {other:?})"),
-        },
-    };
-    let prefilter = match args.prefilter.as_deref().map(str::to_ascii_lowercase) {
-        None => d.prefilter,
-        Some(p) => parse_prefilter(&p)?,
-    };
-    let cfg = MatcherConfig {
-        cost,
-        block_size: if sgm { d.block_size } else { args.block.unwrap_or(d.block_size) },
+/// The matcher options of the command line.
+fn matcher_options(args: &Args) -> disparity::MatcherOptions {
+    disparity::MatcherOptions {
+        method: args.method.clone(),
+        cost: args.cost.clone(),
+        block: args.block,
+        disparities: args.disparities,
         min_disparity: args.min_disparity,
-        num_disparities: args.disparities,
-        prefilter,
-        uniqueness_ratio: args.uniqueness.unwrap_or(d.uniqueness_ratio),
-        texture_threshold: args.texture.unwrap_or(d.texture_threshold),
-        lr_max_diff: match args.lr_max_diff {
-            Some(v) if v < 0 => None,
-            Some(v) => Some(v as u32),
-            None => d.lr_max_diff,
-        },
-        lr_subpixel,
-        lr_winners,
-        speckle_window_size: args.speckle_window.unwrap_or(d.speckle_window_size),
-        min_confidence: args.min_confidence.unwrap_or(d.min_confidence),
-        confidence_map: args.confidence,
+        prefilter: args.prefilter.clone(),
+        uniqueness: args.uniqueness,
+        texture: args.texture,
+        lr_max_diff: args.lr_max_diff,
+        speckle_window: args.speckle_window,
+        min_confidence: args.min_confidence,
+        confidence: args.confidence,
         fill: args.fill,
+        accurate: args.accurate,
+        colour: args.colour,
+        sgm_cost: args.sgm_cost.clone(),
+        sgm_paths: args.sgm_paths,
+        lr_rule: args.lr_rule.clone(),
         threads: args.threads,
-        sgm: SgmConfig {
-            paths,
-            block: if sgm { args.block.unwrap_or(d.sgm.block) } else { d.sgm.block },
-            sampling_insensitive,
-            intensity_cost,
-            // a cost summed over three channels: the penalties of one, three times
-            p1: if args.colour { 3 * d.sgm.p1 } else { d.sgm.p1 },
-            p2: if args.colour { 3 * d.sgm.p2 } else { d.sgm.p2 },
-            ..d.sgm
-        },
-        ..d
-    };
-    Ok(cfg)
+    }
 }
 
 fn run_with(args: Args, cfg: MatcherConfig, sgm: bool) -> anyhow::Result<ExitCode> {

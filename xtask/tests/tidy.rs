@@ -38,6 +38,7 @@ fn members() -> Vec<(PathBuf, toml_lite::Manifest)> {
         .collect();
     dirs.push(root().join("xtask"));
     dirs.push(root().join("benches"));
+    dirs.push(root().join("python"));
     dirs.sort();
     dirs.into_iter().map(|d| (d.clone(), toml_lite::Manifest::parse(&read(&d.join("Cargo.toml"))))).collect()
 }
@@ -142,8 +143,9 @@ fn every_path_in_architecture_md_exists() {
             if i % 2 == 0 || token.contains(' ') || token.starts_with("../") {
                 continue;
             }
-            let top_level =
-                ["crates/", "xtask", "benches", "fixtures/", ".ci/", ".cargo/"].iter().any(|p| token.starts_with(p));
+            let top_level = ["crates/", "xtask", "benches", "python/", "fixtures/", ".ci/", ".cargo/"]
+                .iter()
+                .any(|p| token.starts_with(p));
             let file = [".rs", ".md", ".toml", ".ron"].iter().any(|x| token.ends_with(x));
             if top_level {
                 if !root().join(token).exists() {

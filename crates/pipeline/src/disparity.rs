@@ -6,7 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use parallax_block_matching::{BlockMatcher, Gray16Image, StereoPair, SwapCheck};
+use parallax_block_matching::{
+    BlockMatcher, CostFunction, Gray16Image, MatcherConfig, Prefilter, SgmConfig, SgmPaths, StereoPair, SwapCheck,
+};
 use parallax_camera_model::DisparityMap;
 
 use crate::{PipelineError, Result};
@@ -114,6 +116,219 @@ pub fn load_pair(left: &Path, right: &Path, colour: bool) -> Result<StereoImages
         StereoImages::Rgb(l.into_rgb8(), r.into_rgb8())
     } else {
         StereoImages::U8(l.into_luma8(), r.into_luma8())
+    })
+}
+
+/// The matcher's options by the names of `disparity`'s flags (the Python package's
+/// `StereoMatcher` takes the same): a preset (`method`, `accurate`, `fill`) and what differs
+/// from it. [`MatcherOptions::config`] gives the command's exact configuration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MatcherOptions {
+    /// `bm` or `sgm`.
+    pub method: String,
+    /// `sad`, `ssd` or `ncc`.
+    pub cost: String,
+    /// Window side (block matching's, or semi-global matching's cost window).
+    pub block: Option<usize>,
+    /// Disparities searched.
+    pub disparities: usize,
+    /// Smallest disparity searched.
+    pub min_disparity: i32,
+    /// `xsobel`, `norm`, `rank`, `rank:N` or `none`.
+    pub prefilter: Option<String>,
+    /// Uniqueness ratio, percent.
+    pub uniqueness: Option<u32>,
+    /// Texture threshold.
+    pub texture: Option<u32>,
+    /// Left–right tolerance, px; negative disables the check.
+    pub lr_max_diff: Option<i32>,
+    /// Speckle filter region size, px (0 disables).
+    pub speckle_window: Option<usize>,
+    /// Confidence threshold.
+    pub min_confidence: Option<f32>,
+    /// Keep the confidence map.
+    pub confidence: bool,
+    /// The dense benchmark preset.
+    pub fill: bool,
+    /// Semi-global matching's accurate preset.
+    pub accurate: bool,
+    /// Match colour pairs in colour.
+    pub colour: bool,
+    /// Semi-global matching's pixel difference: `sad`, `bt`, `sad+intensity`, `bt+intensity`.
+    pub sgm_cost: Option<String>,
+    /// Semi-global matching's paths: 3, 5 or 8.
+    pub sgm_paths: Option<u32>,
+    /// Left–right rule: `integer`, `subpixel` or `sgbm`.
+    pub lr_rule: Option<String>,
+    /// Worker threads (0: all cores).
+    pub threads: usize,
+}
+
+impl Default for MatcherOptions {
+    /// `disparity`'s defaults: block matching, SAD, 64 disparities from 0.
+    fn default() -> Self {
+        Self {
+            method: "bm".into(),
+            cost: "sad".into(),
+            block: None,
+            disparities: 64,
+            min_disparity: 0,
+            prefilter: None,
+            uniqueness: None,
+            texture: None,
+            lr_max_diff: None,
+            speckle_window: None,
+            min_confidence: None,
+            confidence: false,
+            fill: false,
+            accurate: false,
+            colour: false,
+            sgm_cost: None,
+            sgm_paths: None,
+            lr_rule: None,
+            threads: 0,
+        }
+    }
+}
+
+impl MatcherOptions {
+    /// The matcher configuration of these options, checked against each other (the options of
+    /// one method refused with the other, two presets refused together).
+    pub fn config(&self) -> Result<MatcherConfig> {
+        let cost = match self.cost.to_ascii_lowercase().as_str() {
+            "sad" => CostFunction::Sad,
+            "ssd" => CostFunction::Ssd,
+            "ncc" => CostFunction::Ncc,
+            other => return Err(PipelineError::Input(format!("--cost must be sad, ssd or ncc (got {other:?})"))),
+        };
+        let sgm = match self.method.to_ascii_lowercase().as_str() {
+            "bm" => false,
+            "sgm" => true,
+            other => return Err(PipelineError::Input(format!("--method must be bm or sgm (got {other:?})"))),
+        };
+        if !sgm && (self.accurate || self.sgm_cost.is_some() || self.sgm_paths.is_some()) {
+            return Err(PipelineError::Input(
+                "--accurate, --sgm-cost and --sgm-paths are options of --method sgm".to_string(),
+            ));
+        }
+        if self.accurate && self.fill {
+            return Err(PipelineError::Input(
+                "--accurate (measurement: nothing filled) and --fill (the dense benchmark preset) are two presets: \
+                 choose one"
+                    .to_string(),
+            ));
+        }
+        if self.colour && !sgm && cost == CostFunction::Ncc {
+            return Err(PipelineError::Input(
+                "--colour with --method bm sums --cost sad or ssd over the three channels: --cost ncc matches grey \
+                 pairs only (drop --colour, or choose sad or ssd)"
+                    .to_string(),
+            ));
+        }
+        let d = match (sgm, self.fill, self.accurate) {
+            (false, false, _) => MatcherConfig::default(),
+            (false, true, _) => MatcherConfig::dense(),
+            (true, false, false) => MatcherConfig::sgm(),
+            (true, false, true) => MatcherConfig::sgm_accurate(),
+            (true, true, _) => MatcherConfig::sgm_dense(),
+        };
+        let paths = match self.sgm_paths {
+            None => d.sgm.paths,
+            Some(3) => SgmPaths::Three,
+            Some(5) => SgmPaths::Five,
+            Some(8) => SgmPaths::Eight,
+            Some(n) => return Err(PipelineError::Input(format!("--sgm-paths must be 3, 5 or 8 (got {n})"))),
+        };
+        let (sampling_insensitive, intensity_cost) = match self.sgm_cost.as_deref().map(str::to_ascii_lowercase) {
+            None => (d.sgm.sampling_insensitive, d.sgm.intensity_cost),
+            Some(c) => match c.as_str() {
+                "sad" => (false, false),
+                "bt" => (true, false),
+                "sad+intensity" => (false, true),
+                "bt+intensity" => (true, true),
+                other => {
+                    return Err(PipelineError::Input(format!(
+                        "--sgm-cost must be sad, bt, sad+intensity or bt+intensity (got {other:?})"
+                    )));
+                }
+            },
+        };
+        let (lr_subpixel, lr_winners) = match self.lr_rule.as_deref().map(str::to_ascii_lowercase) {
+            None => (d.lr_subpixel, d.lr_winners),
+            Some(r) => match r.as_str() {
+                "integer" => (false, false),
+                "subpixel" => (true, false),
+                "sgbm" if sgm => (true, true),
+                "sgbm" => {
+                    return Err(PipelineError::Input(
+                        "--lr-rule sgbm is semi-global matching's (with --method sgm)".to_string(),
+                    ));
+                }
+                other => {
+                    return Err(PipelineError::Input(format!(
+                        "--lr-rule must be integer, subpixel or sgbm (got {other:?})"
+                    )));
+                }
+            },
+        };
+        let prefilter = match self.prefilter.as_deref().map(str::to_ascii_lowercase) {
+            None => d.prefilter,
+            Some(p) => parse_prefilter(&p)?,
+        };
+        let cfg = MatcherConfig {
+            cost,
+            block_size: if sgm { d.block_size } else { self.block.unwrap_or(d.block_size) },
+            min_disparity: self.min_disparity,
+            num_disparities: self.disparities,
+            prefilter,
+            uniqueness_ratio: self.uniqueness.unwrap_or(d.uniqueness_ratio),
+            texture_threshold: self.texture.unwrap_or(d.texture_threshold),
+            lr_max_diff: match self.lr_max_diff {
+                Some(v) if v < 0 => None,
+                Some(v) => Some(v as u32),
+                None => d.lr_max_diff,
+            },
+            lr_subpixel,
+            lr_winners,
+            speckle_window_size: self.speckle_window.unwrap_or(d.speckle_window_size),
+            min_confidence: self.min_confidence.unwrap_or(d.min_confidence),
+            confidence_map: self.confidence,
+            fill: self.fill,
+            threads: self.threads,
+            sgm: SgmConfig {
+                paths,
+                block: if sgm { self.block.unwrap_or(d.sgm.block) } else { d.sgm.block },
+                sampling_insensitive,
+                intensity_cost,
+                // a cost summed over three channels: the penalties of one, three times
+                p1: if self.colour { 3 * d.sgm.p1 } else { d.sgm.p1 },
+                p2: if self.colour { 3 * d.sgm.p2 } else { d.sgm.p2 },
+                ..d.sgm
+            },
+            ..d
+        };
+        Ok(cfg)
+    }
+}
+
+/// A prefilter by the command line's name: `xsobel`, `norm`, `rank`, `rank:N` or `none`.
+pub fn parse_prefilter(p: &str) -> Result<Prefilter> {
+    Ok(match p {
+        p if p.starts_with("rank:") => {
+            let size = p["rank:".len()..].parse().map_err(|_| {
+                PipelineError::Input(format!("--prefilter rank:N needs an odd N in 3..=15 (got {p:?})"))
+            })?;
+            Prefilter::Rank { size }
+        }
+        "xsobel" => Prefilter::XSobel { cap: 31 },
+        "norm" => Prefilter::NormalizedResponse { size: 9, cap: 31 },
+        "rank" => Prefilter::Rank { size: 9 },
+        "none" => Prefilter::None,
+        other => {
+            return Err(PipelineError::Input(format!(
+                "--prefilter must be xsobel, norm, rank, rank:N or none (got {other:?})"
+            )));
+        }
     })
 }
 
