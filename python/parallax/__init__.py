@@ -26,6 +26,7 @@ __all__ = [
     "__version__",
     "calibrate_camera",
     "calibrate_hand_eye",
+    "calibrate_rig",
     "detect_target",
     "find_chessboard",
     "load_pair",
@@ -112,6 +113,25 @@ def stereo_calibrate(object_points: Sequence, image_points1: Sequence, image_poi
     return (r["rms"], np.array(r["K1"]).reshape(3, 3), np.array(r["D1"]).reshape(1, -1),
             np.array(r["K2"]).reshape(3, 3), np.array(r["D2"]).reshape(1, -1), np.array(r["R"]).reshape(3, 3),
             np.array(r["T"]).reshape(3, 1), np.array(r["E"]).reshape(3, 3), np.array(r["F"]).reshape(3, 3))
+
+
+def calibrate_rig(object_points: Sequence, image_points: Sequence, image_sizes: Sequence, lens="pinhole"):
+    """Calibrates a rig of N cameras in one joint problem (OpenCV 5's ``calibrateMultiview``):
+    ``object_points[f]`` the target points of frame ``f``; ``image_points[c][f]`` their pixels
+    in camera ``c`` (``None`` where camera ``c`` did not see frame ``f``); ``lens`` one name for
+    every camera or one per camera. Camera 0 is the reference. Returns ``(rms, Ks, Ds, Rs, Ts,
+    per_view_errors)`` with ``Rs[c], Ts[c]`` = ``camC_from_cam0`` (identity for camera 0)."""
+    cams = len(image_points)
+    lenses = [lens] * cams if isinstance(lens, str) else list(lens)
+    frames = []
+    for f, obj in enumerate(object_points):
+        o = _points(obj, 3)
+        frames.append([None if image_points[c][f] is None else (o, _points(image_points[c][f], 2))
+                       for c in range(cams)])
+    r = _parallax.calibrate_rig(frames, [_size(s) for s in image_sizes], lenses)
+    return (r["rms"], [np.array(k).reshape(3, 3) for k in r["K"]], [np.array(d).reshape(1, -1) for d in r["D"]],
+            [np.array(m).reshape(3, 3) for m in r["R"]], [np.array(t).reshape(3, 1) for t in r["T"]],
+            r["per_view_errors"])
 
 
 def _rect(r: dict):

@@ -38,6 +38,11 @@ def stereo_calibrate(
     size2: Tuple[int, int],
     lens: str = "pinhole",
 ) -> dict[str, Any]: ...
+def calibrate_rig(
+    frames: Sequence[Sequence[Optional[Tuple[Sequence[Sequence[float]], Sequence[Sequence[float]]]]]],
+    sizes: Sequence[Tuple[int, int]],
+    lenses: Sequence[str],
+) -> dict[str, Any]: ...
 def stereo_rectify(
     k1: Sequence[float],
     d1: Sequence[float],

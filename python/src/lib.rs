@@ -281,6 +281,50 @@ fn stereo_calibrate<'py>(
     Ok(out)
 }
 
+/// One camera's view of a frame: object points and their pixels (`None`: not seen).
+type FrameView = Option<(Vec<[f64; 3]>, Vec<[f64; 2]>)>;
+
+/// Calibrates a rig of N cameras in one joint problem (OpenCV 5's `calibrateMultiview`):
+/// `frames[f][c]` what camera `c` saw in frame `f`, or `None`; `lenses` one per camera. Camera 0
+/// is the reference: every extrinsic is `camI_from_cam0`.
+#[pyfunction]
+fn calibrate_rig<'py>(
+    py: Python<'py>,
+    frames: Vec<Vec<FrameView>>,
+    sizes: Vec<(u32, u32)>,
+    lenses: Vec<String>,
+) -> PyResult<Bound<'py, PyDict>> {
+    if lenses.len() != sizes.len() {
+        return Err(err(format!("{} lenses for {} cameras", lenses.len(), sizes.len())));
+    }
+    let cameras = lenses
+        .iter()
+        .map(|l| Ok(parallax::calibration::CalibrationConfig { lens: lens_model(l)?, ..Default::default() }))
+        .collect::<PyResult<Vec<_>>>()?;
+    let config = parallax::calibration::RigConfig { cameras, ..Default::default() };
+    let frames: Vec<Vec<Option<parallax::calibration::CameraView>>> = frames
+        .iter()
+        .map(|f| {
+            f.iter()
+                .map(|v| {
+                    v.as_ref().map(|(o, i)| parallax::calibration::CameraView { object: points3(o), image: points2(i) })
+                })
+                .collect()
+        })
+        .collect();
+    let r = py.detach(|| parallax::calibration::calibrate_rig(&frames, &sizes, &config)).map_err(err)?;
+    let out = PyDict::new(py);
+    out.set_item("rms", r.rms_px)?;
+    out.set_item("K", r.cameras.iter().map(|c| rows(&c.intrinsics.matrix())).collect::<Vec<_>>())?;
+    out.set_item("D", r.cameras.iter().map(|c| distortion(&c.lens)).collect::<Vec<_>>())?;
+    out.set_item("R", r.cam_from_cam0.iter().map(|p| rows(&p.rotation_matrix())).collect::<Vec<_>>())?;
+    out.set_item("T", r.cam_from_cam0.iter().map(|p| p.translation.to_array()).collect::<Vec<_>>())?;
+    out.set_item("camera_rms", r.camera_rms_px.clone())?;
+    out.set_item("per_view_errors", r.per_view_rms_px.clone())?;
+    out.set_item("warnings", r.warnings.iter().map(|w| w.to_string()).collect::<Vec<_>>())?;
+    Ok(out)
+}
+
 /// A rig from OpenCV's matrices.
 #[allow(clippy::too_many_arguments)] // both cameras, the size and the pose, as OpenCV takes them
 fn rig(
@@ -752,6 +796,7 @@ fn _parallax(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(detect_target, m)?,
         wrap_pyfunction!(calibrate_camera, m)?,
         wrap_pyfunction!(stereo_calibrate, m)?,
+        wrap_pyfunction!(calibrate_rig, m)?,
         wrap_pyfunction!(stereo_rectify, m)?,
         wrap_pyfunction!(load_pair, m)?,
         wrap_pyfunction!(triangulate, m)?,

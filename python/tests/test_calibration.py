@@ -194,3 +194,29 @@ def test_real_chessboards_calibrate_as_opencv_does():
     rms_cv, K_cv, *_ = cv2.calibrateCamera([board_points().astype(np.float32)] * len(found),
                                            [c.astype(np.float32) for c in found], size, None, None)
     assert abs(K[0, 0] / K_cv[0, 0] - 1) < 2e-3 and rms <= rms_cv * 1.01
+
+
+def test_a_rig_of_three_cameras_with_partial_views_recovers_its_truth():
+    # three cameras in a row, 80 apart, each seeing the board in most frames; points by cv2
+    rng = np.random.default_rng(5)
+    K = np.array([[700.0, 0, 320], [0, 700, 240], [0, 0, 1]])
+    D = np.array([-0.1, 0.05, 0.0, 0.0, 0.0])
+    rigs = [(np.eye(3), np.zeros(3)), (cv2.Rodrigues(np.array([0.0, 0.05, 0.0]))[0], np.array([-80.0, 0, 0])),
+            (cv2.Rodrigues(np.array([0.0, -0.05, 0.01]))[0], np.array([-160.0, 2, 0]))]
+    objp = board_points()
+    obj, pts = [], [[], [], []]
+    for f in range(14):
+        r0 = np.array([rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5), rng.uniform(-0.3, 0.3)])
+        t0 = np.array([rng.uniform(-150, 0), rng.uniform(-100, 0), rng.uniform(500, 800)])
+        R0 = cv2.Rodrigues(r0)[0]
+        obj.append(objp)
+        for c, (Rc, Tc) in enumerate(rigs):
+            Rcb, tcb = Rc @ R0, Rc @ t0 + Tc
+            p, _ = cv2.projectPoints(objp, cv2.Rodrigues(Rcb)[0], tcb, K, D)
+            seen = (f + c) % 5 != 0 and ((p >= 0) & (p < [640, 480])).all()
+            pts[c].append(p.reshape(-1, 2) if seen else None)
+    rms, Ks, Ds, Rs, Ts, _ = parallax.calibrate_rig(obj, pts, [(640, 480)] * 3)
+    assert rms < 1e-6
+    for c in range(3):
+        assert np.abs(Ks[c] - K).max() < 1e-4 and np.abs(Ds[c] - D).max() < 1e-6
+        assert np.abs(Rs[c] - rigs[c][0]).max() < 1e-8 and np.abs(Ts[c].ravel() - rigs[c][1]).max() < 1e-5
