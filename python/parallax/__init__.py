@@ -179,12 +179,22 @@ class StereoMatcher:
         self._inner = _StereoMatcher(method=method, num_disparities=int(num_disparities),
                                      min_disparity=int(min_disparity), **options)
 
-    def compute(self, left, right) -> Tuple[np.ndarray, np.ndarray]:
-        return self._inner.compute(_image(left), _image(right))
+    def compute(self, left, right, disparity: Optional[np.ndarray] = None,
+                confidence: Optional[np.ndarray] = None) -> Tuple[np.ndarray, np.ndarray]:
+        """``(disparity, confidence)`` of a rectified pair; given float32 ``H x W`` arrays
+        ``disparity`` and ``confidence`` (OpenCV's output arguments) are filled and returned,
+        with no new memory per frame."""
+        return self._inner.compute(_image(left), _image(right), disparity, confidence)
 
     @property
     def simd(self) -> str:
+        """The SIMD level the matcher runs."""
         return self._inner.simd()
+
+    @property
+    def last_seconds(self) -> float:
+        """Seconds the last ``compute`` spent matching inside Rust (its call overhead is the rest)."""
+        return self._inner.last_seconds
 
 
 def load_pair(left, right, colour: bool = False) -> Tuple[np.ndarray, np.ndarray]:

@@ -50,7 +50,8 @@ fn image(a: &Bound<'_, PyAny>) -> PyResult<Image> {
     }
     if let Ok(a) = a.extract::<PyReadonlyArrayDyn<'_, u8>>() {
         let (w, h, c) = dims(a.shape())?;
-        let data = a.as_array().iter().copied().collect::<Vec<u8>>();
+        // a C-contiguous array is copied at once; any other layout element by element
+        let data = a.as_slice().map_or_else(|_| a.as_array().iter().copied().collect(), <[u8]>::to_vec);
         return Ok(if c == 3 {
             Image::Rgb(RgbImage::from_raw(w, h, data).expect("h x w x 3 values"))
         } else {
@@ -62,10 +63,52 @@ fn image(a: &Bound<'_, PyAny>) -> PyResult<Image> {
         if c != 1 {
             return Err(err("16-bit images are matched as grey: give an H x W uint16 array"));
         }
-        let data = a.as_array().iter().copied().collect::<Vec<u16>>();
+        let data = a.as_slice().map_or_else(|_| a.as_array().iter().copied().collect(), <[u16]>::to_vec);
         return Ok(Image::Grey16(ImageBuffer::<Luma<u16>, Vec<u16>>::from_raw(w, h, data).expect("h x w values")));
     }
     Err(err("an image must be a numpy array of uint8 (grey or RGB) or uint16 (grey)"))
+}
+
+/// [`image`] into the memory of `buf` when the array is 8-bit and C-contiguous (a matcher's
+/// frames reuse their buffers: no fresh pages per frame).
+fn image_reusing(a: &Bound<'_, PyAny>, buf: &mut Vec<u8>) -> PyResult<Image> {
+    if let Ok(arr) = a.extract::<PyReadonlyArrayDyn<'_, u8>>()
+        && let Ok(slice) = arr.as_slice()
+    {
+        let shape = arr.shape().to_vec();
+        if let ([h, w] | [h, w, 1] | [h, w, 3], true) = (shape.as_slice(), !slice.is_empty()) {
+            let (w, h) = (u32::try_from(*w).map_err(err)?, u32::try_from(*h).map_err(err)?);
+            let mut data = std::mem::take(buf);
+            data.clear();
+            data.extend_from_slice(slice);
+            return Ok(if shape.len() == 3 && shape[2] == 3 {
+                Image::Rgb(RgbImage::from_raw(w, h, data).expect("h x w x 3 values"))
+            } else {
+                Image::Grey(GrayImage::from_raw(w, h, data).expect("h x w values"))
+            });
+        }
+    }
+    image(a)
+}
+
+/// The memory of an 8-bit image back for the next frame.
+fn give_back(img: Image, buf: &mut Vec<u8>) {
+    match img {
+        Image::Grey(g) => *buf = g.into_raw(),
+        Image::Rgb(c) => *buf = c.into_raw(),
+        Image::Grey16(_) => {}
+    }
+}
+
+/// Copies `values` into a caller's float32 `H x W` array (checked: its shape, C order).
+fn write_into(out: &Bound<'_, PyArrayDyn<f32>>, values: &[f32], (h, w): (usize, usize), what: &str) -> PyResult<()> {
+    let mut out = out.try_readwrite().map_err(|e| err(format!("{what}: {e}")))?;
+    if out.shape() != [h, w] {
+        return Err(err(format!("{what} must be a float32 array of shape ({h}, {w}), got {:?}", out.shape())));
+    }
+    let dst = out.as_slice_mut().map_err(|_| err(format!("{what} must be C-contiguous")))?;
+    dst.copy_from_slice(values);
+    Ok(())
 }
 
 /// The image as 8-bit grey (RGB by its luma, as the command line reads colour files).
@@ -454,6 +497,12 @@ impl Rectifier {
 struct StereoMatcher {
     matcher: BlockMatcher,
     colour: bool,
+    /// The last map, its memory reused by the next frame of the same size.
+    map: parallax::camera::DisparityMap,
+    /// Seconds the last `compute` spent matching (inside Rust, without the conversions).
+    last_seconds: f64,
+    /// The last frame's image memory, reused.
+    bufs: [Vec<u8>; 2],
 }
 
 #[pymethods]
@@ -515,48 +564,89 @@ impl StereoMatcher {
             }
         };
         let cfg = parallax::matching::MatcherConfig { confidence_map: true, ..cfg };
-        Ok(Self { matcher: BlockMatcher::new(cfg).map_err(err)?, colour })
+        let map = parallax::camera::DisparityMap::new_invalid(0, 0);
+        Ok(Self {
+            matcher: BlockMatcher::new(cfg).map_err(err)?,
+            colour,
+            map,
+            last_seconds: 0.0,
+            bufs: Default::default(),
+        })
     }
 
     /// The disparity (float32, NaN where no disparity is returned) and the confidence (0 where
     /// invalid) of a rectified pair: uint8 grey, uint16 grey, or uint8 RGB (matched in colour
-    /// when the matcher was made with `colour=True`, else by its grey conversion).
+    /// when the matcher was made with `colour=True`, else by its grey conversion). With
+    /// `disparity` and `confidence` (float32 `H x W` arrays, OpenCV's output arguments) the
+    /// results are written into them and they are returned: no new memory per frame.
+    #[pyo3(signature = (left, right, disparity=None, confidence=None))]
     fn compute<'py>(
         &mut self,
         py: Python<'py>,
         left: &Bound<'py, PyAny>,
         right: &Bound<'py, PyAny>,
+        disparity: Option<Bound<'py, PyArrayDyn<f32>>>,
+        confidence: Option<Bound<'py, PyArrayDyn<f32>>>,
     ) -> PyResult<ArrayPair<'py, f32>> {
-        let (l, r) = (image(left)?, image(right)?);
+        let [mut lb, mut rb] = std::mem::take(&mut self.bufs);
+        let (l, r) = (image_reusing(left, &mut lb)?, image_reusing(right, &mut rb)?);
         let colour = self.colour;
-        let matcher = &mut self.matcher;
-        let (map, confidence) = py
-            .detach(|| -> Result<_, parallax::matching::BlockMatchingError> {
-                let map = match (l, r) {
-                    (Image::Grey(l), Image::Grey(r)) => matcher.compute(&l, &r)?,
-                    (Image::Grey16(l), Image::Grey16(r)) => matcher.compute_u16(&l, &r)?,
-                    (Image::Rgb(l), Image::Rgb(r)) if colour => matcher.compute_rgb(&l, &r)?,
-                    (Image::Rgb(l), Image::Rgb(r)) => matcher.compute(
-                        &parallax::image::imageops::grayscale(&l),
-                        &parallax::image::imageops::grayscale(&r),
-                    )?,
-                    _ => {
-                        return Err(parallax::matching::BlockMatchingError::InvalidConfig {
-                            field: "images",
-                            value: "left and right of different kinds".into(),
-                            reason: "give two images of the same dtype and channels",
-                        });
-                    }
-                };
-                let confidence = matcher.confidence().map(<[f32]>::to_vec).unwrap_or_default();
-                Ok((map, confidence))
-            })
-            .map_err(err)?;
+        let (matcher, map) = (&mut self.matcher, &mut self.map);
+        let (l, r, result) = py.detach(|| {
+            let started = std::time::Instant::now();
+            let result = match (&l, &r) {
+                (Image::Grey(a), Image::Grey(b)) => matcher.compute_into(a, b, map),
+                (Image::Grey16(a), Image::Grey16(b)) => matcher.compute_u16_into(a, b, map),
+                (Image::Rgb(a), Image::Rgb(b)) if colour => matcher.compute_rgb_into(a, b, map),
+                (Image::Rgb(a), Image::Rgb(b)) => matcher.compute_into(
+                    &parallax::image::imageops::grayscale(a),
+                    &parallax::image::imageops::grayscale(b),
+                    map,
+                ),
+                _ => Err(parallax::matching::BlockMatchingError::InvalidConfig {
+                    field: "images",
+                    value: "left and right of different kinds".into(),
+                    reason: "give two images of the same dtype and channels",
+                }),
+            };
+            (l, r, result.map(|()| started.elapsed().as_secs_f64()))
+        });
+        give_back(l, &mut lb);
+        give_back(r, &mut rb);
+        self.bufs = [lb, rb];
+        self.last_seconds = result.map_err(err)?;
+        let map = &self.map;
         let (w, h) = (map.width(), map.height());
-        let disparity = PyArray1::from_vec(py, map.data().to_vec()).reshape(vec![h, w])?;
-        let confidence = if confidence.len() == w * h { confidence } else { vec![0.0; w * h] };
-        let confidence = PyArray1::from_vec(py, confidence).reshape(vec![h, w])?;
+        let zeros;
+        let conf = match self.matcher.confidence() {
+            Some(c) if c.len() == w * h => c,
+            _ => {
+                zeros = vec![0.0; w * h];
+                &zeros
+            }
+        };
+        let disparity = match disparity {
+            Some(out) => {
+                write_into(&out, map.data(), (h, w), "disparity")?;
+                out
+            }
+            None => PyArray1::from_slice(py, map.data()).reshape(vec![h, w])?,
+        };
+        let confidence = match confidence {
+            Some(out) => {
+                write_into(&out, conf, (h, w), "confidence")?;
+                out
+            }
+            None => PyArray1::from_slice(py, conf).reshape(vec![h, w])?,
+        };
         Ok((disparity, confidence))
+    }
+
+    /// Seconds the last `compute` spent matching inside Rust (the rest of its time is the call:
+    /// the conversions of the arrays and the GIL).
+    #[getter]
+    fn last_seconds(&self) -> f64 {
+        self.last_seconds
     }
 
     /// The SIMD level the matcher runs.

@@ -90,3 +90,17 @@ def test_the_version_is_the_workspaces():
     text = (ROOT / "Cargo.toml").read_text()
     version = re.search(r'\[workspace\.package\]\s*\nversion = "([^"]+)"', text).group(1)
     assert parallax.__version__ == version
+
+
+def test_output_arrays_are_filled_with_the_same_maps(zoo):
+    d = zoo / "clutter"
+    left, right = parallax.load_pair(d / "left.png", d / "right.png")
+    m = parallax.StereoMatcher("sgm", num_disparities=48)
+    disparity, confidence = m.compute(left, right)
+    outs = (np.full(left.shape, 7.0, np.float32), np.full(left.shape, 7.0, np.float32))
+    got = m.compute(left, right, disparity=outs[0], confidence=outs[1])
+    assert got[0] is outs[0] and got[1] is outs[1]
+    assert same_bits(outs[0], disparity) and same_bits(outs[1], confidence)
+    assert m.last_seconds > 0
+    with pytest.raises(parallax.ParallaxError, match="shape"):
+        m.compute(left, right, disparity=np.zeros((10, 10), np.float32))
