@@ -243,8 +243,9 @@ fn zoo() -> Vec<(String, StereoWorld)> {
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/zoo");
     let mut out: Vec<(String, StereoWorld)> = std::fs::read_dir(dir)
         .unwrap()
-        .map(|e| {
-            let p = e.unwrap().path();
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .map(|p| {
             let name = p.file_stem().unwrap().to_string_lossy().into_owned();
             let w = StereoWorld::from_ron(&std::fs::read_to_string(&p).unwrap())
                 .unwrap_or_else(|e| panic!("{}: {e}", p.display()));
