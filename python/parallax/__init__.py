@@ -183,7 +183,8 @@ class StereoMatcher:
                 confidence: Optional[np.ndarray] = None) -> Tuple[np.ndarray, np.ndarray]:
         """``(disparity, confidence)`` of a rectified pair; given float32 ``H x W`` arrays
         ``disparity`` and ``confidence`` (OpenCV's output arguments) are filled and returned,
-        with no new memory per frame."""
+        with no new memory per frame. New arrays otherwise, on the memory of earlier results you
+        no longer hold when there are any (the matcher keeps up to four such buffers)."""
         return self._inner.compute(_image(left), _image(right), disparity, confidence)
 
     @property

@@ -4,6 +4,7 @@
 //! released; every error is a `parallax.ParallaxError` (a `ValueError`) carrying our message.
 
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex, PoisonError, Weak};
 
 use numpy::{PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use parallax::camera::{Camera, Distortion, Isometry3, Lens, StereoRig};
@@ -97,6 +98,64 @@ fn give_back(img: Image, buf: &mut Vec<u8>) {
         Image::Grey(g) => *buf = g.into_raw(),
         Image::Rgb(c) => *buf = c.into_raw(),
         Image::Grey16(_) => {}
+    }
+}
+
+/// The memory of the float32 maps `StereoMatcher.compute` returns, kept for the next frames once
+/// numpy frees the arrays. Fresh memory for every returned array costs the kernel's zeroing of
+/// its pages on first touch, about as much as the rest of the call together (see the journal's
+/// overhead entry); arrays made from a buffer of an earlier frame that the caller dropped do not.
+#[derive(Default)]
+struct ResultPool(Arc<Mutex<Vec<Vec<f32>>>>);
+
+impl ResultPool {
+    /// Buffers kept at most (two maps a frame, two frames): a caller who keeps every result gets
+    /// fresh memory, as without the pool; one who drops them reuses the same few buffers.
+    const KEEP: usize = 4;
+
+    /// A new `H x W` float32 array holding `values`, on a pooled buffer when one is free.
+    fn array<'py>(
+        &self,
+        py: Python<'py>,
+        values: &[f32],
+        (h, w): (usize, usize),
+    ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        assert_eq!(values.len(), h * w, "a map of {w} x {h} has {} values", values.len());
+        let mut data = self.0.lock().unwrap_or_else(PoisonError::into_inner).pop().unwrap_or_default();
+        data.clear();
+        data.extend_from_slice(values);
+        // Taken before `data` moves into its owner: a pointer from `as_mut_ptr` stays valid
+        // across moves of the `Vec` (only reallocation or drop ends it) and may be written through.
+        let ptr = data.as_mut_ptr();
+        let owner = Bound::new(py, PooledBuffer { data, pool: Arc::downgrade(&self.0) })?;
+        // SAFETY: `ptr` points at `h * w` initialised f32 (asserted above), C order, owned by
+        // `owner`'s `Vec`, which is never resized or read on the Rust side while it lives and is
+        // freed (or pooled) only in `PooledBuffer::drop`. `borrow_from_array` makes `owner` the
+        // array's base, so numpy keeps it alive as long as the array or any view of it lives;
+        // numpy is then the only user of the memory, reads and writes included.
+        let view =
+            unsafe { numpy::ndarray::ArrayViewD::from_shape_ptr(numpy::ndarray::IxDyn(&[h, w]), ptr.cast_const()) };
+        // SAFETY: as above: the view's memory lives as long as `owner`, the array's base.
+        Ok(unsafe { PyArrayDyn::borrow_from_array(&view, owner.into_any()) })
+    }
+}
+
+/// The owner of a returned map's memory (the numpy array's `base`): gives its buffer back to
+/// the matcher's pool when numpy frees it, if the matcher still lives and the pool has room.
+#[pyclass(frozen, module = "parallax._parallax")]
+struct PooledBuffer {
+    data: Vec<f32>,
+    pool: Weak<Mutex<Vec<Vec<f32>>>>,
+}
+
+impl Drop for PooledBuffer {
+    fn drop(&mut self) {
+        if let Some(pool) = self.pool.upgrade() {
+            let mut pool = pool.lock().unwrap_or_else(PoisonError::into_inner);
+            if pool.len() < ResultPool::KEEP {
+                pool.push(std::mem::take(&mut self.data));
+            }
+        }
     }
 }
 
@@ -503,6 +562,8 @@ struct StereoMatcher {
     last_seconds: f64,
     /// The last frame's image memory, reused.
     bufs: [Vec<u8>; 2],
+    /// The memory of returned maps the caller dropped, reused.
+    results: ResultPool,
 }
 
 #[pymethods]
@@ -571,6 +632,7 @@ impl StereoMatcher {
             map,
             last_seconds: 0.0,
             bufs: Default::default(),
+            results: ResultPool::default(),
         })
     }
 
@@ -578,7 +640,9 @@ impl StereoMatcher {
     /// invalid) of a rectified pair: uint8 grey, uint16 grey, or uint8 RGB (matched in colour
     /// when the matcher was made with `colour=True`, else by its grey conversion). With
     /// `disparity` and `confidence` (float32 `H x W` arrays, OpenCV's output arguments) the
-    /// results are written into them and they are returned: no new memory per frame.
+    /// results are written into them and they are returned: no new memory per frame. Without
+    /// them, new arrays are returned whose memory is that of earlier results you no longer hold
+    /// (the matcher keeps up to four such buffers), when there are any.
     #[pyo3(signature = (left, right, disparity=None, confidence=None))]
     fn compute<'py>(
         &mut self,
@@ -630,14 +694,14 @@ impl StereoMatcher {
                 write_into(&out, map.data(), (h, w), "disparity")?;
                 out
             }
-            None => PyArray1::from_slice(py, map.data()).reshape(vec![h, w])?,
+            None => self.results.array(py, map.data(), (h, w))?,
         };
         let confidence = match confidence {
             Some(out) => {
                 write_into(&out, conf, (h, w), "confidence")?;
                 out
             }
-            None => PyArray1::from_slice(py, conf).reshape(vec![h, w])?,
+            None => self.results.array(py, conf, (h, w))?,
         };
         Ok((disparity, confidence))
     }
