@@ -695,9 +695,11 @@ fn row<
 }
 
 /// The smallest box sum of column `x` (its slot of the ring) over the searchable range `[lo,
-/// hi]` minus the winner `kb` and its two neighbours (`E::MAX` when none is left).
+/// hi]` minus the winner `kb` and its two neighbours (`E::MAX` when none is left). `hi < D`, so
+/// the lanes past `D` (index `d ≥ D > hi`) are outside the range: no tail mask.
 #[cfg_attr(not(opt_level_zero), inline(always))]
 fn second<E: Lane, V: KernelLanes<E>>(t: Avx2, p: &Ptrs<E>, x: usize, kb: usize, lo: i64, hi: i64) -> E {
+    debug_assert!(hi < p.nd as i64, "the searchable range ends below D");
     let bx = p.bx.wrapping_add(slot_of(x, p.ndp, V::LANES)) as *const E;
     let (lov, hiv) = (V::splat_bound(t, lo), V::splat_bound(t, hi));
     let (nlo, nhi) = (V::splat_bound(t, kb as i64 - 1), V::splat_bound(t, kb as i64 + 1));
@@ -707,11 +709,6 @@ fn second<E: Lane, V: KernelLanes<E>>(t: Avx2, p: &Ptrs<E>, x: usize, kb: usize,
         // SAFETY: c + L ≤ ndp, the length of a slot and of the index buffer (`Ptrs::new`).
         let (dv, b) = unsafe { (V::load_ptr(t, p.dv.add(c)), V::load_ptr(t, bx.add(c))) };
         let mut m = outside(dv, lov, hiv);
-        if c + V::LANES > p.nd {
-            // the lanes past D (only the last chunk has them)
-            // SAFETY: c + L ≤ ndp, the length of the tail buffer (`Ptrs::new`).
-            m = m.or(unsafe { V::load_ptr(t, p.tail.add(c)) });
-        }
         // lanes kb − 1 ..= kb + 1 are not candidates
         m = m.or(outside(dv, nlo, nhi).and_not(ones));
         acc = acc.min(b.or(m));
