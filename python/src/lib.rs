@@ -103,8 +103,8 @@ fn give_back(img: Image, buf: &mut Vec<u8>) {
 
 /// The memory of the float32 maps `StereoMatcher.compute` returns, kept for the next frames once
 /// numpy frees the arrays. Fresh memory for every returned array costs the kernel's zeroing of
-/// its pages on first touch, about as much as the rest of the call together (see the journal's
-/// overhead entry); arrays made from a buffer of an earlier frame that the caller dropped do not.
+/// its pages on first touch, several times the rest of the call (see the journal's overhead
+/// entry); arrays made from a buffer of an earlier frame that the caller dropped do not.
 #[derive(Default)]
 struct ResultPool(Arc<Mutex<Vec<Vec<f32>>>>);
 
