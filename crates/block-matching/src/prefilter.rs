@@ -401,7 +401,7 @@ with_simd! {
 }
 
 /// Rows per rayon task of the prefilters and box sums (small images stay on one task).
-const ROWS_PER_TASK: usize = 32;
+pub(crate) const ROWS_PER_TASK: usize = 32;
 
 /// Intensity minus the mean of the `size x size` window (clamp-to-edge), rounded to the nearest
 /// integer, clipped to `[−cap, cap]` and shifted by `cap` (output `0..=2·cap`): a local-contrast

@@ -62,9 +62,10 @@ use crate::config::{SgmConfig, SgmPaths, Subpixel};
 use crate::decide::{Cost, RightWinners, WinnersBy, curve_ratio, decide, finish_row, gather_from};
 use crate::error::{BlockMatchingError, Result};
 use crate::frame::{MatchStats, Shared, conf_row, load_plane_rows};
-use crate::prefilter::TextureRows;
+use crate::prefilter::{ROWS_PER_TASK, TextureRows};
 use parallax_simd::SimdLevel;
 use parallax_simd::{Avx2, Level};
+use rayon::prelude::*;
 
 /// Uniqueness margin (percent) a winner needs where the image edge cuts its pixel's candidates
 /// short of the range (the left band `x < dmin + D − 1`, or the right one with negative
@@ -97,25 +98,61 @@ pub(crate) struct SgmPlanes {
     quant: Vec<[Vec<u16>; 2]>,
 }
 
-/// Intervals of one prefiltered image into `lo`, `hi` (`w · h` each).
+/// Intervals of one prefiltered image into `lo`, `hi` (`w · h` each), in parallel over rows
+/// (rayon's current pool).
 fn bt_planes(img: &[u16], w: usize, h: usize, lo: &mut Vec<u16>, hi: &mut Vec<u16>) {
     lo.resize(w * h, 0);
     hi.resize(w * h, 0);
-    for ((row, lo), hi) in img.chunks_exact(w).zip(lo.chunks_exact_mut(w)).zip(hi.chunks_exact_mut(w)) {
-        for x in 0..w {
-            let v = row[x] as u32;
-            let vl = (v + row[x.saturating_sub(1)] as u32) / 2;
-            let vr = (v + row[(x + 1).min(w - 1)] as u32) / 2;
-            lo[x] = v.min(vl).min(vr) as u16;
-            hi[x] = v.max(vl).max(vr) as u16;
+    let chunk = w.max(1) * ROWS_PER_TASK;
+    let rows = img.par_chunks(chunk).zip(lo.par_chunks_mut(chunk));
+    rows.zip(hi.par_chunks_mut(chunk)).for_each(|((img, lo), hi)| {
+        for ((row, lo), hi) in img.chunks_exact(w).zip(lo.chunks_exact_mut(w)).zip(hi.chunks_exact_mut(w)) {
+            bt_row(row, lo, hi);
         }
+    });
+}
+
+/// One row's intervals: `I⁻ = min(v, (v + left) / 2, (v + right) / 2)` and `I⁺` the max, the
+/// neighbours clamped at the row's ends (the interior in a form the compiler vectorises: the
+/// floor average without widening, `(a & b) + ((a ^ b) >> 1)`).
+fn bt_row(row: &[u16], lo: &mut [u16], hi: &mut [u16]) {
+    let avg = |a: u16, b: u16| (a & b) + ((a ^ b) >> 1);
+    let one = |v: u16, l: u16, r: u16| {
+        let (vl, vr) = (avg(v, l), avg(v, r));
+        (v.min(vl).min(vr), v.max(vl).max(vr))
+    };
+    let w = row.len();
+    let last = w - 1;
+    (lo[0], hi[0]) = one(row[0], row[0], row[1.min(last)]);
+    if w == 1 {
+        return;
     }
+    (lo[last], hi[last]) = one(row[last], row[last - 1], row[last]);
+    let inner = row.windows(3).zip(lo[1..last].iter_mut().zip(&mut hi[1..last]));
+    for (p, (lo, hi)) in inner {
+        (*lo, *hi) = one(p[1], p[0], p[2]);
+    }
+}
+
+/// `⌊I / scale⌋ / 4` of a raw plane (`scale` 1 or 257: a constant divisor each, which the compiler
+/// turns into a multiplication), in parallel over blocks of rows.
+fn quantise(img: &[u16], w: usize, scale: u32, q: &mut Vec<u16>) {
+    q.resize(img.len(), 0);
+    let chunk = w.max(1) * ROWS_PER_TASK;
+    q.par_chunks_mut(chunk).zip(img.par_chunks(chunk)).for_each(|(q, img)| {
+        let pairs = q.iter_mut().zip(img);
+        match scale {
+            1 => pairs.for_each(|(q, &v)| *q = v >> 2),
+            257 => pairs.for_each(|(q, &v)| *q = (v / 257) >> 2),
+            s => pairs.for_each(|(q, &v)| *q = (v as u32 / s) as u16 >> 2),
+        }
+    });
 }
 
 impl SgmPlanes {
     /// Makes the planes `cfg` asks for from the prefiltered (`pre`) and raw images
     /// (`scale`: 1 for 8-bit input, 257 for 16-bit) of each plane pair the cost reads (the
-    /// grey pair, or the colour channels' pairs).
+    /// grey pair, or the colour channels' pairs), in parallel on rayon's current pool.
     pub(crate) fn prepare(
         &mut self,
         cfg: &SgmConfig,
@@ -137,8 +174,7 @@ impl SgmPlanes {
         if cfg.intensity_cost {
             for (img, q) in raw.iter().zip(&mut self.quant) {
                 for (img, q) in img.iter().zip(q) {
-                    q.clear();
-                    q.extend(img.iter().map(|&v| (v as u32 / scale) as u16 >> 2));
+                    quantise(img, w, scale, q);
                 }
             }
         }
@@ -305,9 +341,11 @@ pub(crate) struct Scratch {
     l_b: Vec<u16>,
     r_b: Vec<u16>,
     /// `r_a` and `r_b` interleaved as bytes (`r_a` first) and `l_a[xp] | l_b[xp] << 8`, when
-    /// every pixel is below 128 (`Shared::small_px`) and both rows' differences are taken.
-    pairs: Vec<u8>,
-    l_pairs: Vec<u16>,
+    /// every pixel is below 128 (`Shared::small_px`) and both rows' differences are taken;
+    /// with the Birchfield–Tomasi intervals, those of the right rows (`I⁻`, `I⁺`) and of the
+    /// left rows likewise in the second and third entries.
+    pairs: [Vec<u8>; 3],
+    l_pairs: [Vec<u16>; 3],
     /// The Birchfield–Tomasi intervals of the rows in `l_a`/`r_a` and `l_b`/`r_b`, laid out as
     /// they are: left `I⁻`, left `I⁺`, right `I⁻`, right `I⁺` (sampling-insensitive cost only).
     bt_a: [Vec<u16>; 4],
@@ -386,8 +424,11 @@ impl Scratch {
         for v in [&mut self.r_a, &mut self.r_b] {
             v.resize(wp + ndq - 1, 0);
         }
-        self.pairs.resize(2 * (wp + ndq - 1), 0);
-        self.l_pairs.resize(wp, 0);
+        for (i, (p, l)) in self.pairs.iter_mut().zip(&mut self.l_pairs).enumerate() {
+            let used = i == 0 || bt;
+            p.resize(if used { 2 * (wp + ndq - 1) } else { 0 }, 0);
+            l.resize(if used { wp } else { 0 }, 0);
+        }
         // left intervals as `l_a`, right ones as `r_a`; empty without the cost that reads them
         let bt_len = |i: usize| {
             if !bt {
@@ -515,22 +556,29 @@ fn vertical(
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
     if let Some(t) = isa {
-        let pairs = small && sub && !bt;
+        let pairs = small && sub;
         if pairs {
             // both rows' differences from byte pairs (every pixel below 128): per 16 candidates,
             // three operations instead of seven (teddy, three paths, one thread, callgrind: 11.83 →
-            // 11.36 instructions an evaluation)
-            for ((q, &a), &b) in sc.pairs.chunks_exact_mut(2).zip(&sc.r_a).zip(&sc.r_b) {
-                (q[0], q[1]) = (a as u8, b as u8);
-            }
-            for ((q, &a), &b) in sc.l_pairs.iter_mut().zip(&sc.l_a).zip(&sc.l_b) {
-                *q = a | b << 8;
+            // 11.36 instructions an evaluation); with the intervals, eight instead of fifteen
+            let right = [(&sc.r_a, &sc.r_b), (&sc.bt_a[2], &sc.bt_b[2]), (&sc.bt_a[3], &sc.bt_b[3])];
+            let left = [(&sc.l_a, &sc.l_b), (&sc.bt_a[0], &sc.bt_b[0]), (&sc.bt_a[1], &sc.bt_b[1])];
+            let n = if bt { 3 } else { 1 };
+            for ((p, l), ((ra, rb), (la, lb))) in
+                sc.pairs.iter_mut().zip(&mut sc.l_pairs).zip(right.into_iter().zip(left)).take(n)
+            {
+                for ((q, &a), &b) in p.chunks_exact_mut(2).zip(ra.iter()).zip(rb.iter()) {
+                    (q[0], q[1]) = (a as u8, b as u8);
+                }
+                for ((q, &a), &b) in l.iter_mut().zip(la.iter()).zip(lb.iter()) {
+                    *q = a | b << 8;
+                }
             }
         }
         let cost = boxed.map(|r| (&mut sc.cost[..], r));
         let rows = (&sc.l_a[..], &sc.r_a[..], &sc.l_b[..], &sc.r_b[..]);
         let bt_rows = bt.then(|| (sc.bt_a.each_ref().map(|v| &v[..]), sc.bt_b.each_ref().map(|v| &v[..])));
-        let pairs = pairs.then(|| (&sc.pairs[..], &sc.l_pairs[..]));
+        let pairs = pairs.then(|| (sc.pairs.each_ref().map(|v| &v[..]), sc.l_pairs.each_ref().map(|v| &v[..])));
         // (its own function compiled for AVX2; lengths asserted inside)
         t.vectorize(
             #[inline(always)]
@@ -1677,6 +1725,9 @@ mod lanes {
     pub(super) type Rows<'a> = (&'a [u16], &'a [u16], &'a [u16], &'a [u16]);
     /// Their Birchfield–Tomasi intervals (left `I⁻`, `I⁺`, right `I⁻`, `I⁺`), rows a and b.
     pub(super) type BtRows<'a> = ([&'a [u16]; 4], [&'a [u16]; 4]);
+    /// Rows a and b as byte pairs ([`Scratch::pairs`](super::Scratch)): the right rows' (values,
+    /// and with the intervals `I⁻`, `I⁺`), the left rows' likewise.
+    pub(super) type Pairs<'a> = ([&'a [u8]; 3], [&'a [u16]; 3]);
 
     /// Checks the lengths [`box_row`] needs (the entry points assert them before any
     /// unchecked access).
@@ -1813,7 +1864,7 @@ mod lanes {
         colsum: &mut [u16],
         rows: Rows,
         bt: Option<BtRows>,
-        pairs: Option<(&[u8], &[u16])>,
+        pairs: Option<Pairs>,
         ndq: usize,
         cost: Option<(&mut [u16], usize)>,
         (from, to): (usize, usize),
@@ -1822,10 +1873,17 @@ mod lanes {
         let (la, ra, lb, rb) = rows;
         let wp = la.len();
         assert!(from <= to && to <= ndq && (to - from).is_multiple_of(LANES));
-        // the byte pairs only for the differences of both rows without intervals
+        // the byte pairs only for the differences of both rows (the intervals' too with `BT`)
         assert!(PAIRS == pairs.is_some());
-        assert!(pairs.is_none_or(|(p, l)| SUB && !BT && p.len() + 2 >= 2 * (wp + ndq) && l.len() >= wp));
-        let pairs = pairs.map_or((std::ptr::null(), std::ptr::null()), |(p, l)| (p.as_ptr(), l.as_ptr()));
+        let used = if BT { 3 } else { 1 };
+        assert!(
+            pairs.is_none_or(|(p, l)| {
+                SUB && (0..used).all(|i| p[i].len() + 2 >= 2 * (wp + ndq) && l[i].len() >= wp)
+            })
+        );
+        let pairs = pairs.map_or(([std::ptr::null(); 3], [std::ptr::null(); 3]), |(p, l)| {
+            (p.map(|v| v.as_ptr()), l.map(|v| v.as_ptr()))
+        });
         let boxed = cost.map(|(cost, r)| {
             assert!(wp > 2 * r);
             box_row_checked(cost, colsum, wp - 2 * r, r, ndq);
@@ -1871,13 +1929,23 @@ mod lanes {
                 if PAIRS {
                     // SAFETY: xp < wp, within the left pairs; the right pairs' bytes
                     // 2(base + d) .. 2(base + d + LANES) ≤ 2(wp − 1 + ndq), and the column sums
-                    // as below; `$after`'s (asserted on entry).
+                    // as below; `$after`'s (asserted on entry; the intervals' pairs with `BT`).
                     unsafe {
-                        let lp = t.splat(*pairs.1.add(xp));
+                        let [lp, lp0, lp1] = if BT {
+                            pairs.1.map(|l| t.splat(*l.add(xp)))
+                        } else {
+                            [t.splat(*pairs.1[0].add(xp)), t.splat(0), t.splat(0)]
+                        };
                         let mut d = from;
                         while d < to {
                             let p = cs.add(xp * ndq + d);
-                            let v = V::wrapping_add(t.load_ptr(p), t.pair_difference(lp, pairs.0.add(2 * (base + d))));
+                            let at = |i: usize| pairs.0[i].add(2 * (base + d));
+                            let diff = if BT {
+                                t.pair_bt_difference(lp, lp0, lp1, at(0), at(1), at(2))
+                            } else {
+                                t.pair_difference(lp, at(0))
+                            };
+                            let v = V::wrapping_add(t.load_ptr(p), diff);
                             t.store_ptr(p, v);
                             let ($d, $v) = (d, v);
                             $after
@@ -2224,11 +2292,18 @@ mod avx2 {
         ndq: usize,
         sub: bool,
         cost: Option<(&mut [u16], usize)>,
-        pairs: Option<(&[u8], &[u16])>,
+        pairs: Option<lanes::Pairs>,
     ) {
         let all = (0, ndq);
         match (bt.is_some(), sub, pairs.is_some()) {
-            (true, true, _) => lanes::vertical::<true, true, false>(t, colsum, rows, bt, pairs, ndq, cost, all),
+            // (the default cost's prefiltered term; compiled for 64 and 96 lanes too, as the byte
+            // pairs below: 2.4 % fewer instructions a teddy frame, benches/RESULTS.md 2026-12-07)
+            (true, true, true) => match ndq {
+                64 => lanes::vertical::<true, true, true>(t, colsum, rows, bt, pairs, 64, cost, (0, 64)),
+                96 => lanes::vertical::<true, true, true>(t, colsum, rows, bt, pairs, 96, cost, (0, 96)),
+                _ => lanes::vertical::<true, true, true>(t, colsum, rows, bt, pairs, ndq, cost, all),
+            },
+            (true, true, false) => lanes::vertical::<true, true, false>(t, colsum, rows, bt, pairs, ndq, cost, all),
             (true, false, _) => lanes::vertical::<true, false, false>(t, colsum, rows, bt, pairs, ndq, cost, all),
             // (the byte pairs, the default cost's case, compiled for 16 to 128 lanes as
             // `forward_row_any`: three paths, tsukuba 19.51 → 19.12, venus
@@ -2429,6 +2504,46 @@ mod tests {
             Reversed::new(&rk, w, Some(t)).gather(&best, dmin, &mut fast);
             Reversed::new(&rk, w, None).gather(&best, dmin, &mut slow);
             assert_eq!(fast, slow, "w {w}, dmin {dmin}, best {best:?}");
+        }
+    }
+
+    /// The Birchfield–Tomasi intervals of a row against their definition in 32-bit arithmetic
+    /// (`min`/`max` of the value and its averages with the clamped neighbours), on rows of every
+    /// length from 1 and values over the whole 16-bit range.
+    #[test]
+    fn bt_rows_match_their_definition() {
+        let mut next = xorshift(0x5eed);
+        for len in 1..70usize {
+            for round in 0..20 {
+                // full range, and a few values (equal neighbours, the extremes)
+                let row: Vec<u16> = (0..len)
+                    .map(|_| if round % 2 == 0 { next(65536) as u16 } else { [0, 1, 65534, 65535][next(4) as usize] })
+                    .collect();
+                let (mut lo, mut hi) = (vec![0; len], vec![0; len]);
+                super::bt_row(&row, &mut lo, &mut hi);
+                for x in 0..len {
+                    let v = row[x] as u32;
+                    let vl = (v + row[x.saturating_sub(1)] as u32) / 2;
+                    let vr = (v + row[(x + 1).min(len - 1)] as u32) / 2;
+                    assert_eq!(lo[x] as u32, v.min(vl).min(vr), "len {len} x {x}");
+                    assert_eq!(hi[x] as u32, v.max(vl).max(vr), "len {len} x {x}");
+                }
+            }
+        }
+    }
+
+    /// The quantised intensity plane against `⌊v / scale⌋ / 4` for every 16-bit value, at both
+    /// scales the matcher uses and another.
+    #[test]
+    fn quantised_planes_match_their_definition() {
+        let img: Vec<u16> = (0..=u16::MAX).collect();
+        for scale in [1u32, 257, 3] {
+            let mut q = Vec::new();
+            super::quantise(&img, 256, scale, &mut q);
+            assert_eq!(q.len(), img.len());
+            for (&v, &g) in img.iter().zip(&q) {
+                assert_eq!(g as u32, (v as u32 / scale) >> 2, "scale {scale}, v {v}");
+            }
         }
     }
 }

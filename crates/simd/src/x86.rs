@@ -65,6 +65,38 @@ impl Avx2 {
         unsafe { _mm256_storeu_si256(p.cast(), v.0) }
     }
 
+    /// The Birchfield–Tomasi difference of row a minus row b's per lane (wrapping), from byte
+    /// pairs as [`Avx2::pair_difference`]: left values `u` and intervals `[u0, u1]` (lane `k` =
+    /// `a | b << 8` each), and the 16 byte pairs of the right values at `v`, of their intervals'
+    /// lower ends at `v0` and upper ends at `v1`. Per byte, `min(dist(u, [v0, v1]),
+    /// dist(v, [u0, u1]))` with saturating byte subtractions (at most one of the two per distance
+    /// is non-zero when the interval holds its value, `lo ≤ v ≤ hi`, so their `or` is their
+    /// maximum), then the multiply-add by `(1, −1)`: exact for any such bytes (each difference
+    /// is at most 255).
+    ///
+    /// # Safety
+    /// `v`, `v0` and `v1` must each point to 32 readable bytes.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // the left triple and the right triple
+    pub unsafe fn pair_bt_difference(
+        self,
+        u: U16x16,
+        u0: U16x16,
+        u1: U16x16,
+        v: *const u8,
+        v0: *const u8,
+        v1: *const u8,
+    ) -> U16x16 {
+        // SAFETY: the caller vouches for the 3 · 32 bytes, the token for AVX2.
+        U16x16(unsafe {
+            let (r, r0, r1) =
+                (_mm256_loadu_si256(v.cast()), _mm256_loadu_si256(v0.cast()), _mm256_loadu_si256(v1.cast()));
+            let du = _mm256_or_si256(_mm256_subs_epu8(u.0, r1), _mm256_subs_epu8(r0, u.0));
+            let dv = _mm256_or_si256(_mm256_subs_epu8(r, u1.0), _mm256_subs_epu8(u0.0, r));
+            _mm256_maddubs_epi16(_mm256_min_epu8(du, dv), _mm256_set1_epi16(0xff01u16 as i16))
+        })
+    }
+
     /// `|a − r_a| − |b − r_b|` per lane (wrapping) from the byte pairs `(a, b)` of `ab` (lane
     /// `k` = `a | b << 8`) and the 16 byte pairs `(r_a, r_b)` at `p`, every byte below 128: the
     /// byte difference does not wrap, its absolute value is below 128 and the multiply-add by
@@ -579,6 +611,31 @@ mod tests {
                 ((x - r[2 * k] as i32).abs() - (y - r[2 * k + 1] as i32).abs()) as u16
             });
             assert_eq!(lanes(t, d), want);
+            // Birchfield–Tomasi byte pairs over the whole byte range, each interval holding its
+            // value (as the matcher's: `lo ≤ v ≤ hi`)
+            let [c, d2, e2, f2]: [[u16; 16]; 4] = std::array::from_fn(|_| std::array::from_fn(|_| next()));
+            let byte = |v: u16, i: usize| (v >> (8 * (i % 2))) as u8;
+            let pair = |lo: u8, hi: u8| lo as u16 | (hi as u16) << 8;
+            let around = |v: &[u16; 16], x: &[u16; 16], f: fn(u8, u8) -> u8| -> [u16; 16] {
+                std::array::from_fn(|k| pair(f(byte(v[k], 0), byte(x[k], 0)), f(byte(v[k], 1), byte(x[k], 1))))
+            };
+            let (u, u0x, u1x) = (a, around(&a, &b, u8::min), around(&a, &c, u8::max));
+            let rv: [u8; 32] = std::array::from_fn(|i| byte(d2[i / 2], i));
+            let r0: [u8; 32] = std::array::from_fn(|i| rv[i].min(byte(e2[i / 2], i)));
+            let r1: [u8; 32] = std::array::from_fn(|i| rv[i].max(byte(f2[i / 2], i)));
+            // SAFETY: 3 · 32 readable bytes.
+            let got = unsafe {
+                t.pair_bt_difference(t.load(&u), t.load(&u0x), t.load(&u1x), rv.as_ptr(), r0.as_ptr(), r1.as_ptr())
+            };
+            let bt = |k: usize, h: usize| -> i32 {
+                let i = 2 * k + h;
+                let (uu, uu0, uu1) = (byte(u[k], h) as i32, byte(u0x[k], h) as i32, byte(u1x[k], h) as i32);
+                let (vv, vv0, vv1) = (rv[i] as i32, r0[i] as i32, r1[i] as i32);
+                let dist = |x: i32, lo: i32, hi: i32| (x - hi).max(lo - x).max(0);
+                dist(uu, vv0, vv1).min(dist(vv, uu0, uu1))
+            };
+            let want: [u16; 16] = std::array::from_fn(|k| (bt(k, 0) - bt(k, 1)) as u16);
+            assert_eq!(lanes(t, got), want);
         }
     }
 
