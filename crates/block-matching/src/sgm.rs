@@ -262,7 +262,8 @@ impl<'a> SgmParams<'a> {
         });
         let mut terms = Vec::new();
         if cfg.intensity_cost {
-            terms.extend(planes.quant[..pre.len()].iter().map(|[l, r]| Term { l, r, bt: None, small: false }));
+            // (quantised to 0..=63: small)
+            terms.extend(planes.quant[..pre.len()].iter().map(|[l, r]| Term { l, r, bt: None, small: true }));
         }
         terms.extend(pre.iter().zip(&planes.bt).map(|(&[l, r], [a, b, c, d])| Term {
             l,
@@ -343,9 +344,10 @@ pub(crate) struct Scratch {
     /// `r_a` and `r_b` interleaved as bytes (`r_a` first) and `l_a[xp] | l_b[xp] << 8`, when
     /// every pixel is below 128 (`Shared::small_px`) and both rows' differences are taken;
     /// with the Birchfield–Tomasi intervals, those of the right rows (`I⁻`, `I⁺`) and of the
-    /// left rows likewise in the second and third entries.
-    pairs: [Vec<u8>; 3],
-    l_pairs: [Vec<u16>; 3],
+    /// left rows likewise in the second and third entries; in the fourth, the rows of a term
+    /// whose differences the intervals' pass adds (see [`colsum_move`]).
+    pairs: [Vec<u8>; 4],
+    l_pairs: [Vec<u16>; 4],
     /// The Birchfield–Tomasi intervals of the rows in `l_a`/`r_a` and `l_b`/`r_b`, laid out as
     /// they are: left `I⁻`, left `I⁺`, right `I⁻`, right `I⁺` (sampling-insensitive cost only).
     bt_a: [Vec<u16>; 4],
@@ -425,7 +427,7 @@ impl Scratch {
             v.resize(wp + ndq - 1, 0);
         }
         for (i, (p, l)) in self.pairs.iter_mut().zip(&mut self.l_pairs).enumerate() {
-            let used = i == 0 || bt;
+            let used = i == 0 || i == 3 || bt;
             p.resize(if used { 2 * (wp + ndq - 1) } else { 0 }, 0);
             l.resize(if used { wp } else { 0 }, 0);
         }
@@ -545,6 +547,7 @@ fn step_set(c: &[u16], prev: &[u16], pmin: u16, p1: u16, p2: u16, out: &mut [u16
 /// sums follow each column as soon as its window is complete, into `sc.cost` (the columns they
 /// read are still in L1; a second pass read them back from L2 or beyond); returns whether it did.
 #[cfg_attr(not(opt_level_zero), inline(always))]
+#[allow(clippy::too_many_arguments)] // the pass's kind
 fn vertical(
     sc: &mut Scratch,
     nd: usize,
@@ -552,6 +555,7 @@ fn vertical(
     boxed: Option<usize>,
     bt: bool,
     small: bool,
+    extra: bool,
     isa: Option<Avx2>,
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
@@ -561,20 +565,12 @@ fn vertical(
             // both rows' differences from byte pairs (every pixel below 128): per 16 candidates,
             // three operations instead of seven (teddy, three paths, one thread, callgrind: 11.83 →
             // 11.36 instructions an evaluation); with the intervals, eight instead of fifteen
-            let right = [(&sc.r_a, &sc.r_b), (&sc.bt_a[2], &sc.bt_b[2]), (&sc.bt_a[3], &sc.bt_b[3])];
-            let left = [(&sc.l_a, &sc.l_b), (&sc.bt_a[0], &sc.bt_b[0]), (&sc.bt_a[1], &sc.bt_b[1])];
             let n = if bt { 3 } else { 1 };
-            for ((p, l), ((ra, rb), (la, lb))) in
-                sc.pairs.iter_mut().zip(&mut sc.l_pairs).zip(right.into_iter().zip(left)).take(n)
-            {
-                for ((q, &a), &b) in p.chunks_exact_mut(2).zip(ra.iter()).zip(rb.iter()) {
-                    (q[0], q[1]) = (a as u8, b as u8);
-                }
-                for ((q, &a), &b) in l.iter_mut().zip(la.iter()).zip(lb.iter()) {
-                    *q = a | b << 8;
-                }
+            for i in 0..n {
+                make_pairs(sc, i);
             }
         }
+        let extra = extra && pairs && bt;
         let cost = boxed.map(|r| (&mut sc.cost[..], r));
         let rows = (&sc.l_a[..], &sc.r_a[..], &sc.l_b[..], &sc.r_b[..]);
         let bt_rows = bt.then(|| (sc.bt_a.each_ref().map(|v| &v[..]), sc.bt_b.each_ref().map(|v| &v[..])));
@@ -582,11 +578,12 @@ fn vertical(
         // (its own function compiled for AVX2; lengths asserted inside)
         t.vectorize(
             #[inline(always)]
-            || avx2::vertical(t, &mut sc.colsum, rows, bt_rows, lanes(nd), sub, cost, pairs),
+            || avx2::vertical(t, &mut sc.colsum, rows, bt_rows, lanes(nd), sub, cost, pairs, extra),
         );
         return boxed.is_some();
     }
     let _ = (isa, boxed, small);
+    assert!(!extra, "a second term's pairs only at the vector level");
     // whole 16-lane chunks (`Dq` per column; the lanes past `D` carry ignored values, hence the
     // wrapping arithmetic): fixed-size chunks the compiler vectorises
     let ndq = lanes(nd);
@@ -627,6 +624,22 @@ fn vertical(
     false
 }
 
+/// Byte pairs `i` of the rows loaded in `a` and `b` ([`Scratch::pairs`]): 0 the values, 1 and 2
+/// their intervals' `I⁻` and `I⁺`; the values again as 3 (a second term's, before the
+/// intervals' term is loaded over them).
+fn make_pairs(sc: &mut Scratch, i: usize) {
+    let (right, left) = match i {
+        0 | 3 => ((&sc.r_a, &sc.r_b), (&sc.l_a, &sc.l_b)),
+        _ => ((&sc.bt_a[i + 1], &sc.bt_b[i + 1]), (&sc.bt_a[i - 1], &sc.bt_b[i - 1])),
+    };
+    for ((q, &a), &b) in sc.pairs[i].chunks_exact_mut(2).zip(right.0.iter()).zip(right.1.iter()) {
+        (q[0], q[1]) = (a as u8, b as u8);
+    }
+    for ((q, &a), &b) in sc.l_pairs[i].iter_mut().zip(left.0.iter()).zip(left.1.iter()) {
+        *q = a | b << 8;
+    }
+}
+
 /// Birchfield–Tomasi's difference of the left value `u` (interval `[u0, u1]`) and the right
 /// value `v` (`[v0, v1]`): the smaller of `u`'s distance to `[v0, v1]` and `v`'s to `[u0, u1]`.
 #[inline(always)]
@@ -657,7 +670,7 @@ fn colsum_init(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, isa: Opt
         let j = j.clamp(0, h - 1) as usize;
         for t in &pp.terms {
             load(sh, t, sc, j, false);
-            vertical(sc, sh.nd, false, None, t.bt.is_some(), false, isa);
+            vertical(sc, sh.nd, false, None, t.bt.is_some(), false, false, isa);
         }
     }
 }
@@ -678,10 +691,22 @@ fn colsum_move(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, down: bo
     }
     // the last term's pass makes the box sums, which need the complete sums: the others first
     let (last, rest) = pp.terms.split_last().expect("a cost has a plane pair");
+    // at the vector level, an intervals' term of small pixels takes the term before it in its
+    // own pass when that one's pixels are small too (the default cost: the intensity term,
+    // added to the intervals' byte differences before they are widened)
+    let extra =
+        isa.is_some() && last.small && last.bt.is_some() && rest.last().is_some_and(|t| t.small && t.bt.is_none());
+    let rest = if extra { &rest[..rest.len() - 1] } else { rest };
     for t in rest {
         load(sh, t, sc, yi, false);
         load(sh, t, sc, yo, true);
-        vertical(sc, sh.nd, true, None, t.bt.is_some(), t.small, isa);
+        vertical(sc, sh.nd, true, None, t.bt.is_some(), t.small, false, isa);
+    }
+    if extra {
+        let t = &pp.terms[pp.terms.len() - 2];
+        load(sh, t, sc, yi, false);
+        load(sh, t, sc, yo, true);
+        make_pairs(sc, 3);
     }
     load(sh, last, sc, yi, false);
     load(sh, last, sc, yo, true);
@@ -689,7 +714,7 @@ fn colsum_move(sh: &Shared, pp: &SgmParams, sc: &mut Scratch, y: usize, down: bo
     // second pass over each column: 1282x1110x224 0.95x the time, 626x555x96 0.96x, teddy
     // 450x375x64 1.03x; in one pass, teddy 0.95x the median time of the second pass, 12 interleaved
     // rounds at load 1.7, and 10.95 → 10.74 instructions an evaluation)
-    vertical(sc, sh.nd, true, Some(sh.r), last.bt.is_some(), last.small, isa)
+    vertical(sc, sh.nd, true, Some(sh.r), last.bt.is_some(), last.small, extra, isa)
 }
 
 /// `C` of the current row from the column sums: running box sums along the row (unless
@@ -1726,8 +1751,8 @@ mod lanes {
     /// Their Birchfield–Tomasi intervals (left `I⁻`, `I⁺`, right `I⁻`, `I⁺`), rows a and b.
     pub(super) type BtRows<'a> = ([&'a [u16]; 4], [&'a [u16]; 4]);
     /// Rows a and b as byte pairs ([`Scratch::pairs`](super::Scratch)): the right rows' (values,
-    /// and with the intervals `I⁻`, `I⁺`), the left rows' likewise.
-    pub(super) type Pairs<'a> = ([&'a [u8]; 3], [&'a [u16]; 3]);
+    /// with the intervals `I⁻`, `I⁺`, and a second term's values), the left rows' likewise.
+    pub(super) type Pairs<'a> = ([&'a [u8]; 4], [&'a [u16]; 4]);
 
     /// Checks the lengths [`box_row`] needs (the entry points assert them before any
     /// unchecked access).
@@ -1852,14 +1877,16 @@ mod lanes {
 
     /// [`super::vertical`] on lanes `from..to` of every column: `colsum[xp] += |l_a[xp] −
     /// r_a[base + d]|` (and, with `SUB`, `−= |l_b[xp] − r_b[base + d]|`), wrapping lanes.
-    /// With `PAIRS` (`SUB`, not `BT`, every pixel below 128), both differences at once from
-    /// the rows as byte pairs ([`Scratch::pairs`](super::Scratch)): `pairs.0` the right rows'
-    /// (`r_a` the low byte), `pairs.1` the left rows' (`l_a[xp] | l_b[xp] << 8`).
+    /// With `PAIRS` (`SUB`, every pixel below 128), both differences at once from the rows as
+    /// byte pairs ([`Scratch::pairs`](super::Scratch)): `pairs.0` the right rows' (`r_a` the
+    /// low byte), `pairs.1` the left rows' (`l_a[xp] | l_b[xp] << 8`), with `BT` their
+    /// intervals' too, and with `EXTRA` (`BT`) a second term's `|L − R|` added in the same pass
+    /// from the fourth pairs.
     ///
     /// Lengths are checked once (as `vertical_checked` and `box_row_checked`).
     #[cfg_attr(not(opt_level_zero), inline(always))]
     #[allow(clippy::too_many_arguments)] // both row pairs, the lane count and range
-    pub(super) fn vertical<const BT: bool, const SUB: bool, const PAIRS: bool>(
+    pub(super) fn vertical<const BT: bool, const SUB: bool, const PAIRS: bool, const EXTRA: bool>(
         t: Avx2,
         colsum: &mut [u16],
         rows: Rows,
@@ -1875,13 +1902,16 @@ mod lanes {
         assert!(from <= to && to <= ndq && (to - from).is_multiple_of(LANES));
         // the byte pairs only for the differences of both rows (the intervals' too with `BT`)
         assert!(PAIRS == pairs.is_some());
-        let used = if BT { 3 } else { 1 };
-        assert!(
-            pairs.is_none_or(|(p, l)| {
-                SUB && (0..used).all(|i| p[i].len() + 2 >= 2 * (wp + ndq) && l[i].len() >= wp)
-            })
-        );
-        let pairs = pairs.map_or(([std::ptr::null(); 3], [std::ptr::null(); 3]), |(p, l)| {
+        assert!(!EXTRA || (BT && PAIRS));
+        let used: &[usize] = match (BT, EXTRA) {
+            (true, true) => &[0, 1, 2, 3],
+            (true, false) => &[0, 1, 2],
+            _ => &[0],
+        };
+        assert!(pairs.is_none_or(|(p, l)| {
+            SUB && used.iter().all(|&i| p[i].len() + 2 >= 2 * (wp + ndq) && l[i].len() >= wp)
+        }));
+        let pairs = pairs.map_or(([std::ptr::null(); 4], [std::ptr::null(); 4]), |(p, l)| {
             (p.map(|v| v.as_ptr()), l.map(|v| v.as_ptr()))
         });
         let boxed = cost.map(|(cost, r)| {
@@ -1931,17 +1961,18 @@ mod lanes {
                     // 2(base + d) .. 2(base + d + LANES) ≤ 2(wp − 1 + ndq), and the column sums
                     // as below; `$after`'s (asserted on entry; the intervals' pairs with `BT`).
                     unsafe {
-                        let [lp, lp0, lp1] = if BT {
-                            pairs.1.map(|l| t.splat(*l.add(xp)))
+                        let [lp, lp0, lp1, le] = if BT {
+                            let le = if EXTRA { t.splat(*pairs.1[3].add(xp)) } else { t.splat(0) };
+                            [t.splat(*pairs.1[0].add(xp)), t.splat(*pairs.1[1].add(xp)), t.splat(*pairs.1[2].add(xp)), le]
                         } else {
-                            [t.splat(*pairs.1[0].add(xp)), t.splat(0), t.splat(0)]
+                            [t.splat(*pairs.1[0].add(xp)), t.splat(0), t.splat(0), t.splat(0)]
                         };
                         let mut d = from;
                         while d < to {
                             let p = cs.add(xp * ndq + d);
                             let at = |i: usize| pairs.0[i].add(2 * (base + d));
                             let diff = if BT {
-                                t.pair_bt_difference(lp, lp0, lp1, at(0), at(1), at(2))
+                                t.pair_bt_difference(lp, lp0, lp1, at(0), at(1), at(2), EXTRA.then(|| (le, at(3))))
                             } else {
                                 t.pair_difference(lp, at(0))
                             };
@@ -2293,32 +2324,49 @@ mod avx2 {
         sub: bool,
         cost: Option<(&mut [u16], usize)>,
         pairs: Option<lanes::Pairs>,
+        extra: bool,
     ) {
+        assert!(!extra || (bt.is_some() && sub && pairs.is_some()), "a second term only in the intervals' byte pairs");
         let all = (0, ndq);
         match (bt.is_some(), sub, pairs.is_some()) {
             // (the default cost's prefiltered term; compiled for 64 and 96 lanes too, as the byte
             // pairs below: 2.4 % fewer instructions a teddy frame, benches/RESULTS.md 2026-12-07)
-            (true, true, true) => match ndq {
-                64 => lanes::vertical::<true, true, true>(t, colsum, rows, bt, pairs, 64, cost, (0, 64)),
-                96 => lanes::vertical::<true, true, true>(t, colsum, rows, bt, pairs, 96, cost, (0, 96)),
-                _ => lanes::vertical::<true, true, true>(t, colsum, rows, bt, pairs, ndq, cost, all),
+            (true, true, true) => match (extra, ndq) {
+                (true, 64) => lanes::vertical::<true, true, true, true>(t, colsum, rows, bt, pairs, 64, cost, (0, 64)),
+                (true, 96) => lanes::vertical::<true, true, true, true>(t, colsum, rows, bt, pairs, 96, cost, (0, 96)),
+                (true, _) => lanes::vertical::<true, true, true, true>(t, colsum, rows, bt, pairs, ndq, cost, all),
+                (false, 64) => {
+                    lanes::vertical::<true, true, true, false>(t, colsum, rows, bt, pairs, 64, cost, (0, 64))
+                }
+                (false, 96) => {
+                    lanes::vertical::<true, true, true, false>(t, colsum, rows, bt, pairs, 96, cost, (0, 96))
+                }
+                (false, _) => lanes::vertical::<true, true, true, false>(t, colsum, rows, bt, pairs, ndq, cost, all),
             },
-            (true, true, false) => lanes::vertical::<true, true, false>(t, colsum, rows, bt, pairs, ndq, cost, all),
-            (true, false, _) => lanes::vertical::<true, false, false>(t, colsum, rows, bt, pairs, ndq, cost, all),
+            (true, true, false) => {
+                lanes::vertical::<true, true, false, false>(t, colsum, rows, bt, pairs, ndq, cost, all)
+            }
+            (true, false, _) => {
+                lanes::vertical::<true, false, false, false>(t, colsum, rows, bt, pairs, ndq, cost, all)
+            }
             // (the byte pairs, the default cost's case, compiled for 16 to 128 lanes as
             // `forward_row_any`: three paths, tsukuba 19.51 → 19.12, venus
             // 11.99 → 11.70, teddy 8.56 → 8.32 instructions an evaluation)
             (false, true, true) => match ndq {
-                16 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pairs, 16, cost, (0, 16)),
-                32 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pairs, 32, cost, (0, 32)),
-                48 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pairs, 48, cost, (0, 48)),
-                64 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pairs, 64, cost, (0, 64)),
-                96 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pairs, 96, cost, (0, 96)),
-                128 => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pairs, 128, cost, (0, 128)),
-                _ => lanes::vertical::<false, true, true>(t, colsum, rows, bt, pairs, ndq, cost, all),
+                16 => lanes::vertical::<false, true, true, false>(t, colsum, rows, bt, pairs, 16, cost, (0, 16)),
+                32 => lanes::vertical::<false, true, true, false>(t, colsum, rows, bt, pairs, 32, cost, (0, 32)),
+                48 => lanes::vertical::<false, true, true, false>(t, colsum, rows, bt, pairs, 48, cost, (0, 48)),
+                64 => lanes::vertical::<false, true, true, false>(t, colsum, rows, bt, pairs, 64, cost, (0, 64)),
+                96 => lanes::vertical::<false, true, true, false>(t, colsum, rows, bt, pairs, 96, cost, (0, 96)),
+                128 => lanes::vertical::<false, true, true, false>(t, colsum, rows, bt, pairs, 128, cost, (0, 128)),
+                _ => lanes::vertical::<false, true, true, false>(t, colsum, rows, bt, pairs, ndq, cost, all),
             },
-            (false, true, false) => lanes::vertical::<false, true, false>(t, colsum, rows, bt, pairs, ndq, cost, all),
-            (false, false, _) => lanes::vertical::<false, false, false>(t, colsum, rows, bt, pairs, ndq, cost, all),
+            (false, true, false) => {
+                lanes::vertical::<false, true, false, false>(t, colsum, rows, bt, pairs, ndq, cost, all)
+            }
+            (false, false, _) => {
+                lanes::vertical::<false, false, false, false>(t, colsum, rows, bt, pairs, ndq, cost, all)
+            }
         }
     }
 

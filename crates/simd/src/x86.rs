@@ -72,12 +72,15 @@ impl Avx2 {
     /// dist(v, [u0, u1]))` with saturating byte subtractions (at most one of the two per distance
     /// is non-zero when the interval holds its value, `lo ≤ v ≤ hi`, so their `or` is their
     /// maximum), then the multiply-add by `(1, −1)`: exact for any such bytes (each difference
-    /// is at most 255).
+    /// is at most 255). With `extra = Some((e, p))`, a second term's difference is added to each
+    /// byte before the multiply-add: `|e_a − p_a|` and `|e_b − p_b|` of the byte pairs `e` (as
+    /// `u`) and the 16 at `p`, exact when every byte of both terms is below 128 (each sum is
+    /// then at most 254).
     ///
     /// # Safety
-    /// `v`, `v0` and `v1` must each point to 32 readable bytes.
+    /// `v`, `v0`, `v1` (and `extra`'s `p`) must each point to 32 readable bytes.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)] // the left triple and the right triple
+    #[allow(clippy::too_many_arguments)] // the left triple, the right triple and a second term
     pub unsafe fn pair_bt_difference(
         self,
         u: U16x16,
@@ -86,14 +89,20 @@ impl Avx2 {
         v: *const u8,
         v0: *const u8,
         v1: *const u8,
+        extra: Option<(U16x16, *const u8)>,
     ) -> U16x16 {
-        // SAFETY: the caller vouches for the 3 · 32 bytes, the token for AVX2.
+        // SAFETY: the caller vouches for the 3 · 32 bytes (4 · 32 with `extra`), the token for
+        // AVX2.
         U16x16(unsafe {
             let (r, r0, r1) =
                 (_mm256_loadu_si256(v.cast()), _mm256_loadu_si256(v0.cast()), _mm256_loadu_si256(v1.cast()));
             let du = _mm256_or_si256(_mm256_subs_epu8(u.0, r1), _mm256_subs_epu8(r0, u.0));
             let dv = _mm256_or_si256(_mm256_subs_epu8(r, u1.0), _mm256_subs_epu8(u0.0, r));
-            _mm256_maddubs_epi16(_mm256_min_epu8(du, dv), _mm256_set1_epi16(0xff01u16 as i16))
+            let mut d = _mm256_min_epu8(du, dv);
+            if let Some((e, p)) = extra {
+                d = _mm256_add_epi8(d, _mm256_abs_epi8(_mm256_sub_epi8(e.0, _mm256_loadu_si256(p.cast()))));
+            }
+            _mm256_maddubs_epi16(d, _mm256_set1_epi16(0xff01u16 as i16))
         })
     }
 
@@ -625,7 +634,15 @@ mod tests {
             let r1: [u8; 32] = std::array::from_fn(|i| rv[i].max(byte(f2[i / 2], i)));
             // SAFETY: 3 · 32 readable bytes.
             let got = unsafe {
-                t.pair_bt_difference(t.load(&u), t.load(&u0x), t.load(&u1x), rv.as_ptr(), r0.as_ptr(), r1.as_ptr())
+                t.pair_bt_difference(
+                    t.load(&u),
+                    t.load(&u0x),
+                    t.load(&u1x),
+                    rv.as_ptr(),
+                    r0.as_ptr(),
+                    r1.as_ptr(),
+                    None,
+                )
             };
             let bt = |k: usize, h: usize| -> i32 {
                 let i = 2 * k + h;
@@ -633,6 +650,37 @@ mod tests {
                 let (vv, vv0, vv1) = (rv[i] as i32, r0[i] as i32, r1[i] as i32);
                 let dist = |x: i32, lo: i32, hi: i32| (x - hi).max(lo - x).max(0);
                 dist(uu, vv0, vv1).min(dist(vv, uu0, uu1))
+            };
+            let want: [u16; 16] = std::array::from_fn(|k| (bt(k, 0) - bt(k, 1)) as u16);
+            assert_eq!(lanes(t, got), want);
+            // with a second term, every byte of both below 128
+            let half = |x: &[u16; 16]| -> [u16; 16] { std::array::from_fn(|k| x[k] & 0x7f7f) };
+            let u = half(&a);
+            let (u0x, u1x) = (around(&u, &half(&b), u8::min), around(&u, &half(&c), u8::max));
+            let rv: [u8; 32] = std::array::from_fn(|i| byte(d2[i / 2], i) & 0x7f);
+            let r0: [u8; 32] = std::array::from_fn(|i| rv[i].min(byte(e2[i / 2], i) & 0x7f));
+            let r1: [u8; 32] = std::array::from_fn(|i| rv[i].max(byte(f2[i / 2], i) & 0x7f));
+            let e: [u16; 16] = std::array::from_fn(|k| (a[k] ^ f2[k]) & 0x7f7f);
+            let pe: [u8; 32] = std::array::from_fn(|i| byte(e2[i / 2], i) & 0x7f);
+            // SAFETY: 4 · 32 readable bytes.
+            let got = unsafe {
+                let extra = Some((t.load(&e), pe.as_ptr()));
+                t.pair_bt_difference(
+                    t.load(&u),
+                    t.load(&u0x),
+                    t.load(&u1x),
+                    rv.as_ptr(),
+                    r0.as_ptr(),
+                    r1.as_ptr(),
+                    extra,
+                )
+            };
+            let bt = |k: usize, h: usize| -> i32 {
+                let i = 2 * k + h;
+                let (uu, uu0, uu1) = (byte(u[k], h) as i32, byte(u0x[k], h) as i32, byte(u1x[k], h) as i32);
+                let (vv, vv0, vv1) = (rv[i] as i32, r0[i] as i32, r1[i] as i32);
+                let dist = |x: i32, lo: i32, hi: i32| (x - hi).max(lo - x).max(0);
+                dist(uu, vv0, vv1).min(dist(vv, uu0, uu1)) + (byte(e[k], h) as i32 - pe[i] as i32).abs()
             };
             let want: [u16; 16] = std::array::from_fn(|k| (bt(k, 0) - bt(k, 1)) as u16);
             assert_eq!(lanes(t, got), want);
