@@ -9,7 +9,12 @@
 //! `[I⁻, I⁺]` is the range of a pixel's value and the half-way values `⌊(I + I_left) / 2⌋`,
 //! `⌊(I + I_right) / 2⌋` to its row neighbours (clamped at the image edge), precomputed as
 //! planes; with `intensity_cost`, `|⌊I_L / 4⌋ − ⌊I_R / 4⌋|` of the raw images (8-bit grey
-//! levels) is added, and the largest possible cost grows by `block² · 63`.
+//! levels) is added, and the largest possible cost grows by `block² · 63`. Both kinds of plane
+//! are made once per frame, in parallel over rows. The column sums move down a row by adding
+//! the entering row's differences and subtracting the leaving row's; at the vector level, when
+//! every pixel is below 128 (the x-Sobel and rank prefilters on 8-bit input), both rows are
+//! read as byte pairs, one byte operation for both differences, and the intensity term joins
+//! the intervals' pass, summed with them in bytes before the widening.
 //! Aggregation along each path direction `r`:
 //!
 //! `L(p, d) = C(p, d) + min(L(p−r, d), L(p−r, d±1) + P1, min_k L(p−r, k) + P2') − min_k L(p−r, k)`
@@ -2330,7 +2335,7 @@ mod avx2 {
         let all = (0, ndq);
         match (bt.is_some(), sub, pairs.is_some()) {
             // (the default cost's prefiltered term; compiled for 64 and 96 lanes too, as the byte
-            // pairs below: 2.4 % fewer instructions a teddy frame, benches/RESULTS.md 2026-12-07)
+            // pairs below: fewer instructions a frame, benches/RESULTS.md 2026-12-07)
             (true, true, true) => match (extra, ndq) {
                 (true, 64) => lanes::vertical::<true, true, true, true>(t, colsum, rows, bt, pairs, 64, cost, (0, 64)),
                 (true, 96) => lanes::vertical::<true, true, true, true>(t, colsum, rows, bt, pairs, 96, cost, (0, 96)),
