@@ -16,8 +16,12 @@ fn axis_focal(c: &Camera) -> f64 {
     }
 }
 
-/// Four cameras (two pinhole, Kannala–Brandt, double sphere), 60 frames, each camera in 38–57 %
-/// of them, camera 3 never with camera 0, σ = 0.2 px.
+/// Four cameras (two pinhole, Kannala–Brandt, double sphere; the rig of `rig.rs`'s scene), 60
+/// frames of a 16x12 board of 26 mm, each camera in 38–57 % of them, camera 3 never with camera
+/// 0, σ = 0.2 px: the bars, focal length within 0.1 % (the double sphere's `fx/(1+ξ)`:
+/// its `fx` alone trades off against ξ), rotation within 0.05° and translation within 0.1 % of
+/// `|t|`, each error also within 4σ of the reported uncertainty. (This set's 1σ: 0.020–0.030°
+/// and 0.050–0.068 % of `|t|`, so the bars are 1.5–2.5σ here.)
 #[test]
 fn four_cameras_made_by_opencv_match_the_truth() {
     let set = rig_json::read("mixed4.json");
@@ -28,7 +32,7 @@ fn four_cameras_made_by_opencv_match_the_truth() {
     for c in 0..4 {
         let (got, want) = (axis_focal(&r.cameras[c]), axis_focal(&truth[c]));
         eprintln!("camera {c}: focal {got:.3} vs {want:.3} ({:+.3} %)", 100.0 * (got / want - 1.0));
-        assert!((got / want - 1.0).abs() < 5e-3, "camera {c}: focal {got} vs {want}");
+        assert!((got / want - 1.0).abs() < 1e-3, "camera {c}: focal {got} vs {want}");
         let sd = r.std_devs[c].fx.unwrap();
         let dfx = r.cameras[c].intrinsics.fx - truth[c].intrinsics.fx;
         assert!(dfx.abs() < 4.0 * sd, "camera {c}: fx off by {dfx} (1σ {sd})");
@@ -43,8 +47,9 @@ fn four_cameras_made_by_opencv_match_the_truth() {
                 100.0 * dt / extr[c].translation.length(),
                 s.translation.length()
             );
-            assert!(angle < 4.0 * s.angle_rad && angle.to_degrees() < 0.1, "camera {c}: rotation {angle}");
+            assert!(angle < 4.0 * s.angle_rad && angle.to_degrees() < 0.05, "camera {c}: rotation {angle}");
             assert!(dt < 4.0 * s.translation.length(), "camera {c}: t {dt}");
+            assert!(dt < 1e-3 * extr[c].translation.length(), "camera {c}: t off by {dt}");
         }
     }
 }

@@ -45,6 +45,13 @@ def board_points(cols, rows, square):
     return np.stack([(k % cols) * square, (k // cols) * square, np.zeros(k.size)], 1).astype(np.float64)
 
 
+def from_cam0(rvec, tvec):
+    """(R_world_cam, centre) of the camera whose camI_from_cam0 is the rotation vector `rvec` and
+    translation `tvec`."""
+    R, _ = cv2.Rodrigues(np.asarray(rvec, float))
+    return R.T, -R.T @ np.asarray(tvec, float)
+
+
 def camera(lens, w, h, fx, fy, cx, cy, D, R_world_cam, centre):
     """R_world_cam: orientation of the camera in the camera-0 frame; centre: its position there.
     Stored as camI_from_cam0: R = R_world_cam^T, t = -R^T centre."""
@@ -211,12 +218,14 @@ def stats(frames, ncam):
 # sets of cameras seeing a frame: number of frames. mixed4: the wide Kannala-Brandt camera 2 sees
 # nearly everything cameras 0 and 1 see, so the quota is built around the set {0, 1, 2}.
 QUOTA_MIXED4 = {(0, 1, 2): 20, (0, 2): 3, (1, 2): 3, (0,): 2, (2, 3): 8, (3,): 24}
+MIXED4_DIST = (400, 1000)
 QUOTA_PINHOLE4 = {(0, 1): 14, (0, 1, 2): 12, (0,): 2, (0, 2): 2, (1, 2): 2, (2,): 4, (2, 3): 10, (3,): 14}
 
 
-def make_rig4(rng, cams, board, n_frames, anchors, quota):
-    """Rejection sampling of board poses, each generated around an anchor camera; a pose is kept
-    if the set of cameras seeing it still has room in QUOTA (cameras 0 and 3 never together)."""
+def make_rig4(rng, cams, board, n_frames, anchors, quota, dist=(500, 1500)):
+    """Rejection sampling of board poses, each generated around an anchor camera at a distance
+    drawn from `dist` (mm); a pose is kept if the set of cameras seeing it still has room in QUOTA
+    (cameras 0 and 3 never together)."""
     cols, rows, sq = board
     obj = board_points(cols, rows, sq)
     quota = dict(quota)
@@ -226,7 +235,7 @@ def make_rig4(rng, cams, board, n_frames, anchors, quota):
         if not any(quota.values()):
             break
         a, half = anchors[rng.integers(len(anchors))]
-        R0b, t0b, tilt = tilted_board_pose(rng, cams[a], board, rng.uniform(500, 1500), half, (15, 45))
+        R0b, t0b, tilt = tilted_board_pose(rng, cams[a], board, rng.uniform(*dist), half, (15, 45))
         views = visibility(cams, obj, R0b, t0b)
         key = tuple(i for i, v in enumerate(views) if v is not None)
         if quota.get(key, 0) > 0:
@@ -254,7 +263,7 @@ def make_rig4(rng, cams, board, n_frames, anchors, quota):
     assert linked == set(range(len(cams)))
     for f in frames:
         assert 15 <= f["tilt"] <= 45
-        # distance from the anchor is 0.5-1.5 m; also every seeing camera is within 0.3-1.8 m
+        # distance from the anchor within `dist`
     return frames, vis, share
 
 
@@ -265,14 +274,17 @@ def mixed4():
         camera("pinhole", 1280, 960, 960.0, 958.5, 641.3, 479.2, [-0.25, 0.08, 0.001, -0.0005, -0.01],
                np.eye(3), [0, 0, 0]),
         camera("pinhole", 1280, 960, 942.0, 943.1, 636.8, 484.9, [-0.23, 0.065, -0.0008, 0.0006, -0.004],
-               rot([0.3, 1.0, 0.2], 1.5), [150.0, 1.2, -2.5]),
+               *from_cam0([0.01, -0.02, 0.005], [-150.0, 1.5, -2.0])),
         camera("kannala-brandt", 1280, 1024, 452.0, 451.3, 643.5, 508.7, [0.05, -0.01, 0.002, -0.0005],
-               rot_y(40), [75.0, -40.0, 10.0]),
+               *from_cam0([0.0, -np.deg2rad(40), 0.01], [-250.0, 5.0, 40.0])),
         camera("double-sphere", 1280, 1024, 352.0, 351.2, 638.4, 515.9, [-0.2, 0.6],
-               rot_y(85) @ rot([1, 0, 0], 2.0), [200.0, 5.0, -30.0]),
+               *from_cam0([0.02, -np.deg2rad(85), 0.0], [-400.0, -10.0, 150.0])),
     ]
-    board = (9, 6, 40.0)
-    frames, vis, share = make_rig4(rng, cams, board, 60, [(0, 25), (2, 55), (3, 55)], QUOTA_MIXED4)
+    # (since 2026-12-07 the rig of tests/rig.rs's scene and its 16x12 board of 26 mm, nearer: the
+    # extrinsic bars of issue 46, 0.05 deg and 0.1 % of |t|; before, the rig of pinhole4 and a 9x6
+    # board of 40 mm at 0.5-1.5 m)
+    board = (16, 12, 26.0)
+    frames, vis, share = make_rig4(rng, cams, board, 60, [(0, 25), (2, 55), (3, 55)], QUOTA_MIXED4, MIXED4_DIST)
     return seed, cams, board, frames, vis, share
 
 
@@ -429,11 +441,16 @@ def describe(vis, share):
     return s + "; shared frames " + pairs + "."
 
 
+RIG4_NEAR = ("Rig: camera 0 at the origin; camera 1 about 150 mm to the right, rotated 1.5 deg; camera 2 rotated "
+             "40 deg about y (towards +x) near (75, -40, 10); camera 3 rotated {rot3} deg about y (and 2 deg about x) "
+             "at (200, 5, -30).")
+RIG4_WIDE = ("Rig (the one of tests/rig.rs's scene), camI_from_cam0 as rotation vector (rad) and translation (mm): "
+             "camera 1 (0.01, -0.02, 0.005), (-150, 1.5, -2); camera 2 (0, -40 deg, 0.01), (-250, 5, 40); camera 3 "
+             "(0.02, -85 deg, 0), (-400, -10, 150): a pair 150 mm apart, a wide camera turned 40 deg, a second one "
+             "turned 85 deg and 427 mm away.")
 RIG4_HOW = (
-    "Rig: camera 0 at the origin; camera 1 about 150 mm to the right, rotated 1.5 deg; camera 2 rotated 40 deg "
-    "about y (towards +x) near (75, -40, 10); camera 3 rotated {rot3} deg about y (and 2 deg about x) at "
-    "(200, 5, -30). Board poses are drawn around an anchor camera (0, 2 or 3, at random): the board centre on a "
-    "random ray near its optical axis at 0.5-1.5 m from it, the board normal tilted 15-45 deg from that line of "
+    "{rig} Board poses are drawn around an anchor camera (0, 2 or 3, at random): the board centre on a "
+    "random ray near its optical axis at {dist} m from it, the board normal tilted 15-45 deg from that line of "
     "sight in a uniformly random direction, roll +-20 deg. A pose is kept only while the set of cameras that see "
     "it still has room in the quota {quota} (sets of camera indices: frame counts); cameras 0 and 3 are never "
     "together in a frame because no such set is in the quota (poses seen by both are rejected, never edited). "
@@ -442,17 +459,33 @@ RIG4_HOW = (
 
 
 def main():
+    # (names on the command line: write only those sets, e.g. `make_rig.py mixed4`)
+    only = set(sys.argv[1:])
+    want = lambda name: not only or name in only
     check_double_sphere()
+    if want("mixed4"):
+        write_mixed4()
+    if want("pinhole4"):
+        write_pinhole4()
+    for ncam in (2, 3):
+        if want(f"parallel{ncam}"):
+            write_parallel(ncam)
+
+
+def write_mixed4():
     seed, cams, board, frames, vis, share = mixed4()
-    how = RIG4_HOW.format(rot3=85, quota={"+".join(map(str, k)): v for k, v in QUOTA_MIXED4.items()}) + describe(vis, share)
+    how = RIG4_HOW.format(rig=RIG4_WIDE, dist="-".join(f"{d / 1000:g}" for d in MIXED4_DIST),
+                          quota={"+".join(map(str, k)): v for k, v in QUOTA_MIXED4.items()}) + describe(vis, share)
     doc = {"provenance": provenance(seed, how), "board": {"cols": board[0], "rows": board[1], "square": board[2]},
            "noise_px": NOISE, "cameras": cams_json(cams), "frames": frames_json(frames)}
     write("mixed4.json", doc)
     print("mixed4:", describe(vis, share))
 
+
+def write_pinhole4():
     seed, cams, board, frames, vis, share = pinhole4()
     how = ("All four cameras pinhole (Brown-Conrady k1 k2 p1 p2 k3), 1280x960. " +
-           RIG4_HOW.format(rot3=80, quota={"+".join(map(str, k)): v for k, v in QUOTA_PINHOLE4.items()}) + describe(vis, share))
+           RIG4_HOW.format(rig=RIG4_NEAR.format(rot3=80), dist="0.5-1.5", quota={"+".join(map(str, k)): v for k, v in QUOTA_PINHOLE4.items()}) + describe(vis, share))
     cv2.setNumThreads(2)
     ref, check = run_multiview(cams, board, frames)
     ref["rms_definition"] = RMS_DEFINITION
@@ -464,23 +497,24 @@ def main():
     print(f"pinhole4 calibrateMultiview rms {ref['rms']:.6f} (recomputed {check}), "
           f"{ref['seconds_per_solve'] * 1e3:.1f} ms/solve, pairs {ref['initialization_pairs']}")
 
-    for ncam in (2, 3):
-        seed, cams, board, frames = parallel(ncam)
-        how = (f"{ncam} pinhole cameras 1280x960, fx about 1000, mild distortion: camera 1 about 110 mm to the "
-               "right of camera 0 (rotated 0.8 deg)" + (", camera 2 about 110 mm above camera 0 (rotated 0.7 deg)"
-                                                        if ncam == 3 else "") +
-               ". 30 frames, all seen by every camera (poses drawn until 30 are seen by all): board 7x6, square "
-               "30 mm, centre at 0.4-1.0 m in depth anywhere in camera 0's image, normal within 1 deg of camera "
-               "0's optical axis (fronto-parallel), roll +-20 deg.")
-        doc = {"provenance": provenance(seed, how),
-               "board": {"cols": board[0], "rows": board[1], "square": board[2]},
-               "noise_px": NOISE, "cameras": cams_json(cams), "frames": frames_json(frames)}
-        if ncam == 2:
-            doc["opencv"] = stereo_reference(cams, board, frames)
-            o = doc["opencv"]
-            print(f"parallel2 stereoCalibrate rms {o['rms']:.4f}, |T| {np.linalg.norm(o['T']):.3f}, "
-                  f"baseline error {o['baseline_error_percent']:.2f} %, fx1 {o['K1'][0][0]:.1f}, fx2 {o['K2'][0][0]:.1f}")
-        write(f"parallel{ncam}.json", doc)
+
+def write_parallel(ncam):
+    seed, cams, board, frames = parallel(ncam)
+    how = (f"{ncam} pinhole cameras 1280x960, fx about 1000, mild distortion: camera 1 about 110 mm to the "
+           "right of camera 0 (rotated 0.8 deg)" + (", camera 2 about 110 mm above camera 0 (rotated 0.7 deg)"
+                                                    if ncam == 3 else "") +
+           ". 30 frames, all seen by every camera (poses drawn until 30 are seen by all): board 7x6, square "
+           "30 mm, centre at 0.4-1.0 m in depth anywhere in camera 0's image, normal within 1 deg of camera "
+           "0's optical axis (fronto-parallel), roll +-20 deg.")
+    doc = {"provenance": provenance(seed, how),
+           "board": {"cols": board[0], "rows": board[1], "square": board[2]},
+           "noise_px": NOISE, "cameras": cams_json(cams), "frames": frames_json(frames)}
+    if ncam == 2:
+        doc["opencv"] = stereo_reference(cams, board, frames)
+        o = doc["opencv"]
+        print(f"parallel2 stereoCalibrate rms {o['rms']:.4f}, |T| {np.linalg.norm(o['T']):.3f}, "
+              f"baseline error {o['baseline_error_percent']:.2f} %, fx1 {o['K1'][0][0]:.1f}, fx2 {o['K2'][0][0]:.1f}")
+    write(f"parallel{ncam}.json", doc)
 
 
 if __name__ == "__main__":
