@@ -628,62 +628,33 @@ mod tests {
             let around = |v: &[u16; 16], x: &[u16; 16], f: fn(u8, u8) -> u8| -> [u16; 16] {
                 std::array::from_fn(|k| pair(f(byte(v[k], 0), byte(x[k], 0)), f(byte(v[k], 1), byte(x[k], 1))))
             };
-            let (u, u0x, u1x) = (a, around(&a, &b, u8::min), around(&a, &c, u8::max));
-            let rv: [u8; 32] = std::array::from_fn(|i| byte(d2[i / 2], i));
-            let r0: [u8; 32] = std::array::from_fn(|i| rv[i].min(byte(e2[i / 2], i)));
-            let r1: [u8; 32] = std::array::from_fn(|i| rv[i].max(byte(f2[i / 2], i)));
-            // SAFETY: 3 · 32 readable bytes.
-            let got = unsafe {
-                t.pair_bt_difference(
-                    t.load(&u),
-                    t.load(&u0x),
-                    t.load(&u1x),
-                    rv.as_ptr(),
-                    r0.as_ptr(),
-                    r1.as_ptr(),
-                    None,
-                )
-            };
-            let bt = |k: usize, h: usize| -> i32 {
-                let i = 2 * k + h;
-                let (uu, uu0, uu1) = (byte(u[k], h) as i32, byte(u0x[k], h) as i32, byte(u1x[k], h) as i32);
-                let (vv, vv0, vv1) = (rv[i] as i32, r0[i] as i32, r1[i] as i32);
-                let dist = |x: i32, lo: i32, hi: i32| (x - hi).max(lo - x).max(0);
-                dist(uu, vv0, vv1).min(dist(vv, uu0, uu1))
-            };
-            let want: [u16; 16] = std::array::from_fn(|k| (bt(k, 0) - bt(k, 1)) as u16);
-            assert_eq!(lanes(t, got), want);
-            // with a second term, every byte of both below 128
-            let half = |x: &[u16; 16]| -> [u16; 16] { std::array::from_fn(|k| x[k] & 0x7f7f) };
-            let u = half(&a);
-            let (u0x, u1x) = (around(&u, &half(&b), u8::min), around(&u, &half(&c), u8::max));
-            let rv: [u8; 32] = std::array::from_fn(|i| byte(d2[i / 2], i) & 0x7f);
-            let r0: [u8; 32] = std::array::from_fn(|i| rv[i].min(byte(e2[i / 2], i) & 0x7f));
-            let r1: [u8; 32] = std::array::from_fn(|i| rv[i].max(byte(f2[i / 2], i) & 0x7f));
-            let e: [u16; 16] = std::array::from_fn(|k| (a[k] ^ f2[k]) & 0x7f7f);
-            let pe: [u8; 32] = std::array::from_fn(|i| byte(e2[i / 2], i) & 0x7f);
-            // SAFETY: 4 · 32 readable bytes.
-            let got = unsafe {
-                let extra = Some((t.load(&e), pe.as_ptr()));
-                t.pair_bt_difference(
-                    t.load(&u),
-                    t.load(&u0x),
-                    t.load(&u1x),
-                    rv.as_ptr(),
-                    r0.as_ptr(),
-                    r1.as_ptr(),
-                    extra,
-                )
-            };
-            let bt = |k: usize, h: usize| -> i32 {
-                let i = 2 * k + h;
-                let (uu, uu0, uu1) = (byte(u[k], h) as i32, byte(u0x[k], h) as i32, byte(u1x[k], h) as i32);
-                let (vv, vv0, vv1) = (rv[i] as i32, r0[i] as i32, r1[i] as i32);
-                let dist = |x: i32, lo: i32, hi: i32| (x - hi).max(lo - x).max(0);
-                dist(uu, vv0, vv1).min(dist(vv, uu0, uu1)) + (byte(e[k], h) as i32 - pe[i] as i32).abs()
-            };
-            let want: [u16; 16] = std::array::from_fn(|k| (bt(k, 0) - bt(k, 1)) as u16);
-            assert_eq!(lanes(t, got), want);
+            // every byte, then with a second term every byte of both below 128
+            for (mask, extra) in [(0xffu8, false), (0x7f, true)] {
+                let m = u16::from_le_bytes([mask, mask]);
+                let u = a.map(|v| v & m);
+                let (u0x, u1x) = (around(&u, &b.map(|v| v & m), u8::min), around(&u, &c.map(|v| v & m), u8::max));
+                let rv: [u8; 32] = std::array::from_fn(|i| byte(d2[i / 2], i) & mask);
+                let r0: [u8; 32] = std::array::from_fn(|i| rv[i].min(byte(e2[i / 2], i) & mask));
+                let r1: [u8; 32] = std::array::from_fn(|i| rv[i].max(byte(f2[i / 2], i) & mask));
+                let e: [u16; 16] = std::array::from_fn(|k| (a[k] ^ f2[k]) & m);
+                let pe: [u8; 32] = std::array::from_fn(|i| byte(e2[i / 2], i) & mask);
+                // SAFETY: 3 · 32 readable bytes (4 · 32 with the second term).
+                let got = unsafe {
+                    let (u, u0, u1) = (t.load(&u), t.load(&u0x), t.load(&u1x));
+                    let second = extra.then(|| (t.load(&e), pe.as_ptr()));
+                    t.pair_bt_difference(u, u0, u1, rv.as_ptr(), r0.as_ptr(), r1.as_ptr(), second)
+                };
+                let bt = |k: usize, h: usize| -> i32 {
+                    let i = 2 * k + h;
+                    let (uu, uu0, uu1) = (byte(u[k], h) as i32, byte(u0x[k], h) as i32, byte(u1x[k], h) as i32);
+                    let (vv, vv0, vv1) = (rv[i] as i32, r0[i] as i32, r1[i] as i32);
+                    let dist = |x: i32, lo: i32, hi: i32| (x - hi).max(lo - x).max(0);
+                    let second = if extra { (byte(e[k], h) as i32 - pe[i] as i32).abs() } else { 0 };
+                    dist(uu, vv0, vv1).min(dist(vv, uu0, uu1)) + second
+                };
+                let want: [u16; 16] = std::array::from_fn(|k| (bt(k, 0) - bt(k, 1)) as u16);
+                assert_eq!(lanes(t, got), want, "byte mask {mask:#x}");
+            }
         }
     }
 
