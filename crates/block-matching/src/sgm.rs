@@ -575,7 +575,7 @@ fn vertical(
                 make_pairs(sc, i);
             }
         }
-        let extra = extra && pairs && bt;
+        // (a second term only in the intervals' byte-pair pass: `avx2::vertical` asserts it)
         let cost = boxed.map(|r| (&mut sc.cost[..], r));
         let rows = (&sc.l_a[..], &sc.r_a[..], &sc.l_b[..], &sc.r_b[..]);
         let bt_rows = bt.then(|| (sc.bt_a.each_ref().map(|v| &v[..]), sc.bt_b.each_ref().map(|v| &v[..])));
