@@ -432,7 +432,8 @@ impl Scratch {
             v.resize(wp + ndq - 1, 0);
         }
         for (i, (p, l)) in self.pairs.iter_mut().zip(&mut self.l_pairs).enumerate() {
-            let used = i == 0 || i == 3 || bt;
+            // (the intervals' and the second term's pairs only with the intervals)
+            let used = i == 0 || bt;
             p.resize(if used { 2 * (wp + ndq - 1) } else { 0 }, 0);
             l.resize(if used { wp } else { 0 }, 0);
         }

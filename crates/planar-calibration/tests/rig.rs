@@ -62,8 +62,9 @@ fn sees(camera: &Camera, pose: &Isometry3, board: &Chessboard) -> bool {
 }
 
 /// 60 frames of a 16x12 board of 26 mm (the 12x9 / 35 mm board's size with 1.9x its corners):
-/// each aimed at one camera's field (board 0.5–1.3 m away, tilted 15–45° about a random in-plane
-/// axis); camera 3 never sees a frame camera 0 sees (its view is dropped).
+/// each aimed at one camera's field (board 0.45–0.9 m away, 0.3–0.6 m for the wide cameras,
+/// tilted 20–50° about a random in-plane axis); camera 3 never sees a frame camera 0 sees (its
+/// view is dropped).
 fn scene(seed: u64) -> Scene {
     let (cameras, cam_from_cam0) = four_cameras();
     let board = Chessboard::new(16, 12, 26.0).unwrap();
